@@ -1,0 +1,60 @@
+#pragma once
+// Visibility engines: for a set of sample directions inside one dome face, the fraction of
+// light from those directions that reaches each plane texel and each model vertex.
+//
+// With c_k = max(0, n·ω_k) and V_k = 1 when nothing of the model lies along ω_k:
+//     f = Σ_k c_k V_k / Σ_k c_k,       or  Σ_k V_k / K  when Σ_k c_k = 0.
+// The baker stores B_{j,i} = A_{j,i} · f, with A_{j,i} the exact cosine integral of the face:
+// an unoccluded texel gets B = A exactly, and a plane that faces away gets A = B = 0.
+//
+// Two engines, same contract: `raster` (OpenGL ES 3.1 shadow maps, headless EGL) and `raytrace`
+// (Embree 3 on the CPU, the reference).
+#include <filesystem>
+#include <memory>
+#include <span>
+#include <string>
+
+#include "skylit/geom/plane.hpp"
+#include "skylit/scene/mesh.hpp"
+
+namespace skylit::baker {
+
+using geom::Vec3;
+
+class VisibilityEngine {
+ public:
+  virtual ~VisibilityEngine() = default;
+  virtual std::string name() const = 0;
+
+  // Sets the sample directions (unit, site frame, pointing towards the sky) for the calls that
+  // follow; a raster engine renders its shadow maps here.
+  virtual void set_directions(std::span<const Vec3> directions) = 0;
+  // f for every texel of planes[plane], out[row * width + col] (texel convention of geom::Plane).
+  virtual void plane_fractions(int plane, std::span<float> out) = 0;
+  // f for every mesh vertex, seen from the vertex (nudged off the surface along its normal)
+  // with c_k = max(0, normal·ω_k).
+  virtual void vertex_fractions(std::span<float> out) = 0;
+};
+
+struct RasterOptions {
+  int shadow_map_resolution = 2048;   // texels along each side of a shadow map
+  std::filesystem::path shader_dir;   // where shaders/*.glsl live; empty = search defaults
+};
+
+struct RaytraceOptions {
+  int threads = 0;                    // 0 = all hardware threads
+};
+
+// The engines keep references to mesh and planes: both must outlive the engine.
+std::unique_ptr<VisibilityEngine> make_raster_engine(const scene::Mesh& mesh,
+                                                     std::span<const geom::Plane> planes,
+                                                     const RasterOptions& options);
+std::unique_ptr<VisibilityEngine> make_raytrace_engine(const scene::Mesh& mesh,
+                                                       std::span<const geom::Plane> planes,
+                                                       const RaytraceOptions& options);
+
+// How far a ray origin is nudged off a surface, and the shadow-map depth bias: both scale with
+// the size of the scene so that a 2 m model and a 200 m site behave alike.
+double surface_offset(const scene::Mesh& mesh, std::span<const geom::Plane> planes);
+
+}  // namespace skylit::baker

@@ -1,0 +1,42 @@
+#pragma once
+// A triangle mesh in the site frame (metres, x east, y north, z up), ready for baking and drawing.
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace skylit::scene {
+
+struct Material {
+  std::string name;
+  Eigen::Vector4f base_colour{1.0f, 1.0f, 1.0f, 1.0f};  // linear RGBA (glTF baseColorFactor)
+};
+
+struct Mesh {
+  std::vector<Eigen::Vector3f> positions;   // site frame, metres
+  std::vector<Eigen::Vector3f> normals;     // unit, one per position (computed when absent)
+  std::vector<std::uint32_t> indices;       // three per triangle, counter-clockwise outside
+  std::vector<std::uint32_t> triangle_material;  // one per triangle, into materials
+  std::vector<Material> materials;
+
+  std::size_t vertex_count() const { return positions.size(); }
+  std::size_t triangle_count() const { return indices.size() / 3; }
+  Eigen::Vector3f bounds_min() const;
+  Eigen::Vector3f bounds_max() const;
+};
+
+enum class UpAxis { Z, Y };
+
+// Loads a glTF 2.0 (.gltf/.glb) or OBJ model and brings it into the site frame: node transforms
+// applied, y-up models rotated to z-up (x stays east, model -z becomes north), scaled to metres.
+// Vertex order is deterministic (scene nodes in order, primitives in order), so per-vertex data
+// baked from one load matches another load of the same file.
+// Throws InputError (naming the file and the fix) for a missing, unreadable or empty model.
+Mesh load_model(const std::filesystem::path& file, UpAxis up, double scale);
+
+// Writes a mesh as binary glTF 2.0 (y-up, as the standard says), so it opens in Blender.
+void write_glb(const Mesh& mesh, const std::filesystem::path& file);
+
+}  // namespace skylit::scene
