@@ -1,1 +1,112 @@
-int main() { return 0; }
+// skylit-bake: bakes a site's basis shadow images and transfer vectors, verifies and merges bakes.
+#include <cstdio>
+#include <iostream>
+#include <regex>
+
+#include <CLI/CLI.hpp>
+#include <spdlog/spdlog.h>
+
+#include "skylit/base/error.hpp"
+#include "skylit/baker/bake_job.hpp"
+
+namespace {
+
+std::pair<int, int> parse_resolution(const std::string& text) {
+  static const std::regex pattern(R"((\d{1,6})[xX](\d{1,6}))");
+  std::smatch match;
+  if (!std::regex_match(text, match, pattern)) {
+    throw skylit::InputError("option --resolution: got '" + text +
+                             "'. Fix: write WxH, e.g. --resolution 512x256");
+  }
+  return {std::stoi(match[1]), std::stoi(match[2])};
+}
+
+int run_verify(const std::filesystem::path& dir) {
+  const skylit::bake::VerifyReport report = skylit::bake::verify(dir);
+  if (report.ok) {
+    const auto& m = report.manifest;
+    std::printf("%s: OK — schema %d, %s, dome ν=%d (%zu faces), %zu plane(s), %zu file(s) verified\n",
+                dir.string().c_str(), m.schema_version, m.generator.c_str(), m.plan.frequency, m.faces.size(),
+                m.planes.size(), m.files.size());
+    return 0;
+  }
+  std::fprintf(stderr, "%s: NOT a valid bake (%zu problem(s)):\n", dir.string().c_str(), report.problems.size());
+  for (const std::string& p : report.problems) std::fprintf(stderr, "  - %s\n", p.c_str());
+  return 1;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"skylit-bake: basis shadow images and transfer vectors for a site",
+               "skylit-bake"};
+  app.set_version_flag("--version", "skylit-bake 0.1.0");
+
+  skylit::baker::BakeOptions options;
+  std::string site, out, resolution, shard;
+  int frequency = 0;
+  bool quiet = false;
+  app.add_option("site", site, "site description (YAML)")->check(CLI::ExistingFile);
+  app.add_option("-o,--output", out, "bake directory to write");
+  app.add_option("--frequency", frequency, "dome frequency ν (even; overrides the site's)");
+  app.add_option("--samples", options.samples, "samples per face: 1 = face centre (the paper), K > 1 = area light")
+      ->capture_default_str();
+  app.add_option("--method", options.method, "raster (OpenGL ES, default) or raytrace (Embree, reference)")
+      ->capture_default_str();
+  app.add_option("--resolution", resolution, "set every plane to WxH texels");
+  app.add_option("--shard", shard, "bake slice I of N (I/N, 0-based); also from SLURM_ARRAY_TASK_ID/COUNT or "
+                                   "JOB_COMPLETION_INDEX with SKYLIT_SHARD_COUNT");
+  app.add_flag("--resume", options.resume, "continue an interrupted bake in the output directory");
+  app.add_flag("--force", options.force, "replace a bake already in the output directory");
+  app.add_option("--shadow-map", options.shadow_map_resolution, "raster: shadow-map resolution (default: from the planes)");
+  app.add_option("--threads", options.threads, "raytrace: threads (default: all cores)");
+  app.add_option("--shader-dir", options.shader_dir, "where the GLSL shaders are (default: installed or source tree)");
+  bool no_previews = false;
+  app.add_flag("--no-previews", no_previews, "skip the preview contact sheets");
+  app.add_flag("-q,--quiet", quiet, "only warnings and errors");
+
+  auto* verify = app.add_subcommand("verify", "check a bake directory: version, files, checksums, shapes");
+  std::string verify_dir;
+  verify->add_option("bake_dir", verify_dir, "bake directory")->required();
+
+  auto* merge = app.add_subcommand("merge", "join the shards of a bake into one finished bake");
+  std::vector<std::string> merge_dirs;
+  std::string merge_out;
+  bool merge_no_previews = false;
+  merge->add_option("shard_dirs", merge_dirs, "shard directories")->required();
+  merge->add_option("-o,--output", merge_out, "finished bake directory")->required();
+  merge->add_flag("--no-previews", merge_no_previews, "skip the preview contact sheets");
+
+  CLI11_PARSE(app, argc, argv);
+  spdlog::set_level(quiet ? spdlog::level::warn : spdlog::level::info);
+  spdlog::set_pattern("skylit-bake: %^%l%$: %v");
+
+  try {
+    if (*verify) return run_verify(verify_dir);
+    if (*merge) {
+      std::vector<std::filesystem::path> dirs(merge_dirs.begin(), merge_dirs.end());
+      skylit::baker::merge_bakes(dirs, merge_out, !merge_no_previews);
+      return 0;
+    }
+    if (site.empty() || out.empty()) {
+      std::fprintf(stderr, "%s\nerror: a bake needs SITE and -o BAKE_DIR (or a subcommand: verify, merge)\n",
+                   app.help().c_str());
+      return 2;
+    }
+    options.site_file = site;
+    options.out_dir = out;
+    if (frequency != 0 || app.count("--frequency")) options.frequency = frequency;
+    if (!resolution.empty()) options.resolution = parse_resolution(resolution);
+    options.shard = shard.empty() ? skylit::baker::shard_from_environment()
+                                  : std::optional(skylit::baker::parse_shard(shard));
+    options.previews = !no_previews;
+    skylit::baker::run_bake(options);
+    return 0;
+  } catch (const skylit::InputError& e) {
+    std::fprintf(stderr, "skylit-bake: error: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "skylit-bake: internal error: %s\n", e.what());
+    return 3;
+  }
+}

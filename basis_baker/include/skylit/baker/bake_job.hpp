@@ -1,0 +1,63 @@
+#pragma once
+// A bake from a site description to a verified bake directory: planning, sharding, resuming,
+// the per-face work, and the final assembly (see docs/bake-format.md and docs/baker.md).
+#include <cstdio>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "skylit/bake/format.hpp"
+#include "skylit/geom/dome.hpp"
+
+namespace skylit::baker {
+
+struct Shard {
+  int index = 0;  // 0-based
+  int count = 1;
+};
+
+struct BakeOptions {
+  std::filesystem::path site_file;
+  std::filesystem::path out_dir;
+  std::optional<int> frequency;            // overrides the site's dome.frequency
+  int samples = 1;                         // per face: 1 = face centre (the paper), K = stratified
+  std::string method = "raster";           // raster | raytrace
+  std::optional<std::pair<int, int>> resolution;  // sets every plane to W×H texels
+  std::optional<Shard> shard;              // bake only faces i with i % count == index
+  bool resume = false;                     // continue an interrupted bake in out_dir
+  bool force = false;                      // replace a complete or interrupted bake in out_dir
+  int shadow_map_resolution = 0;           // raster; 0 = chosen from the plane texel size
+  int threads = 0;                         // raytrace; 0 = all cores
+  bool previews = true;
+  std::filesystem::path shader_dir;        // empty = default search
+};
+
+struct BakeSummary {
+  bool complete = false;                   // false for a shard: parts written, merge pending
+  int faces_baked = 0;                     // by this run
+  int faces_skipped = 0;                   // already done (--resume)
+  int faces_total = 0;
+  double seconds = 0.0;
+  std::uint64_t bytes_written = 0;         // data files of the finished bake
+  std::string engine_description;
+};
+
+// Reads the shard from SLURM_ARRAY_TASK_ID/SLURM_ARRAY_TASK_COUNT (SLURM_ARRAY_TASK_MIN
+// subtracted) or JOB_COMPLETION_INDEX with SKYLIT_SHARD_COUNT; nullopt when none is set.
+std::optional<Shard> shard_from_environment();
+Shard parse_shard(const std::string& text);  // "I/N", 0 ≤ I < N; InputError otherwise
+
+// Runs the bake; InputError for anything the user can fix. Progress and the summary go to `log`.
+BakeSummary run_bake(const BakeOptions& options, std::FILE* log = stderr);
+
+// Joins the parts of shard directories (all baked from the same plan) into out_dir and finishes
+// the bake there. InputError when plans differ or faces are missing (listing them).
+BakeSummary merge_bakes(const std::vector<std::filesystem::path>& shard_dirs,
+                        const std::filesystem::path& out_dir, bool previews,
+                        std::FILE* log = stderr);
+
+// The sample directions of dome face `face`: its centre for samples == 1, else stratified.
+std::vector<geom::Vec3> face_sample_directions(const geom::Dome& dome, int face, int samples);
+
+}  // namespace skylit::baker

@@ -1,0 +1,399 @@
+// End-to-end tests of skylit-bake: runs the program as a user would and checks what it writes.
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+#include <thread>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "skylit/bake/format.hpp"
+#include "skylit/geom/dome.hpp"
+
+namespace fs = std::filesystem;
+using skylit::geom::Vec3;
+
+namespace {
+
+const fs::path kBake = fs::path(SKYLIT_BINARY_DIR) / "bin" / "skylit-bake";
+const fs::path kSource = fs::path(SKYLIT_SOURCE_DIR);
+
+struct Result {
+  int status = -1;
+  std::string output;  // stdout and stderr together
+};
+
+Result run(const std::string& args) {
+  const std::string command = kBake.string() + " " + args + " 2>&1";
+  Result r;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (!pipe) return r;
+  std::array<char, 4096> buffer{};
+  while (std::fgets(buffer.data(), buffer.size(), pipe)) r.output += buffer.data();
+  const int raw = pclose(pipe);
+  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  return r;
+}
+
+class TempDir {
+ public:
+  TempDir() {
+    std::random_device rd;
+    path_ = fs::temp_directory_path() / ("skylit_cli_" + std::to_string(getpid()) + "_" + std::to_string(rd()));
+    fs::create_directories(path_);
+  }
+  ~TempDir() { fs::remove_all(path_); }
+  const fs::path& path() const { return path_; }
+  fs::path operator/(const std::string& name) const { return path_ / name; }
+
+ private:
+  fs::path path_;
+};
+
+void write_text(const fs::path& file, const std::string& text) {
+  fs::create_directories(file.parent_path());
+  std::ofstream(file) << text;
+}
+
+// A 2 m cube standing on the ground at the origin (x, y in [-1, 1], z in [0, 2]), as OBJ.
+constexpr const char* kCubeObj = R"(v -1 -1 0
+v 1 -1 0
+v 1 1 0
+v -1 1 0
+v -1 -1 2
+v 1 -1 2
+v 1 1 2
+v -1 1 2
+f 1 3 2
+f 1 4 3
+f 5 6 7
+f 5 7 8
+f 1 2 6
+f 1 6 5
+f 2 3 7
+f 2 7 6
+f 3 4 8
+f 3 8 7
+f 4 1 5
+f 4 5 8
+)";
+
+// ground: 12 m × 12 m around the cube; sky: above everything (never shadowed); wall: a vertical
+// plane facing west (normal −x), 1 cm off the cube's west face.
+std::string cube_site(const std::string& extra_plane = "", int frequency = 2) {
+  return "scene:\n  model: cube.obj\n  up: z\n  scale: 1.0\n"
+         "dome:\n  frequency: " + std::to_string(frequency) + "\n"
+         "planes:\n"
+         "  - name: ground\n    origin: [-6, -6, 0.01]\n    u: [12, 0, 0]\n    v: [0, 12, 0]\n    resolution: [48, 48]\n"
+         "  - name: sky\n    origin: [-3, -3, 5]\n    u: [6, 0, 0]\n    v: [0, 6, 0]\n    resolution: [8, 8]\n"
+         "  - name: wall\n    origin: [-1.01, 1, 0]\n    u: [0, -2, 0]\n    v: [0, 0, 2]\n    resolution: [16, 16]\n" +
+         extra_plane;
+}
+
+fs::path make_cube_site(const TempDir& dir, const std::string& extra_plane = "") {
+  write_text(dir / "cube.obj", kCubeObj);
+  write_text(dir / "site.yaml", cube_site(extra_plane));
+  return dir / "site.yaml";
+}
+
+// Does the ray from p towards d hit the cube [-1,1]×[-1,1]×[0,2]? (slab test)
+bool hits_cube(const Vec3& p, const Vec3& d) {
+  double t0 = 1e-9, t1 = 1e9;
+  const Vec3 lo(-1, -1, 0), hi(1, 1, 2);
+  for (int k = 0; k < 3; ++k) {
+    if (std::abs(d[k]) < 1e-15) {
+      if (p[k] < lo[k] || p[k] > hi[k]) return false;
+      continue;
+    }
+    double a = (lo[k] - p[k]) / d[k], b = (hi[k] - p[k]) / d[k];
+    if (a > b) std::swap(a, b);
+    t0 = std::max(t0, a);
+    t1 = std::min(t1, b);
+  }
+  return t0 <= t1;
+}
+
+// Distance (in parameter space) from the ray to the cube's silhouette: how robust the analytic
+// answer is to a small move of the texel centre.
+bool near_shadow_edge(const Vec3& p, const Vec3& d, double margin) {
+  const bool centre = hits_cube(p, d);
+  for (const Vec3& offset : {Vec3(margin, 0, 0), Vec3(-margin, 0, 0), Vec3(0, margin, 0), Vec3(0, -margin, 0)}) {
+    if (hits_cube(p + offset, d) != centre) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+TEST(SkylitBake, BakesVerifiesAndMatchesGeometry) {
+  for (const std::string method : {"raster", "raytrace"}) {
+    SCOPED_TRACE(method);
+    TempDir dir;
+    const fs::path site = make_cube_site(dir);
+    const Result bake = run(site.string() + " -o " + (dir / "bake").string() + " --method " + method);
+    ASSERT_EQ(bake.status, 0) << bake.output;
+    EXPECT_NE(bake.output.find("bake complete"), std::string::npos) << bake.output;
+
+    const Result verify = run("verify " + (dir / "bake").string());
+    ASSERT_EQ(verify.status, 0) << verify.output;
+    EXPECT_NE(verify.output.find("OK"), std::string::npos);
+
+    const skylit::bake::Manifest m = skylit::bake::read_manifest(dir / "bake");
+    ASSERT_EQ(m.faces.size(), 40u);
+    ASSERT_EQ(m.planes.size(), 3u);
+    const skylit::geom::Dome dome(2);
+
+    // Unoccluded plane: B = A for every face and texel (half-float storage: relative 1e-3).
+    const auto sky = skylit::bake::read_exr_stack(dir / "bake" / m.planes[1].file);
+    ASSERT_EQ(sky.layers, 40);
+    for (int i = 0; i < 40; ++i) {
+      const double a = m.planes[1].unoccluded[static_cast<std::size_t>(i)];
+      for (float b : sky.layer(i)) ASSERT_NEAR(b, a, 1e-3 * a) << "face " << i;
+    }
+
+    // Vertical plane: faces wholly behind it have A = B = 0 exactly.
+    const auto wall = skylit::bake::read_exr_stack(dir / "bake" / m.planes[2].file);
+    const Vec3 wall_normal = m.planes[2].plane.normal();
+    ASSERT_NEAR(wall_normal.x(), -1.0, 1e-12);
+    int behind = 0;
+    for (int i = 0; i < 40; ++i) {
+      const auto& f = dome.face(i);
+      bool all_behind = true;
+      for (int v : f.vertex) all_behind &= dome.vertices()[static_cast<std::size_t>(v)].dot(wall_normal) <= 0;
+      if (!all_behind) continue;
+      ++behind;
+      EXPECT_EQ(m.planes[2].unoccluded[static_cast<std::size_t>(i)], 0.0);
+      for (float b : wall.layer(i)) ASSERT_EQ(b, 0.0f);
+    }
+    EXPECT_GE(behind, 15);
+
+    // Ground around the cube, face-centre method: a texel is shadowed exactly when the ray from
+    // its centre towards the face centre hits the cube (texels within 0.6 texel of a shadow
+    // edge are skipped: the raster engine resolves edges to its shadow-map texel).
+    const auto ground = skylit::bake::read_exr_stack(dir / "bake" / m.planes[0].file);
+    const auto& plane = m.planes[0].plane;
+    const double texel = plane.u.norm() / plane.width;
+    int checked = 0, shadowed = 0;
+    for (int i = 0; i < 40; ++i) {
+      const Vec3 d = dome.face(i).centre;
+      const double a = m.planes[0].unoccluded[static_cast<std::size_t>(i)];
+      for (int row = 0; row < plane.height; ++row) {
+        for (int col = 0; col < plane.width; ++col) {
+          const Vec3 p = plane.texel_centre(col, row);
+          if (near_shadow_edge(p, d, 0.6 * texel)) continue;
+          const double expected = hits_cube(p, d) ? 0.0 : a;
+          ASSERT_NEAR(ground.layer(i)[static_cast<std::size_t>(row * plane.width + col)], expected, 1e-3 * a)
+              << "face " << i << " texel " << col << "," << row;
+          ++checked;
+          shadowed += expected == 0.0;
+        }
+      }
+    }
+    EXPECT_GT(checked, 40 * 48 * 48 * 8 / 10);
+    EXPECT_GT(shadowed, 500);
+
+    // Previews are there for the installer.
+    EXPECT_TRUE(fs::exists(dir / "bake" / "preview" / "ground.png"));
+    EXPECT_TRUE(fs::exists(dir / "bake" / "preview" / "ground_uniform_sky.png"));
+    EXPECT_FALSE(fs::exists(dir / "bake" / "parts"));
+  }
+}
+
+TEST(SkylitBake, ShardsMergeToTheSameBake) {
+  TempDir dir;
+  const fs::path site = make_cube_site(dir);
+  ASSERT_EQ(run(site.string() + " -o " + (dir / "whole").string() + " --no-previews").status, 0);
+  const Result a = run(site.string() + " -o " + (dir / "a").string() + " --shard 0/2");
+  ASSERT_EQ(a.status, 0) << a.output;
+  EXPECT_NE(a.output.find("shard done"), std::string::npos);
+  // A shard alone is not a bake.
+  const Result partial = run("verify " + (dir / "a").string());
+  EXPECT_EQ(partial.status, 1);
+  EXPECT_NE(partial.output.find("incomplete"), std::string::npos) << partial.output;
+  // The second slice from Slurm's environment.
+  {
+    const std::string command = "SLURM_ARRAY_TASK_ID=1 SLURM_ARRAY_TASK_COUNT=2 " + kBake.string() + " " +
+                                site.string() + " -o " + (dir / "b").string() + " > /dev/null 2>&1";
+    ASSERT_EQ(std::system(command.c_str()), 0);
+  }
+  // Merging one shard only says what is missing.
+  const Result missing = run("merge " + (dir / "a").string() + " -o " + (dir / "m1").string());
+  EXPECT_EQ(missing.status, 2);
+  EXPECT_NE(missing.output.find("20 of 40 faces"), std::string::npos) << missing.output;
+
+  const Result merged = run("merge " + (dir / "a").string() + " " + (dir / "b").string() + " -o " +
+                            (dir / "merged").string() + " --no-previews");
+  ASSERT_EQ(merged.status, 0) << merged.output;
+  ASSERT_EQ(run("verify " + (dir / "merged").string()).status, 0);
+  const auto whole = skylit::bake::read_manifest(dir / "whole");
+  const auto joined = skylit::bake::read_manifest(dir / "merged");
+  for (std::size_t j = 0; j < whole.planes.size(); ++j) {
+    const auto x = skylit::bake::read_exr_stack(dir / "whole" / whole.planes[j].file);
+    const auto y = skylit::bake::read_exr_stack(dir / "merged" / joined.planes[j].file);
+    EXPECT_EQ(x.data, y.data) << whole.planes[j].plane.name;
+  }
+}
+
+TEST(SkylitBake, KilledBakeIsNeverValidAndResumes) {
+  TempDir dir;
+  const fs::path site = make_cube_site(dir);
+  const fs::path out = dir / "bake";
+  // Slow enough to be caught in the middle: raytrace, 64 samples per face, ν = 4.
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    freopen("/dev/null", "w", stderr);
+    execl(kBake.c_str(), kBake.c_str(), site.c_str(), "-o", out.c_str(), "--method", "raytrace", "--samples", "64",
+          "--frequency", "4", "--threads", "1", static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while (!fs::exists(out / "parts" / "face_003.part") && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  kill(child, SIGKILL);
+  int status = 0;
+  waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status)) << "the bake finished before it could be interrupted";
+
+  const Result verify = run("verify " + out.string());
+  EXPECT_EQ(verify.status, 1) << verify.output;
+  EXPECT_NE(verify.output.find("incomplete"), std::string::npos) << verify.output;
+
+  // Without --resume the user is told what to do.
+  const Result again = run(site.string() + " -o " + out.string() + " --method raytrace --samples 64 --frequency 4");
+  EXPECT_EQ(again.status, 2);
+  EXPECT_NE(again.output.find("--resume"), std::string::npos) << again.output;
+
+  // A resume with other options is refused, naming the difference.
+  const Result other = run(site.string() + " -o " + out.string() + " --method raytrace --samples 16 --frequency 4 --resume");
+  EXPECT_EQ(other.status, 2);
+  EXPECT_NE(other.output.find("samples"), std::string::npos) << other.output;
+
+  const Result resumed =
+      run(site.string() + " -o " + out.string() + " --method raytrace --samples 64 --frequency 4 --resume --no-previews");
+  ASSERT_EQ(resumed.status, 0) << resumed.output;
+  EXPECT_EQ(resumed.output.find(" 0 resumed"), std::string::npos) << resumed.output;
+  EXPECT_EQ(run("verify " + out.string()).status, 0);
+}
+
+TEST(SkylitBake, VerifyDetectsChangedFilesAndOtherVersions) {
+  TempDir dir;
+  const fs::path site = make_cube_site(dir);
+  ASSERT_EQ(run(site.string() + " -o " + (dir / "bake").string() + " --no-previews").status, 0);
+
+  {  // One flipped byte in a plane image.
+    const fs::path exr = dir / "bake" / "planes" / "ground.exr";
+    std::fstream f(exr, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(static_cast<std::streamoff>(fs::file_size(exr) / 2));
+    char c = 0;
+    f.read(&c, 1);
+    f.seekp(static_cast<std::streamoff>(fs::file_size(exr) / 2));
+    c = static_cast<char>(c ^ 0x5a);
+    f.write(&c, 1);
+  }
+  Result r = run("verify " + (dir / "bake").string());
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.output.find("ground.exr"), std::string::npos) << r.output;
+
+  {  // A manifest from a future version.
+    const fs::path manifest = dir / "bake" / "manifest.json";
+    nlohmann::json j = nlohmann::json::parse(std::ifstream(manifest));
+    j["schema_version"] = 99;
+    std::ofstream(manifest) << j.dump();
+  }
+  r = run("verify " + (dir / "bake").string());
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.output.find("version"), std::string::npos) << r.output;
+}
+
+TEST(SkylitBake, RefusesToOverwriteWithoutForce) {
+  TempDir dir;
+  const fs::path site = make_cube_site(dir);
+  const std::string args = site.string() + " -o " + (dir / "bake").string() + " --no-previews";
+  ASSERT_EQ(run(args).status, 0);
+  const Result again = run(args);
+  EXPECT_EQ(again.status, 2);
+  EXPECT_NE(again.output.find("--force"), std::string::npos) << again.output;
+  EXPECT_EQ(run(args + " --force").status, 0);
+  EXPECT_EQ(run("verify " + (dir / "bake").string()).status, 0);
+}
+
+struct BadInput {
+  std::string name;
+  std::string site_yaml;    // empty: the good cube site
+  std::string extra_args;
+  std::string expected;     // in the message
+};
+
+class SkylitBakeBadInput : public ::testing::TestWithParam<BadInput> {};
+
+TEST_P(SkylitBakeBadInput, ClearErrorNonZeroExitNoBake) {
+  const BadInput& c = GetParam();
+  TempDir dir;
+  write_text(dir / "cube.obj", kCubeObj);
+  write_text(dir / "empty.obj", "# nothing\n");
+  write_text(dir / "site.yaml", c.site_yaml.empty() ? cube_site() : c.site_yaml);
+  write_text(dir / "a_file", "x");
+  std::string out = (dir / "bake").string();
+  std::string extra = c.extra_args;
+  if (const auto at = extra.find("@DIR@"); at != std::string::npos) extra.replace(at, 5, dir.path().string());
+  const bool own_output = extra.find("-o ") != std::string::npos;
+  const Result r = run((dir / "site.yaml").string() + (own_output ? "" : " -o " + out) + " " + extra);
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find(c.expected), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("internal error"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir / "bake" / "manifest.json"));
+}
+
+namespace {
+std::string replace(std::string text, const std::string& from, const std::string& to) {
+  const auto at = text.find(from);
+  if (at != std::string::npos) text.replace(at, from.size(), to);
+  return text;
+}
+}  // namespace
+
+INSTANTIATE_TEST_SUITE_P(
+    Cases, SkylitBakeBadInput,
+    ::testing::Values(
+        BadInput{"odd_frequency_option", "", "--frequency 3", "--frequency"},
+        BadInput{"odd_frequency_site", replace(cube_site(), "frequency: 2", "frequency: 3"), "", "frequency"},
+        BadInput{"zero_frequency_site", replace(cube_site(), "frequency: 2", "frequency: 0"), "", "frequency"},
+        BadInput{"zero_resolution_option", "", "--resolution 0x16", "--resolution"},
+        BadInput{"huge_resolution_site", replace(cube_site(), "[48, 48]", "[20000, 48]"), "", "resolution"},
+        BadInput{"zero_resolution_site", replace(cube_site(), "[48, 48]", "[0, 48]"), "", "resolution"},
+        BadInput{"missing_field", replace(cube_site(), "    u: [12, 0, 0]\n", ""), "", "planes[0].u"},
+        BadInput{"mistyped_field", replace(cube_site(), "resolution: [48, 48]", "resolutoin: [48, 48]"), "",
+                 "resolution"},
+        BadInput{"degenerate_plane", replace(cube_site(), "v: [0, 12, 0]", "v: [24, 0, 0]"), "", "planes[0]"},
+        BadInput{"nan_plane", replace(cube_site(), "origin: [-6, -6, 0.01]", "origin: [-6, .nan, 0.01]"), "",
+                 "planes[0].origin"},
+        BadInput{"missing_model", replace(cube_site(), "cube.obj", "nowhere.obj"), "", "nowhere.obj"},
+        BadInput{"empty_model", replace(cube_site(), "cube.obj", "empty.obj"), "", "empty.obj"},
+        BadInput{"unwritable_output", "", "-o @DIR@/a_file/bake", "a_file"},
+        BadInput{"bad_shard", "", "--shard 2/2", "--shard"},
+        BadInput{"bad_samples", "", "--samples 0", "--samples"},
+        BadInput{"bad_method", "", "--method magic", "--method"}),
+    [](const ::testing::TestParamInfo<BadInput>& info) { return info.param.name; });
+
+TEST(SkylitBake, SampleSiteConfigBakes) {
+  // The bundled site, small: what `make demo` runs, at a test-friendly resolution.
+  TempDir dir;
+  const Result r = run((kSource / "config" / "sample_site.yaml").string() + " -o " + (dir / "bake").string() +
+                       " --resolution 32x32");
+  ASSERT_EQ(r.status, 0) << r.output;
+  ASSERT_EQ(run("verify " + (dir / "bake").string()).status, 0);
+  const auto m = skylit::bake::read_manifest(dir / "bake");
+  EXPECT_GE(m.planes.size(), 3u);
+  for (const auto& p : m.planes) EXPECT_TRUE(fs::exists(dir / "bake" / "preview" / (p.plane.name + ".png")));
+}
