@@ -87,7 +87,9 @@ int auto_shadow_map_resolution(const scene::Mesh& mesh, const std::vector<geom::
   Eigen::Vector3d hi = mesh.bounds_max().cast<double>();
   double finest = std::numeric_limits<double>::infinity();
   for (const geom::Plane& p : planes) {
-    for (const geom::Vec3& c : {p.origin, p.origin + p.u, p.origin + p.v, p.origin + p.u + p.v}) {
+    const std::array<geom::Vec3, 4> corners{p.origin, p.origin + p.u, p.origin + p.v,
+                                            p.origin + p.u + p.v};
+    for (const geom::Vec3& c : corners) {
       lo = lo.cwiseMin(c);
       hi = hi.cwiseMax(c);
     }

@@ -1,0 +1,346 @@
+// The ray-traced visibility engine (Embree 3): the reference the raster engine is tested against.
+#include <embree3/rtcore.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <exception>
+#include <limits>
+#include <memory>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+// geom::Plane::normal() uses cross(), which lives in Eigen/Geometry.
+#include <Eigen/Geometry>
+
+#include "skylit/baker/visibility.hpp"
+
+namespace skylit::baker {
+
+namespace {
+
+// Embree reports errors through a callback invoked from inside its C API; throwing there would
+// unwind through C frames, so the callback only records the first message and the engine
+// throws after the call returns.
+class DeviceErrors {
+ public:
+  static void record(void* self, RTCError code, const char* message) {
+    static_cast<DeviceErrors*>(self)->store(code, message);
+  }
+
+  void throw_if_any(const char* during) {
+    std::lock_guard lock(mutex_);
+    if (message_.empty()) return;
+    std::string text = "Embree error during " + std::string(during) + ": " + message_;
+    message_.clear();
+    throw std::runtime_error(text);
+  }
+
+ private:
+  void store(RTCError code, const char* message) {
+    std::lock_guard lock(mutex_);
+    if (!message_.empty()) return;
+    message_ = "code " + std::to_string(static_cast<int>(code)) + " (" +
+               (message != nullptr ? message : "no message") + ")";
+  }
+
+  std::mutex mutex_;
+  std::string message_;
+};
+
+struct DeviceReleaser {
+  void operator()(RTCDevice device) const { rtcReleaseDevice(device); }
+};
+struct SceneReleaser {
+  void operator()(RTCScene scene) const { rtcReleaseScene(scene); }
+};
+using DeviceHandle = std::unique_ptr<RTCDeviceTy, DeviceReleaser>;
+using SceneHandle = std::unique_ptr<RTCSceneTy, SceneReleaser>;
+
+constexpr float kInfinity = std::numeric_limits<float>::infinity();
+
+// A sample direction with the weight it carries for the surface at hand.
+struct WeightedDirection {
+  float x, y, z;
+  double weight;
+};
+
+// The directions that count for a surface with normal n, and their weights: c_k = max(0, n·ω_k)
+// for the rays with c_k > 0, or every ray with weight 1 when none faces the surface (the Σ V/K
+// rule of the contract).
+std::vector<WeightedDirection> weigh(const std::vector<Vec3>& directions, const Vec3& normal) {
+  std::vector<WeightedDirection> weighted;
+  weighted.reserve(directions.size());
+  for (const Vec3& w : directions) {
+    const double c = std::max(0.0, normal.dot(w));
+    if (c > 0.0) {
+      weighted.push_back({static_cast<float>(w.x()), static_cast<float>(w.y()),
+                          static_cast<float>(w.z()), c});
+    }
+  }
+  if (weighted.empty()) {
+    for (const Vec3& w : directions) {
+      weighted.push_back({static_cast<float>(w.x()), static_cast<float>(w.y()),
+                          static_cast<float>(w.z()), 1.0});
+    }
+  }
+  return weighted;
+}
+
+// Runs work(item) for item in [0, count) on `threads` threads; items are handed out one at a
+// time so that uneven rows balance. Each item writes only its own output, so the result does not
+// depend on the schedule. The first exception thrown by any item is rethrown here.
+template <typename Work>
+void parallel_for(int count, int threads, const Work& work) {
+  std::atomic<int> next{0};
+  std::exception_ptr failure;
+  std::mutex failure_mutex;
+  auto worker = [&] {
+    try {
+      for (int item = next++; item < count; item = next++) work(item);
+    } catch (...) {
+      std::lock_guard lock(failure_mutex);
+      if (!failure) failure = std::current_exception();
+      next = count;  // stop the others early
+    }
+  };
+  const int used = std::max(1, std::min(threads, count));
+  std::vector<std::thread> pool;
+  pool.reserve(static_cast<std::size_t>(used - 1));
+  for (int t = 1; t < used; ++t) pool.emplace_back(worker);
+  worker();
+  for (std::thread& thread : pool) thread.join();
+  if (failure) std::rethrow_exception(failure);
+}
+
+class RaytraceEngine final : public VisibilityEngine {
+ public:
+  RaytraceEngine(const scene::Mesh& mesh, std::span<const geom::Plane> planes,
+                 const RaytraceOptions& options)
+      : mesh_(mesh), planes_(planes), offset_(surface_offset(mesh, planes)) {
+    if (options.threads < 0) {
+      throw std::invalid_argument("raytrace engine: threads must be ≥ 0 (0 = all hardware threads)");
+    }
+    threads_ = options.threads > 0 ? options.threads
+                                   : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+    validate_mesh();
+    for (const geom::Plane& plane : planes_) {
+      if (plane.width <= 0 || plane.height <= 0) {
+        throw std::invalid_argument("raytrace engine: plane '" + plane.name + "' has no texels");
+      }
+    }
+    build_scene();
+  }
+
+  std::string name() const override {
+    return "raytrace (Embree " RTC_VERSION_STRING ", " + std::to_string(threads_) + " thread" +
+           (threads_ == 1 ? "" : "s") + ")";
+  }
+
+  void set_directions(std::span<const Vec3> directions) override {
+    if (directions.empty()) throw std::invalid_argument("raytrace engine: no sample directions");
+    std::vector<Vec3> unit;
+    unit.reserve(directions.size());
+    for (const Vec3& w : directions) {
+      const double length = w.norm();
+      if (!std::isfinite(length) || length == 0.0) {
+        throw std::invalid_argument("raytrace engine: a sample direction is zero or not finite");
+      }
+      unit.push_back(w / length);
+    }
+    directions_ = std::move(unit);
+  }
+
+  void plane_fractions(int plane_index, std::span<float> out) override {
+    if (plane_index < 0 || static_cast<std::size_t>(plane_index) >= planes_.size()) {
+      throw std::out_of_range("raytrace engine: plane index " + std::to_string(plane_index) +
+                              " out of range");
+    }
+    const geom::Plane& plane = planes_[static_cast<std::size_t>(plane_index)];
+    const std::size_t width = static_cast<std::size_t>(plane.width);
+    if (out.size() != width * static_cast<std::size_t>(plane.height)) {
+      throw std::invalid_argument("raytrace engine: output for plane '" + plane.name +
+                                  "' must hold width × height values");
+    }
+    require_directions();
+    // The cosine weight is the same for every texel of a plane.
+    const std::vector<WeightedDirection> weighted = weigh(directions_, plane.normal());
+    double total_weight = 0.0;
+    for (const WeightedDirection& w : weighted) total_weight += w.weight;
+    const float tnear = static_cast<float>(offset_);
+
+    parallel_for(plane.height, threads_, [&](int row) {
+      // One row, one direction at a time: the rays of a row are parallel and neighbouring, the
+      // coherent case Embree's stream traversal is built for (measured on 3000 triangles, 2 cores:
+      // ~140 M rays/s, against ~60 M with rtcOccluded1 per ray and ~130 M with rtcOccluded16).
+      std::vector<RTCRay> rays(width);
+      std::vector<double> visible_weight(width, 0.0);
+      for (std::size_t col = 0; col < width; ++col) {
+        const Vec3 centre = plane.texel_centre(static_cast<int>(col), row);
+        rays[col].org_x = static_cast<float>(centre.x());
+        rays[col].org_y = static_cast<float>(centre.y());
+        rays[col].org_z = static_cast<float>(centre.z());
+      }
+      RTCIntersectContext context;
+      rtcInitIntersectContext(&context);
+      context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+      for (const WeightedDirection& w : weighted) {
+        for (RTCRay& ray : rays) {
+          ray.dir_x = w.x;
+          ray.dir_y = w.y;
+          ray.dir_z = w.z;
+          ray.tnear = tnear;
+          ray.tfar = kInfinity;
+          ray.time = 0.0f;
+          ray.mask = ~0u;
+          ray.id = 0;
+          ray.flags = 0;
+        }
+        rtcOccluded1M(scene_.get(), &context, rays.data(), static_cast<unsigned>(width),
+                      sizeof(RTCRay));
+        // An occluded ray comes back with tfar = -inf.
+        for (std::size_t col = 0; col < width; ++col) {
+          if (rays[col].tfar >= 0.0f) visible_weight[col] += w.weight;
+        }
+      }
+      float* row_out = out.data() + static_cast<std::size_t>(row) * width;
+      for (std::size_t col = 0; col < width; ++col) {
+        row_out[col] = static_cast<float>(visible_weight[col] / total_weight);
+      }
+    });
+    errors_->throw_if_any("plane_fractions");
+  }
+
+  void vertex_fractions(std::span<float> out) override {
+    if (out.size() != mesh_.vertex_count()) {
+      throw std::invalid_argument("raytrace engine: output must hold one value per mesh vertex");
+    }
+    require_directions();
+    constexpr int kVerticesPerTask = 256;
+    const int vertex_count = static_cast<int>(mesh_.vertex_count());
+    const int tasks = (vertex_count + kVerticesPerTask - 1) / kVerticesPerTask;
+    const float offset = static_cast<float>(offset_);
+
+    parallel_for(tasks, threads_, [&](int task) {
+      RTCIntersectContext context;
+      rtcInitIntersectContext(&context);
+      const int end = std::min(vertex_count, (task + 1) * kVerticesPerTask);
+      for (int v = task * kVerticesPerTask; v < end; ++v) {
+        const auto index = static_cast<std::size_t>(v);
+        const Eigen::Vector3f& normal = mesh_.normals[index];
+        const Eigen::Vector3f origin = mesh_.positions[index] + offset * normal;
+        const std::vector<WeightedDirection> weighted = weigh(directions_, normal.cast<double>());
+        double total_weight = 0.0;
+        double visible_weight = 0.0;
+        for (const WeightedDirection& w : weighted) {
+          RTCRay ray{};
+          ray.org_x = origin.x();
+          ray.org_y = origin.y();
+          ray.org_z = origin.z();
+          ray.dir_x = w.x;
+          ray.dir_y = w.y;
+          ray.dir_z = w.z;
+          ray.tnear = 0.0f;  // the origin is already nudged off the surface
+          ray.tfar = kInfinity;
+          ray.mask = ~0u;
+          rtcOccluded1(scene_.get(), &context, &ray);
+          total_weight += w.weight;
+          if (ray.tfar >= 0.0f) visible_weight += w.weight;
+        }
+        out[index] = static_cast<float>(visible_weight / total_weight);
+      }
+    });
+    errors_->throw_if_any("vertex_fractions");
+  }
+
+ private:
+  void require_directions() const {
+    if (directions_.empty()) {
+      throw std::logic_error("raytrace engine: set_directions must be called before tracing");
+    }
+  }
+
+  void validate_mesh() const {
+    if (mesh_.indices.size() % 3 != 0) {
+      throw std::invalid_argument("raytrace engine: mesh index count is not a multiple of 3");
+    }
+    if (mesh_.normals.size() != mesh_.positions.size()) {
+      throw std::invalid_argument("raytrace engine: mesh needs exactly one normal per position");
+    }
+    if (mesh_.positions.size() > std::numeric_limits<std::uint32_t>::max()) {
+      throw std::invalid_argument("raytrace engine: mesh has too many vertices for 32-bit indices");
+    }
+    for (std::uint32_t index : mesh_.indices) {
+      if (index >= mesh_.positions.size()) {
+        throw std::invalid_argument("raytrace engine: mesh index " + std::to_string(index) +
+                                    " is past the last vertex");
+      }
+    }
+  }
+
+  void build_scene() {
+    device_.reset(rtcNewDevice(nullptr));
+    if (!device_) {
+      throw std::runtime_error("Embree error: could not create a device (code " +
+                               std::to_string(static_cast<int>(rtcGetDeviceError(nullptr))) + ")");
+    }
+    rtcSetDeviceErrorFunction(device_.get(), &DeviceErrors::record, errors_.get());
+    scene_.reset(rtcNewScene(device_.get()));
+    errors_->throw_if_any("scene creation");
+    rtcSetSceneFlags(scene_.get(), RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneBuildQuality(scene_.get(), RTC_BUILD_QUALITY_HIGH);
+
+    // An empty scene is valid: every ray is then unoccluded.
+    if (mesh_.triangle_count() > 0) {
+      RTCGeometry geometry = rtcNewGeometry(device_.get(), RTC_GEOMETRY_TYPE_TRIANGLE);
+      errors_->throw_if_any("geometry creation");
+      // Copied rather than shared: Embree wants padding after the last vertex that a
+      // std::vector does not promise.
+      auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
+          geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+          mesh_.vertex_count()));
+      auto* triangles = static_cast<std::uint32_t*>(rtcSetNewGeometryBuffer(
+          geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(std::uint32_t),
+          mesh_.triangle_count()));
+      if (vertices == nullptr || triangles == nullptr) {
+        rtcReleaseGeometry(geometry);
+        errors_->throw_if_any("buffer allocation");
+        throw std::runtime_error("Embree error: could not allocate the mesh buffers");
+      }
+      for (std::size_t v = 0; v < mesh_.vertex_count(); ++v) {
+        for (int axis = 0; axis < 3; ++axis) vertices[3 * v + static_cast<std::size_t>(axis)] = mesh_.positions[v][axis];
+      }
+      std::copy(mesh_.indices.begin(), mesh_.indices.end(), triangles);
+      rtcCommitGeometry(geometry);
+      rtcAttachGeometry(scene_.get(), geometry);
+      rtcReleaseGeometry(geometry);  // the scene holds its own reference
+      errors_->throw_if_any("geometry setup");
+    }
+    rtcCommitScene(scene_.get());
+    errors_->throw_if_any("scene build");
+  }
+
+  const scene::Mesh& mesh_;
+  std::span<const geom::Plane> planes_;
+  double offset_;
+  int threads_ = 1;
+  std::vector<Vec3> directions_;
+  // Declared before the device so that it outlives every callback the device might make.
+  std::unique_ptr<DeviceErrors> errors_ = std::make_unique<DeviceErrors>();
+  DeviceHandle device_;
+  SceneHandle scene_;  // after device_: released first
+};
+
+}  // namespace
+
+std::unique_ptr<VisibilityEngine> make_raytrace_engine(const scene::Mesh& mesh,
+                                                       std::span<const geom::Plane> planes,
+                                                       const RaytraceOptions& options) {
+  return std::make_unique<RaytraceEngine>(mesh, planes, options);
+}
+
+}  // namespace skylit::baker

@@ -384,7 +384,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadInput{"bad_shard", "", "--shard 2/2", "--shard"},
         BadInput{"bad_samples", "", "--samples 0", "--samples"},
         BadInput{"bad_method", "", "--method magic", "--method"}),
-    [](const ::testing::TestParamInfo<BadInput>& info) { return info.param.name; });
+    [](const ::testing::TestParamInfo<BadInput>& param_info) { return param_info.param.name; });
 
 TEST(SkylitBake, SampleSiteConfigBakes) {
   // The bundled site, small: what `make demo` runs, at a test-friendly resolution.

@@ -1,0 +1,523 @@
+// Model loading: glTF 2.0 through tinygltf, OBJ through tinyobjloader, both into the site frame.
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <map>
+#include <optional>
+#include <tuple>
+#include <utility>
+
+#include <Eigen/Geometry>
+#include <tiny_gltf.h>
+#include <tiny_obj_loader.h>
+
+#include "skylit/base/error.hpp"
+#include "skylit/scene/mesh.hpp"
+
+namespace skylit::scene {
+
+Eigen::Vector3f Mesh::bounds_min() const {
+  Eigen::Vector3f low = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity());
+  for (const Eigen::Vector3f& p : positions) low = low.cwiseMin(p);
+  return positions.empty() ? Eigen::Vector3f::Zero() : low;
+}
+
+Eigen::Vector3f Mesh::bounds_max() const {
+  Eigen::Vector3f high = Eigen::Vector3f::Constant(-std::numeric_limits<float>::infinity());
+  for (const Eigen::Vector3f& p : positions) high = high.cwiseMax(p);
+  return positions.empty() ? Eigen::Vector3f::Zero() : high;
+}
+
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kExportFix =
+    "export the model again as glTF 2.0 (.glb/.gltf) or OBJ and check that it opens in Blender";
+
+[[noreturn]] void fail(const fs::path& file, const std::string& problem, const std::string& fix) {
+  throw InputError(input_message(file, -1, -1, "", problem, fix));
+}
+
+// Collects triangles in the model frame. Vertices without a normal in the file are split per
+// triangle and get the triangle's flat normal at the end (architecture has hard edges; averaged
+// normals would round them off).
+struct MeshBuilder {
+  Mesh mesh;
+  std::vector<bool> needs_flat_normal;  // per vertex
+
+  std::uint32_t add_vertex(const Eigen::Vector3d& position, const Eigen::Vector3d* normal) {
+    mesh.positions.push_back(position.cast<float>());
+    mesh.normals.push_back(normal ? Eigen::Vector3f(normal->cast<float>()) : Eigen::Vector3f::Zero());
+    needs_flat_normal.push_back(normal == nullptr);
+    return static_cast<std::uint32_t>(mesh.positions.size() - 1);
+  }
+
+  void add_triangle(std::uint32_t a, std::uint32_t b, std::uint32_t c, std::uint32_t material) {
+    mesh.indices.insert(mesh.indices.end(), {a, b, c});
+    mesh.triangle_material.push_back(material);
+  }
+};
+
+// Model frame → site frame, then normals: flat where the file had none, unit everywhere.
+Mesh finish(MeshBuilder builder, const fs::path& file, UpAxis up, double scale) {
+  Mesh& mesh = builder.mesh;
+  if (mesh.triangle_count() == 0) {
+    fail(file, "the model has no triangles",
+         "export the meshes as triangles (or polygons, for OBJ); points and lines are not used");
+  }
+  for (std::size_t k = 0; k < mesh.positions.size(); ++k) {
+    Eigen::Vector3f& p = mesh.positions[k];
+    Eigen::Vector3f& n = mesh.normals[k];
+    if (!p.allFinite()) {
+      fail(file, "vertex " + std::to_string(k) + " has a non-finite position",
+           "repair the model (remove broken vertices) and export it again");
+    }
+    if (up == UpAxis::Y) {  // (x, y, z)_model → (x, −z, y)_site: model −z becomes north
+      p = Eigen::Vector3f(p.x(), -p.z(), p.y());
+      n = Eigen::Vector3f(n.x(), -n.z(), n.y());
+    }
+    p *= static_cast<float>(scale);
+    if (!p.allFinite()) {
+      fail(file, "vertex " + std::to_string(k) + " is out of range after scaling",
+           "check scene.scale in the site file");
+    }
+  }
+
+  // Flat normals for split vertices; a file normal that is zero or broken is replaced by the
+  // area-weighted normal of its triangles (the only way left to orient it).
+  std::vector<Eigen::Vector3f> fallback(mesh.positions.size(), Eigen::Vector3f::Zero());
+  for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
+    const std::uint32_t* tri = &mesh.indices[3 * t];
+    const Eigen::Vector3f face = (mesh.positions[tri[1]] - mesh.positions[tri[0]])
+                                     .cross(mesh.positions[tri[2]] - mesh.positions[tri[0]]);
+    for (int corner = 0; corner < 3; ++corner) fallback[tri[corner]] += face;
+  }
+  for (std::size_t k = 0; k < mesh.positions.size(); ++k) {
+    Eigen::Vector3f& n = mesh.normals[k];
+    const float length = n.norm();
+    if (builder.needs_flat_normal[k] || !std::isfinite(length) || length < 1e-12f) {
+      n = fallback[k];  // a split vertex belongs to one triangle: this is its face normal
+    }
+    const float fixed_length = n.norm();
+    n = (std::isfinite(fixed_length) && fixed_length > 0.0f) ? Eigen::Vector3f(n / fixed_length)
+                                                             : Eigen::Vector3f::UnitZ();
+  }
+  return std::move(builder.mesh);
+}
+
+// ---------------------------------------------------------------------------------------------
+// glTF
+
+std::size_t component_size(int component_type) {
+  switch (component_type) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
+    case TINYGLTF_COMPONENT_TYPE_SHORT:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
+    case TINYGLTF_COMPONENT_TYPE_INT:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
+    case TINYGLTF_COMPONENT_TYPE_DOUBLE: return 8;
+    default: return 0;
+  }
+}
+
+class GltfReader {
+ public:
+  GltfReader(const tinygltf::Model& model, const fs::path& file) : model_(model), file_(file) {}
+
+  Mesh read(UpAxis up, double scale) {
+    for (const tinygltf::Material& material : model_.materials) {
+      Material m;
+      m.name = material.name;
+      const std::vector<double>& factor = material.pbrMetallicRoughness.baseColorFactor;
+      if (factor.size() == 4) {
+        m.base_colour = Eigen::Vector4d(factor[0], factor[1], factor[2], factor[3]).cast<float>();
+      }
+      builder_.mesh.materials.push_back(std::move(m));
+    }
+
+    std::vector<int> roots;
+    if (!model_.scenes.empty()) {
+      const int scene = model_.defaultScene >= 0 &&
+                                static_cast<std::size_t>(model_.defaultScene) < model_.scenes.size()
+                            ? model_.defaultScene
+                            : 0;
+      roots = model_.scenes[static_cast<std::size_t>(scene)].nodes;
+    } else {  // no scene: every node that is nobody's child
+      std::vector<bool> is_child(model_.nodes.size(), false);
+      for (const tinygltf::Node& node : model_.nodes) {
+        for (int child : node.children) {
+          if (child >= 0 && static_cast<std::size_t>(child) < is_child.size()) {
+            is_child[static_cast<std::size_t>(child)] = true;
+          }
+        }
+      }
+      for (std::size_t k = 0; k < model_.nodes.size(); ++k) {
+        if (!is_child[k]) roots.push_back(static_cast<int>(k));
+      }
+    }
+    on_path_.assign(model_.nodes.size(), false);
+    for (int root : roots) visit(root, Eigen::Matrix4d::Identity());
+    return finish(std::move(builder_), file_, up, scale);
+  }
+
+ private:
+  [[noreturn]] void corrupt(const std::string& problem) const { fail(file_, problem, kExportFix); }
+
+  static Eigen::Matrix4d local_transform(const tinygltf::Node& node) {
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+    if (node.matrix.size() == 16) {
+      for (int k = 0; k < 16; ++k) m(k % 4, k / 4) = node.matrix[static_cast<std::size_t>(k)];
+      return m;
+    }
+    Eigen::Affine3d trs = Eigen::Affine3d::Identity();
+    if (node.translation.size() == 3) {
+      trs.translate(Eigen::Vector3d(node.translation[0], node.translation[1], node.translation[2]));
+    }
+    if (node.rotation.size() == 4) {  // glTF stores (x, y, z, w)
+      trs.rotate(Eigen::Quaterniond(node.rotation[3], node.rotation[0], node.rotation[1],
+                                    node.rotation[2])
+                     .normalized());
+    }
+    if (node.scale.size() == 3) {
+      trs.scale(Eigen::Vector3d(node.scale[0], node.scale[1], node.scale[2]));
+    }
+    return trs.matrix();
+  }
+
+  void visit(int index, const Eigen::Matrix4d& parent) {
+    if (index < 0 || static_cast<std::size_t>(index) >= model_.nodes.size()) {
+      corrupt("a scene refers to node " + std::to_string(index) + ", which does not exist");
+    }
+    const auto slot = static_cast<std::size_t>(index);
+    if (on_path_[slot]) corrupt("node " + std::to_string(index) + " is its own ancestor");
+    on_path_[slot] = true;
+    const tinygltf::Node& node = model_.nodes[slot];
+    const Eigen::Matrix4d world = parent * local_transform(node);
+    if (node.mesh >= 0) add_mesh(node.mesh, world);
+    for (int child : node.children) visit(child, world);
+    on_path_[slot] = false;
+  }
+
+  // Pointer to element k of an accessor after bounds checks.
+  const unsigned char* element(const tinygltf::Accessor& accessor, std::size_t element_size,
+                               std::size_t k, const std::string& what) const {
+    if (accessor.sparse.isSparse) corrupt(what + " uses a sparse accessor, which is not supported");
+    if (accessor.bufferView < 0 ||
+        static_cast<std::size_t>(accessor.bufferView) >= model_.bufferViews.size()) {
+      corrupt(what + " has no buffer data");
+    }
+    const tinygltf::BufferView& view = model_.bufferViews[static_cast<std::size_t>(accessor.bufferView)];
+    if (view.buffer < 0 || static_cast<std::size_t>(view.buffer) >= model_.buffers.size()) {
+      corrupt(what + " refers to a missing buffer");
+    }
+    const std::vector<unsigned char>& data = model_.buffers[static_cast<std::size_t>(view.buffer)].data;
+    const std::size_t stride = view.byteStride > 0 ? view.byteStride : element_size;
+    const std::size_t begin = view.byteOffset + accessor.byteOffset + k * stride;
+    if (begin + element_size > view.byteOffset + view.byteLength ||
+        begin + element_size > data.size()) {
+      corrupt(what + " reaches past the end of its buffer");
+    }
+    return data.data() + begin;
+  }
+
+  std::vector<Eigen::Vector3d> read_vec3(int accessor_index, const std::string& what) const {
+    if (accessor_index < 0 || static_cast<std::size_t>(accessor_index) >= model_.accessors.size()) {
+      corrupt(what + " refers to a missing accessor");
+    }
+    const tinygltf::Accessor& accessor = model_.accessors[static_cast<std::size_t>(accessor_index)];
+    if (accessor.type != TINYGLTF_TYPE_VEC3 ||
+        accessor.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT) {
+      corrupt(what + " is not a list of float 3-vectors (quantized meshes are not supported)");
+    }
+    std::vector<Eigen::Vector3d> values(accessor.count);
+    for (std::size_t k = 0; k < accessor.count; ++k) {
+      float xyz[3];
+      std::memcpy(xyz, element(accessor, sizeof xyz, k, what), sizeof xyz);
+      values[k] = Eigen::Vector3d(xyz[0], xyz[1], xyz[2]);
+    }
+    return values;
+  }
+
+  std::vector<std::uint32_t> read_indices(const tinygltf::Primitive& primitive,
+                                          std::size_t vertex_count, const std::string& what) const {
+    std::vector<std::uint32_t> indices;
+    if (primitive.indices < 0) {  // non-indexed: the vertices in order
+      indices.reserve(vertex_count);
+      for (std::size_t k = 0; k < vertex_count; ++k) indices.push_back(static_cast<std::uint32_t>(k));
+      return indices;
+    }
+    if (static_cast<std::size_t>(primitive.indices) >= model_.accessors.size()) {
+      corrupt(what + " refers to a missing index accessor");
+    }
+    const tinygltf::Accessor& accessor = model_.accessors[static_cast<std::size_t>(primitive.indices)];
+    const std::size_t size = component_size(accessor.componentType);
+    if (accessor.type != TINYGLTF_TYPE_SCALAR ||
+        (accessor.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+         accessor.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+         accessor.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)) {
+      corrupt(what + " has indices that are not unsigned integers");
+    }
+    indices.reserve(accessor.count);
+    for (std::size_t k = 0; k < accessor.count; ++k) {
+      const unsigned char* p = element(accessor, size, k, what + " indices");
+      std::uint32_t value = 0;
+      if (size == 1) {
+        value = *p;
+      } else if (size == 2) {
+        std::uint16_t v16 = 0;
+        std::memcpy(&v16, p, 2);
+        value = v16;
+      } else {
+        std::memcpy(&value, p, 4);
+      }
+      if (value >= vertex_count) corrupt(what + " has an index past its last vertex");
+      indices.push_back(value);
+    }
+    return indices;
+  }
+
+  // Triangle corners (into the primitive's vertices) for the three triangle modes.
+  static std::vector<std::uint32_t> triangles(int mode, const std::vector<std::uint32_t>& idx) {
+    std::vector<std::uint32_t> out;
+    if (mode == TINYGLTF_MODE_TRIANGLES || mode == -1) {
+      out.assign(idx.begin(), idx.begin() + static_cast<std::ptrdiff_t>(idx.size() / 3 * 3));
+    } else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+      for (std::size_t k = 0; k + 2 < idx.size(); ++k) {
+        if (k % 2 == 0) {
+          out.insert(out.end(), {idx[k], idx[k + 1], idx[k + 2]});
+        } else {
+          out.insert(out.end(), {idx[k + 1], idx[k], idx[k + 2]});
+        }
+      }
+    } else if (mode == TINYGLTF_MODE_TRIANGLE_FAN) {
+      for (std::size_t k = 1; k + 1 < idx.size(); ++k) out.insert(out.end(), {idx[0], idx[k], idx[k + 1]});
+    }
+    return out;  // points and lines carry no surface
+  }
+
+  std::uint32_t material_index(int gltf_material) {
+    if (gltf_material >= 0 && static_cast<std::size_t>(gltf_material) < model_.materials.size()) {
+      return static_cast<std::uint32_t>(gltf_material);
+    }
+    if (!default_material_) {  // glTF's default material: white
+      builder_.mesh.materials.push_back(Material{"default", Eigen::Vector4f::Ones()});
+      default_material_ = static_cast<std::uint32_t>(builder_.mesh.materials.size() - 1);
+    }
+    return *default_material_;
+  }
+
+  void add_mesh(int mesh_index, const Eigen::Matrix4d& world) {
+    if (static_cast<std::size_t>(mesh_index) >= model_.meshes.size()) {
+      corrupt("a node refers to mesh " + std::to_string(mesh_index) + ", which does not exist");
+    }
+    const tinygltf::Mesh& gltf_mesh = model_.meshes[static_cast<std::size_t>(mesh_index)];
+    const Eigen::Matrix3d linear = world.topLeftCorner<3, 3>();
+    const Eigen::Matrix3d normal_matrix = linear.inverse().transpose();
+    const bool mirrored = linear.determinant() < 0.0;  // glTF: a mirror flips the front faces
+
+    // Primitives that share their vertex accessors share their vertices (one instance).
+    std::map<std::pair<int, int>, std::uint32_t> shared_base;
+    for (std::size_t p = 0; p < gltf_mesh.primitives.size(); ++p) {
+      const tinygltf::Primitive& primitive = gltf_mesh.primitives[p];
+      const std::string what = "mesh '" + gltf_mesh.name + "' primitive " + std::to_string(p);
+      const auto position_it = primitive.attributes.find("POSITION");
+      if (position_it == primitive.attributes.end()) continue;  // nothing to draw
+      const auto normal_it = primitive.attributes.find("NORMAL");
+      const int normal_accessor = normal_it == primitive.attributes.end() ? -1 : normal_it->second;
+
+      const std::vector<Eigen::Vector3d> positions = read_vec3(position_it->second, what + " POSITION");
+      std::vector<Eigen::Vector3d> normals;
+      if (normal_accessor >= 0) {
+        normals = read_vec3(normal_accessor, what + " NORMAL");
+        if (normals.size() != positions.size()) corrupt(what + " has fewer normals than positions");
+      }
+      const std::vector<std::uint32_t> corners =
+          triangles(primitive.mode, read_indices(primitive, positions.size(), what));
+      if (corners.empty()) continue;
+      const std::uint32_t material = material_index(primitive.material);
+
+      auto transform_point = [&](std::size_t k) {
+        return Eigen::Vector3d((world * positions[k].homogeneous()).head<3>());
+      };
+      if (normal_accessor >= 0) {
+        const auto key = std::make_pair(position_it->second, normal_accessor);
+        auto found = shared_base.find(key);
+        if (found == shared_base.end()) {
+          const auto base = static_cast<std::uint32_t>(builder_.mesh.positions.size());
+          for (std::size_t k = 0; k < positions.size(); ++k) {
+            const Eigen::Vector3d n = normal_matrix * normals[k];
+            builder_.add_vertex(transform_point(k), &n);
+          }
+          found = shared_base.emplace(key, base).first;
+        }
+        for (std::size_t t = 0; t + 2 < corners.size(); t += 3) {
+          const std::uint32_t a = found->second + corners[t];
+          const std::uint32_t b = found->second + corners[t + (mirrored ? 2 : 1)];
+          const std::uint32_t c = found->second + corners[t + (mirrored ? 1 : 2)];
+          builder_.add_triangle(a, b, c, material);
+        }
+      } else {
+        for (std::size_t t = 0; t + 2 < corners.size(); t += 3) {
+          const std::uint32_t a = builder_.add_vertex(transform_point(corners[t]), nullptr);
+          const std::uint32_t b =
+              builder_.add_vertex(transform_point(corners[t + (mirrored ? 2 : 1)]), nullptr);
+          const std::uint32_t c =
+              builder_.add_vertex(transform_point(corners[t + (mirrored ? 1 : 2)]), nullptr);
+          builder_.add_triangle(a, b, c, material);
+        }
+      }
+    }
+  }
+
+  const tinygltf::Model& model_;
+  const fs::path& file_;
+  MeshBuilder builder_;
+  std::vector<bool> on_path_;
+  std::optional<std::uint32_t> default_material_;
+};
+
+// Textures do not matter to the baker: skip decoding them (faster, and no failure on exotic
+// image formats).
+bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, int,
+                const unsigned char*, int, void*) {
+  return true;
+}
+
+Mesh load_gltf(const fs::path& file, bool binary, UpAxis up, double scale) {
+  tinygltf::TinyGLTF loader;
+  loader.SetImageLoader(&skip_image, nullptr);
+  tinygltf::Model model;
+  std::string error;
+  std::string warning;
+  const bool ok = binary ? loader.LoadBinaryFromFile(&model, &error, &warning, file.string())
+                         : loader.LoadASCIIFromFile(&model, &error, &warning, file.string());
+  if (!ok) {
+    if (error.empty()) error = "unknown error";
+    while (!error.empty() && (error.back() == '\n' || error.back() == '.')) error.pop_back();
+    fail(file, "cannot read the glTF file: " + error, kExportFix);
+  }
+  return GltfReader(model, file).read(up, scale);
+}
+
+// ---------------------------------------------------------------------------------------------
+// OBJ
+
+Mesh load_obj(const fs::path& file, UpAxis up, double scale) {
+  tinyobj::ObjReaderConfig config;
+  config.triangulate = true;
+  config.vertex_color = false;
+  config.mtl_search_path = file.parent_path().string();
+  tinyobj::ObjReader reader;
+  if (!reader.ParseFromFile(file.string(), config)) {
+    std::string error = reader.Error().empty() ? "unknown error" : reader.Error();
+    while (!error.empty() && (error.back() == '\n' || error.back() == '.')) error.pop_back();
+    fail(file, "cannot read the OBJ file: " + error, kExportFix);
+  }
+  const tinyobj::attrib_t& attrib = reader.GetAttrib();
+  MeshBuilder builder;
+  for (const tinyobj::material_t& material : reader.GetMaterials()) {
+    builder.mesh.materials.push_back(
+        Material{material.name, Eigen::Vector4f(static_cast<float>(material.diffuse[0]),
+                                                static_cast<float>(material.diffuse[1]),
+                                                static_cast<float>(material.diffuse[2]),
+                                                static_cast<float>(material.dissolve))});
+  }
+  std::optional<std::uint32_t> default_material;
+  const std::size_t position_count = attrib.vertices.size() / 3;
+  const std::size_t normal_count = attrib.normals.size() / 3;
+  auto position = [&](int k) {
+    if (k < 0 || static_cast<std::size_t>(k) >= position_count) {
+      fail(file, "a face refers to vertex " + std::to_string(k + 1) + ", which does not exist",
+           kExportFix);
+    }
+    const auto s = static_cast<std::size_t>(k) * 3;
+    return Eigen::Vector3d(attrib.vertices[s], attrib.vertices[s + 1], attrib.vertices[s + 2]);
+  };
+  auto normal = [&](int k) {
+    const auto s = static_cast<std::size_t>(k) * 3;
+    return Eigen::Vector3d(attrib.normals[s], attrib.normals[s + 1], attrib.normals[s + 2]);
+  };
+
+  // Corners with the same (position, normal) pair share a vertex, in order of first use.
+  std::map<std::pair<int, int>, std::uint32_t> shared;
+  for (const tinyobj::shape_t& shape : reader.GetShapes()) {
+    std::size_t offset = 0;
+    for (std::size_t face = 0; face < shape.mesh.num_face_vertices.size(); ++face) {
+      const std::size_t corners = shape.mesh.num_face_vertices[face];
+      if (corners != 3) {  // triangulation leaves only triangles; skip anything degenerate
+        offset += corners;
+        continue;
+      }
+      const tinyobj::index_t* corner = &shape.mesh.indices[offset];
+      offset += corners;
+      bool has_normals = true;
+      for (int k = 0; k < 3; ++k) {
+        if (corner[k].normal_index < 0 ||
+            static_cast<std::size_t>(corner[k].normal_index) >= normal_count) {
+          has_normals = false;
+        }
+      }
+      const int obj_material =
+          face < shape.mesh.material_ids.size() ? shape.mesh.material_ids[face] : -1;
+      std::uint32_t material = 0;
+      if (obj_material >= 0 && static_cast<std::size_t>(obj_material) < reader.GetMaterials().size()) {
+        material = static_cast<std::uint32_t>(obj_material);
+      } else {
+        if (!default_material) {
+          builder.mesh.materials.push_back(Material{"default", Eigen::Vector4f::Ones()});
+          default_material = static_cast<std::uint32_t>(builder.mesh.materials.size() - 1);
+        }
+        material = *default_material;
+      }
+      std::uint32_t vertex[3];
+      for (int k = 0; k < 3; ++k) {
+        const Eigen::Vector3d p = position(corner[k].vertex_index);
+        if (has_normals) {
+          const auto key = std::make_pair(corner[k].vertex_index, corner[k].normal_index);
+          auto found = shared.find(key);
+          if (found == shared.end()) {
+            const Eigen::Vector3d n = normal(corner[k].normal_index);
+            found = shared.emplace(key, builder.add_vertex(p, &n)).first;
+          }
+          vertex[k] = found->second;
+        } else {
+          vertex[k] = builder.add_vertex(p, nullptr);
+        }
+      }
+      builder.add_triangle(vertex[0], vertex[1], vertex[2], material);
+    }
+  }
+  return finish(std::move(builder), file, up, scale);
+}
+
+}  // namespace
+
+Mesh load_model(const std::filesystem::path& file, UpAxis up, double scale) {
+  if (!std::isfinite(scale) || scale <= 0.0) {
+    fail(file, "the scale " + std::to_string(scale) + " is not a positive number",
+         "set scene.scale to the length of one model unit in metres");
+  }
+  std::error_code error;
+  if (!fs::exists(file, error)) {
+    fail(file, "the model file does not exist",
+         "check scene.model in the site file (it is relative to the site file's directory)");
+  }
+  if (fs::is_directory(file, error)) {
+    fail(file, "the model path is a directory, not a file", "point scene.model at the model file");
+  }
+  std::string extension = file.extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (extension == ".glb") return load_gltf(file, true, up, scale);
+  if (extension == ".gltf") return load_gltf(file, false, up, scale);
+  if (extension == ".obj") return load_obj(file, up, scale);
+  fail(file, "unsupported model format '" + extension + "'",
+       "export the model as glTF 2.0 (.glb or .gltf) or Wavefront OBJ (.obj)");
+}
+
+}  // namespace skylit::scene

@@ -131,6 +131,23 @@ void write_npy(const std::filesystem::path& file, std::span<const float> data,
                std::span<const std::size_t> shape);
 std::vector<float> read_npy(const std::filesystem::path& file, std::vector<std::size_t>* shape);
 
+// Inspection without reading the data (cheap; used by verify). Both throw InputError naming the
+// file for an unreadable or foreign file. read_npy_info also refuses a file size other than the
+// shape requires; read_exr_info sees a cut-off header or offset table, but not missing pixel data
+// (read_exr_stack does; verify compares sizes and hashes).
+struct ExrInfo {
+  int width = 0;
+  int height = 0;
+  std::vector<std::string> layer_names;   // of the "*.Y" channels, in the order read_exr_stack uses
+};
+ExrInfo read_exr_info(const std::filesystem::path& file);
+
+struct NpyInfo {
+  std::vector<std::size_t> shape;
+  std::uint64_t data_offset = 0;          // bytes before the float32 data
+};
+NpyInfo read_npy_info(const std::filesystem::path& file);
+
 // ---- parts of a bake in progress ----
 
 // Visible fractions of one dome face for every plane texel and every model vertex, as computed

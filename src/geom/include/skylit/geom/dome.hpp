@@ -42,13 +42,20 @@ class Dome {
   int frequency_;
   std::vector<Vec3> vertices_;
   std::vector<DomeFace> faces_;
-  // Lookup acceleration (private to the implementation).
+  // Lookup: a direction's ray hits one flat icosahedron face (the one maximizing d·normal, by
+  // convexity), and the dome faces are the radial projections of that face's ν² flat grid
+  // triangles, so the barycentric coordinates of the hit point name the cell directly.
   struct IcoFace {
-    Vec3 normal;              // outward unit normal of the flat icosahedron face
-    std::vector<int> faces;   // dome faces inside it (upper hemisphere only)
+    Vec3 normal;                         // outward unit normal of the flat icosahedron face
+    std::array<Vec3, 3> opposite_edge;   // corner[k+1] × corner[k+2]: d·it ∝ barycentric k
+    std::vector<int> cell_face;          // cell 2·(i·ν + j) + (0 up, 1 down) → dome face or -1
+    std::vector<int> faces;              // dome faces inside it (upper hemisphere only)
   };
   std::vector<IcoFace> ico_faces_;
-  std::vector<Vec3> facet_normal_;   // per dome face: flat facet normal / facet offset
+  std::vector<std::array<Vec3, 3>> edge_normal_;  // per dome face: inward unit normals of its edges
+  // Rounding fallback at the horizon: the face of `ico` whose triangle holds `unit` most deeply.
+  int most_inside_face(const IcoFace& ico, const Vec3& unit) const;
+  SphericalTriangle triangle_of(const DomeFace& f) const;
 };
 
 }  // namespace skylit::geom

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>  // cross(): used here and by everyone who includes this header
 
 namespace skylit::geom {
 
@@ -24,7 +25,7 @@ Vec3 sample_uniform(const SphericalTriangle& t, double u1, double u2);
 
 // `count` area-uniform stratified directions: a jittered rows×cols grid in (u1, u2), rows×cols =
 // count with rows the largest divisor of count not above its square root. Deterministic for a
-// seed. count ≥ 1.
+// seed. count ≥ 1. Returned row by row (row r holds u1 in [r/rows, (r+1)/rows)).
 std::vector<Vec3> stratified_samples(const SphericalTriangle& t, int count, std::uint64_t seed);
 
 // ∫ max(0, n·ω) dω over the triangle, exactly: the triangle is clipped to the hemisphere n·ω ≥ 0
