@@ -1,0 +1,91 @@
+#pragma once
+// Shadow ratios on the CPU: the reference that every GPU blend is tested against, and the
+// fallback for machines without a GPU (paper 003, section 3.3, plus an exact sun term).
+//
+//   T_j(x) = (Σ_i S_i B_{j,i}(x) + E_sun V(x, ω_sun) c) / (Σ_i S_i A_{j,i} + E_sun c),
+//   c = max(0, n·ω_sun),  per colour channel.
+//
+// The weights w_i = S_i / D and w_sun = E_sun c / D (D the denominator) are computed once per
+// sky (blend_weights); the blend is then one weighted sum over the plane's basis layers, read
+// once each from half floats and accumulated in float. T is always finite and in [0, 1]: when a
+// channel's denominator is too small to mean anything (a night sky, a plane that faces away from
+// every lit face) that channel is 1 and flagged, and values a hair outside [0, 1] from half-float
+// rounding of B ≤ A are clamped and measured.
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "skylit/bake/format.hpp"
+
+namespace skylit::render {
+
+using geom::Vec3;
+
+// The basis images of one plane, as the bake stores them: layer-major IEEE half floats,
+// half[(layer * height + row) * width + col] = B_{j,i} (steradians).
+struct BasisImages {
+  std::string name;
+  int width = 0;
+  int height = 0;
+  int layers = 0;
+  std::vector<std::uint16_t> half;
+  std::vector<double> unoccluded;      // A_{j,i}, one per layer
+  Vec3 normal = Vec3::UnitZ();
+  std::size_t texel_count() const { return static_cast<std::size_t>(width) * height; }
+};
+
+// Reads plane `plane` (an index into manifest.planes) of a verified bake.
+BasisImages load_basis(const std::filesystem::path& bake_dir, const bake::Manifest& manifest, int plane);
+
+struct SunLight {
+  Vec3 direction = Vec3::UnitZ();                    // unit, site frame, towards the sun
+  Eigen::Vector3d energy = Eigen::Vector3d::Zero();  // E_sun, RGB: irradiance facing the sun
+};
+
+struct BlendOptions {
+  // A channel whose denominator Σ S_i A_i + E_sun c is at or under this is "no light": T = 1.
+  double min_denominator = 1e-12;
+  int threads = 0;                     // 0 = all hardware threads
+};
+
+struct BlendWeights {
+  std::vector<Eigen::Vector3f> face;   // w_i per layer (RGB); zero for skipped faces
+  std::vector<int> active;             // layers with a non-zero weight, ascending
+  Eigen::Vector3f sun = Eigen::Vector3f::Zero();   // w_sun (RGB), zero without a sun term
+  Eigen::Vector3d denominator = Eigen::Vector3d::Zero();
+  std::array<bool, 3> no_light{false, false, false};  // per channel: T = 1
+};
+
+// S: one RGB value per layer (faces without light may be zero). InputError when S has the
+// wrong size or holds a negative or non-finite value.
+BlendWeights blend_weights(const BasisImages& basis, std::span<const Eigen::Vector3d> S,
+                           const std::optional<SunLight>& sun, const BlendOptions& options = {});
+
+struct BlendStats {
+  float max_above_one = 0;             // largest T - 1 before clamping (0 when none)
+  float max_below_zero = 0;            // largest -T before clamping (0 when none)
+  std::int64_t clamped = 0;            // values clamped
+};
+
+// out: width × height × 3 floats, RGB interleaved, row-major texels (the plane's convention).
+// sun_visibility: V per texel in [0, 1] (empty: no sun term, or the sun is fully visible when
+// weights.sun is non-zero and visibility is empty -> InputError).
+BlendStats blend_cpu(const BasisImages& basis, const BlendWeights& weights,
+                     std::span<const float> sun_visibility, std::span<float> out,
+                     const BlendOptions& options = {});
+
+// The same in double precision, one thread, no shortcuts: the reference the fast path is
+// tested against.
+void blend_reference(const BasisImages& basis, std::span<const Eigen::Vector3d> S,
+                     const std::optional<SunLight>& sun, std::span<const float> sun_visibility,
+                     std::span<double> out, const BlendOptions& options = {});
+
+float half_to_float(std::uint16_t h);
+std::uint16_t float_to_half(float f);   // round to nearest even
+
+}  // namespace skylit::render

@@ -1,0 +1,56 @@
+#pragma once
+// The dome-to-pixel table of a sky camera: built once per calibration and dome, it says for
+// every (sub-sampled) pixel which dome face it sees and with what solid angle.
+//
+// Pixels are stored as runs of consecutive sampled pixels on one image row that see the same
+// face, so that luminance parameters are a streaming pass over the frame (the hot loop of the
+// sky thread). With step s only every s-th pixel of every s-th row is sampled, and each sample
+// carries the solid angle of its s×s block: Σ w still covers the image's view of each face.
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+
+#include "skylit/geom/dome.hpp"
+#include "skylit/sky/calibration.hpp"
+
+namespace skylit::sky {
+
+struct PixelRun {
+  std::int32_t row = 0;         // image row
+  std::int32_t col_begin = 0;   // first column
+  std::int32_t count = 0;       // samples: columns col_begin, col_begin + step, ...
+  std::int32_t face = 0;        // dome face
+  std::uint32_t weight_offset = 0;  // into SkyTable::weights
+};
+
+struct SkyTable {
+  int image_width = 0;
+  int image_height = 0;
+  int step = 1;
+  std::vector<PixelRun> runs;          // row-major order
+  std::vector<float> weights;          // steradians per sample, run by run
+  std::vector<double> face_solid_angle;  // Σ w per face (what the image sees of it)
+  std::vector<double> coverage;        // face_solid_angle / Ω_i, in [0, 1] (up to rounding)
+  std::size_t sample_count() const { return weights.size(); }
+};
+
+struct SkyTableOptions {
+  int step = 1;                        // sample every step-th pixel and row (1 = every pixel)
+};
+
+// Pixels whose direction lies below the horizon, outside the lens model's range, or where the
+// mask (CV_8U, image size, 0 = hidden) is 0 are left out. `mask` may be empty; when it is empty
+// and calibration.mask names a file, that file is read (InputError if unreadable or of another
+// size, naming the calibration file and the field).
+SkyTable build_sky_table(const Lens& lens, const geom::Dome& dome, const cv::Mat& mask,
+                         const SkyTableOptions& options);
+SkyTable build_sky_table(const Lens& lens, const geom::Dome& dome,
+                         const SkyTableOptions& options = {});
+
+// Solid angle (sr) of the pixel block [x0, x1] × [y0, y1] (pixel-edge coordinates), from the
+// unprojected corners (two spherical triangles). 0 when a corner cannot be unprojected.
+double block_solid_angle(const Lens& lens, double x0, double y0, double x1, double y1);
+
+}  // namespace skylit::sky
