@@ -215,6 +215,62 @@ class RaytraceEngine final : public VisibilityEngine {
     errors_->throw_if_any("plane_fractions");
   }
 
+  // Σ_k weight_k c_k V(x, ω_k) per texel and channel (the dense reference; see visibility.hpp).
+  void weighted_plane_visibility(int plane_index, std::span<const Vec3> directions,
+                                 std::span<const Eigen::Vector3d> weights, std::span<Eigen::Vector3d> out) {
+    const geom::Plane& plane = planes_[static_cast<std::size_t>(plane_index)];
+    const std::size_t width = static_cast<std::size_t>(plane.width);
+    if (directions.size() != weights.size() || out.size() != width * static_cast<std::size_t>(plane.height)) {
+      throw std::invalid_argument("weighted_plane_visibility: one weight per direction, one output per texel");
+    }
+    const Vec3 normal = plane.normal();
+    struct Light {
+      float x, y, z;
+      Eigen::Vector3d weight;
+    };
+    std::vector<Light> lights;
+    for (std::size_t k = 0; k < directions.size(); ++k) {
+      const double length = directions[k].norm();
+      if (!std::isfinite(length) || length == 0.0) {
+        throw std::invalid_argument("weighted_plane_visibility: a direction is zero or not finite");
+      }
+      const Vec3 w = directions[k] / length;
+      const double c = normal.dot(w);
+      if (c <= 0.0 || weights[k].isZero()) continue;
+      lights.push_back({static_cast<float>(w.x()), static_cast<float>(w.y()), static_cast<float>(w.z()), c * weights[k]});
+    }
+    const float tnear = static_cast<float>(offset_);
+    parallel_for(plane.height, threads_, [&](int row) {
+      std::vector<RTCRay> rays(width);
+      Eigen::Vector3d* row_out = out.data() + static_cast<std::size_t>(row) * width;
+      for (std::size_t col = 0; col < width; ++col) row_out[col].setZero();
+      RTCIntersectContext context;
+      rtcInitIntersectContext(&context);
+      context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+      for (const Light& light : lights) {
+        for (std::size_t col = 0; col < width; ++col) {
+          const Vec3 centre = plane.texel_centre(static_cast<int>(col), row);
+          RTCRay& ray = rays[col];
+          ray = RTCRay{};
+          ray.org_x = static_cast<float>(centre.x());
+          ray.org_y = static_cast<float>(centre.y());
+          ray.org_z = static_cast<float>(centre.z());
+          ray.dir_x = light.x;
+          ray.dir_y = light.y;
+          ray.dir_z = light.z;
+          ray.tnear = tnear;
+          ray.tfar = kInfinity;
+          ray.mask = ~0u;
+        }
+        rtcOccluded1M(scene_.get(), &context, rays.data(), static_cast<unsigned>(width), sizeof(RTCRay));
+        for (std::size_t col = 0; col < width; ++col) {
+          if (rays[col].tfar >= 0.0f) row_out[col] += light.weight;
+        }
+      }
+    });
+    errors_->throw_if_any("weighted_plane_visibility");
+  }
+
   void vertex_fractions(std::span<float> out) override {
     if (out.size() != mesh_.vertex_count()) {
       throw std::invalid_argument("raytrace engine: output must hold one value per mesh vertex");
@@ -341,6 +397,14 @@ std::unique_ptr<VisibilityEngine> make_raytrace_engine(const scene::Mesh& mesh,
                                                        std::span<const geom::Plane> planes,
                                                        const RaytraceOptions& options) {
   return std::make_unique<RaytraceEngine>(mesh, planes, options);
+}
+
+void weighted_plane_visibility(const scene::Mesh& mesh, const geom::Plane& plane,
+                               std::span<const Vec3> directions, std::span<const Eigen::Vector3d> weights,
+                               std::span<Eigen::Vector3d> out, const RaytraceOptions& options) {
+  const std::vector<geom::Plane> planes{plane};
+  RaytraceEngine engine(mesh, planes, options);
+  engine.weighted_plane_visibility(0, directions, weights, out);
 }
 
 }  // namespace skylit::baker

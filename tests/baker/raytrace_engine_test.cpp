@@ -391,3 +391,40 @@ TEST(RaytraceEngine, RejectsMisuse) {
 
 }  // namespace
 }  // namespace skylit::baker
+
+namespace skylit::baker {
+namespace {
+
+TEST(WeightedPlaneVisibility, SumsRadianceWeightedCosinesOfTheVisibleDirections) {
+  const std::vector<Box> boxes{kUnitBox, {{0.8, -1.5, 0.0}, {1.2, -0.2, 2.0}}};
+  const scene::Mesh mesh = mesh_of(boxes);
+  const geom::Plane plane = ground_plane(64, 64);
+  const std::vector<Vec3> directions{direction(45, 30), direction(20, 100), direction(70, 250),
+                                     direction(-10, 0), direction(60, 170)};
+  const std::vector<Eigen::Vector3d> weights{{1, 2, 3}, {0.5, 0.5, 0.5}, {4, 0, 1}, {9, 9, 9}, {0, 0, 0}};
+  std::vector<Eigen::Vector3d> out(64 * 64);
+  weighted_plane_visibility(mesh, plane, directions, weights, out, {.threads = 2});
+  int compared = 0;
+  for (int row = 0; row < 64; ++row) {
+    for (int col = 0; col < 64; ++col) {
+      const Vec3 p = plane.texel_centre(col, row);
+      Eigen::Vector3d expected = Eigen::Vector3d::Zero();
+      bool near_edge = false;
+      for (std::size_t k = 0; k < directions.size(); ++k) {
+        const double c = std::max(0.0, plane.normal().dot(directions[k]));
+        if (c == 0.0) continue;  // below the plane's horizon: never counts
+        // Texels whose answer flips within a millimetre are boundary cases for both tracers.
+        const Vec3 side = directions[k].cross(plane.normal()).normalized() * 1e-3;
+        near_edge |= visible(p + side, directions[k], boxes) != visible(p - side, directions[k], boxes);
+        if (visible(p, directions[k], boxes)) expected += c * weights[k];
+      }
+      if (near_edge) continue;
+      ++compared;
+      EXPECT_LT((out[static_cast<std::size_t>(row * 64 + col)] - expected).norm(), 1e-9) << col << "," << row;
+    }
+  }
+  EXPECT_GT(compared, 64 * 64 * 9 / 10);
+}
+
+}  // namespace
+}  // namespace skylit::baker

@@ -53,6 +53,15 @@ std::unique_ptr<VisibilityEngine> make_raytrace_engine(const scene::Mesh& mesh,
                                                        std::span<const geom::Plane> planes,
                                                        const RaytraceOptions& options);
 
+// The dense reference (no dome): for every texel x of `plane`,
+//     out[x] = Σ_k weights[k] · max(0, n·ω_k) · V(x, ω_k)        (per channel)
+// with ω_k = directions[k] (unit after normalising). With weights = radiance × solid angle of
+// every pixel of an environment map, out / Σ_k weights[k] max(0, n·ω_k) is the exact shadow
+// ratio the dome approximates. Ray-cast with Embree like the raytrace engine.
+void weighted_plane_visibility(const scene::Mesh& mesh, const geom::Plane& plane,
+                               std::span<const Vec3> directions, std::span<const Eigen::Vector3d> weights,
+                               std::span<Eigen::Vector3d> out, const RaytraceOptions& options = {});
+
 // How far a ray origin is nudged off a surface, and the shadow-map depth bias: both scale with
 // the size of the scene so that a 2 m model and a 200 m site behave alike.
 double surface_offset(const scene::Mesh& mesh, std::span<const geom::Plane> planes);

@@ -1,0 +1,64 @@
+#pragma once
+// The sun in a sky frame: found when it is a compact source far brighter than the sky around
+// it (a clear sky), absent otherwise (overcast: forcing a sun there makes shadows worse).
+//
+// Under a clear sky most of the light comes from a disc 0.5° wide that a 40-face dome would
+// move up to ~15° to a face centre. A detected sun is taken out of the dome (its pixels are
+// excluded from the luminance parameters) and returned as a directional light:
+//
+//     E_sun = Σ_p w_p (L_p − L_background)     over the disc's pixels, per channel
+//
+// the irradiance it gives a surface that faces it, in the same relative units as S.
+#include <optional>
+#include <string>
+
+#include <Eigen/Core>
+#include <opencv2/core/mat.hpp>
+
+#include "skylit/sky/calibration.hpp"
+
+namespace skylit::sky {
+
+struct Sun {
+  Vec3 direction = Vec3::UnitZ();                        // unit, site frame, towards the sun
+  double angular_radius = 0;                             // radians, of the detected disc
+  Eigen::Vector3d energy = Eigen::Vector3d::Zero();      // E_sun, RGB
+  Eigen::Vector3d background = Eigen::Vector3d::Zero();  // sky radiance around it, RGB
+  double contrast = 0;          // peak luminance / background luminance (inf on a black sky)
+  int pixel_count = 0;          // pixels of the disc
+  bool clipped = false;         // some disc pixels clipped: E_sun is a lower bound
+};
+
+struct SunOptions {
+  double min_contrast = 20;             // peak / background luminance for a sun to count
+  double max_angular_radius_deg = 3.0;  // a brighter region wider than this is no compact sun
+  double background_inner_deg = 6.0;    // annulus around the peak that measures the background
+  double background_outer_deg = 15.0;
+  double disc_factor = 3.0;             // disc pixels: luminance > background × this
+};
+
+struct SunDetection {
+  std::optional<Sun> sun;
+  std::string reason;   // why there is no sun (or "compact sun" when there is one)
+  cv::Mat mask;         // CV_8U, frame size, 255 on the disc's pixels (empty without a sun)
+};
+
+// Built once per calibration: which pixels see the sky (above the horizon, not masked).
+class SunDetector {
+ public:
+  // `mask`: CV_8U image-sized, 0 = hidden; may be empty (calibration.mask is not read here).
+  SunDetector(const Lens& lens, const cv::Mat& mask, SunOptions options = {});
+
+  // `radiance`: CV_32FC3 BGR linear (non-finite and negative values count as 0); `clipped`:
+  // CV_8U (255 = clipped) or empty. InputError when sizes or types do not match the lens.
+  SunDetection detect(const cv::Mat& radiance, const cv::Mat& clipped) const;
+
+  const SunOptions& options() const { return options_; }
+
+ private:
+  const Lens* lens_;
+  SunOptions options_;
+  cv::Mat sky_;   // CV_8U, 255 where the pixel sees the sky
+};
+
+}  // namespace skylit::sky

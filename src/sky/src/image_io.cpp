@@ -1,0 +1,98 @@
+#include "skylit/sky/image_io.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfOutputFile.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include "skylit/base/error.hpp"
+#include "skylit/base/files.hpp"
+
+namespace skylit::sky {
+
+void write_exr(const std::filesystem::path& file, const cv::Mat& image) {
+  if (image.empty() || (image.type() != CV_32FC3 && image.type() != CV_32FC1)) {
+    throw std::invalid_argument("write_exr: expected a non-empty CV_32FC3 or CV_32FC1 image for " + file.string());
+  }
+  const cv::Mat data = image.isContinuous() ? image : image.clone();
+  write_file_atomic_with(file, [&](const std::filesystem::path& tmp) {
+    Imf::Header header(data.cols, data.rows);
+    header.compression() = Imf::ZIP_COMPRESSION;
+    Imf::FrameBuffer frame;
+    const std::size_t channels = static_cast<std::size_t>(data.channels());
+    const std::size_t x_stride = sizeof(float) * channels;
+    const std::size_t y_stride = x_stride * static_cast<std::size_t>(data.cols);
+    char* base = const_cast<char*>(reinterpret_cast<const char*>(data.ptr<float>()));
+    if (channels == 1) {
+      header.channels().insert("Y", Imf::Channel(Imf::FLOAT));
+      frame.insert("Y", Imf::Slice(Imf::FLOAT, base, x_stride, y_stride));
+    } else {
+      // OpenCV keeps B, G, R in that order.
+      const char* names[3] = {"B", "G", "R"};
+      for (std::size_t c = 0; c < 3; ++c) {
+        header.channels().insert(names[c], Imf::Channel(Imf::FLOAT));
+        frame.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), x_stride, y_stride));
+      }
+    }
+    Imf::OutputFile out(tmp.c_str(), header);
+    out.setFrameBuffer(frame);
+    out.writePixels(data.rows);
+  });
+}
+
+void write_image(const std::filesystem::path& file, const cv::Mat& image) {
+  std::string extension = file.extension().string();
+  if (extension.empty()) extension = ".png";
+  std::vector<unsigned char> bytes;
+  if (!cv::imencode(extension, image, bytes)) {
+    throw InputError(file.string() + ": cannot encode an image as '" + extension + "'. Fix: use .png or .jpg");
+  }
+  write_file_atomic(file, std::span<const std::byte>(reinterpret_cast<const std::byte*>(bytes.data()), bytes.size()));
+}
+
+cv::Mat tone_map(const cv::Mat& radiance, double percentile, double white) {
+  CV_Assert(radiance.type() == CV_32FC3);
+  std::vector<float> luminance;
+  luminance.reserve(radiance.total());
+  for (int y = 0; y < radiance.rows; ++y) {
+    const auto* row = radiance.ptr<cv::Vec3f>(y);
+    for (int x = 0; x < radiance.cols; ++x) {
+      const float l = 0.0722f * row[x][0] + 0.7152f * row[x][1] + 0.2126f * row[x][2];
+      if (std::isfinite(l) && l > 0.0f) luminance.push_back(l);
+    }
+  }
+  double scale = 1.0;
+  if (!luminance.empty()) {
+    const auto at = luminance.begin() + static_cast<std::ptrdiff_t>(percentile * static_cast<double>(luminance.size() - 1));
+    std::nth_element(luminance.begin(), at, luminance.end());
+    if (*at > 0.0f) scale = white / *at;
+  }
+  cv::Mat out(radiance.size(), CV_8UC3);
+  for (int y = 0; y < radiance.rows; ++y) {
+    const auto* in = radiance.ptr<cv::Vec3f>(y);
+    auto* o = out.ptr<cv::Vec3b>(y);
+    for (int x = 0; x < radiance.cols; ++x) {
+      for (int c = 0; c < 3; ++c) {
+        double v = in[x][c] * scale;
+        if (!std::isfinite(v) || v < 0.0) v = 0.0;
+        v = std::min(v, 1.0);
+        const double encoded = v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
+        o[x][c] = static_cast<unsigned char>(std::lround(255.0 * encoded));
+      }
+    }
+  }
+  return out;
+}
+
+cv::Mat to_8bit_linear(const cv::Mat& unit_image) {
+  cv::Mat out;
+  unit_image.convertTo(out, CV_8U, 255.0);  // saturating, rounds to nearest
+  return out;
+}
+
+}  // namespace skylit::sky

@@ -1,0 +1,63 @@
+#include "skylit/sky/sky_estimate.hpp"
+
+#include <chrono>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "skylit/base/error.hpp"
+
+namespace skylit::sky {
+namespace {
+
+double milliseconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+cv::Mat load_calibration_mask(const CameraCalibration& calibration) {
+  if (calibration.mask.empty()) return {};
+  cv::Mat mask = cv::imread(calibration.mask.string(), cv::IMREAD_GRAYSCALE);
+  if (mask.empty()) {
+    throw InputError(input_message(calibration.file, -1, -1, "mask",
+                                   "cannot read the sky mask " + calibration.mask.string(),
+                                   "give a PNG (0 where the mount hides the sky) next to the calibration, "
+                                   "or remove the field"));
+  }
+  if (mask.cols != calibration.image_width || mask.rows != calibration.image_height) {
+    throw InputError(input_message(calibration.file, -1, -1, "mask",
+                                   "the sky mask " + calibration.mask.string() + " is " + std::to_string(mask.cols) +
+                                       "×" + std::to_string(mask.rows) + ", the images are " +
+                                       std::to_string(calibration.image_width) + "×" +
+                                       std::to_string(calibration.image_height),
+                                   "draw the mask on a frame of this camera"));
+  }
+  return mask;
+}
+
+SkyEstimator::SkyEstimator(const CameraCalibration& calibration, const geom::Dome& dome, SkyEstimateOptions options)
+    : lens_(calibration), dome_(dome), options_(options), mask_(load_calibration_mask(calibration)) {
+  table_ = build_sky_table(lens_, dome_, mask_, options_.table);
+  if (options_.sun_mode == SunMode::Auto) sun_detector_.emplace(lens_, mask_, options_.sun);
+}
+
+SkyEstimate SkyEstimator::estimate(const RadianceFrame& frame) const {
+  SkyEstimate result;
+  cv::Mat exclude;
+  if (sun_detector_) {
+    const auto start = std::chrono::steady_clock::now();
+    SunDetection detection = sun_detector_->detect(frame.radiance, frame.clipped);
+    result.sun = detection.sun;
+    result.sun_reason = detection.reason;
+    exclude = detection.mask;
+    result.sun_ms = milliseconds_since(start);
+  } else {
+    result.sun_reason = "sun separation off";
+  }
+  const auto start = std::chrono::steady_clock::now();
+  result.luminance = compute_luminance(table_, dome_, frame.radiance, frame.clipped, exclude, options_.luminance);
+  result.luminance_ms = milliseconds_since(start);
+  return result;
+}
+
+}  // namespace skylit::sky

@@ -1,0 +1,330 @@
+// skylit-shade: shadow ratios of every plane of a bake under one sky frame (or exposure
+// bracket), computed on the CPU: the offline preview, the reference for the GPU path, and the
+// tool installers use to check a sky camera against a bake.
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include "skylit/bake/format.hpp"
+#include "skylit/baker/visibility.hpp"
+#include "skylit/base/error.hpp"
+#include "skylit/base/files.hpp"
+#include "skylit/geom/dome.hpp"
+#include "skylit/render/cpu_blend.hpp"
+#include "skylit/scene/site.hpp"
+#include "skylit/sky/calibration.hpp"
+#include "skylit/sky/image_io.hpp"
+#include "skylit/sky/overlay.hpp"
+#include "skylit/sky/radiometry.hpp"
+#include "skylit/sky/sky_estimate.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using skylit::InputError;
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+struct Options {
+  std::string bake_dir;
+  std::vector<std::string> sky;
+  std::string sky_calib;
+  std::string out_dir;
+  std::string sun = "auto";
+  std::vector<double> exposure;   // seconds, one per frame
+  double gain = 1.0;
+  std::string response = "srgb";  // srgb | linear | FILE.yaml
+  std::string site;               // overrides the site recorded in the bake (for the sun's shadows)
+  int step = 1;
+  double min_coverage = 0.05;
+  int threads = 0;
+};
+
+skylit::sky::ResponseCurve response_for(const Options& o, int bits) {
+  if (o.response == "srgb") return skylit::sky::ResponseCurve::srgb(bits);
+  if (o.response == "linear") return skylit::sky::ResponseCurve::linear(bits);
+  skylit::sky::ResponseCurve curve = skylit::sky::load_response(o.response);
+  if (curve.bits != bits) {
+    throw InputError(o.response + ": field 'bits': the response curve is for " + std::to_string(curve.bits) +
+                     "-bit frames, the sky frames are " + std::to_string(bits) +
+                     "-bit. Fix: calibrate a response for this camera mode, or use --response srgb");
+  }
+  return curve;
+}
+
+// The frames as one linear radiance image: a single frame linearised, a bracket merged.
+skylit::sky::RadianceFrame load_sky(const Options& o, const skylit::sky::CameraCalibration& calibration) {
+  std::vector<cv::Mat> frames;
+  for (const std::string& file : o.sky) {
+    cv::Mat frame = skylit::sky::read_sky_image(file);
+    if (frame.cols != calibration.image_width || frame.rows != calibration.image_height) {
+      throw InputError(file + ": the sky frame is " + std::to_string(frame.cols) + "×" + std::to_string(frame.rows) +
+                       ", the calibration " + calibration.file.string() + " is for " +
+                       std::to_string(calibration.image_width) + "×" + std::to_string(calibration.image_height) +
+                       ". Fix: use the calibration of the camera (and mode) that took the frame");
+    }
+    frames.push_back(std::move(frame));
+  }
+  if (!o.exposure.empty() && o.exposure.size() != frames.size()) {
+    throw InputError("option --exposure: " + std::to_string(o.exposure.size()) + " time(s) for " +
+                     std::to_string(frames.size()) + " frame(s). Fix: give one exposure time per --sky image, in order");
+  }
+  std::vector<skylit::sky::Exposure> exposures;
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    if (!o.exposure.empty()) {
+      exposures.push_back({o.exposure[k], o.gain});
+    } else if (auto meta = skylit::sky::read_exposure_metadata(o.sky[k])) {
+      exposures.push_back(*meta);
+    } else if (frames.size() == 1) {
+      exposures.push_back({1.0, o.gain});
+    } else {
+      throw InputError(o.sky[k] + ": no exposure time in the file's metadata, and a bracket needs one per frame. "
+                                  "Fix: give --exposure T1 T2 ... (seconds)");
+    }
+  }
+  const int depth = frames.front().depth();
+  const int bits = depth == CV_8U ? 8 : depth == CV_16U ? 16 : 0;
+  if (frames.size() == 1) {
+    return skylit::sky::linearise(frames.front(), bits ? response_for(o, bits) : skylit::sky::ResponseCurve::linear(8),
+                                  exposures.front());
+  }
+  if (!bits) {
+    throw InputError(o.sky.front() + ": an exposure bracket must be 8- or 16-bit frames. Fix: pass one float (EXR) "
+                                     "frame alone, it is already HDR");
+  }
+  return skylit::sky::merge_bracket(frames, exposures, response_for(o, bits));
+}
+
+std::vector<std::string> face_flag_names(std::uint32_t flags) {
+  std::vector<std::string> names;
+  if (flags & skylit::sky::kFaceUnseen) names.emplace_back("unseen");
+  if (flags & skylit::sky::kFaceClipped) names.emplace_back("clipped");
+  if (flags & skylit::sky::kFaceBadPixels) names.emplace_back("bad_pixels");
+  if (flags & skylit::sky::kFaceSunRemoved) names.emplace_back("sun_removed");
+  return names;
+}
+
+nlohmann::json vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
+// Sun visibility V(x, ω_sun) for every texel of every plane, ray-cast with Embree against the
+// site model the bake was made from.
+std::vector<std::vector<float>> sun_visibility(const Options& o, const skylit::bake::Manifest& manifest,
+                                               const skylit::geom::Vec3& sun_direction) {
+  const fs::path site_file = o.site.empty() ? fs::path(manifest.plan.site_file) : fs::path(o.site);
+  if (!fs::exists(site_file)) {
+    throw InputError(site_file.string() + ": the site this bake was made from is not here, and the sun's shadows "
+                                          "need its model. Fix: pass --site SITE.yaml, or --sun off");
+  }
+  const skylit::scene::Site site = skylit::scene::load_site(site_file);
+  const skylit::scene::Mesh mesh = skylit::scene::load_model(site.model, site.up, site.scale);
+  if (sha256_file(site.model) != manifest.plan.model_sha256) {
+    spdlog::warn("the model {} changed since the bake was made: the sun's shadows follow the new model",
+                 site.model.string());
+  }
+  std::vector<skylit::geom::Plane> planes;
+  for (const auto& p : manifest.planes) planes.push_back(p.plane);
+  auto engine = skylit::baker::make_raytrace_engine(mesh, planes, {o.threads});
+  const std::vector<skylit::geom::Vec3> direction{sun_direction};
+  engine->set_directions(direction);
+  std::vector<std::vector<float>> visibility;
+  for (std::size_t j = 0; j < planes.size(); ++j) {
+    std::vector<float> v(static_cast<std::size_t>(planes[j].width) * static_cast<std::size_t>(planes[j].height));
+    engine->plane_fractions(static_cast<int>(j), v);
+    visibility.push_back(std::move(v));
+  }
+  return visibility;
+}
+
+int run(const Options& o) {
+  const auto start = Clock::now();
+  const fs::path out_dir = o.out_dir;
+  if (o.sun != "auto" && o.sun != "off") {
+    throw InputError("option --sun: got '" + o.sun + "'. Fix: use --sun auto (separate a compact sun) or --sun off");
+  }
+  const skylit::bake::VerifyReport report = skylit::bake::verify(o.bake_dir);
+  if (!report.ok) {
+    std::string problems;
+    for (const std::string& p : report.problems) problems += "\n  - " + p;
+    throw InputError(o.bake_dir + ": not a valid bake:" + problems);
+  }
+  const skylit::bake::Manifest& manifest = report.manifest;
+  skylit::ensure_writable_directory(out_dir);
+
+  const skylit::geom::Dome dome(manifest.plan.frequency);
+  const skylit::sky::CameraCalibration calibration = skylit::sky::load_calibration(o.sky_calib);
+
+  auto t = Clock::now();
+  const skylit::sky::RadianceFrame frame = load_sky(o, calibration);
+  const double load_ms = ms_since(t);
+
+  t = Clock::now();
+  skylit::sky::SkyEstimateOptions sky_options;
+  sky_options.table.step = o.step;
+  sky_options.luminance.min_coverage = o.min_coverage;
+  sky_options.sun_mode = o.sun == "auto" ? skylit::sky::SunMode::Auto : skylit::sky::SunMode::Off;
+  const skylit::sky::SkyEstimator estimator(calibration, dome, sky_options);
+  const double table_ms = ms_since(t);
+  const skylit::sky::SkyEstimate estimate = estimator.estimate(frame);
+
+  std::vector<Eigen::Vector3d> S;
+  for (const auto& f : estimate.luminance.faces) S.push_back(f.rgb);
+  std::optional<skylit::render::SunLight> sun;
+  std::vector<std::vector<float>> visibility(manifest.planes.size());
+  double visibility_ms = 0;
+  if (estimate.sun) {
+    sun = skylit::render::SunLight{estimate.sun->direction, estimate.sun->energy};
+    t = Clock::now();
+    visibility = sun_visibility(o, manifest, estimate.sun->direction);
+    visibility_ms = ms_since(t);
+  }
+
+  nlohmann::json planes_json = nlohmann::json::array();
+  double blend_ms = 0;
+  skylit::render::BlendOptions blend_options;
+  blend_options.threads = o.threads;
+  for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
+    const skylit::render::BasisImages basis = skylit::render::load_basis(o.bake_dir, manifest, static_cast<int>(j));
+    t = Clock::now();
+    const skylit::render::BlendWeights weights = skylit::render::blend_weights(basis, S, sun, blend_options);
+    std::vector<float> rgb(basis.texel_count() * 3);
+    const std::span<const float> v = weights.sun.isZero() ? std::span<const float>() : std::span<const float>(visibility[j]);
+    const skylit::render::BlendStats stats = skylit::render::blend_cpu(basis, weights, v, rgb, blend_options);
+    const double ms = ms_since(t);
+    blend_ms += ms;
+
+    cv::Mat image(basis.height, basis.width, CV_32FC3);
+    double sum = 0, lowest = 1;
+    for (int row = 0; row < basis.height; ++row) {
+      auto* out = image.ptr<cv::Vec3f>(row);
+      for (int col = 0; col < basis.width; ++col) {
+        const float* texel = &rgb[(static_cast<std::size_t>(row) * basis.width + col) * 3];
+        out[col] = cv::Vec3f(texel[2], texel[1], texel[0]);
+        const double y = 0.2126 * texel[0] + 0.7152 * texel[1] + 0.0722 * texel[2];
+        sum += y;
+        lowest = std::min(lowest, y);
+      }
+    }
+    skylit::sky::write_exr(out_dir / (basis.name + ".exr"), image);
+    skylit::sky::write_image(out_dir / (basis.name + ".png"), skylit::sky::to_8bit_linear(image));
+    const bool no_light = weights.no_light[0] || weights.no_light[1] || weights.no_light[2];
+    planes_json.push_back({{"name", basis.name},
+                           {"width", basis.width},
+                           {"height", basis.height},
+                           {"mean_T", sum / static_cast<double>(basis.texel_count())},
+                           {"min_T", lowest},
+                           {"denominator", vec(weights.denominator)},
+                           {"no_light", {weights.no_light[0], weights.no_light[1], weights.no_light[2]}},
+                           {"active_faces", weights.active.size()},
+                           {"clamped", stats.clamped},
+                           {"max_above_one", stats.max_above_one},
+                           {"blend_ms", ms}});
+    spdlog::info("plane '{}': mean T {:.3f}, min {:.3f}{}", basis.name, sum / static_cast<double>(basis.texel_count()),
+                 lowest, no_light ? " (no light reaches it: T = 1)" : "");
+  }
+
+  nlohmann::json faces = nlohmann::json::array();
+  for (int i = 0; i < dome.face_count(); ++i) {
+    const auto& f = estimate.luminance.faces[static_cast<std::size_t>(i)];
+    faces.push_back({{"index", i},
+                     {"direction", vec(dome.face(i).centre)},
+                     {"solid_angle", dome.face(i).solid_angle},
+                     {"S", vec(f.rgb)},
+                     {"coverage", f.coverage},
+                     {"clipped_fraction", f.clipped_fraction},
+                     {"flags", face_flag_names(f.flags)}});
+  }
+  const auto& l = estimate.luminance;
+  nlohmann::json sky{{"bake", o.bake_dir},
+                     {"frames", o.sky},
+                     {"calibration", o.sky_calib},
+                     {"dome_frequency", dome.frequency()},
+                     {"faces", faces},
+                     {"samples", l.samples},
+                     {"pixels", {{"nan", l.nan_pixels}, {"inf", l.inf_pixels}, {"negative", l.negative_pixels},
+                                 {"clipped", l.clipped_pixels}}},
+                     {"unseen_faces", l.unseen_faces},
+                     {"no_face_seen", l.no_face_seen},
+                     {"sun_mode", o.sun},
+                     {"sun_reason", estimate.sun_reason},
+                     {"planes", planes_json}};
+  if (estimate.sun) {
+    const auto& s = *estimate.sun;
+    const double elevation = std::asin(std::clamp(s.direction.z(), -1.0, 1.0)) * 180.0 / 3.141592653589793;
+    const double azimuth = std::fmod(std::atan2(s.direction.x(), s.direction.y()) * 180.0 / 3.141592653589793 + 360.0, 360.0);
+    sky["sun"] = {{"direction", vec(s.direction)},
+                  {"azimuth_deg", azimuth},
+                  {"elevation_deg", elevation},
+                  {"angular_radius_deg", s.angular_radius * 180.0 / 3.141592653589793},
+                  {"energy", vec(s.energy)},
+                  {"background", vec(s.background)},
+                  {"contrast", s.contrast},
+                  {"pixels", s.pixel_count},
+                  {"clipped", s.clipped}};
+  } else {
+    sky["sun"] = nullptr;
+  }
+  sky["timings_ms"] = {{"load_frames", load_ms},  {"table", table_ms},         {"sun", estimate.sun_ms},
+                       {"luminance", estimate.luminance_ms}, {"sun_visibility", visibility_ms},
+                       {"blend", blend_ms},       {"total", ms_since(start)}};
+  skylit::write_file_atomic(out_dir / "sky.json", sky.dump(2) + "\n");
+  skylit::sky::write_image(out_dir / "sky_overlay.png",
+                           skylit::sky::draw_sky_overlay(estimator.lens(), dome, frame.radiance, estimate));
+
+  if (l.nan_pixels + l.inf_pixels + l.negative_pixels > 0) {
+    spdlog::warn("{} NaN, {} Inf and {} negative pixel(s) counted as 0", l.nan_pixels, l.inf_pixels, l.negative_pixels);
+  }
+  if (l.unseen_faces > 0) spdlog::warn("{} face(s) the lens does not see were filled from their neighbours", l.unseen_faces);
+  if (l.no_face_seen) spdlog::warn("the frame sees no face of the dome: every S is 0 and T = 1");
+  if (l.clipped_pixels > 0) spdlog::warn("{} clipped pixel(s): the sky there is brighter than measured", l.clipped_pixels);
+  spdlog::info("sun: {}", estimate.sun_reason);
+  spdlog::info("wrote {} plane(s), sky.json and sky_overlay.png to {} in {:.0f} ms", manifest.planes.size(),
+               out_dir.string(), ms_since(start));
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"skylit-shade: shadow ratios of a bake's planes under a sky frame (CPU reference)", "skylit-shade"};
+  app.set_version_flag("--version", "skylit-shade 0.1.0");
+  Options o;
+  app.add_option("--bake", o.bake_dir, "bake directory (from skylit-bake)")->required();
+  app.add_option("--sky", o.sky, "sky frame; several form one exposure bracket")->required();
+  app.add_option("--sky-calib", o.sky_calib, "sky-camera calibration (YAML, or OpenCV FileStorage)")->required();
+  app.add_option("-o,--output", o.out_dir, "output directory")->required();
+  app.add_option("--sun", o.sun, "auto: separate a compact sun as a directional light; off: dome only")
+      ->capture_default_str();
+  app.add_option("--exposure", o.exposure, "exposure time per frame, seconds (default: from EXIF, or 1)");
+  app.add_option("--gain", o.gain, "sensor gain (linear) when --exposure is given")->capture_default_str();
+  app.add_option("--response", o.response, "camera response for 8/16-bit frames: srgb, linear or a YAML curve")
+      ->capture_default_str();
+  app.add_option("--site", o.site, "site YAML for the sun's shadows (default: the one the bake records)");
+  app.add_option("--step", o.step, "sky table: sample every N-th pixel")->capture_default_str();
+  app.add_option("--min-coverage", o.min_coverage, "faces seen less than this are filled from neighbours")
+      ->capture_default_str();
+  app.add_option("--threads", o.threads, "threads for the blend and ray casting (0 = all)")->capture_default_str();
+  bool quiet = false;
+  app.add_flag("-q,--quiet", quiet, "only warnings and errors");
+  CLI11_PARSE(app, argc, argv);
+  spdlog::set_level(quiet ? spdlog::level::warn : spdlog::level::info);
+  spdlog::set_pattern("skylit-shade: %^%l%$: %v");
+  try {
+    return run(o);
+  } catch (const skylit::InputError& e) {
+    std::fprintf(stderr, "skylit-shade: error: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "skylit-shade: internal error: %s\n", e.what());
+    return 3;
+  }
+}
