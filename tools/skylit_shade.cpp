@@ -214,7 +214,7 @@ int run(const Options& o) {
         lowest = std::min(lowest, y);
       }
     }
-    skylit::sky::write_exr(out_dir / (basis.name + ".exr"), image);
+    skylit::sky::write_sky_exr(out_dir / (basis.name + ".exr"), image);
     skylit::sky::write_image(out_dir / (basis.name + ".png"), skylit::sky::to_8bit_linear(image));
     const bool no_light = weights.no_light[0] || weights.no_light[1] || weights.no_light[2];
     planes_json.push_back({{"name", basis.name},

@@ -5,6 +5,10 @@
 #include <numbers>
 
 #include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "skylit/base/error.hpp"
 
 #include "skylit/sky/sky_table.hpp"
 #include "skylit/sky/sun.hpp"

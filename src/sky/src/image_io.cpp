@@ -4,46 +4,12 @@
 #include <cmath>
 #include <vector>
 
-#include <OpenEXR/ImfChannelList.h>
-#include <OpenEXR/ImfFrameBuffer.h>
-#include <OpenEXR/ImfHeader.h>
-#include <OpenEXR/ImfOutputFile.h>
 #include <opencv2/imgcodecs.hpp>
 
 #include "skylit/base/error.hpp"
 #include "skylit/base/files.hpp"
 
 namespace skylit::sky {
-
-void write_exr(const std::filesystem::path& file, const cv::Mat& image) {
-  if (image.empty() || (image.type() != CV_32FC3 && image.type() != CV_32FC1)) {
-    throw std::invalid_argument("write_exr: expected a non-empty CV_32FC3 or CV_32FC1 image for " + file.string());
-  }
-  const cv::Mat data = image.isContinuous() ? image : image.clone();
-  write_file_atomic_with(file, [&](const std::filesystem::path& tmp) {
-    Imf::Header header(data.cols, data.rows);
-    header.compression() = Imf::ZIP_COMPRESSION;
-    Imf::FrameBuffer frame;
-    const std::size_t channels = static_cast<std::size_t>(data.channels());
-    const std::size_t x_stride = sizeof(float) * channels;
-    const std::size_t y_stride = x_stride * static_cast<std::size_t>(data.cols);
-    char* base = const_cast<char*>(reinterpret_cast<const char*>(data.ptr<float>()));
-    if (channels == 1) {
-      header.channels().insert("Y", Imf::Channel(Imf::FLOAT));
-      frame.insert("Y", Imf::Slice(Imf::FLOAT, base, x_stride, y_stride));
-    } else {
-      // OpenCV keeps B, G, R in that order.
-      const char* names[3] = {"B", "G", "R"};
-      for (std::size_t c = 0; c < 3; ++c) {
-        header.channels().insert(names[c], Imf::Channel(Imf::FLOAT));
-        frame.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), x_stride, y_stride));
-      }
-    }
-    Imf::OutputFile out(tmp.c_str(), header);
-    out.setFrameBuffer(frame);
-    out.writePixels(data.rows);
-  });
-}
 
 void write_image(const std::filesystem::path& file, const cv::Mat& image) {
   std::string extension = file.extension().string();

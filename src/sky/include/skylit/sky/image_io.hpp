@@ -1,14 +1,12 @@
 #pragma once
-// Writing the images skylit produces: float RGB OpenEXR for data, 8-bit PNG/JPEG views for
-// people. Every write is atomic (a temporary beside the file, then a rename).
+// Pictures for people: 8-bit PNG/JPEG views of radiance and of shadow ratios, written atomically
+// (a temporary beside the file, then a rename). Float data goes to OpenEXR with write_sky_exr
+// (radiometry.hpp).
 #include <filesystem>
 
 #include <opencv2/core/mat.hpp>
 
 namespace skylit::sky {
-
-// CV_32FC3 (BGR) or CV_32FC1 as float RGB (or Y) OpenEXR, ZIP compressed.
-void write_exr(const std::filesystem::path& file, const cv::Mat& image);
 
 // Any image cv::imwrite takes, chosen by the file's extension.
 void write_image(const std::filesystem::path& file, const cv::Mat& image);

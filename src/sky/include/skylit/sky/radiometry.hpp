@@ -43,6 +43,10 @@ cv::Mat read_sky_image(const std::filesystem::path& file);
 // Exposure time and gain from the image's EXIF (ExposureTime, ISOSpeedRatings / 100), when the
 // file carries them.
 std::optional<Exposure> read_exposure_metadata(const std::filesystem::path& file);
+// Writes a float image (CV_32FC3 BGR as channels R, G, B; CV_32FC1 as Y) as a ZIP-compressed
+// OpenEXR, atomically; half floats when `half_float` (NaN/Inf kept, values over 65504 become
+// Inf). read_sky_image reads it back. InputError naming the file when it cannot be written.
+void write_sky_exr(const std::filesystem::path& file, const cv::Mat& image, bool half_float = false);
 
 struct RadianceFrame {
   cv::Mat radiance;   // CV_32FC3, BGR, linear; may hold NaN, Inf or negatives from float inputs

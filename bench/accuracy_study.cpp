@@ -1,0 +1,226 @@
+// The accuracy study of the sky stage: shadow ratios from the dome (at several settings) against
+// a dense reference that integrates every pixel of a real equirectangular HDR sky with Embree
+// visibility against the site model, no dome.
+//
+//   T_ref(x) = Σ_p L_p Ω_p max(0, n·ω_p) V(x, ω_p) / Σ_p L_p Ω_p max(0, n·ω_p)   (per channel)
+//
+// The dome path is the one the live service runs: the sky rendered into the sample sky camera
+// (fisheye), luminance parameters, the sun separated or not, the bake's basis images blended.
+//
+//   accuracy_study [--skies DIR] [--site SITE.yaml] [--calib CALIB.yaml] [--texel-scale 8]
+//                  [--out DIR] [--configs paper,area,area+sun,nu4,nu8]
+// Prints a Markdown table (RMS, 99th percentile and max of |T − T_ref| over every texel of every
+// plane and every channel) and writes the same as JSON to DIR/accuracy.json.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "skylit/baker/bake_job.hpp"
+#include "skylit/baker/visibility.hpp"
+#include "skylit/base/files.hpp"
+#include "skylit/render/cpu_blend.hpp"
+#include "skylit/scene/site.hpp"
+#include "skylit/sky/calibration.hpp"
+#include "skylit/sky/radiometry.hpp"
+#include "skylit/sky/simulate.hpp"
+#include "skylit/sky/sky_estimate.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using skylit::geom::Vec3;
+using Clock = std::chrono::steady_clock;
+
+struct Config {
+  std::string name;
+  int frequency;
+  int samples;
+  bool sun;
+};
+
+const std::vector<Config> kConfigs{
+    {"paper", 2, 1, false},     // ν=2, face centre, no sun separation (paper 003)
+    {"area", 2, 16, false},     // ν=2, faces as area lights
+    {"area+sun", 2, 16, true},  // ν=2, area lights, sun separated
+    {"nu4", 4, 16, true},
+    {"nu8", 8, 16, true},
+};
+
+struct Errors {
+  double rms = 0, p99 = 0, max = 0;
+};
+
+Errors errors_of(std::vector<double> diffs) {
+  Errors e;
+  if (diffs.empty()) return e;
+  double sum = 0;
+  for (double d : diffs) sum += d * d;
+  e.rms = std::sqrt(sum / static_cast<double>(diffs.size()));
+  const auto at = diffs.begin() + static_cast<std::ptrdiff_t>(0.99 * static_cast<double>(diffs.size() - 1));
+  std::nth_element(diffs.begin(), at, diffs.end());
+  e.p99 = *at;
+  e.max = *std::max_element(diffs.begin(), diffs.end());
+  return e;
+}
+
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// The site with every plane's resolution divided by `scale` (the reference costs one ray per
+// texel and sky pixel).
+fs::path coarse_site(const fs::path& site_file, int scale, const fs::path& dir) {
+  skylit::scene::Site site = skylit::scene::load_site(site_file);
+  for (auto& p : site.planes) {
+    p.width = std::max(4, p.width / scale);
+    p.height = std::max(4, p.height / scale);
+  }
+  site.model = fs::absolute(site.model);
+  const fs::path out = dir / "site.yaml";
+  skylit::write_file_atomic(out, skylit::scene::site_to_yaml(site));
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"accuracy_study: dome shadow ratios against a dense per-pixel reference on real skies"};
+  std::string skies_dir = "data/hdri", site_file = "config/sample_site.yaml", calib_file = "config/sky_camera.yaml";
+  std::string out_dir = "build/accuracy", config_list;
+  int texel_scale = 8, supersample = 2;
+  app.add_option("--skies", skies_dir, "folder of equirectangular .exr skies")->capture_default_str();
+  app.add_option("--site", site_file)->capture_default_str();
+  app.add_option("--calib", calib_file, "sky camera the skies are rendered into")->capture_default_str();
+  app.add_option("--texel-scale", texel_scale, "divide every plane's resolution by this")->capture_default_str();
+  app.add_option("--supersample", supersample, "fisheye rendering: sub-pixels per axis")->capture_default_str();
+  app.add_option("--out", out_dir, "bakes and results")->capture_default_str();
+  app.add_option("--configs", config_list, "comma-separated subset of paper,area,area+sun,nu4,nu8");
+  CLI11_PARSE(app, argc, argv);
+
+  std::vector<Config> configs;
+  for (const Config& c : kConfigs) {
+    if (config_list.empty() || ("," + config_list + ",").find("," + c.name + ",") != std::string::npos) configs.push_back(c);
+  }
+  fs::create_directories(out_dir);
+  const fs::path site_path = coarse_site(site_file, texel_scale, out_dir);
+  const skylit::scene::Site site = skylit::scene::load_site(site_path);
+  const skylit::scene::Mesh mesh = skylit::scene::load_model(site.model, site.up, site.scale);
+  const skylit::sky::CameraCalibration calibration = skylit::sky::load_calibration(calib_file);
+  const skylit::sky::Lens lens(calibration);
+
+  // One bake per (ν, K), ray-traced: the CPU reference engine.
+  std::map<std::pair<int, int>, fs::path> bakes;
+  std::map<std::pair<int, int>, double> bake_seconds;
+  for (const Config& c : configs) {
+    const auto key = std::make_pair(c.frequency, c.samples);
+    if (bakes.count(key)) continue;
+    const fs::path dir = fs::path(out_dir) / ("bake_nu" + std::to_string(c.frequency) + "_k" + std::to_string(c.samples));
+    skylit::baker::BakeOptions options;
+    options.site_file = site_path;
+    options.out_dir = dir;
+    options.frequency = c.frequency;
+    options.samples = c.samples;
+    options.method = "raytrace";
+    options.force = true;
+    options.previews = false;
+    const auto t = Clock::now();
+    skylit::baker::run_bake(options, stderr);
+    bake_seconds[key] = seconds_since(t);
+    bakes[key] = dir;
+  }
+
+  std::vector<fs::path> skies;
+  for (const auto& entry : fs::directory_iterator(skies_dir)) {
+    if (entry.path().extension() == ".exr") skies.push_back(entry.path());
+  }
+  std::sort(skies.begin(), skies.end());
+
+  nlohmann::json results = nlohmann::json::array();
+  std::printf("| sky | configuration | ν | K | sun | RMS | p99 | max | sun found |\n|---|---|---|---|---|---|---|---|---|\n");
+  for (const fs::path& sky_file : skies) {
+    const cv::Mat equirect = skylit::sky::read_sky_image(sky_file);
+    // Reference weights: every pixel above the horizon, radiance × solid angle (bad pixels as 0).
+    std::vector<Vec3> directions;
+    std::vector<Eigen::Vector3d> weights;
+    for (int row = 0; row < equirect.rows; ++row) {
+      const double solid_angle = skylit::sky::equirect_pixel_solid_angle(equirect.cols, equirect.rows, row);
+      for (int col = 0; col < equirect.cols; ++col) {
+        const Vec3 d = skylit::sky::equirect_direction(equirect.cols, equirect.rows, col + 0.5, row + 0.5);
+        if (d.z() <= 0.0) continue;
+        const cv::Vec3f& l = equirect.at<cv::Vec3f>(row, col);
+        const auto clean = [](float v) { return std::isfinite(v) && v > 0.0f ? static_cast<double>(v) : 0.0; };
+        directions.push_back(d);
+        weights.emplace_back(clean(l[2]) * solid_angle, clean(l[1]) * solid_angle, clean(l[0]) * solid_angle);
+      }
+    }
+    auto t = Clock::now();
+    std::vector<std::vector<Eigen::Vector3d>> reference;
+    for (const auto& plane : site.planes) {
+      std::vector<Eigen::Vector3d> visible(static_cast<std::size_t>(plane.width) * plane.height);
+      skylit::baker::weighted_plane_visibility(mesh, plane, directions, weights, visible);
+      Eigen::Vector3d total = Eigen::Vector3d::Zero();
+      for (std::size_t k = 0; k < directions.size(); ++k) total += std::max(0.0, plane.normal().dot(directions[k])) * weights[k];
+      for (auto& v : visible) {
+        for (int c = 0; c < 3; ++c) v[c] = total[c] > 0.0 ? v[c] / total[c] : 1.0;
+      }
+      reference.push_back(std::move(visible));
+    }
+    const double reference_seconds = seconds_since(t);
+
+    const skylit::sky::RadianceFrame frame{skylit::sky::render_fisheye(lens, equirect, {.supersample = supersample}), cv::Mat()};
+    for (const Config& c : configs) {
+      const fs::path bake_dir = bakes.at({c.frequency, c.samples});
+      const skylit::bake::Manifest manifest = skylit::bake::read_manifest(bake_dir);
+      const skylit::geom::Dome dome(c.frequency);
+      skylit::sky::SkyEstimateOptions sky_options;
+      sky_options.sun_mode = c.sun ? skylit::sky::SunMode::Auto : skylit::sky::SunMode::Off;
+      const skylit::sky::SkyEstimator estimator(calibration, dome, sky_options);
+      const skylit::sky::SkyEstimate estimate = estimator.estimate(frame);
+      std::vector<Eigen::Vector3d> S;
+      for (const auto& f : estimate.luminance.faces) S.push_back(f.rgb);
+      std::optional<skylit::render::SunLight> sun;
+      if (estimate.sun) sun = skylit::render::SunLight{estimate.sun->direction, estimate.sun->energy};
+
+      std::vector<double> diffs;
+      for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
+        const skylit::render::BasisImages basis = skylit::render::load_basis(bake_dir, manifest, static_cast<int>(j));
+        std::vector<float> visibility;
+        if (sun) {
+          visibility.resize(basis.texel_count());
+          const std::vector<skylit::geom::Plane> one{manifest.planes[j].plane};
+          auto engine = skylit::baker::make_raytrace_engine(mesh, one, {});
+          const std::vector<Vec3> sun_direction{sun->direction};
+          engine->set_directions(sun_direction);
+          engine->plane_fractions(0, visibility);
+        }
+        const auto w = skylit::render::blend_weights(basis, S, sun);
+        std::vector<float> T(basis.texel_count() * 3);
+        skylit::render::blend_cpu(basis, w, w.sun.isZero() ? std::span<const float>() : std::span<const float>(visibility), T);
+        for (std::size_t x = 0; x < basis.texel_count(); ++x) {
+          for (int ch = 0; ch < 3; ++ch) diffs.push_back(std::abs(T[x * 3 + static_cast<std::size_t>(ch)] - reference[j][x][ch]));
+        }
+      }
+      const Errors e = errors_of(std::move(diffs));
+      std::printf("| %s | %s | %d | %d | %s | %.4f | %.4f | %.4f | %s |\n", sky_file.stem().c_str(), c.name.c_str(),
+                  c.frequency, c.samples, c.sun ? "separated" : "off", e.rms, e.p99, e.max,
+                  c.sun ? (estimate.sun ? "yes" : "no") : "-");
+      std::fflush(stdout);
+      results.push_back({{"sky", sky_file.stem().string()}, {"config", c.name}, {"frequency", c.frequency},
+                         {"samples", c.samples}, {"sun_separation", c.sun}, {"sun_found", estimate.sun.has_value()},
+                         {"sun_reason", estimate.sun_reason}, {"rms", e.rms}, {"p99", e.p99}, {"max", e.max},
+                         {"reference_seconds", reference_seconds},
+                         {"bake_seconds", bake_seconds.at({c.frequency, c.samples})}});
+    }
+  }
+  skylit::write_file_atomic(fs::path(out_dir) / "accuracy.json", results.dump(2) + "\n");
+  std::printf("\ntexels: planes of %s at 1/%d resolution; skies rendered into %s (%d² sub-pixels)\n", site_file.c_str(),
+              texel_scale, calib_file.c_str(), supersample);
+  return 0;
+}

@@ -1,0 +1,88 @@
+// Luminance parameters from a 1920×1080 sky frame (target: ≤ 2 ms on one core with the table
+// built), at every table step, plus the steps around it: table build, sun detection, and
+// linearising an 8-bit frame.
+#include <benchmark/benchmark.h>
+
+#include <numbers>
+
+#include "skylit/geom/dome.hpp"
+#include "skylit/sky/luminance.hpp"
+#include "skylit/sky/radiometry.hpp"
+#include "skylit/sky/simulate.hpp"
+#include "skylit/sky/sky_model.hpp"
+#include "skylit/sky/sky_table.hpp"
+#include "skylit/sky/sun.hpp"
+
+namespace {
+
+using namespace skylit;
+
+// A 1920×1080 sensor behind an equidistant fisheye whose 180° circle fills the frame's height.
+sky::CameraCalibration hd_fisheye() {
+  sky::CameraCalibration c;
+  c.image_width = 1920;
+  c.image_height = 1080;
+  c.fx = c.fy = 540.0 / (std::numbers::pi / 2.0);
+  c.cx = 959.5;
+  c.cy = 539.5;
+  c.D = {0, 0, 0, 0};
+  return c;
+}
+
+const cv::Mat& clear_sky_frame() {
+  static const cv::Mat frame = [] {
+    const sky::Lens lens(hd_fisheye());
+    const sky::ClearSky sky(Eigen::Vector3d(0.5, -0.4, 0.7).normalized());
+    return sky::render_fisheye(lens, sky::sky_function(sky), {.supersample = 1});
+  }();
+  return frame;
+}
+
+void BM_Luminance(benchmark::State& state) {
+  const geom::Dome dome(static_cast<int>(state.range(0)));
+  const sky::Lens lens(hd_fisheye());
+  const sky::SkyTable table = sky::build_sky_table(lens, dome, {.step = static_cast<int>(state.range(1))});
+  const cv::Mat& frame = clear_sky_frame();
+  for (auto _ : state) {
+    sky::Luminance l = sky::compute_luminance(table, dome, frame, cv::Mat(), cv::Mat());
+    benchmark::DoNotOptimize(l.faces.data());
+  }
+  state.counters["samples"] = static_cast<double>(table.sample_count());
+  state.counters["runs"] = static_cast<double>(table.runs.size());
+}
+BENCHMARK(BM_Luminance)->ArgsProduct({{2, 8}, {1, 2, 4}})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_BuildTable(benchmark::State& state) {
+  const geom::Dome dome(static_cast<int>(state.range(0)));
+  const sky::Lens lens(hd_fisheye());
+  for (auto _ : state) {
+    sky::SkyTable t = sky::build_sky_table(lens, dome);
+    benchmark::DoNotOptimize(t.runs.data());
+  }
+}
+BENCHMARK(BM_BuildTable)->Arg(2)->Arg(8)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
+
+void BM_SunDetection(benchmark::State& state) {
+  const sky::Lens lens(hd_fisheye());
+  const sky::SunDetector detector(lens, cv::Mat());
+  const cv::Mat& frame = clear_sky_frame();
+  for (auto _ : state) {
+    sky::SunDetection d = detector.detect(frame, cv::Mat());
+    benchmark::DoNotOptimize(d.sun);
+  }
+}
+BENCHMARK(BM_SunDetection)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_Linearise8Bit(benchmark::State& state) {
+  const cv::Mat frame8 = sky::to_8bit(clear_sky_frame(), 0.05);
+  const sky::ResponseCurve srgb = sky::ResponseCurve::srgb(8);
+  for (auto _ : state) {
+    sky::RadianceFrame f = sky::linearise(frame8, srgb, {});
+    benchmark::DoNotOptimize(f.radiance.data);
+  }
+}
+BENCHMARK(BM_Linearise8Bit)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,307 @@
+// The sky stage and the CPU blend at the numerical extremes, end to end: a real (small) bake of a
+// box beside a wall, sky frames rendered into a sky camera, luminance parameters, the sun, and
+// the shadow ratios. In every case T is finite and in [0, 1], and the flag says what happened.
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <numbers>
+#include <optional>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include "skylit/baker/bake_job.hpp"
+#include "skylit/baker/visibility.hpp"
+#include "skylit/render/cpu_blend.hpp"
+#include "skylit/scene/site.hpp"
+#include "skylit/sky/radiometry.hpp"
+#include "skylit/sky/simulate.hpp"
+#include "skylit/sky/sky_estimate.hpp"
+
+namespace skylit {
+namespace {
+
+namespace fs = std::filesystem;
+using geom::Vec3;
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+Vec3 from_angles(double azimuth_deg, double elevation_deg) {
+  const double az = azimuth_deg * kDeg, el = elevation_deg * kDeg;
+  return {std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)};
+}
+
+double angle(const Vec3& a, const Vec3& b) { return std::atan2(a.cross(b).norm(), a.dot(b)); }
+
+// A box 2 m tall on the ground, a ground plane around it, and a wall plane on the box's north
+// face that faces north (away from a southern sky).
+class ExtremesTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new fs::path(fs::temp_directory_path() /
+                        ("skylit-extremes-" + std::to_string(::getpid()) + "-" +
+                         std::to_string(std::chrono::steady_clock::now().time_since_epoch().count())));
+    fs::create_directories(*dir_);
+    std::ofstream(*dir_ / "box.obj") << "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\n"
+                                        "v -1 -1 2\nv 1 -1 2\nv 1 1 2\nv -1 1 2\n"
+                                        "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+    std::ofstream(*dir_ / "site.yaml") << "scene:\n  model: box.obj\n  up: z\n  scale: 1\n"
+                                          "dome:\n  frequency: 2\n"
+                                          "planes:\n"
+                                          "  - name: ground\n    origin: [-6, -6, 0.01]\n    u: [12, 0, 0]\n"
+                                          "    v: [0, 12, 0]\n    resolution: [24, 24]\n"
+                                          "  - name: north_wall\n    origin: [1, 1.01, 0]\n    u: [-2, 0, 0]\n"
+                                          "    v: [0, 0, 2]\n    resolution: [8, 8]\n";
+    baker::BakeOptions options;
+    options.site_file = *dir_ / "site.yaml";
+    options.out_dir = *dir_ / "bake";
+    options.samples = 4;
+    options.method = "raytrace";
+    options.previews = false;
+    std::FILE* quiet = std::fopen("/dev/null", "w");
+    baker::run_bake(options, quiet);
+    std::fclose(quiet);
+    manifest_ = new bake::Manifest(bake::read_manifest(*dir_ / "bake"));
+    const scene::Site site = scene::load_site(*dir_ / "site.yaml");
+    mesh_ = new scene::Mesh(scene::load_model(site.model, site.up, site.scale));
+  }
+  static void TearDownTestSuite() {
+    std::error_code ignored;
+    fs::remove_all(*dir_, ignored);
+    delete dir_;
+    delete manifest_;
+    delete mesh_;
+  }
+
+  static sky::CameraCalibration camera(double edge_angle_deg = 90.0) {
+    sky::CameraCalibration c;
+    c.image_width = c.image_height = 400;
+    c.fx = c.fy = 200.0 / (edge_angle_deg * kDeg);
+    c.cx = c.cy = 199.5;
+    c.D = {0, 0, 0, 0};
+    return c;
+  }
+
+  struct Outcome {
+    sky::SkyEstimate estimate;
+    std::vector<render::BlendWeights> weights;
+    std::vector<std::vector<float>> T;
+  };
+
+  // Sky frame → S (and sun) → T for every plane, as skylit-shade does it.
+  static Outcome shade(const sky::RadianceFrame& frame, const sky::CameraCalibration& calibration,
+                       sky::SunMode sun_mode) {
+    const geom::Dome dome(2);
+    sky::SkyEstimateOptions options;
+    options.sun_mode = sun_mode;
+    const sky::SkyEstimator estimator(calibration, dome, options);
+    Outcome o;
+    o.estimate = estimator.estimate(frame);
+    std::vector<Eigen::Vector3d> S;
+    for (const auto& f : o.estimate.luminance.faces) S.push_back(f.rgb);
+    std::optional<render::SunLight> sun;
+    if (o.estimate.sun) sun = render::SunLight{o.estimate.sun->direction, o.estimate.sun->energy};
+    for (std::size_t j = 0; j < manifest_->planes.size(); ++j) {
+      const render::BasisImages basis = render::load_basis(*dir_ / "bake", *manifest_, static_cast<int>(j));
+      std::vector<float> visibility;
+      if (sun) {
+        const std::vector<geom::Plane> one{manifest_->planes[j].plane};
+        auto engine = baker::make_raytrace_engine(*mesh_, one, {});
+        const std::vector<Vec3> d{sun->direction};
+        engine->set_directions(d);
+        visibility.resize(basis.texel_count());
+        engine->plane_fractions(0, visibility);
+      }
+      o.weights.push_back(render::blend_weights(basis, S, sun));
+      std::vector<float> T(basis.texel_count() * 3);
+      render::blend_cpu(basis, o.weights.back(),
+                        o.weights.back().sun.isZero() ? std::span<const float>() : std::span<const float>(visibility), T);
+      o.T.push_back(std::move(T));
+    }
+    return o;
+  }
+
+  static sky::RadianceFrame paint(const sky::CameraCalibration& calibration,
+                                  const std::function<Eigen::Vector3d(const Vec3&)>& radiance) {
+    const sky::Lens lens(calibration);
+    cv::Mat image(calibration.image_height, calibration.image_width, CV_32FC3, cv::Scalar(0, 0, 0));
+    for (int y = 0; y < image.rows; ++y) {
+      for (int x = 0; x < image.cols; ++x) {
+        const auto d = lens.pixel_to_site(sky::Vec2(x, y));
+        if (!d) continue;
+        const Eigen::Vector3d l = radiance(*d);
+        image.at<cv::Vec3f>(y, x) = cv::Vec3f(static_cast<float>(l.z()), static_cast<float>(l.y()), static_cast<float>(l.x()));
+      }
+    }
+    return {image, cv::Mat()};
+  }
+
+  static void expect_finite_unit(const Outcome& o) {
+    for (const auto& T : o.T) {
+      for (float t : T) {
+        ASSERT_TRUE(std::isfinite(t));
+        ASSERT_GE(t, 0.0f);
+        ASSERT_LE(t, 1.0f);
+      }
+    }
+  }
+
+  static bool any_no_light(const render::BlendWeights& w) { return w.no_light[0] || w.no_light[1] || w.no_light[2]; }
+
+  static fs::path* dir_;
+  static bake::Manifest* manifest_;
+  static scene::Mesh* mesh_;
+};
+
+fs::path* ExtremesTest::dir_ = nullptr;
+bake::Manifest* ExtremesTest::manifest_ = nullptr;
+scene::Mesh* ExtremesTest::mesh_ = nullptr;
+
+// A blue sky with a sun of the given radiance and radius.
+std::function<Eigen::Vector3d(const Vec3&)> sunny(const Vec3& sun, double sun_radiance, double sky_level = 1.0,
+                                                  double radius_deg = 0.6) {
+  return [=](const Vec3& d) -> Eigen::Vector3d {
+    if (d.z() < 0) return Eigen::Vector3d::Zero();
+    if (angle(d, sun) <= radius_deg * kDeg) return Eigen::Vector3d::Constant(sun_radiance);
+    return sky_level * Eigen::Vector3d(0.4, 0.6, 1.0);
+  };
+}
+
+TEST_F(ExtremesTest, BlackSkyGivesOneAndTheNoLightFlag) {
+  for (sky::SunMode mode : {sky::SunMode::Off, sky::SunMode::Auto}) {
+    const Outcome o = shade(paint(camera(), [](const Vec3&) { return Eigen::Vector3d::Zero(); }), camera(), mode);
+    expect_finite_unit(o);
+    EXPECT_FALSE(o.estimate.sun);
+    for (std::size_t j = 0; j < o.T.size(); ++j) {
+      EXPECT_TRUE(o.weights[j].no_light[0] && o.weights[j].no_light[1] && o.weights[j].no_light[2]);
+      for (float t : o.T[j]) EXPECT_EQ(t, 1.0f);
+    }
+  }
+}
+
+TEST_F(ExtremesTest, OnlyTheSunCastsAHardShadow) {
+  const Vec3 sun = from_angles(180.0, 45.0);
+  const Outcome o = shade(paint(camera(), [&](const Vec3& d) {
+                            return Eigen::Vector3d::Constant(angle(d, sun) <= 0.6 * kDeg ? 1e4 : 0.0);
+                          }),
+                          camera(), sky::SunMode::Auto);
+  expect_finite_unit(o);
+  ASSERT_TRUE(o.estimate.sun) << o.estimate.sun_reason;
+  // The ground north of the box is in full shadow, the ground far south fully lit.
+  const auto& ground = manifest_->planes[0].plane;
+  const auto texel = [&](double x, double y) {
+    const int col = static_cast<int>((x - ground.origin.x()) / ground.u.x() * ground.width);
+    const int row = static_cast<int>((y - ground.origin.y()) / ground.v.y() * ground.height);
+    return o.T[0][(static_cast<std::size_t>(row) * ground.width + col) * 3 + 1];
+  };
+  EXPECT_LT(texel(0.0, 1.8), 0.02f);
+  EXPECT_GT(texel(0.0, -4.0), 0.98f);
+}
+
+TEST_F(ExtremesTest, SunOnADomeVertexAnEdgeTheHorizonAndBelow) {
+  const geom::Dome dome(2);
+  const auto& f = dome.face(12);
+  const Vec3 vertex = dome.vertices()[static_cast<std::size_t>(f.vertex[1])];
+  const Vec3 edge = (dome.vertices()[static_cast<std::size_t>(f.vertex[0])] +
+                     dome.vertices()[static_cast<std::size_t>(f.vertex[1])]).normalized();
+  struct Case {
+    const char* name;
+    Vec3 sun;
+    bool visible;
+  };
+  const std::vector<Case> cases{{"zenith vertex", Vec3::UnitZ(), true},
+                                {"vertex", vertex, vertex.z() > 0.05},
+                                {"edge", edge, edge.z() > 0.05},
+                                {"horizon", from_angles(200.0, 0.0), true},
+                                {"below", from_angles(200.0, -2.0), false}};
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    for (sky::SunMode mode : {sky::SunMode::Off, sky::SunMode::Auto}) {
+      const Outcome o = shade(paint(camera(), sunny(c.sun, 1e4)), camera(), mode);
+      expect_finite_unit(o);
+      if (mode == sky::SunMode::Off) {
+        EXPECT_FALSE(o.estimate.sun);
+        continue;
+      }
+      EXPECT_EQ(o.estimate.sun.has_value(), c.visible) << o.estimate.sun_reason;
+      if (o.estimate.sun) {
+        EXPECT_LT(angle(o.estimate.sun->direction, c.sun), 1.0 * kDeg);
+        bool flagged = false;
+        for (const auto& face : o.estimate.luminance.faces) flagged |= (face.flags & sky::kFaceSunRemoved) != 0;
+        EXPECT_TRUE(flagged);
+      }
+    }
+  }
+}
+
+TEST_F(ExtremesTest, DynamicRangeOfAMillion) {
+  const Outcome o = shade(paint(camera(), sunny(from_angles(90.0, 30.0), 1e3, 1e-3)), camera(), sky::SunMode::Auto);
+  expect_finite_unit(o);
+  ASSERT_TRUE(o.estimate.sun) << o.estimate.sun_reason;
+  EXPECT_GT(o.estimate.sun->contrast, 1e5);
+}
+
+TEST_F(ExtremesTest, NegativeNanAndInfPixelsAreCountedNeverPropagated) {
+  sky::RadianceFrame frame = paint(camera(), sunny(from_angles(90.0, 50.0), 1e4));
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  for (int k = 0; k < 50; ++k) {
+    frame.radiance.at<cv::Vec3f>(100 + k, 150) = cv::Vec3f(nan, 1, 1);
+    frame.radiance.at<cv::Vec3f>(150, 100 + k) = cv::Vec3f(inf, inf, inf);
+    frame.radiance.at<cv::Vec3f>(250, 200 + k) = cv::Vec3f(-5, -5, -5);
+  }
+  for (sky::SunMode mode : {sky::SunMode::Off, sky::SunMode::Auto}) {
+    const Outcome o = shade(frame, camera(), mode);
+    expect_finite_unit(o);
+    EXPECT_EQ(o.estimate.luminance.nan_pixels, 50);
+    EXPECT_EQ(o.estimate.luminance.inf_pixels, 50);
+    EXPECT_EQ(o.estimate.luminance.negative_pixels, 50);
+    for (const auto& face : o.estimate.luminance.faces) EXPECT_TRUE(face.rgb.allFinite());
+  }
+}
+
+TEST_F(ExtremesTest, EightBitFrameWithAClippedSun) {
+  const sky::RadianceFrame hdr = paint(camera(), sunny(from_angles(135.0, 40.0), 1e4));
+  // Exposed for the sky: the sun clips, as it does on every real 8-bit sky camera.
+  const cv::Mat frame8 = sky::to_8bit(hdr.radiance, 0.5);
+  const sky::RadianceFrame frame = sky::linearise(frame8, sky::ResponseCurve::srgb(8), {});
+  ASSERT_GT(cv::countNonZero(frame.clipped), 0);
+  const Outcome o = shade(frame, camera(), sky::SunMode::Auto);
+  expect_finite_unit(o);
+  ASSERT_TRUE(o.estimate.sun) << o.estimate.sun_reason;
+  EXPECT_TRUE(o.estimate.sun->clipped);
+  EXPECT_GT(o.estimate.luminance.clipped_pixels, 0);
+}
+
+TEST_F(ExtremesTest, NarrowLensLeavesHorizonFacesUnseenAndFilled) {
+  const sky::CameraCalibration narrow = camera(80.0);  // 160° field of view
+  const Outcome o = shade(paint(narrow, sunny(from_angles(30.0, 60.0), 1e4)), narrow, sky::SunMode::Auto);
+  expect_finite_unit(o);
+  EXPECT_GT(o.estimate.luminance.unseen_faces, 0);
+  int flagged = 0;
+  for (const auto& face : o.estimate.luminance.faces) {
+    if (face.flags & sky::kFaceUnseen) {
+      ++flagged;
+      EXPECT_GT(face.rgb.minCoeff(), 0.0);  // filled from the seen neighbours
+    }
+  }
+  EXPECT_EQ(flagged, o.estimate.luminance.unseen_faces);
+}
+
+TEST_F(ExtremesTest, PlaneFacingAwayFromEveryLitFace) {
+  // Light only from deep in the south: the north-facing wall sees none of it.
+  const Outcome o = shade(paint(camera(), [](const Vec3& d) {
+                            return Eigen::Vector3d::Constant(d.z() >= 0 && d.y() < -0.75 ? 1.0 : 0.0);
+                          }),
+                          camera(), sky::SunMode::Auto);
+  expect_finite_unit(o);
+  ASSERT_EQ(manifest_->planes[1].plane.name, "north_wall");
+  EXPECT_TRUE(any_no_light(o.weights[1]));
+  for (float t : o.T[1]) EXPECT_EQ(t, 1.0f);
+  EXPECT_FALSE(any_no_light(o.weights[0]));  // the ground is lit
+}
+
+}  // namespace
+}  // namespace skylit
