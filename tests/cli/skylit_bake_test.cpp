@@ -334,6 +334,8 @@ struct BadInput {
   std::string extra_args;
   std::string expected;     // in the message
 };
+// CTest lists a case by its name, not as a dump of the struct's bytes.
+void PrintTo(const BadInput& input, std::ostream* os) { *os << input.name; }
 
 class SkylitBakeBadInput : public ::testing::TestWithParam<BadInput> {};
 
