@@ -1,0 +1,272 @@
+// skylit-sky: simulated sky-camera frames. What a calibrated fisheye would record under a real
+// HDR sky (an equirect) or an analytic one (Preetham clear sky with the sun where it stands at
+// a place and time, or CIE overcast), as float OpenEXR and clipped 8-bit PNG, one frame or a
+// time-lapse with a frames.csv. See docs/sky.md, "Sky simulator".
+#include <chrono>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <filesystem>
+#include <numbers>
+#include <optional>
+#include <regex>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <opencv2/core.hpp>
+#include <spdlog/spdlog.h>
+
+#include "skylit/base/error.hpp"
+#include "skylit/base/files.hpp"
+#include "skylit/base/progress.hpp"
+#include "skylit/sky/calibration.hpp"
+#include "skylit/sky/image_io.hpp"
+#include "skylit/sky/radiometry.hpp"
+#include "skylit/sky/simulate.hpp"
+#include "skylit/sky/sky_model.hpp"
+#include "skylit/sky/solar.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using skylit::InputError;
+using skylit::input_message;
+using skylit::sky::Lens;
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+constexpr long long kMaxFrames = 100000;  // a typo in --every should not fill a disk
+
+struct Options {
+  std::string calib, equirect, output, start, end, every;
+  bool clear = false, overcast = false, quiet = false;
+  std::optional<double> exposure, lat, lon;
+  int supersample = 4;
+  double azimuth_offset_deg = 0;
+  double turbidity = 3.0;
+  double zenith_radiance = 5.0;
+};
+
+[[noreturn]] void bad_option(const std::string& option, const std::string& problem, const std::string& fix) {
+  throw InputError(input_message("", -1, -1, option, problem, fix));
+}
+
+std::string lower_extension(const fs::path& file) {
+  std::string ext = file.extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+// "30min", "10s", "1h", "1.5h", "90 s": a positive whole number of seconds.
+std::chrono::seconds parse_interval(const std::string& text) {
+  static const std::regex pattern(R"(\s*(\d+(?:\.\d*)?)\s*(s|sec|m|min|h)\s*)");
+  std::smatch match;
+  if (!std::regex_match(text, match, pattern)) {
+    bad_option("--every", "'" + text + "' is not an interval", "write a number and a unit: 30s, 10min, 1h");
+  }
+  const std::string unit = match[2].str();
+  const double scale = unit == "h" ? 3600.0 : (unit == "m" || unit == "min") ? 60.0 : 1.0;
+  const double seconds = std::stod(match[1].str()) * scale;
+  if (!(seconds >= 1.0) || seconds > 366.0 * 86400.0) {
+    bad_option("--every", "'" + text + "' is under a second or over a year", "use e.g. 30s, 10min or 1h");
+  }
+  return std::chrono::seconds(std::llround(seconds));
+}
+
+std::chrono::sys_seconds parse_time(const std::string& option, const std::string& text) {
+  try {
+    return skylit::sky::parse_utc(text);
+  } catch (const InputError& e) {
+    throw InputError("option " + option + ": " + e.what());
+  }
+}
+
+void check_range(const std::string& option, const std::optional<double>& value, double lo, double hi,
+                 const std::string& fix) {
+  if (value && !(std::isfinite(*value) && *value >= lo && *value <= hi)) {
+    bad_option(option, "got " + std::to_string(*value) + ", outside [" + std::to_string(lo) + ", " +
+                           std::to_string(hi) + "]", fix);
+  }
+}
+
+void validate(const Options& o) {
+  const int sources = (o.equirect.empty() ? 0 : 1) + (o.clear ? 1 : 0) + (o.overcast ? 1 : 0);
+  if (sources != 1) {
+    bad_option("--equirect/--clear/--overcast", sources == 0 ? "no sky given" : "more than one sky given",
+               "pass exactly one of --equirect SKY.exr, --clear or --overcast");
+  }
+  if (o.calib.empty()) bad_option("--calib", "missing", "pass the sky camera's calibration, e.g. --calib config/sky_camera.yaml");
+  std::error_code ec;
+  if (!fs::is_regular_file(o.calib, ec)) {
+    bad_option("--calib", "'" + o.calib + "' is not a file", "pass an existing calibration (YAML), e.g. config/sky_camera.yaml");
+  }
+  if (o.output.empty()) bad_option("-o", "missing", "pass -o OUT.exr, -o OUT.png, or -o DIR for a time-lapse");
+  if (o.supersample < 1 || o.supersample > 16) {
+    bad_option("--supersample", "got " + std::to_string(o.supersample) + ", outside 1..16", "use 1 (fast) to 8 (smooth); 4 is the default");
+  }
+  if (o.exposure && !(std::isfinite(*o.exposure) && *o.exposure > 0)) {
+    bad_option("--exposure", "got " + std::to_string(*o.exposure) + ", not a positive number",
+               "give the scale from radiance to the 8-bit white point, e.g. 0.1 for a clear sky");
+  }
+  if (!std::isfinite(o.azimuth_offset_deg)) bad_option("--azimuth-offset", "not a number", "give degrees, e.g. 90");
+  if (o.azimuth_offset_deg != 0 && o.equirect.empty()) {
+    bad_option("--azimuth-offset", "applies to --equirect only", "leave it out for --clear and --overcast");
+  }
+  check_range("--lat", o.lat, -90, 90, "give degrees north (negative south), e.g. --lat 34.68");
+  check_range("--lon", o.lon, -180, 180, "give degrees east (negative west), e.g. --lon 135.84");
+  if (o.clear && (!o.lat || !o.lon || o.start.empty())) {
+    bad_option("--clear", "needs the place and the time of the sun", "add --lat, --lon and --start (and --end, --every for a time-lapse)");
+  }
+  if (!o.end.empty()) {
+    if (!o.equirect.empty()) bad_option("--end", "a time-lapse needs an analytic sky", "use --clear or --overcast, or drop --end");
+    if (o.start.empty() || o.every.empty() || !o.lat || !o.lon) {
+      bad_option("--end", "a time-lapse needs --start, --end, --every, --lat and --lon", "add the missing options");
+    }
+  } else if (!o.every.empty()) {
+    bad_option("--every", "given without --end", "add --end for a time-lapse, or drop --every");
+  }
+}
+
+cv::Mat load_equirect(const fs::path& file) {
+  const cv::Mat image = skylit::sky::read_sky_image(file);
+  cv::Mat radiance;
+  if (image.depth() == CV_32F) {
+    radiance = image;
+  } else {
+    // An 8/16-bit equirect is taken as sRGB-encoded.
+    const int bits = image.depth() == CV_16U ? 16 : 8;
+    radiance = skylit::sky::linearise(image, skylit::sky::ResponseCurve::srgb(bits), skylit::sky::Exposure{}).radiance;
+  }
+  if (radiance.cols != 2 * radiance.rows) {
+    spdlog::warn("{}: {}x{} is not 2:1; taking it as an equirect all the same", file.string(), radiance.cols,
+                 radiance.rows);
+  }
+  return radiance;
+}
+
+void write_frame(const fs::path& file, const cv::Mat& radiance, const std::optional<double>& exposure) {
+  const std::string ext = lower_extension(file);
+  if (ext == ".png") {
+    skylit::sky::write_image(file, skylit::sky::to_8bit(radiance, *exposure));
+  } else {
+    skylit::sky::write_sky_exr(file, radiance);
+  }
+}
+
+skylit::sky::SkyFunction analytic_sky(const Options& o, const std::optional<skylit::sky::SolarPosition>& sun) {
+  if (o.overcast) return skylit::sky::sky_function(skylit::sky::OvercastSky(o.zenith_radiance));
+  return skylit::sky::sky_function(skylit::sky::ClearSky(sun->direction(), o.turbidity));
+}
+
+int run_single(const Options& o, const Lens& lens) {
+  const fs::path out(o.output);
+  const std::string ext = lower_extension(out);
+  if (ext != ".exr" && ext != ".png") {
+    bad_option("-o", "'" + o.output + "' is neither .exr nor .png", "name the frame OUT.exr (float) or OUT.png (8-bit, with --exposure)");
+  }
+  if (ext == ".png" && !o.exposure) {
+    bad_option("--exposure", "missing for a PNG frame", "add --exposure X (radiance × X = 1 is white; 0.1 suits a clear sky)");
+  }
+  if (ext == ".exr" && o.exposure) spdlog::warn("--exposure only applies to PNG output; the EXR keeps radiance");
+  skylit::ensure_writable_directory(out.parent_path().empty() ? fs::path(".") : out.parent_path());
+  skylit::sky::RenderOptions render;
+  render.supersample = o.supersample;
+  cv::Mat frame;
+  if (!o.equirect.empty()) {
+    render.azimuth_offset = o.azimuth_offset_deg * kDeg;
+    frame = skylit::sky::render_fisheye(lens, load_equirect(o.equirect), render);
+  } else {
+    std::optional<skylit::sky::SolarPosition> sun;
+    if (o.lat && o.lon && !o.start.empty()) {
+      sun = skylit::sky::solar_position(parse_time("--start", o.start), *o.lat, *o.lon);
+      spdlog::info("sun at azimuth {:.2f}°, elevation {:.2f}°", sun->azimuth_rad / kDeg, sun->elevation_rad / kDeg);
+    }
+    frame = skylit::sky::render_fisheye(lens, analytic_sky(o, sun), render);
+  }
+  write_frame(out, frame, o.exposure);
+  spdlog::info("wrote {} ({}x{})", out.string(), frame.cols, frame.rows);
+  return 0;
+}
+
+int run_time_lapse(const Options& o, const Lens& lens) {
+  const auto start = parse_time("--start", o.start);
+  const auto end = parse_time("--end", o.end);
+  const auto step = parse_interval(o.every);
+  if (end < start) {
+    bad_option("--end", "'" + o.end + "' is before --start '" + o.start + "'", "give an --end after --start");
+  }
+  const long long frames = (end - start) / step + 1;
+  if (frames > kMaxFrames) {
+    bad_option("--every", std::to_string(frames) + " frames from --start to --end",
+               "use a longer --every or a shorter span (at most " + std::to_string(kMaxFrames) + " frames)");
+  }
+  const fs::path dir(o.output);
+  skylit::ensure_writable_directory(dir);
+  skylit::sky::RenderOptions render;
+  render.supersample = o.supersample;
+
+  std::string csv = "timestamp,file,sun_azimuth_deg,sun_elevation_deg\n";
+  skylit::Progress progress("skylit-sky", frames, o.quiet ? nullptr : stderr);
+  for (long long k = 0; k < frames; ++k) {
+    const auto t = start + k * step;
+    const auto sun = skylit::sky::solar_position(t, *o.lat, *o.lon);
+    const cv::Mat frame = skylit::sky::render_fisheye(lens, analytic_sky(o, sun), render);
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%04lld", k);
+    const std::string exr = std::string(name) + ".exr";
+    skylit::sky::write_sky_exr(dir / exr, frame);
+    if (o.exposure) skylit::sky::write_image(dir / (std::string(name) + ".png"), skylit::sky::to_8bit(frame, *o.exposure));
+    char row[160];
+    std::snprintf(row, sizeof row, ",%.4f,%.4f\n", sun.azimuth_rad / kDeg, sun.elevation_rad / kDeg);
+    csv += skylit::sky::format_utc(t) + "," + exr + row;
+    progress.advance();
+  }
+  progress.finish();
+  skylit::write_file_atomic(dir / "frames.csv", csv);
+  spdlog::info("wrote {} frame(s) and frames.csv to {}", frames, dir.string());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"skylit-sky: simulated sky-camera frames from an HDR equirect or an analytic sky", "skylit-sky"};
+  app.set_version_flag("--version", "skylit-sky 0.1.0");
+  Options o;
+  app.add_option("--calib", o.calib, "sky camera calibration (YAML, see docs/sky.md)");
+  app.add_option("--equirect", o.equirect, "HDR equirect of the sky (EXR/HDR; 8/16-bit taken as sRGB)");
+  app.add_flag("--clear", o.clear, "Preetham clear sky with the sun of --lat, --lon at --start");
+  app.add_flag("--overcast", o.overcast, "CIE standard overcast sky");
+  app.add_option("-o,--output", o.output, "OUT.exr or OUT.png (one frame), or a directory (time-lapse)");
+  app.add_option("--exposure", o.exposure, "8-bit output: radiance × X = 1 is white (clipped above)");
+  app.add_option("--supersample", o.supersample, "samples per pixel and axis, 1..16")->capture_default_str();
+  app.add_option("--azimuth-offset", o.azimuth_offset_deg,
+                 "degrees east of north that the equirect's centre column looks at")->capture_default_str();
+  app.add_option("--lat", o.lat, "site latitude, degrees north");
+  app.add_option("--lon", o.lon, "site longitude, degrees east");
+  app.add_option("--start", o.start, "time of the frame, or the first of a time-lapse (ISO 8601 with zone)");
+  app.add_option("--end", o.end, "last time of a time-lapse (ISO 8601 with zone)");
+  app.add_option("--every", o.every, "time-lapse interval: 30s, 10min, 1h");
+  app.add_option("--turbidity", o.turbidity, "clear sky haze, 2 (very clear) to 10")->capture_default_str();
+  app.add_option("--zenith-radiance", o.zenith_radiance, "overcast zenith radiance (kcd/m²)")->capture_default_str();
+  app.add_flag("-q,--quiet", o.quiet, "only warnings and errors");
+  CLI11_PARSE(app, argc, argv);
+  spdlog::set_level(o.quiet ? spdlog::level::warn : spdlog::level::info);
+  spdlog::set_pattern("skylit-sky: %^%l%$: %v");
+
+  try {
+    validate(o);
+    const Lens lens(skylit::sky::load_calibration(o.calib));
+    // The models check their parameters: before any frame is rendered.
+    if (o.clear) (void)skylit::sky::ClearSky(Eigen::Vector3d::UnitZ(), o.turbidity);
+    if (o.overcast) (void)skylit::sky::OvercastSky(o.zenith_radiance);
+    return o.end.empty() ? run_single(o, lens) : run_time_lapse(o, lens);
+  } catch (const InputError& e) {
+    std::fprintf(stderr, "skylit-sky: error: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "skylit-sky: internal error: %s\n", e.what());
+    return 3;
+  }
+}
