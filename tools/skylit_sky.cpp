@@ -2,6 +2,7 @@
 // HDR sky (an equirect) or an analytic one (Preetham clear sky with the sun where it stands at
 // a place and time, or CIE overcast), as float OpenEXR and clipped 8-bit PNG, one frame or a
 // time-lapse with a frames.csv. See docs/sky.md, "Sky simulator".
+#include <algorithm>
 #include <chrono>
 #include <cctype>
 #include <cmath>
@@ -16,6 +17,7 @@
 
 #include <CLI/CLI.hpp>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 #include <spdlog/spdlog.h>
 
 #include "skylit/base/error.hpp"
@@ -228,6 +230,61 @@ int run_time_lapse(const Options& o, const Lens& lens) {
   return 0;
 }
 
+
+// `skylit-sky response`: the camera's response curve from an exposure bracket of a static scene
+// (Debevec), saved as YAML for skylit-shade --response, with a plot beside it.
+int run_response(const std::vector<std::string>& images, const std::vector<double>& times, double gain,
+                 const std::string& output) {
+  if (images.size() < 2) {
+    throw InputError("response: " + std::to_string(images.size()) +
+                     " image(s). Fix: give at least 2 frames of one static scene at different exposure times");
+  }
+  if (times.size() != images.size()) {
+    throw InputError("response: option --exposure: " + std::to_string(times.size()) + " time(s) for " +
+                     std::to_string(images.size()) + " image(s). Fix: give one exposure time (seconds) per image, in order");
+  }
+  std::vector<cv::Mat> frames;
+  std::vector<skylit::sky::Exposure> exposures;
+  for (std::size_t k = 0; k < images.size(); ++k) {
+    frames.push_back(skylit::sky::read_sky_image(images[k]));
+    exposures.push_back({times[k], gain});
+  }
+  const skylit::sky::ResponseCurve curve = skylit::sky::calibrate_response(frames, exposures);
+  skylit::sky::save_response(curve, output);
+
+  // The curve against sRGB's, log exposure over code, one colour per channel.
+  constexpr int kSize = 512, kMargin = 40;
+  cv::Mat plot(kSize, kSize, CV_8UC3, cv::Scalar(30, 30, 30));
+  const skylit::sky::ResponseCurve srgb = skylit::sky::ResponseCurve::srgb(curve.bits);
+  const auto top = static_cast<double>(curve.bgr[0].size() - 1);
+  double lo = 1e30, hi = -1e30;
+  for (const auto& channel : curve.bgr) {
+    for (float v : channel) {
+      if (v > 0) {
+        lo = std::min(lo, std::log10(static_cast<double>(v)));
+        hi = std::max(hi, std::log10(static_cast<double>(v)));
+      }
+    }
+  }
+  const auto point = [&](std::size_t code, float value) {
+    const double x = kMargin + (kSize - 2 * kMargin) * static_cast<double>(code) / top;
+    const double y = kSize - kMargin - (kSize - 2 * kMargin) * (std::log10(std::max(value, 1e-30f)) - lo) / std::max(hi - lo, 1e-9);
+    return cv::Point(static_cast<int>(x), static_cast<int>(std::clamp(y, 0.0, static_cast<double>(kSize))));
+  };
+  const cv::Scalar colours[3] = {{255, 120, 60}, {60, 220, 60}, {60, 60, 255}};
+  for (std::size_t c = 0; c < 3; ++c) {
+    for (std::size_t code = 2; code < curve.bgr[c].size(); ++code) {
+      cv::line(plot, point(code - 1, srgb.bgr[c][code - 1]), point(code, srgb.bgr[c][code]), cv::Scalar(110, 110, 110), 1);
+      cv::line(plot, point(code - 1, curve.bgr[c][code - 1]), point(code, curve.bgr[c][code]), colours[c], 1, cv::LINE_AA);
+    }
+  }
+  cv::putText(plot, "code ->   (grey: sRGB)", {kMargin, kSize - 12}, cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(220, 220, 220));
+  cv::putText(plot, "log exposure", {6, 24}, cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(220, 220, 220));
+  const fs::path plot_file = fs::path(output).replace_extension(".png");
+  skylit::sky::write_image(plot_file, plot);
+  spdlog::info("response curve of {} frame(s) written to {} (plot: {})", images.size(), output, plot_file.string());
+  return 0;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -251,11 +308,21 @@ int main(int argc, char** argv) {
   app.add_option("--turbidity", o.turbidity, "clear sky haze, 2 (very clear) to 10")->capture_default_str();
   app.add_option("--zenith-radiance", o.zenith_radiance, "overcast zenith radiance (kcd/m²)")->capture_default_str();
   app.add_flag("-q,--quiet", o.quiet, "only warnings and errors");
+  auto* response = app.add_subcommand("response", "calibrate the camera's response curve from an exposure bracket");
+  std::vector<std::string> response_images;
+  std::vector<double> response_times;
+  double response_gain = 1.0;
+  std::string response_out;
+  response->add_option("images", response_images, "8-bit frames of one static scene")->required();
+  response->add_option("--exposure", response_times, "exposure time of each frame, seconds")->required();
+  response->add_option("--gain", response_gain, "sensor gain (linear), the same for every frame")->capture_default_str();
+  response->add_option("-o,--output", response_out, "curve to write (YAML; a .png plot goes beside it)")->required();
   CLI11_PARSE(app, argc, argv);
   spdlog::set_level(o.quiet ? spdlog::level::warn : spdlog::level::info);
   spdlog::set_pattern("skylit-sky: %^%l%$: %v");
 
   try {
+    if (*response) return run_response(response_images, response_times, response_gain, response_out);
     validate(o);
     const Lens lens(skylit::sky::load_calibration(o.calib));
     // The models check their parameters: before any frame is rendered.

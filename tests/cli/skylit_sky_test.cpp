@@ -258,3 +258,48 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"OffsetWithoutEquirect", "--calib CALIB --overcast --azimuth-offset 10 -o OUT.exr",
                 "--azimuth-offset"}),
     [](const ::testing::TestParamInfo<BadCase>& param_info) { return param_info.param.name; });
+
+namespace {
+
+TEST(SkylitSkyResponse, CalibratesACurveFromABracketAndPlotsIt) {
+  SkyTempDir dir;
+  // A smooth scene spanning three decades, photographed through sRGB at four exposures.
+  cv::Mat radiance(64, 64, CV_32FC3);
+  for (int y = 0; y < 64; ++y) {
+    for (int x = 0; x < 64; ++x) {
+      const float l = std::pow(10.0f, -2.0f + 3.0f * static_cast<float>(x + 64 * y) / 4095.0f);
+      radiance.at<cv::Vec3f>(y, x) = cv::Vec3f(0.8f * l, l, 0.9f * l);
+    }
+  }
+  const std::array<double, 4> times{0.01, 0.1, 1.0, 10.0};
+  std::string args = "response";
+  for (std::size_t k = 0; k < times.size(); ++k) {
+    const fs::path frame = dir / ("frame" + std::to_string(k) + ".png");
+    ASSERT_TRUE(cv::imwrite(frame.string(), skylit::sky::to_8bit(radiance, times[k])));
+    args += " " + frame.string();
+  }
+  args += " --exposure 0.01 0.1 1 10 -o " + (dir / "curve.yaml").string();
+  const Result r = run_sky(args);
+  ASSERT_EQ(r.status, 0) << r.output;
+  const skylit::sky::ResponseCurve curve = skylit::sky::load_response(dir / "curve.yaml");
+  EXPECT_EQ(curve.bits, 8);
+  for (const auto& channel : curve.bgr) {
+    for (std::size_t code = 1; code < channel.size(); ++code) EXPECT_GE(channel[code], channel[code - 1]);
+  }
+  EXPECT_TRUE(fs::exists(dir / "curve.png"));
+}
+
+TEST(SkylitSkyResponse, OneFrameOrMissingTimesAreErrors) {
+  SkyTempDir dir;
+  const fs::path frame = dir / "frame.png";
+  ASSERT_TRUE(cv::imwrite(frame.string(), cv::Mat(32, 32, CV_8UC3, cv::Scalar(100, 100, 100))));
+  Result r = run_sky("response " + frame.string() + " --exposure 1 -o " + (dir / "c.yaml").string());
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("at least 2"), std::string::npos) << r.output;
+  r = run_sky("response " + frame.string() + " " + frame.string() + " --exposure 1 -o " + (dir / "c.yaml").string());
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("--exposure"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir / "c.yaml"));
+}
+
+}  // namespace

@@ -1,0 +1,170 @@
+// End-to-end tests of skylit-shade: a small bake of the sample site, a real HDR sky rendered into
+// the sample sky camera by skylit-sky, shaded as a user would, and every output read back.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "skylit/sky/radiometry.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kBin = fs::path(SKYLIT_BINARY_DIR) / "bin";
+const fs::path kSource = fs::path(SKYLIT_SOURCE_DIR);
+
+struct Result {
+  int status = -1;
+  std::string output;
+};
+
+Result run(const fs::path& program, const std::string& args) {
+  const std::string command = program.string() + " " + args + " 2>&1";
+  Result r;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (!pipe) return r;
+  std::array<char, 4096> buffer{};
+  while (std::fgets(buffer.data(), buffer.size(), pipe)) r.output += buffer.data();
+  const int raw = pclose(pipe);
+  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  return r;
+}
+
+// One bake and one sky frame for the whole suite (the bake is the slow part).
+class SkylitShade : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    std::random_device rd;
+    dir_ = new fs::path(fs::temp_directory_path() / ("skylit_shade_cli_" + std::to_string(getpid()) + "_" + std::to_string(rd())));
+    fs::create_directories(*dir_);
+    const Result bake = run(kBin / "skylit-bake", (kSource / "config" / "sample_site.yaml").string() + " -o " +
+                                                      (*dir_ / "bake").string() + " --resolution 48x32 --no-previews -q");
+    ASSERT_EQ(bake.status, 0) << bake.output;
+    const Result sky = run(kBin / "skylit-sky", "--calib " + calib().string() + " --equirect " +
+                                                    (kSource / "data" / "hdri" / "park.exr").string() + " -o " +
+                                                    (*dir_ / "park.exr").string() + " --supersample 1 -q");
+    ASSERT_EQ(sky.status, 0) << sky.output;
+  }
+  static void TearDownTestSuite() {
+    std::error_code ignored;
+    fs::remove_all(*dir_, ignored);
+    delete dir_;
+  }
+  static fs::path calib() { return kSource / "config" / "sky_camera.yaml"; }
+  static std::string common(const fs::path& out) {
+    return "--bake " + (*dir_ / "bake").string() + " --sky-calib " + calib().string() + " -o " + out.string();
+  }
+  static fs::path* dir_;
+};
+fs::path* SkylitShade::dir_ = nullptr;
+
+TEST_F(SkylitShade, ShadesEveryPlaneAndDescribesTheSky) {
+  const fs::path out = *dir_ / "out";
+  const Result r = run(kBin / "skylit-shade", common(out) + " --sky " + (*dir_ / "park.exr").string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  for (const char* plane : {"ground", "wall", "roof"}) {
+    const cv::Mat T = skylit::sky::read_sky_image(out / (std::string(plane) + ".exr"));
+    EXPECT_EQ(T.cols, 48);
+    EXPECT_EQ(T.rows, 32);
+    double lo = 0, hi = 0;
+    cv::minMaxLoc(T.reshape(1), &lo, &hi);
+    EXPECT_GE(lo, 0.0) << plane;
+    EXPECT_LE(hi, 1.0) << plane;
+    EXPECT_LT(lo, 0.9) << plane << ": some shadow is expected on every plane of the gate";
+    EXPECT_EQ(cv::imread((out / (std::string(plane) + ".png")).string()).cols, 48);
+  }
+  const nlohmann::json sky = nlohmann::json::parse(std::ifstream(out / "sky.json"));
+  ASSERT_EQ(sky["faces"].size(), 40u);
+  for (const auto& face : sky["faces"]) {
+    for (double s : face["S"]) EXPECT_TRUE(std::isfinite(s) && s >= 0.0);
+    EXPECT_GT(face["coverage"].get<double>(), 0.9);
+  }
+  // park.exr holds a compact, very bright sun: it is found and taken out of the dome.
+  ASSERT_FALSE(sky["sun"].is_null()) << sky["sun_reason"];
+  EXPECT_GT(sky["sun"]["elevation_deg"].get<double>(), 0.0);
+  EXPECT_GT(sky["sun"]["energy"][2].get<double>(), 0.0);
+  EXPECT_EQ(sky["planes"].size(), 3u);
+  const cv::Mat overlay = cv::imread((out / "sky_overlay.png").string());
+  EXPECT_EQ(overlay.cols, 1024);
+}
+
+TEST_F(SkylitShade, SunOffKeepsTheSunInTheDome) {
+  const fs::path out = *dir_ / "off";
+  const Result r = run(kBin / "skylit-shade", common(out) + " --sun off --sky " + (*dir_ / "park.exr").string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  const nlohmann::json sky = nlohmann::json::parse(std::ifstream(out / "sky.json"));
+  EXPECT_TRUE(sky["sun"].is_null());
+  EXPECT_EQ(sky["sun_reason"], "sun separation off");
+}
+
+TEST_F(SkylitShade, AnEightBitBracketMergesToHdr) {
+  const cv::Mat hdr = skylit::sky::read_sky_image(*dir_ / "park.exr");
+  std::string frames;
+  for (double t : {0.25, 1.0, 4.0}) {
+    cv::Mat frame8;
+    hdr.convertTo(frame8, CV_32FC3, t * 0.5);
+    // sRGB encode and clip, as a camera would.
+    cv::Mat encoded(hdr.size(), CV_8UC3);
+    for (int y = 0; y < hdr.rows; ++y) {
+      for (int x = 0; x < hdr.cols; ++x) {
+        for (int c = 0; c < 3; ++c) {
+          const double v = std::clamp(static_cast<double>(frame8.at<cv::Vec3f>(y, x)[c]), 0.0, 1.0);
+          const double e = v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1 / 2.4) - 0.055;
+          encoded.at<cv::Vec3b>(y, x)[c] = static_cast<unsigned char>(std::lround(255 * e));
+        }
+      }
+    }
+    const fs::path file = *dir_ / ("bracket_" + std::to_string(t) + ".png");
+    ASSERT_TRUE(cv::imwrite(file.string(), encoded));
+    frames += " --sky " + file.string();
+  }
+  const fs::path out = *dir_ / "bracket";
+  const Result r = run(kBin / "skylit-shade", common(out) + frames + " --exposure 0.25 1 4");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const nlohmann::json sky = nlohmann::json::parse(std::ifstream(out / "sky.json"));
+  EXPECT_EQ(sky["frames"].size(), 3u);
+  EXPECT_TRUE(fs::exists(out / "ground.exr"));
+}
+
+TEST_F(SkylitShade, BadInputsAreClearErrors) {
+  const fs::path sky = *dir_ / "park.exr";
+  struct Case {
+    std::string args;
+    std::string expected;
+  };
+  // A calibration for another image size.
+  const fs::path small_calib = *dir_ / "small.yaml";
+  std::ofstream(small_calib) << "image_width: 96\nimage_height: 96\nmodel: fisheye\nfx: 30.2\nfy: 30.2\n"
+                                "cx: 47.5\ncy: 47.5\nD: [0, 0, 0, 0]\nR_site_from_camera: [1,0,0, 0,1,0, 0,0,1]\n";
+  const std::vector<Case> cases{
+      {common(*dir_ / "x1") + " --sky " + sky.string() + " --sun sometimes", "--sun"},
+      {"--bake " + (*dir_ / "bake").string() + " --sky-calib " + small_calib.string() + " -o " +
+           (*dir_ / "x2").string() + " --sky " + sky.string(),
+       "calibration"},
+      {"--bake " + (*dir_).string() + " --sky-calib " + calib().string() + " -o " + (*dir_ / "x3").string() +
+           " --sky " + sky.string(),
+       "not a valid bake"},
+      {common(*dir_ / "x4") + " --sky " + sky.string() + " " + sky.string(), "bracket"},
+      {common(*dir_ / "x5") + " --sky " + sky.string() + " --exposure 1 2", "--exposure"},
+      {common(*dir_ / "x6") + " --sky /nonexistent/sky.exr", "sky.exr"},
+  };
+  for (const Case& c : cases) {
+    const Result r = run(kBin / "skylit-shade", c.args);
+    EXPECT_EQ(r.status, 2) << c.args << "\n" << r.output;
+    EXPECT_NE(r.output.find(c.expected), std::string::npos) << c.args << "\n" << r.output;
+  }
+}
+
+}  // namespace

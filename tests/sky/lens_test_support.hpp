@@ -1,0 +1,113 @@
+#pragma once
+// Shared by the calibration, sky-table and luminance tests: temporary directories, the sample
+// sky camera and its (cached) sky tables.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <numbers>
+#include <string>
+#include <unistd.h>
+
+#include <opencv2/core.hpp>
+
+#include "skylit/geom/dome.hpp"
+#include "skylit/sky/calibration.hpp"
+#include "skylit/sky/sky_table.hpp"
+
+namespace skylit::sky::lens_testing {
+
+// A fresh directory under the system temp dir, removed with everything in it at scope end.
+class LensTempDir {
+ public:
+  LensTempDir() {
+    const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    path_ = std::filesystem::temp_directory_path() /
+            (std::string("skylit_lens_") + info->test_suite_name() + "_" + info->name() + "_" +
+             std::to_string(::getpid()));
+    std::filesystem::remove_all(path_);
+    std::filesystem::create_directories(path_);
+  }
+  ~LensTempDir() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path_, ignored);
+  }
+  LensTempDir(const LensTempDir&) = delete;
+  LensTempDir& operator=(const LensTempDir&) = delete;
+
+  const std::filesystem::path& path() const { return path_; }
+  std::filesystem::path write(const std::string& name, const std::string& content) const {
+    const std::filesystem::path file = path_ / name;
+    std::filesystem::create_directories(file.parent_path());
+    std::ofstream out(file, std::ios::binary);
+    out << content;
+    return file;
+  }
+
+ private:
+  std::filesystem::path path_;
+};
+
+inline std::filesystem::path sample_calibration_file() {
+  return std::filesystem::path(SKYLIT_SOURCE_DIR) / "config" / "sky_camera.yaml";
+}
+
+// An ideal equidistant fisheye looking at the zenith, `size`² pixels, centred, whose image edge
+// (half the side from the centre) lies `edge_degrees` from the optical axis.
+inline CameraCalibration equidistant(int size, double edge_degrees) {
+  CameraCalibration c;
+  c.image_width = size;
+  c.image_height = size;
+  c.model = LensModel::Fisheye;
+  c.cx = c.cy = (size - 1) / 2.0;
+  c.fx = c.fy = (size / 2.0) / (edge_degrees * std::numbers::pi / 180.0);
+  c.D = {0, 0, 0, 0};
+  return c;
+}
+
+// Rotation about the site's x axis (east) by `degrees`: tilts an upward camera towards south.
+inline Eigen::Matrix3d tilt_about_east(double degrees) {
+  const double a = degrees * std::numbers::pi / 180.0;
+  Eigen::Matrix3d R;
+  R << 1, 0, 0, 0, std::cos(a), -std::sin(a), 0, std::sin(a), std::cos(a);
+  return R;
+}
+
+// 0 outside the disc of `radius` pixels around the image centre.
+inline cv::Mat disc_mask(const CameraCalibration& c, double radius) {
+  cv::Mat mask(c.image_height, c.image_width, CV_8UC1, cv::Scalar(0));
+  for (int y = 0; y < c.image_height; ++y) {
+    for (int x = 0; x < c.image_width; ++x) {
+      if (std::hypot(x - c.cx, y - c.cy) <= radius) mask.at<std::uint8_t>(y, x) = 255;
+    }
+  }
+  return mask;
+}
+
+// The sample calibration (config/sky_camera.yaml), domes and the sample tables, built once per
+// test program: a 1024² table takes a noticeable fraction of a second and many tests read it.
+inline const Lens& sample_lens() {
+  static const Lens lens(load_calibration(sample_calibration_file()));
+  return lens;
+}
+inline const geom::Dome& dome(int frequency) {
+  static std::map<int, geom::Dome> cache;  // the tests run on one thread
+  auto it = cache.find(frequency);
+  if (it == cache.end()) it = cache.emplace(frequency, geom::Dome(frequency)).first;
+  return it->second;
+}
+inline const SkyTable& sample_table(int frequency, int step) {
+  static std::map<std::pair<int, int>, SkyTable> cache;
+  const std::pair<int, int> key(frequency, step);
+  auto it = cache.find(key);
+  if (it == cache.end()) {
+    SkyTableOptions options;
+    options.step = step;
+    it = cache.emplace(key, build_sky_table(sample_lens(), dome(frequency), options)).first;
+  }
+  return it->second;
+}
+
+}  // namespace skylit::sky::lens_testing
