@@ -1,1 +1,940 @@
-// implementation pending in this change
+#include "skylit/sky/calibration.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <set>
+#include <sstream>
+#include <string_view>
+
+#include <Eigen/LU>
+#include <opencv2/core.hpp>
+#include <yaml-cpp/yaml.h>
+
+#include "skylit/base/error.hpp"
+#include "skylit/base/files.hpp"
+
+namespace skylit::sky {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kMaxImageSize = 1 << 15;       // pixels per side; keeps pixel indices in int32
+constexpr double kRotationTolerance = 1e-6;  // |RᵀR − I| and |det R − 1|, per element
+constexpr double kNewtonTolerance = 1e-15;   // radians, or normalised image units
+constexpr int kNewtonIterations = 100;
+constexpr int kMonotonicScanSteps = 4096;  // grid for the first turning point of θ_d(θ)
+
+const std::array<std::string_view, 13> kKeys{"image_width",
+                                             "image_height",
+                                             "model",
+                                             "fx",
+                                             "fy",
+                                             "cx",
+                                             "cy",
+                                             "D",
+                                             "R_site_from_camera",
+                                             "t_site_from_camera",
+                                             "mask",
+                                             "rms",
+                                             "per_view_errors"};
+
+const char* const kSchemaHint = "see docs/sky.md (Sky-camera calibration)";
+
+std::size_t edit_distance(std::string_view a, std::string_view b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      const bool same = std::tolower(static_cast<unsigned char>(a[i - 1])) ==
+                        std::tolower(static_cast<unsigned char>(b[j - 1]));
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (same ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+std::string lower(std::string text) {
+  std::transform(text.begin(), text.end(), text.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return text;
+}
+
+// Shortest text that reads back as exactly the same double.
+std::string format_number(double value) {
+  std::array<char, 64> buffer{};
+  const auto [end, error] = std::to_chars(buffer.data(), buffer.data() + buffer.size(), value);
+  (void)error;  // 64 characters hold any double
+  return std::string(buffer.data(), end);
+}
+
+std::string format_list(const double* values, std::size_t count) {
+  std::string text = "[";
+  for (std::size_t i = 0; i < count; ++i) {
+    if (i > 0) text += ", ";
+    text += format_number(values[i]);
+  }
+  text += "]";
+  return text;
+}
+
+// A YAML double-quoted scalar (paths may hold spaces, colons or '#').
+std::string quote(const std::string& text) {
+  std::string quoted = "\"";
+  for (char c : text) {
+    if (c == '"' || c == '\\') quoted += '\\';
+    quoted += c;
+  }
+  return quoted + "\"";
+}
+
+std::string model_name(LensModel model) {
+  return model == LensModel::Fisheye ? "fisheye" : "pinhole";
+}
+
+bool valid_coefficient_count(LensModel model, std::size_t count) {
+  return model == LensModel::Fisheye ? count == 4 : (count == 4 || count == 5 || count == 8);
+}
+
+std::string coefficient_fix(LensModel model) {
+  return model == LensModel::Fisheye
+             ? "write the 4 fisheye coefficients k1..k4, e.g. 'D: [0, 0, 0, 0]' (all 0: "
+               "equidistant)"
+             : "write 4, 5 or 8 coefficients in OpenCV's order k1, k2, p1, p2[, k3[, k4, k5, k6]], "
+               "e.g. 'D: [0, 0, 0, 0, 0]'";
+}
+
+// Pinhole coefficients are kept as 5 (k1 k2 p1 p2 k3) or 8 (rational model): the missing k3 of a
+// 4-coefficient calibration is 0.
+std::vector<double> normalise_coefficients(LensModel model, const std::vector<double>& D) {
+  if (model != LensModel::Pinhole || D.size() != 4) return D;
+  return {D[0], D[1], D[2], D[3], 0.0};  // (push_back here trips GCC 12's -Warray-bounds)
+}
+
+// The first problem of R as a rotation, or empty.
+std::string rotation_problem(const Eigen::Matrix3d& R) {
+  if (!R.allFinite()) return "the matrix has a non-finite element";
+  const double orthogonality =
+      (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  const double det = R.determinant();
+  if (orthogonality > kRotationTolerance) {
+    std::ostringstream text;
+    text << "the matrix is not a rotation: RᵀR differs from the identity by up to " << orthogonality
+         << " (allowed " << kRotationTolerance << ")";
+    return text.str();
+  }
+  if (std::abs(det - 1.0) > kRotationTolerance) {
+    std::ostringstream text;
+    text << "the matrix is not a rotation: its determinant is " << det
+         << (det < 0 ? " (a reflection: one axis is flipped)" : "") << ", not +1";
+    return text.str();
+  }
+  return {};
+}
+
+const char* const kRotationFix =
+    "write the camera's orientation as an orthonormal 3×3 matrix with determinant +1, row-major, "
+    "9 numbers with at least 7 significant digits (columns: the camera's x right, y down and z "
+    "forward axes in site coordinates, x east, y north, z up)";
+
+// A path from a calibration file, relative to that file's directory (normalised, so that a
+// mask written relative to another place reads back as the same path).
+fs::path resolve(const fs::path& file, const std::string& text) {
+  const fs::path path(text);
+  return (path.is_absolute() ? path : file.parent_path() / path).lexically_normal();
+}
+
+// ---------------------------------------------------------------------------------------------
+// The skylit YAML schema.
+
+class CalibrationParser {
+ public:
+  CalibrationParser(fs::path file, const std::string& text) : file_(std::move(file)), text_(text) {}
+
+  CameraCalibration parse() {
+    YAML::Node root;
+    try {
+      root = YAML::Load(text_);
+    } catch (const YAML::ParserException& e) {
+      throw InputError(input_message(file_, e.mark.line + 1, e.mark.column + 1, "",
+                                     "YAML syntax error: " + e.msg,
+                                     std::string("correct the YAML syntax at that line "
+                                                 "(indentation, colons, brackets); ") +
+                                         kSchemaHint));
+    }
+    if (!root.IsDefined() || root.IsNull()) {
+      fail(root, "", "the calibration file is empty",
+           std::string("write image_width, image_height, model, fx, fy, cx, cy, D and "
+                       "R_site_from_camera; ") +
+               kSchemaHint);
+    }
+    if (!root.IsMap()) {
+      fail(root, "", "the calibration file must be a map of fields",
+           std::string("write image_width, image_height, model, fx, fy, cx, cy, D and "
+                       "R_site_from_camera; ") +
+               kSchemaHint);
+    }
+    check_keys(root);
+
+    CameraCalibration c;
+    c.file = file_;
+    const std::string size_fix = "write the image size in pixels as an integer from 1 to " +
+                                 std::to_string(kMaxImageSize) + ", e.g. 1024";
+    c.image_width = image_size(root, "image_width", size_fix);
+    c.image_height = image_size(root, "image_height", size_fix);
+
+    const std::string model_fix =
+        "write 'model: fisheye' (OpenCV's cv::fisheye model) or "
+        "'model: pinhole' (OpenCV's radial-tangential model)";
+    const YAML::Node model = require(root, "model", model_fix);
+    const std::string model_text = model.IsScalar() ? lower(model.Scalar()) : std::string();
+    if (model_text == "fisheye") {
+      c.model = LensModel::Fisheye;
+    } else if (model_text == "pinhole") {
+      c.model = LensModel::Pinhole;
+    } else {
+      fail(model, "model",
+           "unknown lens model" + (model.IsScalar() ? " '" + model.Scalar() + "'" : std::string()),
+           model_fix);
+    }
+
+    const std::string focal_fix =
+        "write the focal length in pixels, a positive number (for an "
+        "equidistant fisheye: image-circle radius in pixels / (FOV/2 in "
+        "radians))";
+    c.fx = positive(root, "fx", focal_fix);
+    c.fy = positive(root, "fy", focal_fix);
+    const std::string centre_fix =
+        "write the principal point in pixels (OpenCV: pixel centres at "
+        "integers, so the image centre of a 1024-pixel side is 511.5)";
+    c.cx = number(require(root, "cx", centre_fix), "cx", centre_fix);
+    c.cy = number(require(root, "cy", centre_fix), "cy", centre_fix);
+
+    const YAML::Node D = require(root, "D", coefficient_fix(c.model));
+    std::vector<double> coefficients = numbers(D, "D", coefficient_fix(c.model));
+    if (!valid_coefficient_count(c.model, coefficients.size())) {
+      fail(D, "D",
+           std::to_string(coefficients.size()) + " coefficients do not fit the " +
+               model_name(c.model) + " model",
+           coefficient_fix(c.model));
+    }
+    c.D = normalise_coefficients(c.model, coefficients);
+
+    const YAML::Node R = require(root, "R_site_from_camera", kRotationFix);
+    c.R_site_from_camera = matrix3(R, "R_site_from_camera");
+    if (const std::string problem = rotation_problem(c.R_site_from_camera); !problem.empty()) {
+      fail(R, "R_site_from_camera", problem, kRotationFix);
+    }
+
+    if (const YAML::Node t = optional(root, "t_site_from_camera")) {
+      const std::string fix =
+          "write the camera's position in the site frame, 3 numbers in "
+          "metres, e.g. [0, 0, 2.5]";
+      const std::vector<double> values = numbers(t, "t_site_from_camera", fix);
+      if (values.size() != 3) fail(t, "t_site_from_camera", "expected a list of 3 numbers", fix);
+      c.t_site_from_camera = Vec3(values[0], values[1], values[2]);
+    }
+
+    if (const YAML::Node mask = optional(root, "mask")) {
+      const std::string fix =
+          "write the mask image's path relative to this file, e.g. "
+          "'mask: sky_mask.png' (8-bit, image size, 0 where the sky is hidden)";
+      if (!mask.IsScalar() || mask.Scalar().empty())
+        fail(mask, "mask", "expected a file name", fix);
+      c.mask = resolve(file_, mask.Scalar());
+    }
+
+    const std::string error_fix =
+        "write the reprojection error in pixels, a number ≥ 0 (or "
+        "remove the field)";
+    if (const YAML::Node rms = optional(root, "rms")) {
+      c.rms = number(rms, "rms", error_fix);
+      if (*c.rms < 0) fail(rms, "rms", "the error is negative", error_fix);
+    }
+    if (const YAML::Node errors = optional(root, "per_view_errors")) {
+      c.per_view_errors = numbers(errors, "per_view_errors", error_fix);
+      for (std::size_t i = 0; i < c.per_view_errors.size(); ++i) {
+        if (c.per_view_errors[i] < 0) {
+          fail(errors[i], "per_view_errors", "element " + std::to_string(i) + " is negative",
+               error_fix);
+        }
+      }
+    }
+    return c;
+  }
+
+ private:
+  [[noreturn]] void fail(const YAML::Node& node, const std::string& field,
+                         const std::string& problem, const std::string& fix) const {
+    int line = -1;
+    int column = -1;
+    if (node.IsDefined()) {
+      const YAML::Mark mark = node.Mark();
+      if (mark.line >= 0) {
+        line = mark.line + 1;
+        column = mark.column + 1;
+      }
+    }
+    throw InputError(input_message(file_, line, column, field, problem, fix));
+  }
+
+  void check_keys(const YAML::Node& map) const {
+    std::set<std::string> seen;
+    std::string allowed_list;
+    for (std::string_view candidate : kKeys) {
+      if (!allowed_list.empty()) allowed_list += ", ";
+      allowed_list += candidate;
+    }
+    for (const auto& entry : map) {
+      const YAML::Node& key_node = entry.first;
+      if (!key_node.IsScalar())
+        fail(key_node, "", "a key is not a plain name", "use plain names as keys");
+      const std::string key = key_node.Scalar();
+      if (std::find(kKeys.begin(), kKeys.end(), key) == kKeys.end()) {
+        if (key == "camera_matrix" || key == "distortion_coefficients") {
+          fail(key_node, key, "this looks like an OpenCV FileStorage file without its header",
+               "make '%YAML:1.0' the first line (OpenCV's YAML), or convert it to the skylit "
+               "schema; " +
+                   std::string(kSchemaHint));
+        }
+        std::string_view best;
+        std::size_t best_distance = std::numeric_limits<std::size_t>::max();
+        for (std::string_view candidate : kKeys) {
+          const std::size_t d = edit_distance(key, candidate);
+          if (d < best_distance) {
+            best_distance = d;
+            best = candidate;
+          }
+        }
+        const std::size_t tolerance = std::max<std::size_t>(2, best.size() / 3);
+        const std::string fix =
+            best_distance <= tolerance
+                ? "did you mean '" + std::string(best) + "'? (allowed: " + allowed_list + ")"
+                : "remove it (allowed: " + allowed_list + ")";
+        fail(key_node, key, "unknown field", fix);
+      }
+      if (!seen.insert(key).second)
+        fail(key_node, key, "the field appears twice", "keep one of them");
+    }
+  }
+
+  // The key node of `key` (a null value's own mark points past it, at the next line).
+  static YAML::Node key_node(const YAML::Node& map, std::string_view key) {
+    for (const auto& entry : map) {
+      if (entry.first.IsScalar() && entry.first.Scalar() == key) return entry.first;
+    }
+    return map;
+  }
+
+  YAML::Node require(const YAML::Node& map, std::string_view key, const std::string& fix) const {
+    const YAML::Node node = map[std::string(key)];
+    if (!node.IsDefined())
+      fail(map, std::string(key), "required field is missing", "add it: " + fix);
+    if (node.IsNull()) fail(key_node(map, key), std::string(key), "the field has no value", fix);
+    return node;
+  }
+
+  // An optional field's node, or an undefined node when absent or empty ("rms:" alone).
+  static YAML::Node optional(const YAML::Node& map, std::string_view key) {
+    const YAML::Node node = map[std::string(key)];
+    if (!node.IsDefined() || node.IsNull()) return YAML::Node(YAML::NodeType::Undefined);
+    return node;
+  }
+
+  static std::optional<double> as_number(const YAML::Node& node) {
+    if (!node.IsScalar()) return std::nullopt;
+    try {
+      return node.as<double>();
+    } catch (const YAML::BadConversion&) {
+      return std::nullopt;
+    }
+  }
+
+  double number(const YAML::Node& node, const std::string& field, const std::string& fix) const {
+    const std::optional<double> value = as_number(node);
+    if (!value) fail(node, field, "expected a number", fix);
+    if (!std::isfinite(*value)) fail(node, field, "the number is not finite", fix);
+    return *value;
+  }
+
+  double positive(const YAML::Node& map, const std::string& key, const std::string& fix) const {
+    const YAML::Node node = require(map, key, fix);
+    const double value = number(node, key, fix);
+    if (value <= 0) fail(node, key, "the value must be positive, got " + format_number(value), fix);
+    return value;
+  }
+
+  // An integer written as an integer ("1024", not "1024.0"), from 1 to kMaxImageSize.
+  int image_size(const YAML::Node& map, const std::string& key, const std::string& fix) const {
+    const YAML::Node node = require(map, key, fix);
+    if (!node.IsScalar()) fail(node, key, "expected an integer", fix);
+    const std::string& text = node.Scalar();
+    const char* first = text.data();
+    const char* last = text.data() + text.size();
+    if (first != last && *first == '+') ++first;
+    long long value = 0;
+    const auto [end, error] = std::from_chars(first, last, value);
+    const bool too_large = error == std::errc::result_out_of_range;
+    if (!too_large && (error != std::errc() || end != last)) {
+      fail(node, key,
+           as_number(node) ? "expected an integer, got '" + text + "'"
+                           : std::string("expected an integer"),
+           fix);
+    }
+    if (too_large || value < 1 || value > kMaxImageSize) {
+      fail(node, key, "the size " + text + " is outside 1.." + std::to_string(kMaxImageSize), fix);
+    }
+    return static_cast<int>(value);
+  }
+
+  std::vector<double> numbers(const YAML::Node& node, const std::string& field,
+                              const std::string& fix) const {
+    if (!node.IsSequence()) fail(node, field, "expected a list of numbers", fix);
+    std::vector<double> values;
+    for (std::size_t k = 0; k < node.size(); ++k) {
+      const YAML::Node element = node[k];
+      const std::optional<double> x = as_number(element);
+      if (!x) fail(element, field, "element " + std::to_string(k) + " is not a number", fix);
+      if (!std::isfinite(*x)) {
+        fail(element, field, "element " + std::to_string(k) + " is not a finite number", fix);
+      }
+      values.push_back(*x);
+    }
+    return values;
+  }
+
+  // 9 numbers row-major, or 3 rows of 3.
+  Eigen::Matrix3d matrix3(const YAML::Node& node, const std::string& field) const {
+    std::vector<double> values;
+    if (node.IsSequence() && node.size() == 3 && node[0].IsSequence()) {
+      for (std::size_t r = 0; r < 3; ++r) {
+        const std::vector<double> row = numbers(node[r], field, kRotationFix);
+        if (row.size() != 3) fail(node[r], field, "expected 3 rows of 3 numbers", kRotationFix);
+        values.insert(values.end(), row.begin(), row.end());
+      }
+    } else {
+      values = numbers(node, field, kRotationFix);
+      if (values.size() != 9) {
+        fail(node, field, "expected 9 numbers (row-major), got " + std::to_string(values.size()),
+             kRotationFix);
+      }
+    }
+    Eigen::Matrix3d R;
+    for (int r = 0; r < 3; ++r) {
+      for (int col = 0; col < 3; ++col) R(r, col) = values[static_cast<std::size_t>(3 * r + col)];
+    }
+    return R;
+  }
+
+  fs::path file_;
+  const std::string& text_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// OpenCV FileStorage files (YAML with "%YAML:1.0", XML, JSON), as written by OpenCV's tools.
+
+class OpenCVReader {
+ public:
+  OpenCVReader(fs::path file, const std::string& text) : file_(std::move(file)), text_(text) {}
+
+  CameraCalibration parse() {
+    cv::FileStorage storage;
+    try {
+      storage.open(text_, cv::FileStorage::READ | cv::FileStorage::MEMORY);
+    } catch (const cv::Exception& e) {
+      fail("", "OpenCV cannot parse the file: " + e.msg,
+           "repair the file (it is read as an OpenCV FileStorage file because of its first line)");
+    }
+    if (!storage.isOpened()) {
+      fail("", "OpenCV cannot parse the file",
+           "repair the file (it is read as an OpenCV FileStorage file because of its first line)");
+    }
+    try {
+      return read(storage);
+    } catch (const cv::Exception& e) {
+      fail("", "OpenCV cannot read a field: " + e.msg,
+           "write camera_matrix and distortion_coefficients as matrices and the sizes as integers");
+    }
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& field, const std::string& problem,
+                         const std::string& fix) const {
+    throw InputError(input_message(file_, -1, -1, field, problem, fix));
+  }
+
+  CameraCalibration read(const cv::FileStorage& storage) const {
+    CameraCalibration c;
+    c.file = file_;
+    const std::string size_fix = "write '" + std::string("image_width") +
+                                 "' and 'image_height' as integers from 1 to " +
+                                 std::to_string(kMaxImageSize);
+    c.image_width = integer(storage["image_width"], "image_width", size_fix);
+    c.image_height = integer(storage["image_height"], "image_height", size_fix);
+
+    const std::string camera_fix =
+        "write the 3×3 camera matrix [fx 0 cx; 0 fy cy; 0 0 1] as an "
+        "opencv-matrix (zero skew)";
+    const cv::Mat K = matrix(storage["camera_matrix"], "camera_matrix", camera_fix);
+    if (K.rows != 3 || K.cols != 3) {
+      fail("camera_matrix",
+           "expected a 3×3 matrix, got " + std::to_string(K.rows) + "×" + std::to_string(K.cols),
+           camera_fix);
+    }
+    if (K.at<double>(0, 1) != 0.0 || K.at<double>(1, 0) != 0.0 || K.at<double>(2, 0) != 0.0 ||
+        K.at<double>(2, 1) != 0.0 || K.at<double>(2, 2) != 1.0) {
+      fail("camera_matrix", "the matrix is not [fx 0 cx; 0 fy cy; 0 0 1] (skew is not supported)",
+           camera_fix);
+    }
+    c.fx = K.at<double>(0, 0);
+    c.fy = K.at<double>(1, 1);
+    c.cx = K.at<double>(0, 2);
+    c.cy = K.at<double>(1, 2);
+
+    const cv::Mat D = matrix(storage["distortion_coefficients"], "distortion_coefficients",
+                             "write the distortion coefficients as a 1×N opencv-matrix");
+    if (D.rows != 1 && D.cols != 1) {
+      fail("distortion_coefficients", "expected a 1×N or N×1 matrix",
+           "write the distortion coefficients as a 1×N opencv-matrix");
+    }
+    std::vector<double> coefficients(D.begin<double>(), D.end<double>());
+
+    c.model = LensModel::Pinhole;
+    const cv::FileNode model = storage["model"];
+    const cv::FileNode fisheye = storage["fisheye"];
+    const std::string model_fix = "write model: \"fisheye\" or model: \"pinhole\"";
+    if (!model.empty() && !model.isNone()) {
+      if (!model.isString()) fail("model", "expected a string", model_fix);
+      const std::string text = lower(model.string());
+      if (text == "fisheye") {
+        c.model = LensModel::Fisheye;
+      } else if (text != "pinhole") {
+        fail("model", "unknown lens model '" + model.string() + "'", model_fix);
+      }
+    } else if (!fisheye.empty() && !fisheye.isNone()) {
+      if (!fisheye.isInt() && !fisheye.isReal()) {
+        fail("fisheye", "expected 0 or 1", "write 'fisheye: 1' for a cv::fisheye calibration");
+      }
+      if (static_cast<double>(fisheye) != 0.0) c.model = LensModel::Fisheye;
+    }
+    if (!valid_coefficient_count(c.model, coefficients.size())) {
+      fail("distortion_coefficients",
+           std::to_string(coefficients.size()) + " coefficients do not fit the " +
+               model_name(c.model) + " model",
+           coefficient_fix(c.model) + (c.model == LensModel::Pinhole
+                                           ? " (for a cv::fisheye calibration add 'fisheye: 1')"
+                                           : std::string()));
+    }
+    c.D = normalise_coefficients(c.model, coefficients);
+
+    if (const cv::FileNode R = storage["R_site_from_camera"]; !R.empty() && !R.isNone()) {
+      std::vector<double> values;
+      if (R.isSeq()) {
+        values = sequence(R, "R_site_from_camera", kRotationFix);
+      } else {
+        const cv::Mat m = matrix(R, "R_site_from_camera", kRotationFix);
+        values.assign(m.begin<double>(), m.end<double>());
+      }
+      if (values.size() != 9) {
+        fail("R_site_from_camera", "expected 9 numbers (a 3×3 matrix)", kRotationFix);
+      }
+      for (int r = 0; r < 3; ++r) {
+        for (int col = 0; col < 3; ++col) {
+          c.R_site_from_camera(r, col) = values[static_cast<std::size_t>(3 * r + col)];
+        }
+      }
+    }
+    if (const cv::FileNode t = storage["t_site_from_camera"]; !t.empty() && !t.isNone()) {
+      std::vector<double> values;
+      if (t.isSeq()) {
+        values = sequence(t, "t_site_from_camera", "write 3 numbers in metres");
+      } else {
+        const cv::Mat m = matrix(t, "t_site_from_camera", "write 3 numbers in metres");
+        values.assign(m.begin<double>(), m.end<double>());
+      }
+      if (values.size() != 3)
+        fail("t_site_from_camera", "expected 3 numbers", "write 3 numbers in metres");
+      c.t_site_from_camera = Vec3(values[0], values[1], values[2]);
+    }
+    if (const cv::FileNode mask = storage["mask"]; !mask.empty() && !mask.isNone()) {
+      if (!mask.isString() || mask.string().empty()) {
+        fail("mask", "expected a file name", "write the mask image's path relative to this file");
+      }
+      c.mask = resolve(file_, mask.string());
+    }
+    // OpenCV's calibration sample writes avg_reprojection_error and per_view_reprojection_errors.
+    for (const char* key : {"rms", "avg_reprojection_error"}) {
+      if (const cv::FileNode rms = storage[key]; !rms.empty() && rms.isReal()) {
+        c.rms = static_cast<double>(rms);
+        break;
+      }
+    }
+    for (const char* key : {"per_view_errors", "per_view_reprojection_errors"}) {
+      const cv::FileNode errors = storage[key];
+      if (errors.empty() || errors.isNone()) continue;
+      if (errors.isSeq()) {
+        c.per_view_errors = sequence(errors, key, "write the per-view errors as a list of numbers");
+      } else {
+        const cv::Mat m = matrix(errors, key, "write the per-view errors as a list of numbers");
+        c.per_view_errors.assign(m.begin<double>(), m.end<double>());
+      }
+      break;
+    }
+    return c;
+  }
+
+  int integer(const cv::FileNode& node, const std::string& field, const std::string& fix) const {
+    if (node.empty() || node.isNone()) fail(field, "required field is missing", "add it: " + fix);
+    if (!node.isInt()) fail(field, "expected an integer", fix);
+    const int value = static_cast<int>(node);
+    if (value < 1 || value > kMaxImageSize) {
+      fail(field,
+           "the size " + std::to_string(value) + " is outside 1.." + std::to_string(kMaxImageSize),
+           fix);
+    }
+    return value;
+  }
+
+  // A list of numbers, element by element (OpenCV's vector reader trips GCC's null-dereference
+  // analysis under -Werror).
+  std::vector<double> sequence(const cv::FileNode& node, const std::string& field,
+                               const std::string& fix) const {
+    std::vector<double> values;
+    for (cv::FileNodeIterator it = node.begin(); it != node.end(); ++it) {
+      const cv::FileNode element = *it;
+      if (!element.isInt() && !element.isReal()) fail(field, "expected a list of numbers", fix);
+      values.push_back(static_cast<double>(element));
+    }
+    return values;
+  }
+
+  cv::Mat matrix(const cv::FileNode& node, const std::string& field, const std::string& fix) const {
+    if (node.empty() || node.isNone()) fail(field, "required field is missing", "add it: " + fix);
+    cv::Mat m;
+    if (node.isSeq()) {
+      m = cv::Mat(sequence(node, field, fix), true).reshape(1, 1);
+    } else {
+      node >> m;
+    }
+    if (m.empty()) fail(field, "expected a matrix", fix);
+    if (m.channels() != 1) fail(field, "expected a one-channel matrix", fix);
+    cv::Mat converted;
+    m.convertTo(converted, CV_64F);
+    return converted;
+  }
+
+  fs::path file_;
+  const std::string& text_;
+};
+
+// OpenCV FileStorage files are recognised by their content, whatever their extension.
+bool is_opencv_storage(const std::string& text) {
+  const std::size_t first = text.find_first_not_of(" \t\r\n\xEF\xBB\xBF");
+  if (first == std::string::npos) return false;
+  const std::string_view start(text.data() + first, text.size() - first);
+  if (start.starts_with("%YAML:")) return true;  // OpenCV's own header ("%YAML:1.0")
+  if (start.starts_with("<?xml") || start.starts_with("<opencv_storage>")) return true;
+  return start.starts_with("{") && text.find("\"camera_matrix\"") != std::string::npos;
+}
+
+[[noreturn]] void invalid(const CameraCalibration& c, const std::string& field,
+                          const std::string& problem, const std::string& fix) {
+  throw InputError(input_message(c.file, -1, -1, field, problem, fix));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Lens model helpers.
+
+// θ_d(θ) = θ (1 + k1 θ² + k2 θ⁴ + k3 θ⁶ + k4 θ⁸) and its derivative.
+double fisheye_distort(const std::vector<double>& k, double theta) {
+  const double t2 = theta * theta;
+  return theta * (1.0 + t2 * (k[0] + t2 * (k[1] + t2 * (k[2] + t2 * k[3]))));
+}
+double fisheye_slope(const std::vector<double>& k, double theta) {
+  const double t2 = theta * theta;
+  return 1.0 + t2 * (3.0 * k[0] + t2 * (5.0 * k[1] + t2 * (7.0 * k[2] + t2 * 9.0 * k[3])));
+}
+
+// Radial factor g(r²) of the pinhole model (rational when 8 coefficients) and dg/d(r²).
+struct Radial {
+  double g, dg, denominator;
+};
+Radial pinhole_radial(const std::vector<double>& D, double r2) {
+  const double k1 = D[0], k2 = D[1], k3 = D[4];
+  const double num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+  const double dnum = k1 + r2 * (2.0 * k2 + r2 * 3.0 * k3);
+  double den = 1.0, dden = 0.0;
+  if (D.size() >= 8) {
+    const double k4 = D[5], k5 = D[6], k6 = D[7];
+    den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6));
+    dden = k4 + r2 * (2.0 * k5 + r2 * 3.0 * k6);
+  }
+  return {num / den, (dnum * den - num * dden) / (den * den), den};
+}
+
+// d(r·g(r²))/dr, the slope of the pinhole's radial mapping (tangential terms left out: they do
+// not fold the image).
+bool pinhole_increasing(const std::vector<double>& D, double r) {
+  const Radial radial = pinhole_radial(D, r * r);
+  return radial.denominator > 0 && radial.g + 2.0 * r * r * radial.dg > 0;
+}
+
+// Normalised image point of a normalised pinhole point (x', y') and its Jacobian.
+Vec2 pinhole_distort(const std::vector<double>& D, const Vec2& p, Eigen::Matrix2d* jacobian) {
+  const double x = p.x(), y = p.y();
+  const double p1 = D[2], p2 = D[3];
+  const double r2 = x * x + y * y;
+  const Radial radial = pinhole_radial(D, r2);
+  const Vec2 out(x * radial.g + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x),
+                 y * radial.g + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y);
+  if (jacobian) {
+    const double cross = 2.0 * x * y * radial.dg + 2.0 * p1 * x + 2.0 * p2 * y;
+    (*jacobian) << radial.g + 2.0 * x * x * radial.dg + 2.0 * p1 * y + 6.0 * p2 * x, cross, cross,
+        radial.g + 2.0 * y * y * radial.dg + 6.0 * p1 * y + 2.0 * p2 * x;
+  }
+  return out;
+}
+
+// Largest θ in (0, limit] up to which `increasing(θ)` holds throughout: a scan for the first
+// failure, then bisection to the turning point.
+template <typename Increasing>
+double monotonic_limit(double limit, Increasing increasing) {
+  double previous = 0.0;
+  for (int i = 1; i <= kMonotonicScanSteps; ++i) {
+    const double theta = limit * i / kMonotonicScanSteps;
+    if (!increasing(theta)) {
+      double lo = previous, hi = theta;
+      for (int k = 0; k < 60; ++k) {
+        const double mid = 0.5 * (lo + hi);
+        (increasing(mid) ? lo : hi) = mid;
+      }
+      return lo;
+    }
+    previous = theta;
+  }
+  return limit;
+}
+
+}  // namespace
+
+CameraCalibration load_calibration(const std::filesystem::path& file) {
+  const std::string text = read_file(file);
+  CameraCalibration calibration;
+  if (is_opencv_storage(text)) {
+    calibration = OpenCVReader(file, text).parse();
+  } else {
+    try {
+      calibration = CalibrationParser(file, text).parse();
+    } catch (const YAML::Exception& e) {  // a construct the checks above did not foresee
+      const int line = e.mark.line >= 0 ? e.mark.line + 1 : -1;
+      const int column = e.mark.column >= 0 ? e.mark.column + 1 : -1;
+      throw InputError(input_message(file, line, column, "",
+                                     "cannot read the calibration: " + e.msg,
+                                     std::string("follow the schema in ") + kSchemaHint));
+    }
+  }
+  validate(calibration);
+  return calibration;
+}
+
+void validate(const CameraCalibration& c) {
+  const std::string size_fix =
+      "write the image size in pixels, an integer from 1 to " + std::to_string(kMaxImageSize);
+  if (c.image_width < 1 || c.image_width > kMaxImageSize) {
+    invalid(c, "image_width", "the width " + std::to_string(c.image_width) + " is out of range",
+            size_fix);
+  }
+  if (c.image_height < 1 || c.image_height > kMaxImageSize) {
+    invalid(c, "image_height", "the height " + std::to_string(c.image_height) + " is out of range",
+            size_fix);
+  }
+  const std::string focal_fix = "write the focal length in pixels, a positive number";
+  if (!(std::isfinite(c.fx) && c.fx > 0)) invalid(c, "fx", "must be a positive number", focal_fix);
+  if (!(std::isfinite(c.fy) && c.fy > 0)) invalid(c, "fy", "must be a positive number", focal_fix);
+  if (!std::isfinite(c.cx))
+    invalid(c, "cx", "must be a finite number", "write the principal point in pixels");
+  if (!std::isfinite(c.cy))
+    invalid(c, "cy", "must be a finite number", "write the principal point in pixels");
+  if (!valid_coefficient_count(c.model, c.D.size())) {
+    invalid(c, "D",
+            std::to_string(c.D.size()) + " coefficients do not fit the " + model_name(c.model) +
+                " model",
+            coefficient_fix(c.model));
+  }
+  for (std::size_t i = 0; i < c.D.size(); ++i) {
+    if (!std::isfinite(c.D[i])) {
+      invalid(c, "D", "coefficient " + std::to_string(i) + " is not finite",
+              coefficient_fix(c.model));
+    }
+  }
+  if (const std::string problem = rotation_problem(c.R_site_from_camera); !problem.empty()) {
+    invalid(c, "R_site_from_camera", problem, kRotationFix);
+  }
+  if (!c.t_site_from_camera.allFinite()) {
+    invalid(c, "t_site_from_camera", "an element is not finite", "write 3 numbers in metres");
+  }
+  const std::string error_fix = "write the reprojection error in pixels, a number ≥ 0";
+  if (c.rms && !(std::isfinite(*c.rms) && *c.rms >= 0)) {
+    invalid(c, "rms", "must be a finite number ≥ 0", error_fix);
+  }
+  for (std::size_t i = 0; i < c.per_view_errors.size(); ++i) {
+    if (!(std::isfinite(c.per_view_errors[i]) && c.per_view_errors[i] >= 0)) {
+      invalid(c, "per_view_errors", "element " + std::to_string(i) + " must be a finite number ≥ 0",
+              error_fix);
+    }
+  }
+}
+
+std::string calibration_to_yaml(const CameraCalibration& c) {
+  // The mask is written relative to the YAML's directory when the YAML's place is known, so
+  // that load_calibration of the written file resolves it to the same path.
+  fs::path mask = c.mask;
+  if (!mask.empty() && !c.file.empty()) {
+    const fs::path relative = mask.lexically_relative(c.file.parent_path());
+    if (!relative.empty()) mask = relative;
+  }
+  std::vector<double> R(9);
+  for (int r = 0; r < 3; ++r) {
+    for (int col = 0; col < 3; ++col)
+      R[static_cast<std::size_t>(3 * r + col)] = c.R_site_from_camera(r, col);
+  }
+  const bool fisheye = c.model == LensModel::Fisheye;
+  std::ostringstream out;
+  out << "# skylit camera calibration (format: docs/sky.md). Pixel centres at integers (OpenCV).\n"
+      << "image_width: " << c.image_width << "\n"
+      << "image_height: " << c.image_height << "\n"
+      << "model: " << model_name(c.model)
+      << (fisheye ? "  # cv::fisheye: theta_d = theta (1 + k1 theta^2 + ... + k4 theta^8)\n"
+                  : "  # OpenCV radial-tangential (cv::projectPoints)\n")
+      << "fx: " << format_number(c.fx) << "  # pixels\n"
+      << "fy: " << format_number(c.fy) << "\n"
+      << "cx: " << format_number(c.cx) << "\n"
+      << "cy: " << format_number(c.cy) << "\n"
+      << "D: " << format_list(c.D.data(), c.D.size())
+      << (fisheye ? "  # k1, k2, k3, k4 (all 0: equidistant)\n"
+                  : "  # k1, k2, p1, p2, k3[, k4, k5, k6]\n")
+      << "R_site_from_camera: " << format_list(R.data(), R.size())
+      << "  # row-major; camera x right, y down, z forward -> site x east, y north, z up\n"
+      << "t_site_from_camera: " << format_list(c.t_site_from_camera.data(), 3) << "  # metres\n";
+  if (!mask.empty())
+    out << "mask: " << quote(mask.generic_string()) << "  # 0 where the sky is hidden\n";
+  if (c.rms) out << "rms: " << format_number(*c.rms) << "  # reprojection error, pixels\n";
+  if (!c.per_view_errors.empty()) {
+    out << "per_view_errors: " << format_list(c.per_view_errors.data(), c.per_view_errors.size())
+        << "\n";
+  }
+  return out.str();
+}
+
+void save_calibration(const CameraCalibration& calibration, const std::filesystem::path& file) {
+  validate(calibration);
+  CameraCalibration placed = calibration;
+  placed.file = file;  // so that the mask is written relative to where the YAML goes
+  write_file_atomic(file, calibration_to_yaml(placed));
+}
+
+// ---------------------------------------------------------------------------------------------
+
+Lens::Lens(const CameraCalibration& calibration) : calibration_(calibration) {
+  validate(calibration_);
+  camera_from_site_ = calibration_.R_site_from_camera.transpose();
+  const std::vector<double>& D = calibration_.D;
+  if (calibration_.model == LensModel::Fisheye) {
+    max_theta_ = monotonic_limit(std::numbers::pi,
+                                 [&](double theta) { return fisheye_slope(D, theta) > 0; });
+  } else {
+    // Up to the first turn of the radial mapping r·g(r²), r = tan θ; never beyond the image plane.
+    max_theta_ = monotonic_limit(std::numbers::pi / 2 * (1.0 - 1e-9), [&](double theta) {
+      return pinhole_increasing(D, std::tan(theta));
+    });
+  }
+}
+
+double Lens::distort_theta(double theta) const { return fisheye_distort(calibration_.D, theta); }
+
+std::optional<Vec2> Lens::project(const Vec3& d) const {
+  if (!d.allFinite()) return std::nullopt;
+  const double rho = std::hypot(d.x(), d.y());
+  const double theta = std::atan2(rho, d.z());
+  if (rho == 0.0 && d.z() <= 0.0) return std::nullopt;  // zero vector, or straight behind
+  if (theta > max_theta_) return std::nullopt;
+  const CameraCalibration& c = calibration_;
+  Vec2 m;
+  if (c.model == LensModel::Fisheye) {
+    if (rho == 0.0) {
+      m.setZero();
+    } else {
+      const double scale = distort_theta(theta) / rho;
+      m = Vec2(d.x() * scale, d.y() * scale);
+    }
+  } else {
+    if (d.z() <= 0.0) return std::nullopt;
+    m = pinhole_distort(c.D, Vec2(d.x() / d.z(), d.y() / d.z()), nullptr);
+  }
+  return Vec2(c.fx * m.x() + c.cx, c.fy * m.y() + c.cy);
+}
+
+std::optional<Vec3> Lens::unproject(const Vec2& pixel) const {
+  if (!pixel.allFinite()) return std::nullopt;
+  const CameraCalibration& c = calibration_;
+  const Vec2 m((pixel.x() - c.cx) / c.fx, (pixel.y() - c.cy) / c.fy);
+  if (c.model == LensModel::Fisheye) {
+    const double theta_d = m.norm();
+    if (theta_d == 0.0) return Vec3(0, 0, 1);
+    if (theta_d > distort_theta(max_theta_)) return std::nullopt;
+    // Safeguarded Newton on θ_d(θ) = target: θ_d is increasing on [0, max_theta], so the root is
+    // unique and the bracket [lo, hi] always holds it.
+    double lo = 0.0, hi = max_theta_;
+    double theta = std::min(theta_d, max_theta_);
+    for (int i = 0; i < kNewtonIterations; ++i) {
+      const double residual = distort_theta(theta) - theta_d;
+      if (residual == 0.0) break;
+      (residual > 0 ? hi : lo) = theta;
+      const double slope = fisheye_slope(c.D, theta);
+      double next = slope > 0 ? theta - residual / slope : 0.5 * (lo + hi);
+      if (!(next >= lo && next <= hi)) next = 0.5 * (lo + hi);
+      const bool converged = std::abs(next - theta) <= kNewtonTolerance * std::max(1.0, theta);
+      theta = next;
+      if (converged) break;
+    }
+    const double s = std::sin(theta) / theta_d;
+    return Vec3(m.x() * s, m.y() * s, std::cos(theta));
+  }
+  // Pinhole: Newton on the 2-D distortion, from the distorted point itself.
+  Vec2 p = m;
+  Eigen::Matrix2d J;
+  for (int i = 0; i < kNewtonIterations; ++i) {
+    const Vec2 residual = pinhole_distort(c.D, p, &J) - m;
+    const double det = J.determinant();
+    if (!std::isfinite(det) || std::abs(det) < 1e-300) return std::nullopt;
+    const Vec2 delta = J.inverse() * residual;
+    p -= delta;
+    if (!p.allFinite()) return std::nullopt;
+    if (delta.norm() <= kNewtonTolerance * std::max(1.0, p.norm())) break;
+  }
+  // Reject a root outside the monotonic range (a fold of the model) or one Newton missed.
+  if (std::atan(p.norm()) > max_theta_) return std::nullopt;
+  if ((pinhole_distort(c.D, p, nullptr) - m).norm() > 1e-9 * std::max(1.0, m.norm()))
+    return std::nullopt;
+  return Vec3(p.x(), p.y(), 1.0).normalized();
+}
+
+std::optional<Vec3> Lens::pixel_to_site(const Vec2& pixel) const {
+  const std::optional<Vec3> camera = unproject(pixel);
+  if (!camera) return std::nullopt;
+  return Vec3(calibration_.R_site_from_camera * *camera);
+}
+
+std::optional<Vec2> Lens::site_to_pixel(const Vec3& site_direction) const {
+  return project(camera_from_site_ * site_direction);
+}
+
+}  // namespace skylit::sky

@@ -6,7 +6,7 @@
 //   image_width: 1024
 //   image_height: 1024
 //   model: fisheye            # fisheye (Kannala–Brandt, D = k1..k4; D = 0 is equidistant)
-//                             # or pinhole (D = k1, k2, p1, p2, k3)
+//                             # or pinhole (D = k1, k2, p1, p2[, k3[, k4, k5, k6]])
 //   fx: 325.9
 //   fy: 325.9
 //   cx: 511.5
@@ -16,6 +16,7 @@
 //   t_site_from_camera: [0, 0, 0]               # optional, metres
 //   mask: sky_mask.png                          # optional: 0 where the mount hides the sky
 //   rms: 0.21                                   # optional, written by the calibration tools
+//   per_view_errors: [0.2, 0.3]                 # optional, pixels
 //
 // OpenCV FileStorage files (camera_matrix, distortion_coefficients, image_width, image_height,
 // and optionally R_site_from_camera) are read too, for users who calibrated with OpenCV's tools.
@@ -39,7 +40,7 @@ struct CameraCalibration {
   int image_height = 0;
   LensModel model = LensModel::Fisheye;
   double fx = 0, fy = 0, cx = 0, cy = 0;      // pixels; pixel centres at integers (OpenCV)
-  std::vector<double> D;                      // 4 (fisheye) or 5 (pinhole) coefficients
+  std::vector<double> D;                      // 4 (fisheye) or 5 or 8 (pinhole) coefficients
   Eigen::Matrix3d R_site_from_camera = Eigen::Matrix3d::Identity();
   Vec3 t_site_from_camera = Vec3::Zero();
   std::filesystem::path mask;                 // resolved against the file's directory; may be empty

@@ -34,7 +34,9 @@ struct FaceLuminance {
 
 struct Luminance {
   std::vector<FaceLuminance> faces;
-  std::int64_t samples = 0;           // table samples read
+  std::int64_t samples = 0;           // table samples visited (excluded ones included)
+  // Sampled, not excluded pixels with a NaN / ±Inf / negative (finite) channel: a pixel counts
+  // once per kind. Clipped: set in `clipped` (and not excluded).
   std::int64_t nan_pixels = 0;
   std::int64_t inf_pixels = 0;
   std::int64_t negative_pixels = 0;
@@ -48,7 +50,8 @@ struct LuminanceOptions {
 };
 
 // `radiance`: CV_32FC3 BGR, the table's image size. `clipped` (CV_8U, 255 = clipped) and
-// `exclude` (CV_8U, 255 = leave the pixel out, e.g. the sun's disc) may be empty.
+// `exclude` (CV_8U, 255 = leave the pixel out, e.g. the sun's disc) may be empty; any non-zero
+// value counts as set.
 // InputError when sizes or types do not match the table.
 Luminance compute_luminance(const SkyTable& table, const geom::Dome& dome, const cv::Mat& radiance,
                             const cv::Mat& clipped, const cv::Mat& exclude,

@@ -6,6 +6,17 @@
 // face, so that luminance parameters are a streaming pass over the frame (the hot loop of the
 // sky thread). With step s only every s-th pixel of every s-th row is sampled, and each sample
 // carries the solid angle of its s×s block: Σ w still covers the image's view of each face.
+//
+// Sampling (OpenCV's convention: pixel centres at integers, pixel (x, y) spans [x±½] × [y±½]):
+// along each axis the samples are the pixels b·s + ⌊s/2⌋ (b = 0, 1, …, while inside the image),
+// and a sample's block reaches halfway to its neighbours, so that the sample sits at its block's
+// centre (for even s the block edges run through pixel centres); the first and the last block
+// of a row or column reach out to the image's edge (−½ and size − ½). A sample is kept when its
+// pixel centre unprojects (within the lens model's range), looks at or above the horizon and is
+// not masked, and all four block corners unproject; its face is the one its pixel centre sees
+// (so a frame painted by face reads back exactly) and its weight is block_solid_angle of its
+// block. A block on a face edge goes wholly to one face, which is why coverage per face is
+// exact only to about the block's size.
 #include <cstdint>
 #include <span>
 #include <vector>
