@@ -276,9 +276,9 @@ TEST(SkylitSkyResponse, CalibratesACurveFromABracketAndPlotsIt) {
   for (std::size_t k = 0; k < times.size(); ++k) {
     const fs::path frame = dir / ("frame" + std::to_string(k) + ".png");
     ASSERT_TRUE(cv::imwrite(frame.string(), skylit::sky::to_8bit(radiance, times[k])));
-    args += " " + frame.string();
+    args.append(" ").append(frame.string());
   }
-  args += " --exposure 0.01 0.1 1 10 -o " + (dir / "curve.yaml").string();
+  args.append(" --exposure 0.01 0.1 1 10 -o ").append((dir / "curve.yaml").string());
   const Result r = run_sky(args);
   ASSERT_EQ(r.status, 0) << r.output;
   const skylit::sky::ResponseCurve curve = skylit::sky::load_response(dir / "curve.yaml");

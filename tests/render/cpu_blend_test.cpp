@@ -232,8 +232,9 @@ TEST(BlendCpu, AgreesWithReferenceFor40Faces) { expect_agreement(40, 67, 53, 7);
 TEST(BlendCpu, AgreesWithReferenceFor640Faces) { expect_agreement(640, 45, 51, 11); }
 
 TEST(BlendCpu, ResultsAreIdenticalForAnyThreadCount) {
-  // 9100 texels: 4 whole blocks and a partial one, split differently by 1, 2, 3 and 4 threads.
-  const test::RandomScene scene = random_scene(40, 130, 70, 3);
+  // 50 100 texels: 3 whole chunks of 8 blocks of 2048 texels and a partial one with a partial
+  // block, taken by 1, 2, 3, 4 or 16 threads in whatever order they come.
+  const test::RandomScene scene = random_scene(40, 334, 150, 3);
   for (const bool simd : {true, false}) {
     BlendOptions options;
     options.use_simd = simd;

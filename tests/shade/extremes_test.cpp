@@ -13,6 +13,9 @@
 #include <unistd.h>
 
 #include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/baker/visibility.hpp"
@@ -268,26 +271,50 @@ TEST_F(ExtremesTest, EightBitFrameWithAClippedSun) {
   const cv::Mat frame8 = sky::to_8bit(hdr.radiance, 0.5);
   const sky::RadianceFrame frame = sky::linearise(frame8, sky::ResponseCurve::srgb(8), {});
   ASSERT_GT(cv::countNonZero(frame.clipped), 0);
-  const Outcome o = shade(frame, camera(), sky::SunMode::Auto);
-  expect_finite_unit(o);
-  ASSERT_TRUE(o.estimate.sun) << o.estimate.sun_reason;
-  EXPECT_TRUE(o.estimate.sun->clipped);
-  EXPECT_GT(o.estimate.luminance.clipped_pixels, 0);
+  // Separated: the sun says it is clipped (its energy is a lower bound).
+  const Outcome separated = shade(frame, camera(), sky::SunMode::Auto);
+  expect_finite_unit(separated);
+  ASSERT_TRUE(separated.estimate.sun) << separated.estimate.sun_reason;
+  EXPECT_TRUE(separated.estimate.sun->clipped);
+  // In the dome: the face that holds it is flagged clipped.
+  const Outcome in_dome = shade(frame, camera(), sky::SunMode::Off);
+  expect_finite_unit(in_dome);
+  EXPECT_GT(in_dome.estimate.luminance.clipped_pixels, 0);
+  int clipped_faces = 0;
+  for (const auto& face : in_dome.estimate.luminance.faces) clipped_faces += (face.flags & sky::kFaceClipped) != 0;
+  EXPECT_GE(clipped_faces, 1);
 }
 
-TEST_F(ExtremesTest, NarrowLensLeavesHorizonFacesUnseenAndFilled) {
-  const sky::CameraCalibration narrow = camera(80.0);  // 160° field of view
-  const Outcome o = shade(paint(narrow, sunny(from_angles(30.0, 60.0), 1e4)), narrow, sky::SunMode::Auto);
-  expect_finite_unit(o);
-  EXPECT_GT(o.estimate.luminance.unseen_faces, 0);
+TEST_F(ExtremesTest, NarrowLensesSeeLessOfTheHorizon) {
+  // A real lens sees nothing outside its image circle: a mask at the circle's edge.
+  const auto lens_of = [&](double half_fov_deg) {
+    sky::CameraCalibration c = camera(half_fov_deg);
+    cv::Mat mask(c.image_height, c.image_width, CV_8UC1, cv::Scalar(0));
+    cv::circle(mask, cv::Point(200, 200), 200, cv::Scalar(255), -1);
+    c.mask = *dir_ / ("mask_" + std::to_string(static_cast<int>(half_fov_deg)) + ".png");
+    cv::imwrite(c.mask.string(), mask);
+    return c;
+  };
+  // 160°: the horizon faces are seen only in part (S from what is seen, coverage says how much).
+  const sky::CameraCalibration wide = lens_of(80.0);
+  const Outcome o160 = shade(paint(wide, sunny(from_angles(30.0, 60.0), 1e4)), wide, sky::SunMode::Auto);
+  expect_finite_unit(o160);
+  int partial = 0;
+  for (const auto& face : o160.estimate.luminance.faces) partial += face.coverage < 0.95;
+  EXPECT_GE(partial, 10);
+  // 100°: the horizon band is not seen at all; those faces are filled from their neighbours.
+  const sky::CameraCalibration narrow = lens_of(50.0);
+  const Outcome o100 = shade(paint(narrow, sunny(from_angles(30.0, 60.0), 1e4)), narrow, sky::SunMode::Auto);
+  expect_finite_unit(o100);
+  EXPECT_GT(o100.estimate.luminance.unseen_faces, 0);
   int flagged = 0;
-  for (const auto& face : o.estimate.luminance.faces) {
+  for (const auto& face : o100.estimate.luminance.faces) {
     if (face.flags & sky::kFaceUnseen) {
       ++flagged;
       EXPECT_GT(face.rgb.minCoeff(), 0.0);  // filled from the seen neighbours
     }
   }
-  EXPECT_EQ(flagged, o.estimate.luminance.unseen_faces);
+  EXPECT_EQ(flagged, o100.estimate.luminance.unseen_faces);
 }
 
 TEST_F(ExtremesTest, PlaneFacingAwayFromEveryLitFace) {
