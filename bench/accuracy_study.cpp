@@ -23,6 +23,8 @@
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/baker/visibility.hpp"
@@ -102,6 +104,10 @@ int main(int argc, char** argv) {
   app.add_option("--supersample", supersample, "fisheye rendering: sub-pixels per axis")->capture_default_str();
   app.add_option("--out", out_dir, "bakes and results")->capture_default_str();
   app.add_option("--configs", config_list, "comma-separated subset of paper,area,area+sun,nu4,nu8");
+  std::string only_sky;
+  bool dump = false;
+  app.add_flag("--pictures", dump, "write T | reference | 5×|difference| per sky, setting and plane as PNG");
+  app.add_option("--sky", only_sky, "only this sky (file stem, e.g. park)");
   CLI11_PARSE(app, argc, argv);
 
   std::vector<Config> configs;
@@ -138,14 +144,24 @@ int main(int argc, char** argv) {
 
   std::vector<fs::path> skies;
   for (const auto& entry : fs::directory_iterator(skies_dir)) {
-    if (entry.path().extension() == ".exr") skies.push_back(entry.path());
+    if (entry.path().extension() == ".exr" && (only_sky.empty() || entry.path().stem() == only_sky)) {
+      skies.push_back(entry.path());
+    }
   }
   std::sort(skies.begin(), skies.end());
 
   nlohmann::json results = nlohmann::json::array();
   std::printf("| sky | configuration | ν | K | sun | RMS | p99 | max | sun found |\n|---|---|---|---|---|---|---|---|---|\n");
   for (const fs::path& sky_file : skies) {
-    const cv::Mat equirect = skylit::sky::read_sky_image(sky_file);
+    // Lossy HDR captures hold negative (and, in general, non-finite) pixels. Both paths see the
+    // same sky: cleaned once here, so that resampling the artefacts into the fisheye does not
+    // count as error of the dome.
+    cv::Mat equirect = skylit::sky::read_sky_image(sky_file);
+    for (int row = 0; row < equirect.rows; ++row) {
+      for (auto* p = equirect.ptr<float>(row), *end = p + 3 * equirect.cols; p != end; ++p) {
+        *p = std::isfinite(*p) && *p > 0.0f ? *p : 0.0f;
+      }
+    }
     // Reference weights: every pixel above the horizon, radiance × solid angle (bad pixels as 0).
     std::vector<Vec3> directions;
     std::vector<Eigen::Vector3d> weights;
@@ -155,9 +171,8 @@ int main(int argc, char** argv) {
         const Vec3 d = skylit::sky::equirect_direction(equirect.cols, equirect.rows, col + 0.5, row + 0.5);
         if (d.z() <= 0.0) continue;
         const cv::Vec3f& l = equirect.at<cv::Vec3f>(row, col);
-        const auto clean = [](float v) { return std::isfinite(v) && v > 0.0f ? static_cast<double>(v) : 0.0; };
         directions.push_back(d);
-        weights.emplace_back(clean(l[2]) * solid_angle, clean(l[1]) * solid_angle, clean(l[0]) * solid_angle);
+        weights.emplace_back(l[2] * solid_angle, l[1] * solid_angle, l[0] * solid_angle);
       }
     }
     auto t = Clock::now();
@@ -189,23 +204,48 @@ int main(int argc, char** argv) {
       if (estimate.sun) sun = skylit::render::SunLight{estimate.sun->direction, estimate.sun->energy};
 
       std::vector<double> diffs;
+      nlohmann::json per_plane;
       for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
         const skylit::render::BasisImages basis = skylit::render::load_basis(bake_dir, manifest, static_cast<int>(j));
         std::vector<float> visibility;
         if (sun) {
           visibility.resize(basis.texel_count());
-          const std::vector<skylit::geom::Plane> one{manifest.planes[j].plane};
-          auto engine = skylit::baker::make_raytrace_engine(mesh, one, {});
-          const std::vector<Vec3> sun_direction{sun->direction};
-          engine->set_directions(sun_direction);
-          engine->plane_fractions(0, visibility);
+          skylit::baker::area_light_visibility(mesh, manifest.planes[j].plane, estimate.sun->disc_directions,
+                                               estimate.sun->disc_weights, visibility);
         }
         const auto w = skylit::render::blend_weights(basis, S, sun);
         std::vector<float> T(basis.texel_count() * 3);
         skylit::render::blend_cpu(basis, w, w.sun.isZero() ? std::span<const float>() : std::span<const float>(visibility), T);
+        std::vector<double> plane_diffs;
         for (std::size_t x = 0; x < basis.texel_count(); ++x) {
-          for (int ch = 0; ch < 3; ++ch) diffs.push_back(std::abs(T[x * 3 + static_cast<std::size_t>(ch)] - reference[j][x][ch]));
+          for (int ch = 0; ch < 3; ++ch) {
+            plane_diffs.push_back(std::abs(T[x * 3 + static_cast<std::size_t>(ch)] - reference[j][x][ch]));
+          }
         }
+        diffs.insert(diffs.end(), plane_diffs.begin(), plane_diffs.end());
+        if (dump) {
+          // Picture per plane: T, the reference, and max over channels of |T − T_ref| × 5 (green), side by side.
+          const int width = basis.width, h = basis.height;
+          cv::Mat picture(h, 3 * width + 8, CV_8UC3, cv::Scalar(40, 40, 40));
+          for (int row = 0; row < h; ++row) {
+            for (int col = 0; col < width; ++col) {
+              const std::size_t x = static_cast<std::size_t>(row) * width + col;
+              for (int ch = 0; ch < 3; ++ch) {
+                const double value = T[x * 3 + static_cast<std::size_t>(ch)], r = reference[j][x][ch];
+                picture.at<cv::Vec3b>(row, col)[2 - ch] = cv::saturate_cast<uchar>(255 * value);
+                picture.at<cv::Vec3b>(row, width + 4 + col)[2 - ch] = cv::saturate_cast<uchar>(255 * r);
+              }
+              double d = 0;
+              for (int ch = 0; ch < 3; ++ch) d = std::max(d, std::abs(T[x * 3 + static_cast<std::size_t>(ch)] - reference[j][x][ch]));
+              picture.at<cv::Vec3b>(row, 2 * width + 8 + col) = cv::Vec3b(0, cv::saturate_cast<uchar>(5 * 255 * d), 0);
+            }
+          }
+          cv::Mat big;
+          cv::resize(picture, big, {}, 4, 4, cv::INTER_NEAREST);
+          cv::imwrite((fs::path(out_dir) / (sky_file.stem().string() + "_" + c.name + "_" + basis.name + ".png")).string(), big);
+        }
+        const Errors pe = errors_of(std::move(plane_diffs));
+        per_plane[basis.name] = {{"rms", pe.rms}, {"p99", pe.p99}, {"max", pe.max}};
       }
       const Errors e = errors_of(std::move(diffs));
       std::printf("| %s | %s | %d | %d | %s | %.4f | %.4f | %.4f | %s |\n", sky_file.stem().c_str(), c.name.c_str(),
@@ -215,7 +255,7 @@ int main(int argc, char** argv) {
       results.push_back({{"sky", sky_file.stem().string()}, {"config", c.name}, {"frequency", c.frequency},
                          {"samples", c.samples}, {"sun_separation", c.sun}, {"sun_found", estimate.sun.has_value()},
                          {"sun_reason", estimate.sun_reason}, {"rms", e.rms}, {"p99", e.p99}, {"max", e.max},
-                         {"reference_seconds", reference_seconds},
+                         {"planes", per_plane}, {"reference_seconds", reference_seconds},
                          {"bake_seconds", bake_seconds.at({c.frequency, c.samples})}});
     }
   }

@@ -119,10 +119,10 @@ std::vector<std::string> face_flag_names(std::uint32_t flags) {
 
 nlohmann::json vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
-// Sun visibility V(x, ω_sun) for every texel of every plane, ray-cast with Embree against the
-// site model the bake was made from.
+// Sun visibility for every texel of every plane: its disc as an area light (soft shadows),
+// ray-cast with Embree against the site model the bake was made from.
 std::vector<std::vector<float>> sun_visibility(const Options& o, const skylit::bake::Manifest& manifest,
-                                               const skylit::geom::Vec3& sun_direction) {
+                                               const skylit::sky::Sun& sun) {
   const fs::path site_file = o.site.empty() ? fs::path(manifest.plan.site_file) : fs::path(o.site);
   if (!fs::exists(site_file)) {
     throw InputError(site_file.string() + ": the site this bake was made from is not here, and the sun's shadows "
@@ -134,15 +134,16 @@ std::vector<std::vector<float>> sun_visibility(const Options& o, const skylit::b
     spdlog::warn("the model {} changed since the bake was made: the sun's shadows follow the new model",
                  site.model.string());
   }
-  std::vector<skylit::geom::Plane> planes;
-  for (const auto& p : manifest.planes) planes.push_back(p.plane);
-  auto engine = skylit::baker::make_raytrace_engine(mesh, planes, {o.threads});
-  const std::vector<skylit::geom::Vec3> direction{sun_direction};
-  engine->set_directions(direction);
+  std::vector<skylit::geom::Vec3> directions = sun.disc_directions;
+  std::vector<double> weights = sun.disc_weights;
+  if (directions.empty()) {
+    directions = {sun.direction};
+    weights = {1.0};
+  }
   std::vector<std::vector<float>> visibility;
-  for (std::size_t j = 0; j < planes.size(); ++j) {
-    std::vector<float> v(static_cast<std::size_t>(planes[j].width) * static_cast<std::size_t>(planes[j].height));
-    engine->plane_fractions(static_cast<int>(j), v);
+  for (const auto& p : manifest.planes) {
+    std::vector<float> v(static_cast<std::size_t>(p.plane.width) * static_cast<std::size_t>(p.plane.height));
+    skylit::baker::area_light_visibility(mesh, p.plane, directions, weights, v, {o.threads});
     visibility.push_back(std::move(v));
   }
   return visibility;
@@ -187,7 +188,7 @@ int run(const Options& o) {
   if (estimate.sun) {
     sun = skylit::render::SunLight{estimate.sun->direction, estimate.sun->energy};
     t = Clock::now();
-    visibility = sun_visibility(o, manifest, estimate.sun->direction);
+    visibility = sun_visibility(o, manifest, *estimate.sun);
     visibility_ms = ms_since(t);
   }
 

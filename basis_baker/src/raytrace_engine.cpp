@@ -407,4 +407,22 @@ void weighted_plane_visibility(const scene::Mesh& mesh, const geom::Plane& plane
   engine.weighted_plane_visibility(0, directions, weights, out);
 }
 
+void area_light_visibility(const scene::Mesh& mesh, const geom::Plane& plane, std::span<const Vec3> directions,
+                           std::span<const double> weights, std::span<float> out, const RaytraceOptions& options) {
+  if (directions.size() != weights.size() || directions.empty()) {
+    throw std::invalid_argument("area_light_visibility: one weight per direction, at least one direction");
+  }
+  std::vector<Eigen::Vector3d> weight3;
+  double facing = 0.0;
+  for (std::size_t k = 0; k < directions.size(); ++k) {
+    weight3.push_back(Eigen::Vector3d::Constant(weights[k]));
+    facing += weights[k] * std::max(0.0, plane.normal().dot(directions[k].normalized()));
+  }
+  std::vector<Eigen::Vector3d> visible(out.size());
+  weighted_plane_visibility(mesh, plane, directions, weight3, visible, options);
+  for (std::size_t x = 0; x < out.size(); ++x) {
+    out[x] = facing > 0.0 ? static_cast<float>(std::clamp(visible[x].x() / facing, 0.0, 1.0)) : 1.0f;
+  }
+}
+
 }  // namespace skylit::baker

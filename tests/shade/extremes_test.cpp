@@ -111,12 +111,9 @@ class ExtremesTest : public ::testing::Test {
       const render::BasisImages basis = render::load_basis(*dir_ / "bake", *manifest_, static_cast<int>(j));
       std::vector<float> visibility;
       if (sun) {
-        const std::vector<geom::Plane> one{manifest_->planes[j].plane};
-        auto engine = baker::make_raytrace_engine(*mesh_, one, {});
-        const std::vector<Vec3> d{sun->direction};
-        engine->set_directions(d);
         visibility.resize(basis.texel_count());
-        engine->plane_fractions(0, visibility);
+        baker::area_light_visibility(*mesh_, manifest_->planes[j].plane, o.estimate.sun->disc_directions,
+                                     o.estimate.sun->disc_weights, visibility);
       }
       o.weights.push_back(render::blend_weights(basis, S, sun));
       std::vector<float> T(basis.texel_count() * 3);

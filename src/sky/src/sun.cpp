@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <numbers>
 #include <vector>
 
@@ -29,6 +30,35 @@ double median(std::vector<double> values) {
   const auto mid = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
   std::nth_element(values.begin(), mid, values.end());
   return *mid;
+}
+
+// The disc's pixels as an area light: merged into cells of a square grid on the plane tangent to
+// the sun's direction, fine enough that at most about kMaxDiscSamples cells are occupied.
+void merge_disc(Sun& sun, const std::vector<std::pair<Vec3, double>>& pixels) {
+  double total = 0.0, extent = 0.0;
+  const Vec3 axis = sun.direction;
+  const Vec3 t1 = (std::abs(axis.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX()).cross(axis).normalized();
+  const Vec3 t2 = axis.cross(t1);
+  for (const auto& [d, e] : pixels) {
+    total += e;
+    extent = std::max({extent, std::abs(d.dot(t1)), std::abs(d.dot(t2))});
+  }
+  if (total <= 0.0) return;
+  const double half_cells = std::sqrt(static_cast<double>(kMaxDiscSamples)) / 2.0;
+  const double cell = std::max(extent / half_cells, 1e-12);
+  std::map<std::pair<long, long>, std::pair<Vec3, double>> cells;
+  for (const auto& [d, e] : pixels) {
+    if (e <= 0.0) continue;
+    // Eigen does not zero a default-constructed vector: start each cell explicitly.
+    auto& c = cells.try_emplace({std::lround(d.dot(t1) / cell), std::lround(d.dot(t2) / cell)}, Vec3::Zero(), 0.0)
+                  .first->second;
+    c.first += e * d;
+    c.second += e;
+  }
+  for (const auto& [key, c] : cells) {
+    sun.disc_directions.push_back(c.first.normalized());
+    sun.disc_weights.push_back(c.second / total);
+  }
 }
 
 }  // namespace
@@ -147,54 +177,74 @@ SunDetection SunDetector::detect(const cv::Mat& radiance, const cv::Mat& clipped
     return result;
   }
 
-  // The disc: pixels connected to the peak that stand well above the background (or clip).
-  const double threshold = background_y * options_.disc_factor;
-  const double max_radius = options_.max_angular_radius_deg * kDeg;
-  cv::Mat in_disc(window.size(), CV_8UC1, cv::Scalar(0));
-  std::vector<cv::Point> stack{peak_at - window.tl()};
-  std::vector<cv::Point> disc;
-  in_disc.at<std::uint8_t>(stack.back()) = 1;
-  bool too_wide = false;
-  while (!stack.empty()) {
-    const cv::Point p = stack.back();
-    stack.pop_back();
-    disc.push_back(p);
-    if (angle.at<double>(p) > max_radius) too_wide = true;
-    for (int dy = -1; dy <= 1; ++dy) {
-      for (int dx = -1; dx <= 1; ++dx) {
-        const cv::Point q(p.x + dx, p.y + dy);
-        if (q.x < 0 || q.y < 0 || q.x >= window.width || q.y >= window.height) continue;
-        if (in_disc.at<std::uint8_t>(q) || angle.at<double>(q) < 0.0) continue;
-        const cv::Point iq = q + window.tl();
-        const bool bright = luminance(radiance.at<cv::Vec3f>(iq)) > threshold ||
-                            (!clipped.empty() && clipped.at<std::uint8_t>(iq) != 0);
-        if (!bright) continue;
-        in_disc.at<std::uint8_t>(q) = 1;
-        stack.push_back(q);
+  // Pixels connected to the peak that pass `bright`, out to `max_angle` from the peak; true in
+  // `reached_beyond` when the region would have gone further.
+  const auto grow = [&](const auto& bright, double max_angle, bool& reached_beyond) {
+    cv::Mat seen(window.size(), CV_8UC1, cv::Scalar(0));
+    std::vector<cv::Point> stack{peak_at - window.tl()};
+    std::vector<cv::Point> region;
+    seen.at<std::uint8_t>(stack.back()) = 1;
+    reached_beyond = false;
+    while (!stack.empty()) {
+      const cv::Point p = stack.back();
+      stack.pop_back();
+      region.push_back(p);
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+          const cv::Point q(p.x + dx, p.y + dy);
+          if (q.x < 0 || q.y < 0 || q.x >= window.width || q.y >= window.height) continue;
+          if (seen.at<std::uint8_t>(q) || angle.at<double>(q) < 0.0) continue;
+          seen.at<std::uint8_t>(q) = 1;
+          if (!bright(q + window.tl())) continue;
+          if (angle.at<double>(q) > max_angle) {
+            reached_beyond = true;
+            continue;
+          }
+          stack.push_back(q);
+        }
       }
     }
-  }
-  if (too_wide) {
+    return region;
+  };
+  const auto is_clipped = [&](cv::Point ip) { return !clipped.empty() && clipped.at<std::uint8_t>(ip) != 0; };
+
+  // Compact: the core (brighter than halfway between background and peak, or clipped) must fit
+  // in max_angular_radius. A sun's glow or a lossy capture's ringing may spread further; that
+  // does not make it less of a sun, but a bright cloud whose core is wide is none.
+  const double core_threshold = background_y + 0.5 * (peak - background_y);
+  bool core_too_wide = false;
+  const std::vector<cv::Point> core = grow(
+      [&](cv::Point ip) { return luminance(radiance.at<cv::Vec3f>(ip)) >= core_threshold || is_clipped(ip); },
+      options_.max_angular_radius_deg * kDeg, core_too_wide);
+  if (core_too_wide) {
     result.reason = "no compact sun: the bright region around the brightest pixel is wider than " +
                     std::to_string(options_.max_angular_radius_deg) + "°";
     return result;
   }
+  // The disc that goes to the sun term: everything connected that stands well above the
+  // background, within the halo radius (beyond it the dome carries the light).
+  const double threshold = background_y * options_.disc_factor;
+  bool beyond_halo = false;
+  const std::vector<cv::Point> disc = grow(
+      [&](cv::Point ip) { return luminance(radiance.at<cv::Vec3f>(ip)) > threshold || is_clipped(ip); },
+      options_.halo_radius_deg * kDeg, beyond_halo);
 
   Sun sun;
   Vec3 centroid = Vec3::Zero();
-  std::vector<Vec3> directions;
-  directions.reserve(disc.size());
+  std::vector<std::pair<Vec3, double>> pixels;  // direction, luminance energy above background
+  pixels.reserve(disc.size());
   for (const cv::Point& p : disc) {
     const cv::Point ip = p + window.tl();
     const Vec3 d = *lens_->pixel_to_site(Vec2(ip.x, ip.y));
-    directions.push_back(d);
     const double w = block_solid_angle(*lens_, ip.x - 0.5, ip.y - 0.5, ip.x + 0.5, ip.y + 0.5);
     const cv::Vec3f& l = radiance.at<cv::Vec3f>(ip);
     const Eigen::Vector3d excess(std::max(0.0, clean(l[2]) - background.x()),
                                  std::max(0.0, clean(l[1]) - background.y()),
                                  std::max(0.0, clean(l[0]) - background.z()));
     sun.energy += w * excess;
-    centroid += w * (0.2126 * excess.x() + 0.7152 * excess.y() + 0.0722 * excess.z()) * d;
+    const double energy = w * (0.2126 * excess.x() + 0.7152 * excess.y() + 0.0722 * excess.z());
+    centroid += energy * d;
+    pixels.emplace_back(d, energy);
     if (!clipped.empty() && clipped.at<std::uint8_t>(ip)) sun.clipped = true;
   }
   if (centroid.norm() <= 0.0) {
@@ -202,7 +252,11 @@ SunDetection SunDetector::detect(const cv::Mat& radiance, const cv::Mat& clipped
     return result;
   }
   sun.direction = centroid.normalized();
-  for (const Vec3& d : directions) sun.angular_radius = std::max(sun.angular_radius, angle_between(sun.direction, d));
+  for (const cv::Point& p : core) {
+    const cv::Point ip = p + window.tl();
+    sun.angular_radius = std::max(sun.angular_radius, angle_between(sun.direction, *lens_->pixel_to_site(Vec2(ip.x, ip.y))));
+  }
+  merge_disc(sun, pixels);
   sun.background = background;
   sun.contrast = contrast;
   sun.pixel_count = static_cast<int>(disc.size());

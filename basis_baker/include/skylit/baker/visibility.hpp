@@ -62,6 +62,13 @@ void weighted_plane_visibility(const scene::Mesh& mesh, const geom::Plane& plane
                                std::span<const Vec3> directions, std::span<const Eigen::Vector3d> weights,
                                std::span<Eigen::Vector3d> out, const RaytraceOptions& options = {});
 
+// Visibility of an area light (a sun's disc, as directions and weights) for every texel:
+//     out[x] = Σ_k w_k c_k V(x, ω_k) / Σ_k w_k c_k,   c_k = max(0, n·ω_k)
+// and 1 where no part of the light faces the plane (it then carries no weight anyway).
+void area_light_visibility(const scene::Mesh& mesh, const geom::Plane& plane, std::span<const Vec3> directions,
+                           std::span<const double> weights, std::span<float> out,
+                           const RaytraceOptions& options = {});
+
 // How far a ray origin is nudged off a surface, and the shadow-map depth bias: both scale with
 // the size of the scene so that a 2 m model and a 200 m site behave alike.
 double surface_offset(const scene::Mesh& mesh, std::span<const geom::Plane> planes);

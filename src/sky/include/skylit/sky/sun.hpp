@@ -11,6 +11,7 @@
 // the irradiance it gives a surface that faces it, in the same relative units as S.
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 #include <opencv2/core/mat.hpp>
@@ -21,20 +22,28 @@ namespace skylit::sky {
 
 struct Sun {
   Vec3 direction = Vec3::UnitZ();                        // unit, site frame, towards the sun
-  double angular_radius = 0;                             // radians, of the detected disc
+  double angular_radius = 0;                             // radians, of the disc's core (over half the peak)
   Eigen::Vector3d energy = Eigen::Vector3d::Zero();      // E_sun, RGB
   Eigen::Vector3d background = Eigen::Vector3d::Zero();  // sky radiance around it, RGB
   double contrast = 0;          // peak luminance / background luminance (inf on a black sky)
   int pixel_count = 0;          // pixels of the disc
   bool clipped = false;         // some disc pixels clipped: E_sun is a lower bound
+  // The disc as an area light, for soft shadows: unit directions and their share of E_sun (sum
+  // 1), the disc's pixels merged into at most ~kMaxDiscSamples cells. A real sun is 0.5° wide
+  // and casts a penumbra; a hazy or blurred one, a wider one.
+  std::vector<Vec3> disc_directions;
+  std::vector<double> disc_weights;
 };
+
+inline constexpr int kMaxDiscSamples = 256;
 
 struct SunOptions {
   double min_contrast = 20;             // peak / background luminance for a sun to count
-  double max_angular_radius_deg = 3.0;  // a brighter region wider than this is no compact sun
+  double max_angular_radius_deg = 3.0;  // a core (over half the peak) wider than this: no compact sun
   double background_inner_deg = 6.0;    // annulus around the peak that measures the background
   double background_outer_deg = 15.0;
-  double disc_factor = 3.0;             // disc pixels: luminance > background × this
+  double disc_factor = 3.0;             // disc pixels: luminance > background × this, connected,
+  double halo_radius_deg = 5.0;         // and within this of the peak (glow and ringing included)
 };
 
 struct SunDetection {
