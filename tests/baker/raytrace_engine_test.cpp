@@ -428,3 +428,43 @@ TEST(WeightedPlaneVisibility, SumsRadianceWeightedCosinesOfTheVisibleDirections)
 
 }  // namespace
 }  // namespace skylit::baker
+
+namespace skylit::baker {
+namespace {
+
+TEST(AreaLightVisibility, WeighsEachDirectionByItsShareAndCosine) {
+  const std::vector<Box> boxes{kUnitBox};
+  const scene::Mesh mesh = mesh_of(boxes);
+  const geom::Plane plane = ground_plane(64, 64);
+  // Two suns a few degrees apart: texels that see one and not the other get its share.
+  const std::vector<Vec3> directions{direction(40, 20), direction(40, 35)};
+  const std::vector<double> weights{0.25, 0.75};
+  std::vector<float> v(64 * 64);
+  area_light_visibility(mesh, plane, directions, weights, v);
+  const double c0 = 0.25 * directions[0].z(), c1 = 0.75 * directions[1].z();
+  int partial = 0;
+  for (int row = 0; row < 64; ++row) {
+    for (int col = 0; col < 64; ++col) {
+      const Vec3 p = plane.texel_centre(col, row);
+      const double expected = (c0 * visible(p, directions[0], boxes) + c1 * visible(p, directions[1], boxes)) / (c0 + c1);
+      const float got = v[static_cast<std::size_t>(row * 64 + col)];
+      // Texels on a shadow edge may go either way in either tracer.
+      if (std::abs(got - expected) > 1e-5) {
+        const Vec3 side(1e-3, 1e-3, 0);
+        const bool edge = visible(p + side, directions[0], boxes) != visible(p - side, directions[0], boxes) ||
+                          visible(p + side, directions[1], boxes) != visible(p - side, directions[1], boxes);
+        EXPECT_TRUE(edge) << col << "," << row << ": " << got << " vs " << expected;
+      }
+      partial += expected > 0.1 && expected < 0.9;
+    }
+  }
+  EXPECT_GT(partial, 10);  // the penumbra exists
+  // A light wholly behind the plane: visibility 1 (it carries no weight there anyway).
+  const std::vector<Vec3> below{direction(-30, 0)};
+  const std::vector<double> one{1.0};
+  area_light_visibility(mesh, plane, below, one, v);
+  for (float x : v) EXPECT_EQ(x, 1.0f);
+}
+
+}  // namespace
+}  // namespace skylit::baker
