@@ -32,22 +32,6 @@ const std::array<std::string_view, 3> kSceneKeys{"model", "up", "scale"};
 const std::array<std::string_view, 1> kDomeKeys{"frequency"};
 const std::array<std::string_view, 5> kPlaneKeys{"name", "origin", "u", "v", "resolution"};
 
-std::size_t edit_distance(std::string_view a, std::string_view b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diagonal = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t above = row[j];
-      const bool same = std::tolower(static_cast<unsigned char>(a[i - 1])) ==
-                        std::tolower(static_cast<unsigned char>(b[j - 1]));
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (same ? 0 : 1)});
-      diagonal = above;
-    }
-  }
-  return row[b.size()];
-}
 
 // Reads one site file; every error names the file, the line and column of the offending node
 // (1-based), the field path and the fix.
@@ -115,25 +99,7 @@ class SiteParser {
         fail(key_node, path, "a key is not a plain name", "use plain names as keys");
       }
       if (std::find(allowed.begin(), allowed.end(), key) == allowed.end()) {
-        std::string_view best;
-        std::size_t best_distance = std::numeric_limits<std::size_t>::max();
-        for (std::string_view candidate : allowed) {
-          const std::size_t d = edit_distance(key, candidate);
-          if (d < best_distance) {
-            best_distance = d;
-            best = candidate;
-          }
-        }
-        std::string allowed_list;
-        for (std::string_view candidate : allowed) {
-          if (!allowed_list.empty()) allowed_list += ", ";
-          allowed_list += candidate;
-        }
-        const std::size_t tolerance = std::max<std::size_t>(2, best.size() / 3);
-        const std::string fix =
-            best_distance <= tolerance
-                ? "did you mean '" + std::string(best) + "'? (allowed: " + allowed_list + ")"
-                : "remove it (allowed: " + allowed_list + ")";
+        const std::string fix = unknown_key_fix(key, std::span<const std::string_view>(allowed));
         fail(key_node, field, "unknown field", fix);
       }
       if (!seen.insert(key).second) {

@@ -45,22 +45,6 @@ const std::array<std::string_view, 13> kKeys{"image_width",
 
 const char* const kSchemaHint = "see docs/sky.md (Sky-camera calibration)";
 
-std::size_t edit_distance(std::string_view a, std::string_view b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diagonal = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t above = row[j];
-      const bool same = std::tolower(static_cast<unsigned char>(a[i - 1])) ==
-                        std::tolower(static_cast<unsigned char>(b[j - 1]));
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (same ? 0 : 1)});
-      diagonal = above;
-    }
-  }
-  return row[b.size()];
-}
 
 std::string lower(std::string text) {
   std::transform(text.begin(), text.end(), text.begin(),
@@ -288,11 +272,6 @@ class CalibrationParser {
 
   void check_keys(const YAML::Node& map) const {
     std::set<std::string> seen;
-    std::string allowed_list;
-    for (std::string_view candidate : kKeys) {
-      if (!allowed_list.empty()) allowed_list += ", ";
-      allowed_list += candidate;
-    }
     for (const auto& entry : map) {
       const YAML::Node& key_node = entry.first;
       if (!key_node.IsScalar())
@@ -305,20 +284,7 @@ class CalibrationParser {
                "schema; " +
                    std::string(kSchemaHint));
         }
-        std::string_view best;
-        std::size_t best_distance = std::numeric_limits<std::size_t>::max();
-        for (std::string_view candidate : kKeys) {
-          const std::size_t d = edit_distance(key, candidate);
-          if (d < best_distance) {
-            best_distance = d;
-            best = candidate;
-          }
-        }
-        const std::size_t tolerance = std::max<std::size_t>(2, best.size() / 3);
-        const std::string fix =
-            best_distance <= tolerance
-                ? "did you mean '" + std::string(best) + "'? (allowed: " + allowed_list + ")"
-                : "remove it (allowed: " + allowed_list + ")";
+        const std::string fix = unknown_key_fix(key, std::span<const std::string_view>(kKeys));
         fail(key_node, key, "unknown field", fix);
       }
       if (!seen.insert(key).second)
