@@ -11,6 +11,7 @@
 
 #include "blend_fixtures.hpp"
 #include "skylit/base/error.hpp"
+#include "skylit/render/blend_workers.hpp"
 
 namespace skylit::render {
 namespace {
@@ -149,7 +150,7 @@ TEST(BlendCpu, CheckerboardMatchesHandComputedRatios) {
   //   odd:  T = (S0·A0 + S1·A1/2) / D = (0.7, 5/6, 13/14)
   const std::vector<double> A{0.5, 0.25};
   const int width = 13;
-  const auto even = [width](std::size_t t) { return (t % width + t / width) % 2 == 0; };
+  const auto even = [](std::size_t t) { return (t % width + t / width) % 2 == 0; };
   const BasisImages basis = make_basis(width, 11, A, [&](int i, std::size_t t) {
     const bool shadowed = (i == 0) == even(t);
     return static_cast<float>(A[static_cast<std::size_t>(i)] * (shadowed ? 0.5 : 1.0));
@@ -240,14 +241,23 @@ TEST(BlendCpu, ResultsAreIdenticalForAnyThreadCount) {
     options.use_simd = simd;
     options.threads = 1;
     const Result one = blend(scene.basis, scene.S, scene.sun, scene.visibility, options);
-    for (const int threads : {2, 3, 4, 16}) {
-      options.threads = threads;
-      const Result many = blend(scene.basis, scene.S, scene.sun, scene.visibility, options);
-      SCOPED_TRACE(name_of(options));
+    const auto expect_same = [&](const Result& many) {
       EXPECT_EQ(std::memcmp(one.T.data(), many.T.data(), one.T.size() * sizeof(float)), 0);
       EXPECT_EQ(one.stats.max_above_one, many.stats.max_above_one);
       EXPECT_EQ(one.stats.max_below_zero, many.stats.max_below_zero);
       EXPECT_EQ(one.stats.clamped, many.stats.clamped);
+    };
+    for (const int threads : {2, 3, 4, 16}) {
+      options.threads = threads;
+      SCOPED_TRACE(name_of(options));
+      expect_same(blend(scene.basis, scene.S, scene.sun, scene.visibility, options));
+    }
+    // The same through a pool kept between calls, used again and again.
+    BlendWorkers workers(3);
+    options.workers = &workers;
+    for (int call = 0; call < 5; ++call) {
+      SCOPED_TRACE("pool of 3, call " + std::to_string(call));
+      expect_same(blend(scene.basis, scene.S, scene.sun, scene.visibility, options));
     }
   }
 }

@@ -1,1 +1,269 @@
-// implementation pending in this change
+// Shadow ratios on the CPU: the weights of a sky, the fast blend (threads over blocks of
+// texels, kernels in blend_kernel.cpp) and the double-precision reference.
+#include "skylit/render/cpu_blend.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <thread>
+
+#include "blend_kernel.hpp"
+#include "skylit/render/blend_workers.hpp"
+#include "skylit/base/error.hpp"
+
+namespace skylit::render {
+namespace {
+
+constexpr const char* kChannel[3] = {"r", "g", "b"};
+
+[[noreturn]] void bad_input(const std::string& field, const std::string& problem, const std::string& fix) {
+  throw InputError(input_message({}, -1, -1, field, problem, fix));
+}
+
+std::string describe(double x) {
+  if (std::isnan(x)) return "NaN";
+  if (std::isinf(x)) return x > 0 ? "+inf" : "-inf";
+  return std::to_string(x);
+}
+
+// A basis must hold what its header says before any loop trusts its sizes.
+void check_basis(const BasisImages& basis) {
+  const std::string field = "basis '" + basis.name + "'";
+  if (basis.width < 0 || basis.height < 0 || basis.layers < 0) {
+    bad_input(field, "negative size " + std::to_string(basis.width) + "x" + std::to_string(basis.height) + "x" +
+                         std::to_string(basis.layers),
+              "load the basis with load_basis");
+  }
+  if (basis.half.size() != basis.texel_count() * static_cast<std::size_t>(basis.layers)) {
+    bad_input(field, "holds " + std::to_string(basis.half.size()) + " values for " + std::to_string(basis.layers) +
+                         " layers of " + std::to_string(basis.width) + "x" + std::to_string(basis.height),
+              "load the basis with load_basis");
+  }
+  if (basis.unoccluded.size() != static_cast<std::size_t>(basis.layers)) {
+    bad_input(field + ".unoccluded",
+              std::to_string(basis.unoccluded.size()) + " values for " + std::to_string(basis.layers) + " layers",
+              "give one A per layer (load_basis copies them from the manifest)");
+  }
+  for (std::size_t i = 0; i < basis.unoccluded.size(); ++i) {
+    const double a = basis.unoccluded[i];
+    if (!std::isfinite(a) || a < 0.0) {
+      bad_input(field + ".unoccluded[" + std::to_string(i) + "]", "value " + describe(a) + " is not a finite A >= 0",
+                "re-bake; A is a solid angle");
+    }
+  }
+  if (!basis.normal.allFinite() || basis.normal.norm() < 0.5) {
+    bad_input(field + ".normal", "not a unit vector", "use the plane normal from the manifest");
+  }
+}
+
+void check_options(const BlendOptions& options) {
+  if (!std::isfinite(options.min_denominator) || options.min_denominator < 0.0) {
+    bad_input("min_denominator", "value " + describe(options.min_denominator) + " is not finite and >= 0",
+              "use a small positive number such as 1e-12");
+  }
+  if (options.threads < 0) {
+    bad_input("threads", "value " + std::to_string(options.threads) + " is negative",
+              "use 0 for all hardware threads, or a positive count");
+  }
+}
+
+void check_rgb(const Eigen::Vector3d& value, const std::string& field, const std::string& fix) {
+  for (int c = 0; c < 3; ++c) {
+    if (!std::isfinite(value[c]) || value[c] < 0.0) {
+      bad_input(field + "." + kChannel[c], "value " + describe(value[c]) + " is not finite and >= 0", fix);
+    }
+  }
+}
+
+// E_sun·max(0, n·ω_sun) per channel: the sun's irradiance on the plane (zero without a sun).
+Eigen::Vector3d sun_on_plane(const BasisImages& basis, const std::optional<SunLight>& sun) {
+  if (!sun) return Eigen::Vector3d::Zero();
+  check_rgb(sun->energy, "sun.energy", "pass the sun's irradiance, linear RGB, 0 when it is hidden");
+  const Vec3& d = sun->direction;
+  if (!d.allFinite() || d.norm() < 1e-9) {
+    // Appended piecewise: GCC 12 warns falsely (-Wrestrict) on "(" + std::string.
+    std::string problem = "(";
+    problem += describe(d.x()) + ", " + describe(d.y()) + ", " + describe(d.z());
+    problem += ") is not a direction";
+    bad_input("sun.direction", problem, "pass a unit vector towards the sun, site frame, or no sun");
+  }
+  const double cosine = std::max(0.0, basis.normal.normalized().dot(d.normalized()));
+  return sun->energy * cosine;
+}
+
+void check_sizes(const BasisImages& basis, std::span<const float> sun_visibility, std::size_t out_size,
+                 bool sun_term) {
+  const std::size_t texels = basis.texel_count();
+  if (out_size != 3 * texels) {
+    bad_input("out", "has " + std::to_string(out_size) + " values; plane '" + basis.name + "' needs " +
+                         std::to_string(3 * texels) + " (3 per texel)",
+              "size it width x height x 3");
+  }
+  if (!sun_visibility.empty() && sun_visibility.size() != texels) {
+    bad_input("sun_visibility", "has " + std::to_string(sun_visibility.size()) + " values; plane '" + basis.name +
+                                    "' has " + std::to_string(texels) + " texels",
+              "give one V per texel, or none");
+  }
+  if (sun_term && sun_visibility.empty()) {
+    bad_input("sun_visibility", "is empty but the sun lights plane '" + basis.name + "'",
+              "give one V in [0, 1] per texel (all 1 when nothing shadows the sun), or blend without the sun");
+  }
+}
+
+[[noreturn]] void bad_visibility() {
+  bad_input("sun_visibility", "holds a value outside [0, 1] or NaN",
+            "give the visible fraction of the sun per texel, 0 to 1");
+}
+
+}  // namespace
+
+bool blend_simd_available() { return detail::cpu_has_avx2_f16c_fma(); }
+
+BlendWeights blend_weights(const BasisImages& basis, std::span<const Eigen::Vector3d> S,
+                           const std::optional<SunLight>& sun, const BlendOptions& options) {
+  check_basis(basis);
+  check_options(options);
+  const std::size_t layers = static_cast<std::size_t>(basis.layers);
+  if (S.size() != layers) {
+    bad_input("S", std::to_string(S.size()) + " luminance values for the " + std::to_string(layers) +
+                       " layers of plane '" + basis.name + "'",
+              "give one RGB value per dome face of the bake");
+  }
+  for (std::size_t i = 0; i < layers; ++i) {
+    check_rgb(S[i], "S[" + std::to_string(i) + "]",
+              "luminance parameters are linear radiances >= 0; check the sky camera and its calibration");
+  }
+
+  BlendWeights w;
+  w.denominator = sun_on_plane(basis, sun);
+  const Eigen::Vector3d sun_term = w.denominator;
+  for (std::size_t i = 0; i < layers; ++i) w.denominator += S[i] * basis.unoccluded[i];
+
+  Eigen::Vector3d inverse = Eigen::Vector3d::Zero();  // 1/D, 0 for a channel without light
+  for (int c = 0; c < 3; ++c) {
+    w.no_light[static_cast<std::size_t>(c)] = !(w.denominator[c] > options.min_denominator);
+    if (!w.no_light[static_cast<std::size_t>(c)]) inverse[c] = 1.0 / w.denominator[c];
+  }
+  w.face.assign(layers, Eigen::Vector3f::Zero());
+  for (std::size_t i = 0; i < layers; ++i) {
+    // A face the plane cannot see (A = 0, hence B = 0) costs nothing, whatever its S.
+    if (basis.unoccluded[i] == 0.0) continue;
+    w.face[i] = S[i].cwiseProduct(inverse).cast<float>();
+    if (!w.face[i].isZero()) w.active.push_back(static_cast<int>(i));
+  }
+  w.sun = sun_term.cwiseProduct(inverse).cast<float>();
+  return w;
+}
+
+BlendStats blend_cpu(const BasisImages& basis, const BlendWeights& weights, std::span<const float> sun_visibility,
+                     std::span<float> out, const BlendOptions& options) {
+  check_basis(basis);
+  check_options(options);
+  const std::size_t layers = static_cast<std::size_t>(basis.layers);
+  if (weights.face.size() != layers) {
+    bad_input("weights.face", std::to_string(weights.face.size()) + " weights for the " + std::to_string(layers) +
+                                  " layers of plane '" + basis.name + "'",
+              "compute the weights with blend_weights for this basis");
+  }
+  int previous = -1;
+  for (const int i : weights.active) {
+    if (i <= previous || i >= basis.layers) {
+      bad_input("weights.active", "layer " + std::to_string(i) + " is out of order or out of range",
+                "compute the weights with blend_weights for this basis");
+    }
+    previous = i;
+  }
+  if (!weights.sun.allFinite()) {
+    bad_input("weights.sun", "is not finite", "compute the weights with blend_weights");
+  }
+  check_sizes(basis, sun_visibility, out.size(), !weights.sun.isZero());
+
+  std::vector<float> packed;  // w_r, w_g, w_b per active layer, in the kernel's order
+  packed.reserve(3 * weights.active.size());
+  for (const int i : weights.active) {
+    const Eigen::Vector3f& wi = weights.face[static_cast<std::size_t>(i)];
+    packed.insert(packed.end(), {wi.x(), wi.y(), wi.z()});
+  }
+  detail::BlendJob job;
+  job.half = basis.half.data();
+  job.layer_stride = basis.texel_count();
+  job.active = weights.active;
+  job.weights = packed;
+  // Without a sun weight V changes nothing: skip reading it.
+  job.sun_visibility = (!sun_visibility.empty() && !weights.sun.isZero()) ? sun_visibility.data() : nullptr;
+  for (int c = 0; c < 3; ++c) {
+    job.sun[c] = weights.sun[c];
+    job.no_light[c] = weights.no_light[static_cast<std::size_t>(c)];
+  }
+  job.out = out.data();
+
+  const auto kernel = options.use_simd && detail::cpu_has_avx2_f16c_fma() ? detail::blend_range_avx2
+                                                                          : detail::blend_range_portable;
+  // Threads claim chunks of a few blocks from a shared counter: a thread that the OS sets aside
+  // (a busy machine) holds up one chunk, not a fixed share of the plane. Within a chunk the
+  // kernel prefetches across blocks. A texel's sum never depends on who computes it, so the
+  // results are identical for any thread count.
+  const std::size_t texels = basis.texel_count();
+  const std::size_t chunk = detail::kChunkBlocks * detail::kBlockTexels;
+  const std::size_t chunks = (texels + chunk - 1) / chunk;
+  std::optional<BlendWorkers> own;
+  BlendWorkers* workers = options.workers;
+  if (!workers) {
+    const std::size_t wanted = options.threads > 0 ? static_cast<std::size_t>(options.threads)
+                                                   : std::max(1u, std::thread::hardware_concurrency());
+    workers = &own.emplace(static_cast<int>(std::max<std::size_t>(1, std::min(wanted, chunks))));
+  }
+  std::vector<detail::RangeStats> stats(static_cast<std::size_t>(workers->size()));
+  workers->run(chunks, [&](std::size_t c, int worker) {
+    kernel(job, c * chunk, std::min(texels, (c + 1) * chunk), stats[static_cast<std::size_t>(worker)]);
+  });
+
+  detail::RangeStats total;
+  for (const detail::RangeStats& s : stats) {
+    total.max_t = std::max(total.max_t, s.max_t);
+    total.min_t = std::min(total.min_t, s.min_t);
+    total.clamped += s.clamped;
+    total.bad_visibility |= s.bad_visibility;
+  }
+  if (total.bad_visibility) bad_visibility();
+  BlendStats result;
+  result.max_above_one = std::max(0.0f, total.max_t - 1.0f);
+  result.max_below_zero = std::max(0.0f, -total.min_t);
+  result.clamped = total.clamped;
+  return result;
+}
+
+void blend_reference(const BasisImages& basis, std::span<const Eigen::Vector3d> S, const std::optional<SunLight>& sun,
+                     std::span<const float> sun_visibility, std::span<double> out, const BlendOptions& options) {
+  // blend_weights checks the inputs and finds D and the channels without light; the sums below
+  // use S directly, over every layer.
+  const BlendWeights weights = blend_weights(basis, S, sun, options);
+  const Eigen::Vector3d sun_term = sun_on_plane(basis, sun);
+  check_sizes(basis, sun_visibility, out.size(), !weights.sun.isZero());
+  for (const float v : sun_visibility) {
+    if (!(v >= 0.0f && v <= 1.0f)) bad_visibility();
+  }
+  const std::size_t texels = basis.texel_count();
+  std::vector<double> sum(3 * texels, 0.0);
+  for (std::size_t i = 0; i < static_cast<std::size_t>(basis.layers); ++i) {
+    const std::uint16_t* layer = basis.half.data() + i * texels;
+    for (std::size_t k = 0; k < texels; ++k) {
+      const double b = half_to_float(layer[k]);
+      for (int c = 0; c < 3; ++c) sum[3 * k + static_cast<std::size_t>(c)] += S[i][c] * b;
+    }
+  }
+  for (std::size_t k = 0; k < texels; ++k) {
+    const double v = sun_visibility.empty() ? 0.0 : sun_visibility[k];
+    for (int c = 0; c < 3; ++c) {
+      const std::size_t at = 3 * k + static_cast<std::size_t>(c);
+      if (weights.no_light[static_cast<std::size_t>(c)]) {
+        out[at] = 1.0;
+        continue;
+      }
+      const double t = (sum[at] + sun_term[c] * v) / weights.denominator[c];
+      out[at] = t > 1.0 ? 1.0 : (t >= 0.0 ? t : 0.0);
+    }
+  }
+}
+
+}  // namespace skylit::render

@@ -126,6 +126,17 @@ void write_exr_stack(const std::filesystem::path& file, const ImageStack& stack,
 ImageStack read_exr_stack(const std::filesystem::path& file,
                           std::vector<std::string>* layer_names = nullptr);
 
+// The same stack as stored: IEEE binary16 bits, no float round trip (the live blend reads these
+// directly, at half the memory). Layout and errors as read_exr_stack.
+struct ImageStackHalf {
+  int width = 0;
+  int height = 0;
+  int layers = 0;
+  std::vector<std::uint16_t> data;        // data[(layer * height + row) * width + col]
+};
+ImageStackHalf read_exr_stack_half(const std::filesystem::path& file,
+                                   std::vector<std::string>* layer_names = nullptr);
+
 // NumPy .npy, little-endian float32, C order.
 void write_npy(const std::filesystem::path& file, std::span<const float> data,
                std::span<const std::size_t> shape);

@@ -26,6 +26,8 @@ namespace skylit::render {
 
 using geom::Vec3;
 
+class BlendWorkers;
+
 // The basis images of one plane, as the bake stores them: layer-major IEEE half floats,
 // half[(layer * height + row) * width + col] = B_{j,i} (steradians).
 struct BasisImages {
@@ -51,6 +53,12 @@ struct BlendOptions {
   // A channel whose denominator Σ S_i A_i + E_sun c is at or under this is "no light": T = 1.
   double min_denominator = 1e-12;
   int threads = 0;                     // 0 = all hardware threads
+  // Threads kept between calls (blend_workers.hpp); when set, `threads` is ignored. Without it
+  // each call starts and joins its own threads.
+  BlendWorkers* workers = nullptr;
+  // false: the portable kernel even on a CPU with AVX2/F16C/FMA (tests compare both; benchmarks
+  // time both). The two agree within float rounding; each is bit-identical for any `threads`.
+  bool use_simd = true;
 };
 
 struct BlendWeights {
@@ -87,5 +95,12 @@ void blend_reference(const BasisImages& basis, std::span<const Eigen::Vector3d> 
 
 float half_to_float(std::uint16_t h);
 std::uint16_t float_to_half(float f);   // round to nearest even
+
+// Bulk half_to_float with F16C where the CPU has it: equal to the scalar function for every
+// value but signalling NaNs (F16C quiets them). in and out must have the same size.
+void halves_to_floats(std::span<const std::uint16_t> in, std::span<float> out);
+
+// True when blend_cpu with use_simd runs the AVX2/F16C/FMA kernel on this CPU.
+bool blend_simd_available();
 
 }  // namespace skylit::render

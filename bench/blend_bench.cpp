@@ -1,0 +1,236 @@
+// CPU blend of shadow ratios against the machine's memory floor.
+//
+// The blend reads every active basis layer once per sky, so on a plane that does not fit in the
+// caches its time is bounded below by (bytes of half basis images) / (memory bandwidth). This
+// program measures that bandwidth in the same run (memcpy of a buffer ≥ 4× the L3 cache, best
+// of several, per thread count; bandwidth = bytes read + bytes written per second, STREAM's
+// convention, which on this kind of machine is close to the read-only bandwidth) and reports
+// per benchmark:
+//   floor_ms  basis bytes / bandwidth          ratio  blend time / floor (target ≤ 1.3)
+//   copy_GBps the bandwidth used               bytes_per_second  basis bytes / blend time
+// "cold" runs evict the caches before every iteration (the floor's premise); "warm" ones blend
+// the same planes again and again, as a live service does when they fit in the last-level cache.
+//
+//   blend_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <numbers>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <unistd.h>
+
+#include <benchmark/benchmark.h>
+
+#include "skylit/render/blend_workers.hpp"
+#include "skylit/render/cpu_blend.hpp"
+
+namespace {
+
+using skylit::render::BasisImages;
+using skylit::render::BlendOptions;
+using skylit::render::BlendWeights;
+using Clock = std::chrono::steady_clock;
+
+constexpr int kSide = 512;
+
+std::size_t l3_bytes() {
+  const long l3 = ::sysconf(_SC_LEVEL3_CACHE_SIZE);
+  return l3 > 0 ? static_cast<std::size_t>(l3) : std::size_t{64} << 20;
+}
+
+// A page-aligned byte buffer, touched so that its pages exist before anything is timed.
+struct Buffer {
+  explicit Buffer(std::size_t n) : size(n), data(static_cast<char*>(std::aligned_alloc(4096, (n + 4095) / 4096 * 4096))) {
+    if (!data) throw std::bad_alloc();
+    std::memset(data.get(), 1, size);
+  }
+  struct Free {
+    void operator()(char* p) const { std::free(p); }
+  };
+  std::size_t size;
+  std::unique_ptr<char, Free> data;
+};
+
+// Best of `rounds` copies of `buffer`'s first half into its second half by `threads` threads,
+// each its own slice. Returns (bytes read + bytes written) per second.
+double copy_bandwidth(Buffer& buffer, int threads, int rounds) {
+  const std::size_t half = buffer.size / 2;
+  const std::size_t slice = half / static_cast<std::size_t>(threads) / 4096 * 4096;
+  double best = 1e30;
+  for (int r = 0; r < rounds; ++r) {
+    const auto start = Clock::now();
+    {
+      std::vector<std::jthread> pool;
+      for (int t = 0; t < threads; ++t) {
+        pool.emplace_back([&, t] {
+          const std::size_t at = static_cast<std::size_t>(t) * slice;
+          std::memcpy(buffer.data.get() + half + at, buffer.data.get() + at, slice);
+        });
+      }
+    }
+    best = std::min(best, std::chrono::duration<double>(Clock::now() - start).count());
+  }
+  return 2.0 * static_cast<double>(slice) * threads / best;
+}
+
+// Reads `bytes` of the buffer so that whatever the blend read before is no longer cached.
+void evict_caches(const Buffer& buffer, std::size_t bytes) {
+  const auto* p = reinterpret_cast<const std::uint64_t*>(buffer.data.get());
+  std::uint64_t sum = 0;
+  for (std::size_t i = 0; i < std::min(bytes, buffer.size) / 8; i += 8) sum += p[i];
+  benchmark::DoNotOptimize(sum);
+}
+
+// A plane of `layers` faces over a horizontal ground (every face lit and seen, all active):
+// B = A·f with f in [0, 1], stored as half; a sun with partial visibility.
+struct Scene {
+  std::vector<BasisImages> planes;
+  std::vector<BlendWeights> weights;
+  std::vector<float> visibility;
+  std::size_t basis_bytes = 0;
+};
+
+Scene make_scene(int layers, int planes) {
+  Scene scene;
+  std::uint64_t state = 0x9e3779b97f4a7c15ull * static_cast<std::uint64_t>(layers);
+  const auto next = [&state] {  // xorshift64*: fast, and good enough for texel values
+    state ^= state >> 12;
+    state ^= state << 25;
+    state ^= state >> 27;
+    return static_cast<double>((state * 0x2545f4914f6cdd1dull) >> 11) * 0x1p-53;
+  };
+  const double omega = 2.0 * std::numbers::pi / layers;
+  std::vector<Eigen::Vector3d> S;
+  for (int i = 0; i < layers; ++i) S.emplace_back(0.5 + next(), 0.5 + next(), 0.5 + next());
+  skylit::render::SunLight sun;
+  sun.direction = skylit::render::Vec3(0.5, 0.2, 0.8).normalized();
+  sun.energy = Eigen::Vector3d(3.0, 2.9, 2.7);
+  for (int j = 0; j < planes; ++j) {
+    BasisImages basis;
+    basis.name = "plane" + std::to_string(j);
+    basis.width = kSide;
+    basis.height = kSide;
+    basis.layers = layers;
+    for (int i = 0; i < layers; ++i) basis.unoccluded.push_back(omega * (0.2 + 0.8 * next()));
+    basis.half.resize(basis.texel_count() * static_cast<std::size_t>(layers));
+    for (int i = 0; i < layers; ++i) {
+      std::uint16_t* layer = basis.half.data() + static_cast<std::size_t>(i) * basis.texel_count();
+      const double a = basis.unoccluded[static_cast<std::size_t>(i)];
+      for (std::size_t t = 0; t < basis.texel_count(); ++t) {
+        layer[t] = skylit::render::float_to_half(static_cast<float>(a * std::min(1.0, 1.3 * next())));
+      }
+    }
+    scene.weights.push_back(skylit::render::blend_weights(basis, S, sun));
+    scene.basis_bytes += basis.half.size() * sizeof(std::uint16_t);
+    scene.planes.push_back(std::move(basis));
+  }
+  scene.visibility.resize(static_cast<std::size_t>(kSide) * kSide);
+  for (float& v : scene.visibility) v = next() < 0.3 ? 0.0f : 1.0f;
+  return scene;
+}
+
+struct Setup {
+  const Scene* scene;
+  int threads;
+  bool simd;
+  bool cold;
+  double bandwidth;     // bytes/s for this thread count
+  const Buffer* evict;  // for cold runs
+  skylit::render::BlendWorkers* workers;  // kept between calls, as the live service does
+};
+
+void blend_planes(benchmark::State& state, const Setup& setup) {
+  const Scene& scene = *setup.scene;
+  BlendOptions options;
+  options.threads = setup.threads;
+  options.workers = setup.workers;
+  options.use_simd = setup.simd;
+  std::vector<float> out(3 * scene.planes.front().texel_count());
+  double seconds = 0.0;
+  for (auto _ : state) {
+    if (setup.cold) evict_caches(*setup.evict, 2 * l3_bytes());
+    const auto start = Clock::now();
+    for (std::size_t j = 0; j < scene.planes.size(); ++j) {
+      benchmark::DoNotOptimize(skylit::render::blend_cpu(scene.planes[j], scene.weights[j], scene.visibility, out, options));
+    }
+    const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+    state.SetIterationTime(elapsed);
+    seconds += elapsed;
+    benchmark::ClobberMemory();
+  }
+  const double floor = static_cast<double>(scene.basis_bytes) / setup.bandwidth;
+  state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations()) * static_cast<std::int64_t>(scene.basis_bytes));
+  state.counters["floor_ms"] = floor * 1e3;
+  state.counters["ratio"] = seconds / static_cast<double>(state.iterations()) / floor;
+  state.counters["copy_GBps"] = setup.bandwidth * 1e-9;
+  state.SetLabel(std::string(setup.simd && skylit::render::blend_simd_available() ? "avx2" : "portable") +
+                 (setup.cold ? ", cold" : ", warm"));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+
+  const std::size_t copy_bytes = 2 * std::max<std::size_t>(4 * l3_bytes(), std::size_t{256} << 20);
+  std::fprintf(stderr, "L3 %.0f MiB; copy buffer 2 x %.0f MiB; building scenes ...\n", l3_bytes() / 1048576.0,
+               copy_bytes / 2 / 1048576.0);
+  Buffer copy_buffer(copy_bytes);
+  const int max_threads = 2;
+  std::vector<double> bandwidth(max_threads + 1);
+  for (int t = 1; t <= max_threads; ++t) {
+    bandwidth[static_cast<std::size_t>(t)] = copy_bandwidth(copy_buffer, t, 7);
+    std::fprintf(stderr, "copy bandwidth, %d thread%s: %.2f GB/s (read + write)\n", t, t > 1 ? "s" : "",
+                 bandwidth[static_cast<std::size_t>(t)] * 1e-9);
+  }
+  // 40 faces × 4 planes of 512² (84 MB), 640 faces × 1 plane of 512² (335 MB).
+  const Scene forty = make_scene(40, 4);
+  const Scene six_forty = make_scene(640, 1);
+  std::vector<std::unique_ptr<skylit::render::BlendWorkers>> workers(max_threads + 1);
+  for (int t = 1; t <= max_threads; ++t) {
+    workers[static_cast<std::size_t>(t)] = std::make_unique<skylit::render::BlendWorkers>(t);
+  }
+
+  // On a shared machine other work only ever slows a run down: the minimum over repetitions is
+  // reported beside the median.
+  const auto smallest = [](const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); };
+  struct Case {
+    const char* name;
+    const Scene* scene;
+    int iterations;
+  };
+  for (const Case& c : {Case{"40faces_4planes_512", &forty, 30}, Case{"640faces_1plane_512", &six_forty, 10}}) {
+    for (const bool cold : {true, false}) {
+      for (int t = 1; t <= max_threads; ++t) {
+        const Setup setup{c.scene, t, true, cold, bandwidth[static_cast<std::size_t>(t)], &copy_buffer,
+                          workers[static_cast<std::size_t>(t)].get()};
+        const std::string name = std::string("blend/") + c.name + (cold ? "/cold" : "/warm") + "/threads:" +
+                                 std::to_string(t);
+        benchmark::RegisterBenchmark(name.c_str(), [setup](benchmark::State& s) { blend_planes(s, setup); })
+            ->UseManualTime()
+            ->Iterations(c.iterations)
+            ->Unit(benchmark::kMillisecond)
+            ->ComputeStatistics("min", smallest);
+      }
+    }
+    // The portable kernel, for machines without AVX2/F16C.
+    const Setup portable{c.scene, 1, false, true, bandwidth[1], &copy_buffer, workers[1].get()};
+    const std::string name = std::string("blend/") + c.name + "/cold/portable/threads:1";
+    benchmark::RegisterBenchmark(name.c_str(), [portable](benchmark::State& s) { blend_planes(s, portable); })
+        ->UseManualTime()
+        ->Iterations(c.iterations)
+        ->Unit(benchmark::kMillisecond)
+        ->ComputeStatistics("min", smallest);
+  }
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

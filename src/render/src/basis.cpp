@@ -1,0 +1,118 @@
+// load_basis: one plane of a bake, as half floats in face order, checked against its manifest.
+#include <cmath>
+#include <string>
+
+// Plane::normal() uses cross(), which Eigen defines in <Eigen/Geometry>.
+#include <Eigen/Geometry>
+
+#include "skylit/base/error.hpp"
+#include "skylit/render/cpu_blend.hpp"
+
+namespace skylit::render {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr const char* kRebake = "re-bake (skylit-bake --force), or restore the bake directory from a copy "
+                                "and check it with 'skylit-bake verify'";
+
+std::string plane_field(int plane, const std::string& key) {
+  return "planes[" + std::to_string(plane) + "]" + (key.empty() ? "" : "." + key);
+}
+
+// Every value must be a finite B ≥ 0 (−0 included): a NaN or an infinity would poison every
+// shadow ratio it is summed into, and a bake never writes one.
+void check_values(const fs::path& file, const BasisImages& basis) {
+  const std::size_t texels = basis.texel_count();
+  for (std::size_t k = 0; k < basis.half.size(); ++k) {
+    const std::uint16_t h = basis.half[k];
+    const bool not_finite = (h & 0x7c00u) == 0x7c00u;
+    const bool negative = (h & 0x8000u) != 0 && (h & 0x7fffu) != 0;
+    if (not_finite || negative) {
+      const std::size_t layer = k / texels;
+      const std::size_t texel = k % texels;
+      const std::size_t width = static_cast<std::size_t>(basis.width);
+      throw InputError(input_message(
+          file, -1, -1, bake::face_layer_name(static_cast<int>(layer)) + ".Y",
+          "texel (col " + std::to_string(texel % width) + ", row " + std::to_string(texel / width) + ") holds " +
+              std::to_string(half_to_float(h)) + "; basis values are finite and >= 0 (steradians)",
+          kRebake));
+    }
+  }
+}
+
+}  // namespace
+
+BasisImages load_basis(const fs::path& bake_dir, const bake::Manifest& manifest, int plane) {
+  const fs::path manifest_file = bake_dir / "manifest.json";
+  const int plane_count = static_cast<int>(manifest.planes.size());
+  if (plane < 0 || plane >= plane_count) {
+    std::string names;
+    for (const bake::PlaneRecord& r : manifest.planes) names += (names.empty() ? "'" : ", '") + r.plane.name + "'";
+    throw InputError(input_message(manifest_file, -1, -1, "planes",
+                                   "there is no plane number " + std::to_string(plane) + "; the bake has " +
+                                       std::to_string(plane_count) + (plane_count == 1 ? " plane" : " planes") +
+                                       (names.empty() ? std::string() : " (" + names + ")"),
+                                   plane_count == 0 ? std::string("bake a site that has at least one plane")
+                                                    : "choose a plane from 0 to " + std::to_string(plane_count - 1)));
+  }
+  const bake::PlaneRecord& record = manifest.planes[static_cast<std::size_t>(plane)];
+  const std::size_t faces = manifest.faces.size();
+  if (faces == 0) {
+    throw InputError(input_message(manifest_file, -1, -1, "dome.faces", "the dome has no faces", kRebake));
+  }
+  if (record.unoccluded.size() != faces) {
+    throw InputError(input_message(manifest_file, -1, -1, plane_field(plane, "unoccluded"),
+                                   "has " + std::to_string(record.unoccluded.size()) + " values for " +
+                                       std::to_string(faces) + " dome faces",
+                                   kRebake));
+  }
+  for (std::size_t i = 0; i < faces; ++i) {
+    const double a = record.unoccluded[i];
+    if (!std::isfinite(a) || a < 0.0) {
+      throw InputError(input_message(manifest_file, -1, -1,
+                                     plane_field(plane, "unoccluded") + "[" + std::to_string(i) + "]",
+                                     "value " + std::to_string(a) + " is not a finite solid angle >= 0", kRebake));
+    }
+  }
+
+  const fs::path file = bake_dir / record.file;
+  std::vector<std::string> names;
+  bake::ImageStackHalf stack = bake::read_exr_stack_half(file, &names);
+  if (stack.width != record.plane.width || stack.height != record.plane.height) {
+    throw InputError(input_message(file, -1, -1, "data window",
+                                   "the image is " + std::to_string(stack.width) + "x" +
+                                       std::to_string(stack.height) + " texels but manifest.json says plane '" +
+                                       record.plane.name + "' is " + std::to_string(record.plane.width) + "x" +
+                                       std::to_string(record.plane.height),
+                                   kRebake));
+  }
+  // Layers are read in face order; the first name out of place is the missing (or foreign) one.
+  for (std::size_t i = 0; i < faces; ++i) {
+    const std::string expected = bake::face_layer_name(static_cast<int>(i));
+    if (i >= names.size() || names[i] != expected) {
+      throw InputError(input_message(file, -1, -1, expected + ".Y",
+                                     "missing: the image has " + std::to_string(names.size()) +
+                                         " layers, the dome " + std::to_string(faces) + " faces (face_000 … " +
+                                         bake::face_layer_name(static_cast<int>(faces) - 1) + ")",
+                                     kRebake));
+    }
+  }
+  if (names.size() != faces) {
+    throw InputError(input_message(file, -1, -1, names[faces] + ".Y",
+                                   "unexpected layer: the dome has " + std::to_string(faces) + " faces", kRebake));
+  }
+
+  BasisImages basis;
+  basis.name = record.plane.name;
+  basis.width = stack.width;
+  basis.height = stack.height;
+  basis.layers = stack.layers;
+  basis.half = std::move(stack.data);
+  basis.unoccluded = record.unoccluded;
+  basis.normal = record.plane.normal();
+  check_values(file, basis);
+  return basis;
+}
+
+}  // namespace skylit::render
