@@ -18,46 +18,19 @@
 
 #include "skylit/bake/format.hpp"
 #include "skylit/geom/dome.hpp"
+#include "cli_support.hpp"
 
 namespace fs = std::filesystem;
 using skylit::geom::Vec3;
 
 namespace {
 
-const fs::path kBake = fs::path(SKYLIT_BINARY_DIR) / "bin" / "skylit-bake";
-const fs::path kSource = fs::path(SKYLIT_SOURCE_DIR);
+using skylit::cli_test::kSource;
+using skylit::cli_test::Result;
+using skylit::cli_test::TempDir;
 
-struct Result {
-  int status = -1;
-  std::string output;  // stdout and stderr together
-};
-
-Result run(const std::string& args) {
-  const std::string command = kBake.string() + " " + args + " 2>&1";
-  Result r;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (!pipe) return r;
-  std::array<char, 4096> buffer{};
-  while (std::fgets(buffer.data(), buffer.size(), pipe)) r.output += buffer.data();
-  const int raw = pclose(pipe);
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  return r;
-}
-
-class TempDir {
- public:
-  TempDir() {
-    std::random_device rd;
-    path_ = fs::temp_directory_path() / ("skylit_cli_" + std::to_string(getpid()) + "_" + std::to_string(rd()));
-    fs::create_directories(path_);
-  }
-  ~TempDir() { fs::remove_all(path_); }
-  const fs::path& path() const { return path_; }
-  fs::path operator/(const std::string& name) const { return path_ / name; }
-
- private:
-  fs::path path_;
-};
+const fs::path kBake = skylit::cli_test::kBin / "skylit-bake";
+Result run(const std::string& args) { return skylit::cli_test::run_program(kBake, args); }
 
 void write_text(const fs::path& file, const std::string& text) {
   fs::create_directories(file.parent_path());

@@ -17,30 +17,17 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "skylit/sky/radiometry.hpp"
+#include "cli_support.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 
-const fs::path kBin = fs::path(SKYLIT_BINARY_DIR) / "bin";
-const fs::path kSource = fs::path(SKYLIT_SOURCE_DIR);
+using skylit::cli_test::kBin;
+using skylit::cli_test::kSource;
+using skylit::cli_test::Result;
 
-struct Result {
-  int status = -1;
-  std::string output;
-};
-
-Result run(const fs::path& program, const std::string& args) {
-  const std::string command = program.string() + " " + args + " 2>&1";
-  Result r;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (!pipe) return r;
-  std::array<char, 4096> buffer{};
-  while (std::fgets(buffer.data(), buffer.size(), pipe)) r.output += buffer.data();
-  const int raw = pclose(pipe);
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  return r;
-}
+Result run(const fs::path& program, const std::string& args) { return skylit::cli_test::run_program(program, args); }
 
 // One bake and one sky frame for the whole suite (the bake is the slow part).
 class SkylitShade : public ::testing::Test {

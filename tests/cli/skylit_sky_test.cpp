@@ -22,46 +22,17 @@
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/simulate.hpp"
 #include "skylit/sky/solar.hpp"
+#include "cli_support.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-const fs::path kSky = fs::path(SKYLIT_BINARY_DIR) / "bin" / "skylit-sky";
+using skylit::cli_test::Result;
+using SkyTempDir = skylit::cli_test::TempDir;
+
+Result run_sky(const std::string& args) { return skylit::cli_test::run_program(skylit::cli_test::kBin / "skylit-sky", args); }
 const fs::path kPark = fs::path(SKYLIT_SOURCE_DIR) / "data" / "hdri" / "park.exr";
-
-struct Result {
-  int status = -1;
-  std::string output;  // stdout and stderr together
-};
-
-Result run_sky(const std::string& args) {
-  const std::string command = kSky.string() + " " + args + " 2>&1";
-  Result r;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (!pipe) return r;
-  std::array<char, 4096> buffer{};
-  while (std::fgets(buffer.data(), buffer.size(), pipe)) r.output += buffer.data();
-  const int raw = pclose(pipe);
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  return r;
-}
-
-class SkyTempDir {
- public:
-  SkyTempDir() {
-    std::random_device rd;
-    path_ = fs::temp_directory_path() / ("skylit_sky_cli_" + std::to_string(getpid()) + "_" + std::to_string(rd()));
-    fs::create_directories(path_);
-  }
-  ~SkyTempDir() { fs::remove_all(path_); }
-  SkyTempDir(const SkyTempDir&) = delete;
-  SkyTempDir& operator=(const SkyTempDir&) = delete;
-  fs::path operator/(const std::string& name) const { return path_ / name; }
-
- private:
-  fs::path path_;
-};
 
 // A small equidistant zenith fisheye (96 px across the hemisphere) in the calibration schema.
 fs::path write_calibration(const SkyTempDir& dir) {
