@@ -14,10 +14,13 @@
 #include <Eigen/Geometry>
 
 #include "skylit/baker/visibility.hpp"
+#include "box_scene.hpp"
 #include "skylit/geom/dome.hpp"
 
 namespace skylit::baker {
 namespace {
+
+using test::direction;
 
 // Tolerances. A shadow map answers "lit or not" per shadow-map texel, so the two engines can
 // only disagree where a plane texel (or vertex) lies within about one shadow-map texel of a
@@ -27,30 +30,6 @@ namespace {
 constexpr double kMaxMeanAbsDifference = 0.01;
 constexpr double kLargeDifference = 0.5;
 constexpr double kMaxLargeDifferenceShare = 0.02;
-
-void add_box(scene::Mesh& mesh, const Vec3& a, const Vec3& b) {
-  struct Face {
-    Vec3 normal;
-    std::array<Vec3, 4> corners;  // counter-clockwise seen from outside
-  };
-  const std::array<Face, 6> faces{{
-      {{1, 0, 0}, {{{b.x(), a.y(), a.z()}, {b.x(), b.y(), a.z()}, {b.x(), b.y(), b.z()}, {b.x(), a.y(), b.z()}}}},
-      {{-1, 0, 0}, {{{a.x(), b.y(), a.z()}, {a.x(), a.y(), a.z()}, {a.x(), a.y(), b.z()}, {a.x(), b.y(), b.z()}}}},
-      {{0, 1, 0}, {{{b.x(), b.y(), a.z()}, {a.x(), b.y(), a.z()}, {a.x(), b.y(), b.z()}, {b.x(), b.y(), b.z()}}}},
-      {{0, -1, 0}, {{{a.x(), a.y(), a.z()}, {b.x(), a.y(), a.z()}, {b.x(), a.y(), b.z()}, {a.x(), a.y(), b.z()}}}},
-      {{0, 0, 1}, {{{a.x(), a.y(), b.z()}, {b.x(), a.y(), b.z()}, {b.x(), b.y(), b.z()}, {a.x(), b.y(), b.z()}}}},
-      {{0, 0, -1}, {{{a.x(), b.y(), a.z()}, {b.x(), b.y(), a.z()}, {b.x(), a.y(), a.z()}, {a.x(), a.y(), a.z()}}}},
-  }};
-  for (const Face& face : faces) {
-    const auto first = static_cast<std::uint32_t>(mesh.positions.size());
-    for (const Vec3& corner : face.corners) {
-      mesh.positions.push_back(corner.cast<float>());
-      mesh.normals.push_back(face.normal.cast<float>());
-    }
-    for (std::uint32_t i : {0u, 1u, 2u, 0u, 2u, 3u}) mesh.indices.push_back(first + i);
-    mesh.triangle_material.insert(mesh.triangle_material.end(), {0u, 0u});
-  }
-}
 
 // A flat, upward-facing grid of (n+1)² vertices at height z: vertices that lie inside lit areas,
 // shadowed areas and across shadow edges, unlike box corners.
@@ -78,8 +57,8 @@ void add_ground_grid(scene::Mesh& mesh, double half_size, double z, int n) {
 scene::Mesh small_site() {
   scene::Mesh mesh;
   mesh.materials.push_back({});
-  add_box(mesh, {-1.0, -0.75, 0.0}, {1.0, 0.75, 2.0});        // the building
-  add_box(mesh, {-1.4, -1.5, 2.3}, {1.3, 1.1, 2.45});         // a roof slab overhanging south
+  test::add_box(mesh, {{-1.0, -0.75, 0.0}, {1.0, 0.75, 2.0}});        // the building
+  test::add_box(mesh, {{-1.4, -1.5, 2.3}, {1.3, 1.1, 2.45}});         // a roof slab overhanging south
   add_ground_grid(mesh, 3.0, -0.02, 24);                      // 2 cm below the building's foot
   return mesh;
 }
@@ -100,12 +79,6 @@ std::vector<geom::Plane> small_site_planes() {
   wall.width = 64;
   wall.height = 64;
   return {ground, wall};
-}
-
-Vec3 direction(double elevation_deg, double azimuth_deg) {
-  const double el = elevation_deg * std::numbers::pi / 180.0;
-  const double az = azimuth_deg * std::numbers::pi / 180.0;
-  return {std::cos(el) * std::sin(az), std::cos(el) * std::cos(az), std::sin(el)};
 }
 
 struct DirectionSet {

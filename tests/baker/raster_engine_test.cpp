@@ -16,50 +16,16 @@
 #include <Eigen/Geometry>
 
 #include "skylit/baker/visibility.hpp"
+#include "box_scene.hpp"
 
 namespace skylit::baker {
 namespace {
 
+using test::Box;
+using test::direction;
+using test::mesh_of;
+
 constexpr int kShadowMapResolution = 1024;  // fast on llvmpipe
-
-struct Box {
-  Vec3 lo;
-  Vec3 hi;
-};
-
-// 12 triangles, counter-clockwise seen from outside, flat normals (4 vertices per face).
-void add_box(scene::Mesh& mesh, const Box& box) {
-  const Vec3& a = box.lo;
-  const Vec3& b = box.hi;
-  struct Face {
-    Vec3 normal;
-    std::array<Vec3, 4> corners;
-  };
-  const std::array<Face, 6> faces{{
-      {{1, 0, 0}, {{{b.x(), a.y(), a.z()}, {b.x(), b.y(), a.z()}, {b.x(), b.y(), b.z()}, {b.x(), a.y(), b.z()}}}},
-      {{-1, 0, 0}, {{{a.x(), b.y(), a.z()}, {a.x(), a.y(), a.z()}, {a.x(), a.y(), b.z()}, {a.x(), b.y(), b.z()}}}},
-      {{0, 1, 0}, {{{b.x(), b.y(), a.z()}, {a.x(), b.y(), a.z()}, {a.x(), b.y(), b.z()}, {b.x(), b.y(), b.z()}}}},
-      {{0, -1, 0}, {{{a.x(), a.y(), a.z()}, {b.x(), a.y(), a.z()}, {b.x(), a.y(), b.z()}, {a.x(), a.y(), b.z()}}}},
-      {{0, 0, 1}, {{{a.x(), a.y(), b.z()}, {b.x(), a.y(), b.z()}, {b.x(), b.y(), b.z()}, {a.x(), b.y(), b.z()}}}},
-      {{0, 0, -1}, {{{a.x(), b.y(), a.z()}, {b.x(), b.y(), a.z()}, {b.x(), a.y(), a.z()}, {a.x(), a.y(), a.z()}}}},
-  }};
-  for (const Face& face : faces) {
-    const auto first = static_cast<std::uint32_t>(mesh.positions.size());
-    for (const Vec3& corner : face.corners) {
-      mesh.positions.push_back(corner.cast<float>());
-      mesh.normals.push_back(face.normal.cast<float>());
-    }
-    for (std::uint32_t i : {0u, 1u, 2u, 0u, 2u, 3u}) mesh.indices.push_back(first + i);
-    mesh.triangle_material.insert(mesh.triangle_material.end(), {0u, 0u});
-  }
-}
-
-scene::Mesh mesh_of(const std::vector<Box>& boxes) {
-  scene::Mesh mesh;
-  mesh.materials.push_back({});
-  for (const Box& box : boxes) add_box(mesh, box);
-  return mesh;
-}
 
 // A flat grid of n×n vertices with one normal (no triangles of its own: the vertices only sample).
 void add_vertex_grid(scene::Mesh& mesh, const Vec3& corner, double size, int n, double z, const Vec3& normal) {
@@ -83,23 +49,17 @@ geom::Plane make_plane(const Vec3& origin, const Vec3& u, const Vec3& v, int wid
   return plane;
 }
 
-Vec3 direction(double elevation_deg, double azimuth_deg) {
-  const double el = elevation_deg * std::numbers::pi / 180.0;
-  const double az = azimuth_deg * std::numbers::pi / 180.0;
-  return {std::cos(el) * std::sin(az), std::cos(el) * std::cos(az), std::sin(el)};
-}
-
 // Slab test: does the ray origin + t·dir, t ≥ 0, meet the closed box?
 bool ray_hits_box(const Vec3& origin, const Vec3& dir, const Box& box) {
   double enter = 0.0;
   double leave = std::numeric_limits<double>::infinity();
   for (int axis = 0; axis < 3; ++axis) {
     if (std::abs(dir[axis]) < 1e-15) {
-      if (origin[axis] < box.lo[axis] || origin[axis] > box.hi[axis]) return false;
+      if (origin[axis] < box.min[axis] || origin[axis] > box.max[axis]) return false;
       continue;
     }
-    double t0 = (box.lo[axis] - origin[axis]) / dir[axis];
-    double t1 = (box.hi[axis] - origin[axis]) / dir[axis];
+    double t0 = (box.min[axis] - origin[axis]) / dir[axis];
+    double t1 = (box.max[axis] - origin[axis]) / dir[axis];
     if (t0 > t1) std::swap(t0, t1);
     enter = std::max(enter, t0);
     leave = std::min(leave, t1);

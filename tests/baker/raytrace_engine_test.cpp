@@ -12,51 +12,14 @@
 #include <Eigen/Geometry>
 
 #include "skylit/baker/visibility.hpp"
+#include "box_scene.hpp"
 
 namespace skylit::baker {
 namespace {
 
-struct Box {
-  Vec3 min;
-  Vec3 max;
-};
-
-// Appends an axis-aligned box as 12 outward counter-clockwise triangles. Each face has its own
-// four vertices so that a vertex carries its face's normal.
-void add_box(scene::Mesh& mesh, const Box& box) {
-  const Vec3& a = box.min;
-  const Vec3& b = box.max;
-  // Each face: normal, then four corners counter-clockwise seen from outside.
-  struct Face {
-    Vec3 normal;
-    std::array<Vec3, 4> corners;
-  };
-  const std::array<Face, 6> faces{{
-      {{1, 0, 0}, {{{b.x(), a.y(), a.z()}, {b.x(), b.y(), a.z()}, {b.x(), b.y(), b.z()}, {b.x(), a.y(), b.z()}}}},
-      {{-1, 0, 0}, {{{a.x(), b.y(), a.z()}, {a.x(), a.y(), a.z()}, {a.x(), a.y(), b.z()}, {a.x(), b.y(), b.z()}}}},
-      {{0, 1, 0}, {{{b.x(), b.y(), a.z()}, {a.x(), b.y(), a.z()}, {a.x(), b.y(), b.z()}, {b.x(), b.y(), b.z()}}}},
-      {{0, -1, 0}, {{{a.x(), a.y(), a.z()}, {b.x(), a.y(), a.z()}, {b.x(), a.y(), b.z()}, {a.x(), a.y(), b.z()}}}},
-      {{0, 0, 1}, {{{a.x(), a.y(), b.z()}, {b.x(), a.y(), b.z()}, {b.x(), b.y(), b.z()}, {a.x(), b.y(), b.z()}}}},
-      {{0, 0, -1}, {{{a.x(), b.y(), a.z()}, {b.x(), b.y(), a.z()}, {b.x(), a.y(), a.z()}, {a.x(), a.y(), a.z()}}}},
-  }};
-  for (const Face& face : faces) {
-    const auto first = static_cast<std::uint32_t>(mesh.positions.size());
-    for (const Vec3& corner : face.corners) {
-      mesh.positions.push_back(corner.cast<float>());
-      mesh.normals.push_back(face.normal.cast<float>());
-    }
-    for (std::uint32_t i : {0u, 1u, 2u, 0u, 2u, 3u}) mesh.indices.push_back(first + i);
-    mesh.triangle_material.insert(mesh.triangle_material.end(), {0u, 0u});
-  }
-  if (mesh.materials.empty()) mesh.materials.push_back({});
-}
-
-// Unit direction at elevation/azimuth in degrees; azimuth from north (+y) towards east (+x).
-Vec3 direction(double elevation_deg, double azimuth_deg) {
-  const double el = elevation_deg * std::numbers::pi / 180.0;
-  const double az = azimuth_deg * std::numbers::pi / 180.0;
-  return {std::cos(el) * std::sin(az), std::cos(el) * std::cos(az), std::sin(el)};
-}
+using test::Box;
+using test::direction;
+using test::mesh_of;
 
 // True when the ray p + tω, t > 0, meets the closed box (slab test).
 bool ray_hits_box(const Vec3& p, const Vec3& w, const Box& box) {
@@ -96,12 +59,6 @@ bool clear_of_boundary(const geom::Plane& plane, const Vec3& p, const Vec3& w,
     if (visible(q, w, boxes) != centre) return false;
   }
   return true;
-}
-
-scene::Mesh mesh_of(const std::vector<Box>& boxes) {
-  scene::Mesh mesh;
-  for (const Box& box : boxes) add_box(mesh, box);
-  return mesh;
 }
 
 // A 4 m × 4 m ground plane 1 cm above z = 0, centred on the origin.

@@ -1,0 +1,64 @@
+#pragma once
+// Shared by the engine tests: scenes of axis-aligned boxes, whose shadows are known exactly.
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <numbers>
+#include <vector>
+
+#include "skylit/scene/mesh.hpp"
+#include "skylit/geom/spherical.hpp"
+
+namespace skylit::baker::test {
+
+using geom::Vec3;
+
+struct Box {
+  Vec3 min;
+  Vec3 max;
+};
+
+// Appends a box as 12 outward counter-clockwise triangles. Each face has its own four vertices so
+// that a vertex carries its face's normal.
+inline void add_box(scene::Mesh& mesh, const Box& box) {
+  const Vec3& a = box.min;
+  const Vec3& b = box.max;
+  struct Face {
+    Vec3 normal;
+    std::array<Vec3, 4> corners;  // counter-clockwise seen from outside
+  };
+  const std::array<Face, 6> faces{{
+      {{1, 0, 0}, {{{b.x(), a.y(), a.z()}, {b.x(), b.y(), a.z()}, {b.x(), b.y(), b.z()}, {b.x(), a.y(), b.z()}}}},
+      {{-1, 0, 0}, {{{a.x(), b.y(), a.z()}, {a.x(), a.y(), a.z()}, {a.x(), a.y(), b.z()}, {a.x(), b.y(), b.z()}}}},
+      {{0, 1, 0}, {{{b.x(), b.y(), a.z()}, {a.x(), b.y(), a.z()}, {a.x(), b.y(), b.z()}, {b.x(), b.y(), b.z()}}}},
+      {{0, -1, 0}, {{{a.x(), a.y(), a.z()}, {b.x(), a.y(), a.z()}, {b.x(), a.y(), b.z()}, {a.x(), a.y(), b.z()}}}},
+      {{0, 0, 1}, {{{a.x(), a.y(), b.z()}, {b.x(), a.y(), b.z()}, {b.x(), b.y(), b.z()}, {a.x(), b.y(), b.z()}}}},
+      {{0, 0, -1}, {{{a.x(), b.y(), a.z()}, {b.x(), b.y(), a.z()}, {b.x(), a.y(), a.z()}, {a.x(), a.y(), a.z()}}}},
+  }};
+  for (const Face& face : faces) {
+    const auto first = static_cast<std::uint32_t>(mesh.positions.size());
+    for (const Vec3& corner : face.corners) {
+      mesh.positions.push_back(corner.cast<float>());
+      mesh.normals.push_back(face.normal.cast<float>());
+    }
+    for (std::uint32_t i : {0u, 1u, 2u, 0u, 2u, 3u}) mesh.indices.push_back(first + i);
+    mesh.triangle_material.insert(mesh.triangle_material.end(), {0u, 0u});
+  }
+  if (mesh.materials.empty()) mesh.materials.push_back({});
+}
+
+inline scene::Mesh mesh_of(const std::vector<Box>& boxes) {
+  scene::Mesh mesh;
+  mesh.materials.push_back({});
+  for (const Box& box : boxes) add_box(mesh, box);
+  return mesh;
+}
+
+// Unit direction at elevation/azimuth in degrees; azimuth from north (+y) towards east (+x).
+inline Vec3 direction(double elevation_deg, double azimuth_deg) {
+  const double el = elevation_deg * std::numbers::pi / 180.0;
+  const double az = azimuth_deg * std::numbers::pi / 180.0;
+  return {std::cos(el) * std::sin(az), std::cos(el) * std::cos(az), std::sin(el)};
+}
+
+}  // namespace skylit::baker::test
