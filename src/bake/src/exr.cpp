@@ -182,24 +182,31 @@ ExrInfo read_exr_info(const fs::path& file) {
   }
 }
 
-ImageStack read_exr_stack(const fs::path& file, std::vector<std::string>* layer_names) {
+namespace {
+
+// Both stacks read the same way; only the sample type differs. A HALF slice gets the file's half
+// bits as they are, a FLOAT slice gets them converted.
+template <typename Stack>
+Stack read_stack(const fs::path& file, std::vector<std::string>* layer_names, Imf::PixelType type) {
+  using Sample = typename decltype(Stack::data)::value_type;
+  static_assert(sizeof(half) == sizeof(std::uint16_t), "OpenEXR HALF slices are 16-bit words");
   if (!fs::is_regular_file(file)) unreadable(file, "no such file");
   try {
     Imf::InputFile in(file.c_str());
     // A file cut short still opens; its missing scanlines would silently read as zero.
     if (!in.isComplete()) unreadable(file, "the file is truncated");
     const Layout layout = layout_of(in.header(), file);
-    ImageStack stack;
+    Stack stack;
     stack.width = layout.window.max.x - layout.window.min.x + 1;
     stack.height = layout.window.max.y - layout.window.min.y + 1;
     stack.layers = static_cast<int>(layout.channels.size());
     const std::size_t texels = static_cast<std::size_t>(stack.width) * static_cast<std::size_t>(stack.height);
-    stack.data.assign(texels * layout.channels.size(), 0.0f);
+    stack.data.assign(texels * layout.channels.size(), Sample{});
     Imf::FrameBuffer frame;
     for (std::size_t l = 0; l < layout.channels.size(); ++l) {
       frame.insert(layout.channels[l],
-                   Imf::Slice::Make(Imf::FLOAT, stack.data.data() + l * texels, layout.window, sizeof(float),
-                                    sizeof(float) * static_cast<std::size_t>(stack.width)));
+                   Imf::Slice::Make(type, stack.data.data() + l * texels, layout.window, sizeof(Sample),
+                                    sizeof(Sample) * static_cast<std::size_t>(stack.width)));
     }
     in.setFrameBuffer(frame);
     in.readPixels(layout.window.min.y, layout.window.max.y);
@@ -215,39 +222,14 @@ ImageStack read_exr_stack(const fs::path& file, std::vector<std::string>* layer_
   }
 }
 
+}  // namespace
+
+ImageStack read_exr_stack(const fs::path& file, std::vector<std::string>* layer_names) {
+  return read_stack<ImageStack>(file, layer_names, Imf::FLOAT);
+}
+
 ImageStackHalf read_exr_stack_half(const fs::path& file, std::vector<std::string>* layer_names) {
-  static_assert(sizeof(half) == sizeof(std::uint16_t), "OpenEXR HALF slices are 16-bit words");
-  if (!fs::is_regular_file(file)) unreadable(file, "no such file");
-  try {
-    Imf::InputFile in(file.c_str());
-    // A file cut short still opens; its missing scanlines would silently read as zero.
-    if (!in.isComplete()) unreadable(file, "the file is truncated");
-    const Layout layout = layout_of(in.header(), file);
-    ImageStackHalf stack;
-    stack.width = layout.window.max.x - layout.window.min.x + 1;
-    stack.height = layout.window.max.y - layout.window.min.y + 1;
-    stack.layers = static_cast<int>(layout.channels.size());
-    const std::size_t texels = static_cast<std::size_t>(stack.width) * static_cast<std::size_t>(stack.height);
-    stack.data.assign(texels * layout.channels.size(), 0);
-    Imf::FrameBuffer frame;
-    for (std::size_t l = 0; l < layout.channels.size(); ++l) {
-      // HALF into a HALF slice: OpenEXR copies the bits (a FLOAT channel would be rounded).
-      frame.insert(layout.channels[l],
-                   Imf::Slice::Make(Imf::HALF, stack.data.data() + l * texels, layout.window,
-                                    sizeof(std::uint16_t), sizeof(std::uint16_t) * static_cast<std::size_t>(stack.width)));
-    }
-    in.setFrameBuffer(frame);
-    in.readPixels(layout.window.min.y, layout.window.max.y);
-    if (layer_names) {
-      layer_names->clear();
-      for (const std::string& c : layout.channels) layer_names->push_back(layer_of(c));
-    }
-    return stack;
-  } catch (const InputError&) {
-    throw;
-  } catch (const std::exception& e) {
-    unreadable(file, e.what());
-  }
+  return read_stack<ImageStackHalf>(file, layer_names, Imf::HALF);
 }
 
 }  // namespace skylit::bake
