@@ -53,6 +53,7 @@ const std::vector<Config> kConfigs{
     {"paper", 2, 1, false},     // ν=2, face centre, no sun separation (paper 003)
     {"area", 2, 16, false},     // ν=2, faces as area lights
     {"area+sun", 2, 16, true},  // ν=2, area lights, sun separated
+    {"area64+sun", 2, 64, true},  // ν=2, denser visibility sampling per face
     {"nu4", 4, 16, true},
     {"nu8", 8, 16, true},
 };

@@ -12,7 +12,8 @@ packages=(
   libyaml-cpp-dev nlohmann-json3-dev libspdlog-dev libcli11-dev
   libopenexr-dev libgtest-dev libgmock-dev libbenchmark-dev
   libapriltag-dev libhidapi-dev libcamera-dev
-  libssl-dev glslang-tools libexif-dev
+  libssl-dev glslang-tools libexif-dev libcpp-httplib-dev
+  xvfb xauth ffmpeg
 )
 
 missing=()
