@@ -8,7 +8,7 @@
 // (fisheye), luminance parameters, the sun separated or not, the bake's basis images blended.
 //
 //   accuracy_study [--skies DIR] [--site SITE.yaml] [--calib CALIB.yaml] [--texel-scale 8]
-//                  [--out DIR] [--configs paper,area,area+sun,nu4,nu8]
+//                  [--out DIR] [--configs paper,area,area+sun,area64+sun,nu4,nu8,corners,corners-nosun,corners64,area+oracle,corners+oracle,corners64+oracle]
 // Prints a Markdown table (RMS, 99th percentile and max of |T − T_ref| over every texel of every
 // plane and every channel) and writes the same as JSON to DIR/accuracy.json.
 #include <algorithm>
@@ -19,6 +19,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -47,7 +48,15 @@ struct Config {
   int frequency;
   int samples;
   bool sun;
+  skylit::geom::DomeBasis basis = skylit::geom::DomeBasis::Faces;
+  // The sun taken from the equirect instead of detected in the fisheye (a diagnosis, not a
+  // setting): its pixels within kOracleRadius of the peak, above the background around them,
+  // are the area light, exactly where the reference has them; the fisheye shows the background
+  // in their place.
+  bool oracle_sun = false;
 };
+
+constexpr double kOracleRadiusDeg = 4.0;
 
 const std::vector<Config> kConfigs{
     {"paper", 2, 1, false},     // ν=2, face centre, no sun separation (paper 003)
@@ -56,7 +65,18 @@ const std::vector<Config> kConfigs{
     {"area64+sun", 2, 64, true},  // ν=2, denser visibility sampling per face
     {"nu4", 4, 16, true},
     {"nu8", 8, 16, true},
+    // ν=2, three linear hats per face (120 layers), area lights
+    {"corners", 2, 16, true, skylit::geom::DomeBasis::Corners},
+    {"corners-nosun", 2, 16, false, skylit::geom::DomeBasis::Corners},
+    {"corners64", 2, 64, true, skylit::geom::DomeBasis::Corners},  // denser visibility sampling
+    {"area+oracle", 2, 16, true, skylit::geom::DomeBasis::Faces, true},
+    {"corners+oracle", 2, 16, true, skylit::geom::DomeBasis::Corners, true},
+    {"corners64+oracle", 2, 64, true, skylit::geom::DomeBasis::Corners, true},
 };
+
+// One bake per (ν, K, basis).
+using BakeKey = std::tuple<int, int, skylit::geom::DomeBasis>;
+BakeKey key_of(const Config& c) { return {c.frequency, c.samples, c.basis}; }
 
 struct Errors {
   double rms = 0, p99 = 0, max = 0;
@@ -76,6 +96,92 @@ Errors errors_of(std::vector<double> diffs) {
 }
 
 double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+double luminance(const Eigen::Vector3d& rgb) { return rgb.dot(Eigen::Vector3d(0.2126, 0.7152, 0.0722)); }
+double degrees_between(const Vec3& a, const Vec3& b) { return std::atan2(a.cross(b).norm(), a.dot(b)) * 180.0 / M_PI; }
+
+// The sun as the equirect has it: its brightest pixel above the horizon, the median radiance of
+// the ring 6°–15° around it as background, and the pixels within kOracleRadiusDeg with their
+// radiance above that background (energy = Σ (L − L_bg) Ω, per channel).
+struct EquirectSun {
+  bool found = false;
+  Vec3 peak = Vec3::UnitZ();
+  Vec3 centroid = Vec3::UnitZ();             // energy-weighted
+  Eigen::Vector3d background = Eigen::Vector3d::Zero();
+  Eigen::Vector3d energy = Eigen::Vector3d::Zero();
+  std::vector<Vec3> directions;
+  std::vector<double> weights;               // share of the energy's luminance, sum 1
+  std::vector<std::pair<int, int>> pixels;   // (row, col)
+  double energy_within(double radius_deg, const cv::Mat& equirect) const {
+    double e = 0;
+    for (int row = 0; row < equirect.rows; ++row) {
+      const double omega = skylit::sky::equirect_pixel_solid_angle(equirect.cols, equirect.rows, row);
+      for (int col = 0; col < equirect.cols; ++col) {
+        const Vec3 d = skylit::sky::equirect_direction(equirect.cols, equirect.rows, col, row);
+        if (d.z() <= 0.0 || degrees_between(d, peak) > radius_deg) continue;
+        const cv::Vec3f& l = equirect.at<cv::Vec3f>(row, col);
+        e += std::max(0.0, luminance(Eigen::Vector3d(l[2], l[1], l[0]) - background)) * omega;
+      }
+    }
+    return e;
+  }
+};
+
+EquirectSun equirect_sun(const cv::Mat& equirect) {
+  EquirectSun sun;
+  double best = 0;
+  std::vector<double> all;
+  for (int row = 0; row < equirect.rows; ++row) {
+    for (int col = 0; col < equirect.cols; ++col) {
+      const Vec3 d = skylit::sky::equirect_direction(equirect.cols, equirect.rows, col, row);
+      if (d.z() <= 0.0) continue;
+      const cv::Vec3f& l = equirect.at<cv::Vec3f>(row, col);
+      const double y = luminance(Eigen::Vector3d(l[2], l[1], l[0]));
+      all.push_back(y);
+      if (y > best) {
+        best = y;
+        sun.peak = d;
+      }
+    }
+  }
+  std::nth_element(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(all.size() / 2), all.end());
+  sun.found = best > 100.0 * all[all.size() / 2];  // as basis_study: 100× the median
+  if (!sun.found) return sun;
+  std::vector<double> ring[3];
+  for (int row = 0; row < equirect.rows; ++row) {
+    for (int col = 0; col < equirect.cols; ++col) {
+      const Vec3 d = skylit::sky::equirect_direction(equirect.cols, equirect.rows, col, row);
+      const double angle = degrees_between(d, sun.peak);
+      if (d.z() <= 0.0 || angle < 6.0 || angle > 15.0) continue;
+      const cv::Vec3f& l = equirect.at<cv::Vec3f>(row, col);
+      for (int c = 0; c < 3; ++c) ring[c].push_back(l[2 - c]);
+    }
+  }
+  for (int c = 0; c < 3; ++c) {
+    std::nth_element(ring[c].begin(), ring[c].begin() + static_cast<std::ptrdiff_t>(ring[c].size() / 2), ring[c].end());
+    sun.background[c] = ring[c][ring[c].size() / 2];
+  }
+  Vec3 centroid = Vec3::Zero();
+  double total = 0;
+  for (int row = 0; row < equirect.rows; ++row) {
+    const double omega = skylit::sky::equirect_pixel_solid_angle(equirect.cols, equirect.rows, row);
+    for (int col = 0; col < equirect.cols; ++col) {
+      const Vec3 d = skylit::sky::equirect_direction(equirect.cols, equirect.rows, col, row);
+      if (d.z() <= 0.0 || degrees_between(d, sun.peak) > kOracleRadiusDeg) continue;
+      const cv::Vec3f& l = equirect.at<cv::Vec3f>(row, col);
+      const Eigen::Vector3d above = (Eigen::Vector3d(l[2], l[1], l[0]) - sun.background).cwiseMax(0.0) * omega;
+      sun.energy += above;
+      sun.directions.push_back(d);
+      sun.weights.push_back(luminance(above));
+      sun.pixels.emplace_back(row, col);
+      centroid += luminance(above) * d;
+      total += luminance(above);
+    }
+  }
+  for (double& w : sun.weights) w /= total;
+  sun.centroid = centroid.normalized();
+  return sun;
+}
 
 // The site with every plane's resolution divided by `scale` (the reference costs one ray per
 // texel and sky pixel).
@@ -104,7 +210,8 @@ int main(int argc, char** argv) {
   app.add_option("--texel-scale", texel_scale, "divide every plane's resolution by this")->capture_default_str();
   app.add_option("--supersample", supersample, "fisheye rendering: sub-pixels per axis")->capture_default_str();
   app.add_option("--out", out_dir, "bakes and results")->capture_default_str();
-  app.add_option("--configs", config_list, "comma-separated subset of paper,area,area+sun,nu4,nu8");
+  app.add_option("--configs", config_list,
+                 "comma-separated subset of paper,area,area+sun,area64+sun,nu4,nu8,corners,corners-nosun,corners64,area+oracle,corners+oracle,corners64+oracle");
   std::string only_sky;
   bool dump = false;
   app.add_flag("--pictures", dump, "write T | reference | 5×|difference| per sky, setting and plane as PNG");
@@ -122,18 +229,20 @@ int main(int argc, char** argv) {
   const skylit::sky::CameraCalibration calibration = skylit::sky::load_calibration(calib_file);
   const skylit::sky::Lens lens(calibration);
 
-  // One bake per (ν, K), ray-traced: the CPU reference engine.
-  std::map<std::pair<int, int>, fs::path> bakes;
-  std::map<std::pair<int, int>, double> bake_seconds;
+  // One bake per (ν, K, basis), ray-traced: the CPU reference engine.
+  std::map<BakeKey, fs::path> bakes;
+  std::map<BakeKey, double> bake_seconds;
   for (const Config& c : configs) {
-    const auto key = std::make_pair(c.frequency, c.samples);
+    const BakeKey key = key_of(c);
     if (bakes.count(key)) continue;
-    const fs::path dir = fs::path(out_dir) / ("bake_nu" + std::to_string(c.frequency) + "_k" + std::to_string(c.samples));
+    const fs::path dir = fs::path(out_dir) / ("bake_nu" + std::to_string(c.frequency) + "_k" + std::to_string(c.samples) +
+                                              (c.basis == skylit::geom::DomeBasis::Corners ? "_corners" : ""));
     skylit::baker::BakeOptions options;
     options.site_file = site_path;
     options.out_dir = dir;
     options.frequency = c.frequency;
     options.samples = c.samples;
+    options.basis = c.basis;
     options.method = "raytrace";
     options.force = true;
     options.previews = false;
@@ -152,7 +261,9 @@ int main(int argc, char** argv) {
   std::sort(skies.begin(), skies.end());
 
   nlohmann::json results = nlohmann::json::array();
-  std::printf("| sky | configuration | ν | K | sun | RMS | p99 | max | sun found |\n|---|---|---|---|---|---|---|---|---|\n");
+  std::vector<std::string> sun_notes;
+  std::printf("| sky | configuration | ν | K | basis | sun | RMS | p99 | max | sun found |\n"
+              "|---|---|---|---|---|---|---|---|---|---|\n");
   for (const fs::path& sky_file : skies) {
     // Lossy HDR captures hold negative (and, in general, non-finite) pixels. Both paths see the
     // same sky: cleaned once here, so that resampling the artefacts into the fisheye does not
@@ -169,7 +280,7 @@ int main(int argc, char** argv) {
     for (int row = 0; row < equirect.rows; ++row) {
       const double solid_angle = skylit::sky::equirect_pixel_solid_angle(equirect.cols, equirect.rows, row);
       for (int col = 0; col < equirect.cols; ++col) {
-        const Vec3 d = skylit::sky::equirect_direction(equirect.cols, equirect.rows, col + 0.5, row + 0.5);
+        const Vec3 d = skylit::sky::equirect_direction(equirect.cols, equirect.rows, col, row);
         if (d.z() <= 0.0) continue;
         const cv::Vec3f& l = equirect.at<cv::Vec3f>(row, col);
         directions.push_back(d);
@@ -191,18 +302,64 @@ int main(int argc, char** argv) {
     const double reference_seconds = seconds_since(t);
 
     const skylit::sky::RadianceFrame frame{skylit::sky::render_fisheye(lens, equirect, {.supersample = supersample}), cv::Mat()};
+    // The oracle's frame: the sun's pixels replaced by the background around them.
+    const EquirectSun oracle = equirect_sun(equirect);
+    skylit::sky::RadianceFrame oracle_frame;
+    if (oracle.found) {
+      cv::Mat without_sun = equirect.clone();
+      for (const auto& [row, col] : oracle.pixels) {
+        const cv::Vec3f l = without_sun.at<cv::Vec3f>(row, col);
+        for (int ch = 0; ch < 3; ++ch) {
+          without_sun.at<cv::Vec3f>(row, col)[ch] = std::min(l[ch], static_cast<float>(oracle.background[2 - ch]));
+        }
+      }
+      oracle_frame = {skylit::sky::render_fisheye(lens, without_sun, {.supersample = supersample}), cv::Mat()};
+    }
+    bool noted = false;
     for (const Config& c : configs) {
-      const fs::path bake_dir = bakes.at({c.frequency, c.samples});
+      const fs::path bake_dir = bakes.at(key_of(c));
       const skylit::bake::Manifest manifest = skylit::bake::read_manifest(bake_dir);
       const skylit::geom::Dome dome(c.frequency);
+      const bool use_oracle = c.oracle_sun && oracle.found;
       skylit::sky::SkyEstimateOptions sky_options;
-      sky_options.sun_mode = c.sun ? skylit::sky::SunMode::Auto : skylit::sky::SunMode::Off;
+      sky_options.sun_mode = c.sun && !use_oracle ? skylit::sky::SunMode::Auto : skylit::sky::SunMode::Off;
+      sky_options.table.basis = c.basis;
       const skylit::sky::SkyEstimator estimator(calibration, dome, sky_options);
-      const skylit::sky::SkyEstimate estimate = estimator.estimate(frame);
-      std::vector<Eigen::Vector3d> S;
-      for (const auto& f : estimate.luminance.faces) S.push_back(f.rgb);
+      const skylit::sky::SkyEstimate estimate = estimator.estimate(use_oracle ? oracle_frame : frame);
+      const std::vector<Eigen::Vector3d> S = skylit::sky::layer_radiances(estimate.luminance);
       std::optional<skylit::render::SunLight> sun;
-      if (estimate.sun) sun = skylit::render::SunLight{estimate.sun->direction, estimate.sun->energy};
+      std::vector<Vec3> disc_directions;
+      std::vector<double> disc_weights;
+      if (use_oracle) {
+        sun = skylit::render::SunLight{oracle.centroid, oracle.energy};
+        disc_directions = oracle.directions;
+        disc_weights = oracle.weights;
+      } else if (estimate.sun) {
+        sun = skylit::render::SunLight{estimate.sun->direction, estimate.sun->energy};
+        disc_directions = estimate.sun->disc_directions;
+        disc_weights = estimate.sun->disc_weights;
+      }
+      if (estimate.sun && oracle.found && !noted) {
+        // The detected sun against the equirect's: where, how wide, how much energy.
+        noted = true;
+        const skylit::sky::Sun& d = *estimate.sun;
+        Vec3 cells = Vec3::Zero();
+        for (std::size_t k = 0; k < d.disc_directions.size(); ++k) cells += d.disc_weights[k] * d.disc_directions[k];
+        char line[768];
+        std::snprintf(line, sizeof line,
+                      "%s: detected sun %.2f° from the equirect's peak pixel (%.2f° from the oracle's energy "
+                      "centroid; its cells' centroid %.2f° from the oracle's), core radius %.2f°, %d pixels in %zu "
+                      "cells; energy (luminance) detected %.4g, "
+                      "equirect above background within 1°/2°/4°/6° of the peak %.4g/%.4g/%.4g/%.4g; equirect "
+                      "pixel %.2f°",
+                      sky_file.stem().c_str(), degrees_between(d.direction, oracle.peak),
+                      degrees_between(d.direction, oracle.centroid), degrees_between(cells.normalized(), oracle.centroid),
+                      d.angular_radius * 180.0 / M_PI, d.pixel_count,
+                      d.disc_directions.size(), luminance(d.energy), oracle.energy_within(1.0, equirect),
+                      oracle.energy_within(2.0, equirect), oracle.energy_within(4.0, equirect),
+                      oracle.energy_within(6.0, equirect), 360.0 / equirect.cols);
+        sun_notes.emplace_back(line);
+      }
 
       std::vector<double> diffs;
       nlohmann::json per_plane;
@@ -211,8 +368,8 @@ int main(int argc, char** argv) {
         std::vector<float> visibility;
         if (sun) {
           visibility.resize(basis.texel_count());
-          skylit::baker::area_light_visibility(mesh, manifest.planes[j].plane, estimate.sun->disc_directions,
-                                               estimate.sun->disc_weights, visibility);
+          skylit::baker::area_light_visibility(mesh, manifest.planes[j].plane, disc_directions, disc_weights,
+                                               visibility);
         }
         const auto w = skylit::render::blend_weights(basis, S, sun);
         std::vector<float> T(basis.texel_count() * 3);
@@ -249,18 +406,24 @@ int main(int argc, char** argv) {
         per_plane[basis.name] = {{"rms", pe.rms}, {"p99", pe.p99}, {"max", pe.max}};
       }
       const Errors e = errors_of(std::move(diffs));
-      std::printf("| %s | %s | %d | %d | %s | %.4f | %.4f | %.4f | %s |\n", sky_file.stem().c_str(), c.name.c_str(),
-                  c.frequency, c.samples, c.sun ? "separated" : "off", e.rms, e.p99, e.max,
-                  c.sun ? (estimate.sun ? "yes" : "no") : "-");
+      const std::string basis_name(skylit::geom::basis_name(c.basis));
+      std::printf("| %s | %s | %d | %d | %s | %s | %.4f | %.4f | %.4f | %s |\n", sky_file.stem().c_str(),
+                  c.name.c_str(), c.frequency, c.samples, basis_name.c_str(), c.sun ? "separated" : "off", e.rms, e.p99,
+                  e.max,
+                  c.sun ? (use_oracle ? "oracle" : estimate.sun ? "yes" : "no") : "-");
       std::fflush(stdout);
       results.push_back({{"sky", sky_file.stem().string()}, {"config", c.name}, {"frequency", c.frequency},
-                         {"samples", c.samples}, {"sun_separation", c.sun}, {"sun_found", estimate.sun.has_value()},
+                         {"samples", c.samples}, {"basis", basis_name}, {"sun_separation", c.sun},
+                         {"sun_found", estimate.sun.has_value()},
+                         {"corners_from_mean", estimate.luminance.corners_from_mean},
                          {"sun_reason", estimate.sun_reason}, {"rms", e.rms}, {"p99", e.p99}, {"max", e.max},
                          {"planes", per_plane}, {"reference_seconds", reference_seconds},
-                         {"bake_seconds", bake_seconds.at({c.frequency, c.samples})}});
+                         {"bake_seconds", bake_seconds.at(key_of(c))}});
     }
   }
   skylit::write_file_atomic(fs::path(out_dir) / "accuracy.json", results.dump(2) + "\n");
+  if (!sun_notes.empty()) std::printf("\n");
+  for (const std::string& note : sun_notes) std::printf("%s\n", note.c_str());
   std::printf("\ntexels: planes of %s at 1/%d resolution; skies rendered into %s (%d² sub-pixels)\n", site_file.c_str(),
               texel_scale, calib_file.c_str(), supersample);
   return 0;

@@ -146,7 +146,7 @@ int main(int argc, char** argv) {
   std::vector<std::pair<int, int>> pixel;
   for (int row = 0; row < sky_height; ++row) {
     for (int col = 0; col < sky_width; ++col) {
-      const Vec3 d = skylit::sky::equirect_direction(sky_width, sky_height, col + 0.5, row + 0.5);
+      const Vec3 d = skylit::sky::equirect_direction(sky_width, sky_height, col, row);
       if (d.z() <= 0.0) continue;
       dirs.push_back(d);
       omega.push_back(skylit::sky::equirect_pixel_solid_angle(sky_width, sky_height, row));

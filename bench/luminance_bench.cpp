@@ -52,6 +52,33 @@ void BM_Luminance(benchmark::State& state) {
 }
 BENCHMARK(BM_Luminance)->ArgsProduct({{2, 8}, {1, 2, 4}})->Unit(benchmark::kMillisecond)->UseRealTime();
 
+// The corners basis: three weighted sums per sample, and per face the 3×3 fit (with the sun's
+// exclusion mask, which recomputes the mass of the faces it touches).
+void BM_LuminanceCorners(benchmark::State& state) {
+  const geom::Dome dome(static_cast<int>(state.range(0)));
+  const sky::Lens lens(hd_fisheye());
+  const sky::SkyTable table = sky::build_sky_table(
+      lens, dome, {.step = static_cast<int>(state.range(1)), .basis = geom::DomeBasis::Corners});
+  const cv::Mat& frame = clear_sky_frame();
+  cv::Mat exclude;
+  if (state.range(2)) {
+    exclude = cv::Mat(frame.size(), CV_8UC1, cv::Scalar(0));
+    for (int y = 288; y <= 312; ++y) {  // a sun's disc with its halo, 25 pixels across
+      for (int x = 1288; x <= 1312; ++x) exclude.at<std::uint8_t>(y, x) = (x - 1300) * (x - 1300) + (y - 300) * (y - 300) <= 144 ? 255 : 0;
+    }
+  }
+  for (auto _ : state) {
+    sky::Luminance l = sky::compute_luminance(table, dome, frame, cv::Mat(), exclude);
+    benchmark::DoNotOptimize(l.faces.data());
+  }
+  state.counters["samples"] = static_cast<double>(table.sample_count());
+}
+BENCHMARK(BM_LuminanceCorners)
+    ->ArgsProduct({{2, 8}, {1, 2, 4}, {0}})
+    ->Args({2, 1, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
 void BM_BuildTable(benchmark::State& state) {
   const geom::Dome dome(static_cast<int>(state.range(0)));
   const sky::Lens lens(hd_fisheye());
@@ -61,6 +88,16 @@ void BM_BuildTable(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_BuildTable)->Arg(2)->Arg(8)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
+
+void BM_BuildTableCorners(benchmark::State& state) {
+  const geom::Dome dome(static_cast<int>(state.range(0)));
+  const sky::Lens lens(hd_fisheye());
+  for (auto _ : state) {
+    sky::SkyTable t = sky::build_sky_table(lens, dome, {.basis = geom::DomeBasis::Corners});
+    benchmark::DoNotOptimize(t.runs.data());
+  }
+}
+BENCHMARK(BM_BuildTableCorners)->Arg(2)->Arg(8)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
 
 void BM_SunDetection(benchmark::State& state) {
   const sky::Lens lens(hd_fisheye());

@@ -114,6 +114,7 @@ std::vector<std::string> face_flag_names(std::uint32_t flags) {
   if (flags & skylit::sky::kFaceClipped) names.emplace_back("clipped");
   if (flags & skylit::sky::kFaceBadPixels) names.emplace_back("bad_pixels");
   if (flags & skylit::sky::kFaceSunRemoved) names.emplace_back("sun_removed");
+  if (flags & skylit::sky::kFaceCornersFromMean) names.emplace_back("corners_from_mean");
   return names;
 }
 
@@ -174,14 +175,14 @@ int run(const Options& o) {
   t = Clock::now();
   skylit::sky::SkyEstimateOptions sky_options;
   sky_options.table.step = o.step;
+  sky_options.table.basis = manifest.plan.basis;  // S per layer of the bake
   sky_options.luminance.min_coverage = o.min_coverage;
   sky_options.sun_mode = o.sun == "auto" ? skylit::sky::SunMode::Auto : skylit::sky::SunMode::Off;
   const skylit::sky::SkyEstimator estimator(calibration, dome, sky_options);
   const double table_ms = ms_since(t);
   const skylit::sky::SkyEstimate estimate = estimator.estimate(frame);
 
-  std::vector<Eigen::Vector3d> S;
-  for (const auto& f : estimate.luminance.faces) S.push_back(f.rgb);
+  const std::vector<Eigen::Vector3d> S = skylit::sky::layer_radiances(estimate.luminance);
   std::optional<skylit::render::SunLight> sun;
   std::vector<std::vector<float>> visibility(manifest.planes.size());
   double visibility_ms = 0;
@@ -239,24 +240,36 @@ int run(const Options& o) {
   nlohmann::json faces = nlohmann::json::array();
   for (int i = 0; i < dome.face_count(); ++i) {
     const auto& f = estimate.luminance.faces[static_cast<std::size_t>(i)];
-    faces.push_back({{"index", i},
-                     {"direction", vec(dome.face(i).centre)},
-                     {"solid_angle", dome.face(i).solid_angle},
-                     {"S", vec(f.rgb)},
-                     {"coverage", f.coverage},
-                     {"clipped_fraction", f.clipped_fraction},
-                     {"flags", face_flag_names(f.flags)}});
+    nlohmann::json face{{"index", i},
+                        {"direction", vec(dome.face(i).centre)},
+                        {"solid_angle", dome.face(i).solid_angle},
+                        {"S", vec(f.rgb)},
+                        {"coverage", f.coverage},
+                        {"clipped_fraction", f.clipped_fraction},
+                        {"flags", face_flag_names(f.flags)}};
+    if (manifest.plan.basis == skylit::geom::DomeBasis::Corners) {
+      // S at the face's vertices (layers 3i, 3i+1, 3i+2), with where each vertex is.
+      nlohmann::json corners = nlohmann::json::array();
+      for (std::size_t k = 0; k < 3; ++k) {
+        const auto vertex = static_cast<std::size_t>(dome.face(i).vertex[k]);
+        corners.push_back({{"vertex", vertex}, {"direction", vec(dome.vertices()[vertex])}, {"S", vec(f.corners[k])}});
+      }
+      face["corners"] = std::move(corners);
+    }
+    faces.push_back(std::move(face));
   }
   const auto& l = estimate.luminance;
   nlohmann::json sky{{"bake", o.bake_dir},
                      {"frames", o.sky},
                      {"calibration", o.sky_calib},
                      {"dome_frequency", dome.frequency()},
+                     {"basis", skylit::geom::basis_name(manifest.plan.basis)},
                      {"faces", faces},
                      {"samples", l.samples},
                      {"pixels", {{"nan", l.nan_pixels}, {"inf", l.inf_pixels}, {"negative", l.negative_pixels},
                                  {"clipped", l.clipped_pixels}}},
                      {"unseen_faces", l.unseen_faces},
+                     {"corners_from_mean", l.corners_from_mean},
                      {"no_face_seen", l.no_face_seen},
                      {"sun_mode", o.sun},
                      {"sun_reason", estimate.sun_reason},
@@ -288,6 +301,9 @@ int run(const Options& o) {
     spdlog::warn("{} NaN, {} Inf and {} negative pixel(s) counted as 0", l.nan_pixels, l.inf_pixels, l.negative_pixels);
   }
   if (l.unseen_faces > 0) spdlog::warn("{} face(s) the lens does not see were filled from their neighbours", l.unseen_faces);
+  if (l.corners_from_mean > 0) {
+    spdlog::info("{} face(s) seen too little to fit three corners carry their mean in each", l.corners_from_mean);
+  }
   if (l.no_face_seen) spdlog::warn("the frame sees no face of the dome: every S is 0 and T = 1");
   if (l.clipped_pixels > 0) spdlog::warn("{} clipped pixel(s): the sky there is brighter than measured", l.clipped_pixels);
   spdlog::info("sun: {}", estimate.sun_reason);

@@ -11,7 +11,6 @@
 #include <filesystem>
 #include <numbers>
 #include <optional>
-#include <regex>
 #include <string>
 #include <vector>
 
@@ -60,20 +59,12 @@ std::string lower_extension(const fs::path& file) {
   return ext;
 }
 
-// "30min", "10s", "1h", "1.5h", "90 s": a positive whole number of seconds.
 std::chrono::seconds parse_interval(const std::string& text) {
-  static const std::regex pattern(R"(\s*(\d+(?:\.\d*)?)\s*(s|sec|m|min|h)\s*)");
-  std::smatch match;
-  if (!std::regex_match(text, match, pattern)) {
-    bad_option("--every", "'" + text + "' is not an interval", "write a number and a unit: 30s, 10min, 1h");
+  try {
+    return skylit::sky::parse_interval(text);
+  } catch (const InputError& e) {
+    throw InputError("option --every: " + std::string(e.what()));
   }
-  const std::string unit = match[2].str();
-  const double scale = unit == "h" ? 3600.0 : (unit == "m" || unit == "min") ? 60.0 : 1.0;
-  const double seconds = std::stod(match[1].str()) * scale;
-  if (!(seconds >= 1.0) || seconds > 366.0 * 86400.0) {
-    bad_option("--every", "'" + text + "' is under a second or over a year", "use e.g. 30s, 10min or 1h");
-  }
-  return std::chrono::seconds(std::llround(seconds));
 }
 
 std::chrono::sys_seconds parse_time(const std::string& option, const std::string& text) {
@@ -131,15 +122,7 @@ void validate(const Options& o) {
 }
 
 cv::Mat load_equirect(const fs::path& file) {
-  const cv::Mat image = skylit::sky::read_sky_image(file);
-  cv::Mat radiance;
-  if (image.depth() == CV_32F) {
-    radiance = image;
-  } else {
-    // An 8/16-bit equirect is taken as sRGB-encoded.
-    const int bits = image.depth() == CV_16U ? 16 : 8;
-    radiance = skylit::sky::linearise(image, skylit::sky::ResponseCurve::srgb(bits), skylit::sky::Exposure{}).radiance;
-  }
+  cv::Mat radiance = skylit::sky::read_equirect(file);
   if (radiance.cols != 2 * radiance.rows) {
     spdlog::warn("{}: {}x{} is not 2:1; taking it as an equirect all the same", file.string(), radiance.cols,
                  radiance.rows);
@@ -156,9 +139,15 @@ void write_frame(const fs::path& file, const cv::Mat& radiance, const std::optio
   }
 }
 
-skylit::sky::SkyFunction analytic_sky(const Options& o, const std::optional<skylit::sky::SolarPosition>& sun) {
-  if (o.overcast) return skylit::sky::sky_function(skylit::sky::OvercastSky(o.zenith_radiance));
-  return skylit::sky::sky_function(skylit::sky::ClearSky(sun->direction(), o.turbidity));
+skylit::sky::AnalyticSkySettings analytic_settings(const Options& o) {
+  skylit::sky::AnalyticSkySettings settings;
+  settings.kind = o.overcast ? skylit::sky::AnalyticSkySettings::Kind::Overcast
+                             : skylit::sky::AnalyticSkySettings::Kind::Clear;
+  settings.turbidity = o.turbidity;
+  settings.zenith_radiance = o.zenith_radiance;
+  settings.latitude_deg = o.lat.value_or(0.0);
+  settings.longitude_deg = o.lon.value_or(0.0);
+  return settings;
 }
 
 int run_single(const Options& o, const Lens& lens) {
@@ -179,12 +168,13 @@ int run_single(const Options& o, const Lens& lens) {
     render.azimuth_offset = o.azimuth_offset_deg * kDeg;
     frame = skylit::sky::render_fisheye(lens, load_equirect(o.equirect), render);
   } else {
-    std::optional<skylit::sky::SolarPosition> sun;
+    // An overcast sky needs no time; a clear one has --start (validate checked).
+    const auto utc = o.start.empty() ? std::chrono::sys_seconds{} : parse_time("--start", o.start);
     if (o.lat && o.lon && !o.start.empty()) {
-      sun = skylit::sky::solar_position(parse_time("--start", o.start), *o.lat, *o.lon);
-      spdlog::info("sun at azimuth {:.2f}°, elevation {:.2f}°", sun->azimuth_rad / kDeg, sun->elevation_rad / kDeg);
+      const auto sun = skylit::sky::solar_position(utc, *o.lat, *o.lon);
+      spdlog::info("sun at azimuth {:.2f}°, elevation {:.2f}°", sun.azimuth_rad / kDeg, sun.elevation_rad / kDeg);
     }
-    frame = skylit::sky::render_fisheye(lens, analytic_sky(o, sun), render);
+    frame = skylit::sky::render_fisheye(lens, skylit::sky::analytic_sky(analytic_settings(o), utc), render);
   }
   write_frame(out, frame, o.exposure);
   spdlog::info("wrote {} ({}x{})", out.string(), frame.cols, frame.rows);
@@ -207,13 +197,14 @@ int run_time_lapse(const Options& o, const Lens& lens) {
   skylit::ensure_writable_directory(dir);
   skylit::sky::RenderOptions render;
   render.supersample = o.supersample;
+  const skylit::sky::AnalyticSkySettings settings = analytic_settings(o);
 
   std::string csv = "timestamp,file,sun_azimuth_deg,sun_elevation_deg\n";
   skylit::Progress progress("skylit-sky", frames, o.quiet ? nullptr : stderr);
   for (long long k = 0; k < frames; ++k) {
     const auto t = start + k * step;
     const auto sun = skylit::sky::solar_position(t, *o.lat, *o.lon);
-    const cv::Mat frame = skylit::sky::render_fisheye(lens, analytic_sky(o, sun), render);
+    const cv::Mat frame = skylit::sky::render_fisheye(lens, skylit::sky::analytic_sky(settings, t), render);
     char name[32];
     std::snprintf(name, sizeof name, "frame_%04lld", k);
     const std::string exr = std::string(name) + ".exr";

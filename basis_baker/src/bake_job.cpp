@@ -117,6 +117,7 @@ bake::Plan make_plan(const BakeOptions& o, const scene::Site& site, const scene:
   plan.model_file = fs::absolute(site.model).lexically_normal().string();
   plan.model_sha256 = sha256_file(site.model);
   plan.frequency = o.frequency.value_or(site.dome_frequency);
+  plan.basis = o.basis.value_or(site.dome_basis);
   plan.samples = o.samples;
   plan.method = o.method;
   plan.planes = site.planes;
@@ -185,6 +186,18 @@ std::set<int> prepare_output(const BakeOptions& o, const bake::Plan& plan, const
   return done;
 }
 
+// The corners basis with fewer than kMinCornerSamples directions per face is refused: say where
+// the basis came from.
+void check_basis_samples(const BakeOptions& o, const bake::Plan& plan) {
+  if (plan.basis != geom::DomeBasis::Corners || plan.samples >= kMinCornerSamples) return;
+  const std::string source = o.basis ? std::string("--basis corners")
+                                     : std::string("dome.basis: corners in ").append(o.site_file.string());
+  throw InputError(cli_error("--samples", "got " + std::to_string(plan.samples) + " with " + source,
+                             "the corners basis resolves three hats per face and needs at least " +
+                                 std::to_string(kMinCornerSamples) +
+                                 " samples per face: pass --samples 16 (or --basis faces)"));
+}
+
 bake::Manifest manifest_for(const bake::Plan& plan, const geom::Dome& dome) {
   bake::Manifest m;
   m.generator = kGenerator;
@@ -200,12 +213,12 @@ bake::Manifest manifest_for(const bake::Plan& plan, const geom::Dome& dome) {
     r.neighbours = f.neighbour;
     m.faces.push_back(r);
   }
+  const std::vector<geom::FaceQuadrature> quadratures = corner_quadratures(dome, plan.basis);
   for (const geom::Plane& p : plan.planes) {
     bake::PlaneRecord r;
     r.plane = p;
     r.file = "planes/" + p.name + ".exr";
-    const geom::Vec3 n = p.normal();
-    for (int i = 0; i < dome.face_count(); ++i) r.unoccluded.push_back(geom::cosine_integral(dome.triangle(i), n));
+    r.unoccluded = layer_cosine_integrals(dome, plan.basis, quadratures, p.normal());
     m.planes.push_back(std::move(r));
   }
   return m;
@@ -218,16 +231,32 @@ std::uint64_t finalize(const fs::path& out_dir, bake::Manifest manifest, const s
   const bake::PartStore parts(out_dir / "parts");
   const bake::Plan& plan = manifest.plan;
   const int n = dome.face_count();
+  const int per_face = plan.layers_per_face();
+  const std::size_t layers = static_cast<std::size_t>(n) * static_cast<std::size_t>(per_face);
   fs::create_directories(out_dir / "planes");
   if (previews) fs::create_directories(out_dir / "preview");
 
-  std::vector<std::string> layer_names;
-  for (int i = 0; i < n; ++i) layer_names.push_back(bake::face_layer_name(i));
+  const std::vector<std::string> layer_names = bake::layer_names(plan.basis, n);
 
-  // Per-vertex transfer t_{v,i} = A_i(n_v) · f_{v,i}, filled while the parts are read.
+  // Per-vertex transfer t_{v,l} = A_l(n_v) · f_{v,l}, filled while the parts are read; A_l(n_v)
+  // of every vertex first (one row per vertex, as transfer.npy).
   const std::size_t vertex_count = mesh.vertex_count();
-  std::vector<float> transfer(vertex_count * static_cast<std::size_t>(n), 0.0f);
-  std::vector<std::vector<float>> plane_layers;
+  std::vector<float> transfer(vertex_count * layers, 0.0f);
+  const std::vector<geom::FaceQuadrature> quadratures = corner_quadratures(dome, plan.basis);
+  std::vector<double> vertex_unoccluded(vertex_count * layers);
+  for (std::size_t v = 0; v < vertex_count; ++v) {
+    const std::vector<double> a = layer_cosine_integrals(dome, plan.basis, quadratures, mesh.normals[v].cast<double>());
+    std::copy(a.begin(), a.end(), vertex_unoccluded.begin() + static_cast<std::ptrdiff_t>(v * layers));
+  }
+  const auto add_vertex_fractions = [&](int face, const bake::FacePart& part) {
+    for (int k = 0; k < per_face; ++k) {
+      const std::size_t l = static_cast<std::size_t>(face * per_face + k);
+      const float* f = part.vertex_fractions.data() + static_cast<std::size_t>(k) * vertex_count;
+      for (std::size_t v = 0; v < vertex_count; ++v) {
+        transfer[v * layers + l] = static_cast<float>(vertex_unoccluded[v * layers + l] * f[v]);
+      }
+    }
+  };
 
   Progress progress("assemble", static_cast<std::int64_t>(plan.planes.size()) * n, log);
   for (std::size_t j = 0; j < plan.planes.size(); ++j) {
@@ -235,21 +264,19 @@ std::uint64_t finalize(const fs::path& out_dir, bake::Manifest manifest, const s
     bake::ImageStack stack;
     stack.width = p.width;
     stack.height = p.height;
-    stack.layers = n;
-    stack.data.assign(static_cast<std::size_t>(p.width) * p.height * n, 0.0f);
+    stack.layers = static_cast<int>(layers);
+    stack.data.assign(static_cast<std::size_t>(p.width) * p.height * layers, 0.0f);
     for (int i = 0; i < n; ++i) {
       const bake::FacePart part = parts.read(i, plan);
       const std::vector<float>& f = part.plane_fractions.at(j);
-      const double a = manifest.planes[j].unoccluded[static_cast<std::size_t>(i)];
-      std::span<float> layer = stack.layer(i);
-      for (std::size_t t = 0; t < layer.size(); ++t) layer[t] = static_cast<float>(a * f[t]);
-      if (j == 0) {
-        for (std::size_t v = 0; v < vertex_count; ++v) {
-          const geom::Vec3 normal = mesh.normals[v].cast<double>();
-          transfer[v * n + static_cast<std::size_t>(i)] = static_cast<float>(
-              geom::cosine_integral(dome.triangle(i), normal) * part.vertex_fractions[v]);
-        }
+      for (int k = 0; k < per_face; ++k) {
+        const int l = i * per_face + k;
+        const double a = manifest.planes[j].unoccluded[static_cast<std::size_t>(l)];
+        std::span<float> layer = stack.layer(l);
+        const float* fk = f.data() + static_cast<std::size_t>(k) * layer.size();
+        for (std::size_t t = 0; t < layer.size(); ++t) layer[t] = static_cast<float>(a * fk[t]);
       }
+      if (j == 0) add_vertex_fractions(i, part);
       progress.advance();
     }
     const fs::path file = out_dir / manifest.planes[j].file;
@@ -259,17 +286,11 @@ std::uint64_t finalize(const fs::path& out_dir, bake::Manifest manifest, const s
   }
   if (plan.planes.empty()) {
     // Transfer vectors still need every face's vertex fractions.
-    for (int i = 0; i < n; ++i) {
-      const bake::FacePart part = parts.read(i, plan);
-      for (std::size_t v = 0; v < vertex_count; ++v) {
-        transfer[v * n + static_cast<std::size_t>(i)] = static_cast<float>(
-            geom::cosine_integral(dome.triangle(i), mesh.normals[v].cast<double>()) * part.vertex_fractions[v]);
-      }
-    }
+    for (int i = 0; i < n; ++i) add_vertex_fractions(i, parts.read(i, plan));
   }
   progress.finish();
 
-  const std::size_t transfer_shape[] = {vertex_count, static_cast<std::size_t>(n)};
+  const std::size_t transfer_shape[] = {vertex_count, layers};
   bake::write_npy(out_dir / manifest.transfer_file, transfer, transfer_shape);
   std::vector<float> vertices;
   vertices.reserve(vertex_count * 6);
@@ -304,10 +325,10 @@ LoadedSite load(const fs::path& site_file) {
 
 void log_summary(std::FILE* log, const bake::Plan& plan, const BakeSummary& s, const fs::path& dir) {
   std::fprintf(log,
-               "skylit-bake: %s — %zu plane(s), dome ν=%d (%d faces), %d sample(s)/face, %s; "
+               "skylit-bake: %s — %zu plane(s), dome ν=%d (%d faces, %s basis), %d sample(s)/face, %s; "
                "%d face(s) baked, %d resumed, in %s; %.1f MiB written; peak memory %.0f MiB\n",
                s.complete ? "bake complete" : "shard done", plan.planes.size(), plan.frequency,
-               s.faces_total, plan.samples, plan.method.c_str(), s.faces_baked, s.faces_skipped,
+               s.faces_total, std::string(geom::basis_name(plan.basis)).c_str(), plan.samples, plan.method.c_str(), s.faces_baked, s.faces_skipped,
                format_duration(s.seconds).c_str(), static_cast<double>(s.bytes_written) / (1024.0 * 1024.0),
                peak_memory_mib());
   if (s.complete) {
@@ -321,6 +342,29 @@ void log_summary(std::FILE* log, const bake::Plan& plan, const BakeSummary& s, c
 std::vector<geom::Vec3> face_sample_directions(const geom::Dome& dome, int face, int samples) {
   if (samples == 1) return {dome.face(face).centre};
   return geom::stratified_samples(dome.triangle(face), samples, static_cast<std::uint64_t>(face));
+}
+
+std::vector<geom::FaceQuadrature> corner_quadratures(const geom::Dome& dome, geom::DomeBasis basis) {
+  std::vector<geom::FaceQuadrature> quadratures;
+  if (basis != geom::DomeBasis::Corners) return quadratures;
+  for (int i = 0; i < dome.face_count(); ++i) quadratures.push_back(geom::face_quadrature(dome, i));
+  return quadratures;
+}
+
+std::vector<double> layer_cosine_integrals(const geom::Dome& dome, geom::DomeBasis basis,
+                                           const std::vector<geom::FaceQuadrature>& quadratures, const geom::Vec3& n) {
+  std::vector<double> a;
+  a.reserve(static_cast<std::size_t>(dome.face_count() * geom::layers_per_face(basis)));
+  for (int i = 0; i < dome.face_count(); ++i) {
+    if (basis == geom::DomeBasis::Faces) {
+      a.push_back(geom::cosine_integral(dome.triangle(i), n));
+    } else {
+      const std::array<double, 3> corners =
+          geom::corner_cosine_integrals(dome, i, quadratures.at(static_cast<std::size_t>(i)), n);
+      a.insert(a.end(), corners.begin(), corners.end());
+    }
+  }
+  return a;
 }
 
 Shard parse_shard(const std::string& text) {
@@ -380,6 +424,7 @@ BakeSummary run_bake(const BakeOptions& options, std::FILE* log) {
   validate_options(options);
   const LoadedSite loaded = load(options.site_file);
   const bake::Plan plan = make_plan(options, loaded.site, loaded.mesh);
+  check_basis_samples(options, plan);
   const geom::Dome dome(plan.frequency);
   const bake::PartStore parts(options.out_dir / "parts");
   const std::set<int> done = prepare_output(options, plan, parts, dome.face_count());
@@ -402,17 +447,28 @@ BakeSummary run_bake(const BakeOptions& options, std::FILE* log) {
     spdlog::info("engine: {}; {} face(s) to bake{}", engine->name(), todo.size(),
                  options.shard ? fmt::format(" (shard {}/{})", options.shard->index, options.shard->count) : "");
     Progress progress("bake", static_cast<std::int64_t>(todo.size()), log);
+    const geom::CornerWeights corner_weights(dome);
+    const auto per_face = static_cast<std::size_t>(plan.layers_per_face());
     for (int i : todo) {
       const std::vector<geom::Vec3> directions = face_sample_directions(dome, i, plan.samples);
-      engine->set_directions(directions);
+      // Corners: each sample weighs the three hats by its barycentric coordinates in the face.
+      std::vector<SampleWeights> weights;
+      if (plan.basis == geom::DomeBasis::Corners) {
+        for (const geom::Vec3& d : directions) {
+          const std::array<double, 3> w = corner_weights(i, d);
+          weights.push_back({static_cast<float>(w[0]), static_cast<float>(w[1]), static_cast<float>(w[2])});
+        }
+      }
+      engine->set_weighted_directions(directions, weights, plan.layers_per_face());
       bake::FacePart part;
       part.face = i;
       for (std::size_t j = 0; j < plan.planes.size(); ++j) {
-        std::vector<float> fractions(static_cast<std::size_t>(plan.planes[j].width) * plan.planes[j].height);
+        std::vector<float> fractions(per_face * static_cast<std::size_t>(plan.planes[j].width) *
+                                     static_cast<std::size_t>(plan.planes[j].height));
         engine->plane_fractions(static_cast<int>(j), fractions);
         part.plane_fractions.push_back(std::move(fractions));
       }
-      part.vertex_fractions.resize(loaded.mesh.vertex_count());
+      part.vertex_fractions.resize(per_face * loaded.mesh.vertex_count());
       engine->vertex_fractions(part.vertex_fractions);
       parts.write(part);
       ++summary.faces_baked;

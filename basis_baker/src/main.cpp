@@ -25,9 +25,11 @@ int run_verify(const std::filesystem::path& dir) {
   const skylit::bake::VerifyReport report = skylit::bake::verify(dir);
   if (report.ok) {
     const auto& m = report.manifest;
-    std::printf("%s: OK — schema %d, %s, dome ν=%d (%zu faces), %zu plane(s), %zu file(s) verified\n",
+    std::printf("%s: OK — schema %d, %s, dome ν=%d (%zu faces, %s basis, %zu layers), %zu plane(s), %zu file(s) "
+                "verified\n",
                 dir.string().c_str(), m.schema_version, m.generator.c_str(), m.plan.frequency, m.faces.size(),
-                m.planes.size(), m.files.size());
+                std::string(skylit::geom::basis_name(m.plan.basis)).c_str(), m.layer_count(), m.planes.size(),
+                m.files.size());
     return 0;
   }
   std::fprintf(stderr, "%s: NOT a valid bake (%zu problem(s)):\n", dir.string().c_str(), report.problems.size());
@@ -49,6 +51,9 @@ int main(int argc, char** argv) {
   app.add_option("site", site, "site description (YAML)")->check(CLI::ExistingFile);
   app.add_option("-o,--output", out, "bake directory to write");
   app.add_option("--frequency", frequency, "dome frequency ν (even; overrides the site's)");
+  std::string basis;
+  app.add_option("--basis", basis, "radiance basis: faces (one layer per face) or corners (three, linear across "
+                                   "the face; needs --samples >= 3); overrides the site's dome.basis");
   app.add_option("--samples", options.samples, "samples per face: 1 = face centre (the paper), K > 1 = area light")
       ->capture_default_str();
   app.add_option("--method", options.method, "raster (OpenGL ES, default) or raytrace (Embree, reference)")
@@ -96,6 +101,12 @@ int main(int argc, char** argv) {
     options.site_file = site;
     options.out_dir = out;
     if (frequency != 0 || app.count("--frequency")) options.frequency = frequency;
+    if (app.count("--basis")) {
+      options.basis = skylit::geom::parse_basis(basis);
+      if (!options.basis) {
+        throw skylit::InputError("option --basis: got '" + basis + "'. Fix: use --basis faces or --basis corners");
+      }
+    }
     if (!resolution.empty()) options.resolution = parse_resolution(resolution);
     options.shard = shard.empty() ? skylit::baker::shard_from_environment()
                                   : std::optional(skylit::baker::parse_shard(shard));

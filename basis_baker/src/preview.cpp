@@ -59,9 +59,27 @@ void draw_arc(cv::Mat& canvas, const geom::Vec3& a, const geom::Vec3& b, cv::Poi
 }  // namespace
 
 void write_plane_previews(const fs::path& preview_dir, const bake::Manifest& manifest, int plane,
-                          const bake::ImageStack& basis) {
-  const bake::PlaneRecord& record = manifest.planes.at(static_cast<std::size_t>(plane));
+                          const bake::ImageStack& layers) {
+  const bake::PlaneRecord& layer_record = manifest.planes.at(static_cast<std::size_t>(plane));
   const int n = static_cast<int>(manifest.faces.size());
+  // One picture per face: a corners bake shows the sum of its three layers (B_f = Σ_k B_{f,k}).
+  const int per_face = manifest.plan.layers_per_face();
+  bake::ImageStack summed;
+  bake::PlaneRecord record = layer_record;
+  if (per_face > 1) {
+    summed.width = layers.width;
+    summed.height = layers.height;
+    summed.layers = n;
+    summed.data.assign(static_cast<std::size_t>(layers.width) * layers.height * static_cast<std::size_t>(n), 0.0f);
+    record.unoccluded.assign(static_cast<std::size_t>(n), 0.0);
+    for (int l = 0; l < layers.layers; ++l) {
+      const std::span<const float> from = layers.layer(l);
+      const std::span<float> to = summed.layer(l / per_face);
+      for (std::size_t t = 0; t < to.size(); ++t) to[t] += from[t];
+      record.unoccluded[static_cast<std::size_t>(l / per_face)] += layer_record.unoccluded[static_cast<std::size_t>(l)];
+    }
+  }
+  const bake::ImageStack& basis = per_face > 1 ? summed : layers;
 
   // Contact sheet: each face's basis image at its place on the dome.
   const int nu = manifest.plan.frequency;
@@ -120,7 +138,8 @@ void write_plane_previews(const fs::path& preview_dir, const bake::Manifest& man
   const std::string title = "plane '" + record.plane.name + "'  " + std::to_string(basis.width) + "x" +
                             std::to_string(basis.height) + "  dome nu=" + std::to_string(nu) + " (" +
                             std::to_string(n) + " faces)  " + std::to_string(manifest.plan.samples) +
-                            " sample(s)/face  " + manifest.plan.method + "   white = lit (B/A = 1)";
+                            " sample(s)/face  " + manifest.plan.method + "  " +
+                            std::string(geom::basis_name(manifest.plan.basis)) + "   white = lit (B/A = 1)";
   cv::putText(canvas, title, {12, 24}, cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(235, 235, 235), 1, cv::LINE_AA);
   write_png(preview_dir / (record.plane.name + ".png"), canvas);
 

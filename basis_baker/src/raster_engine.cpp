@@ -42,6 +42,7 @@ constexpr float kPolygonOffsetUnits = 4.0f;
 struct LightBlock {
   std::array<float, 16 * kMaxLightsPerBatch> shadow_from_world;  // column-major mat4s
   std::array<float, 4 * kMaxLightsPerBatch> light_direction;
+  std::array<float, 4 * kMaxLightsPerBatch> light_weight;
 };
 
 using Matrix4 = Eigen::Matrix4d;
@@ -146,18 +147,37 @@ class ColourTarget {
   int height_ = 0;
 };
 
-// Running sums of one pass over all batches, per sample (texel or vertex).
+// Running sums of one pass over all batches, per sample point (texel or vertex) and layer.
 struct Sums {
-  std::vector<double> weighted_visible;  // Σ c V
-  std::vector<double> weight;            // Σ c
-  std::vector<double> visible;           // Σ V
+  std::size_t count;
+  std::size_t layers;
+  std::vector<double> occluded;  // O_k = Σ_s w_ks c_s (1 − V_s), [k * count + i]
+  std::vector<double> visible;   // Σ_s V_s
 
-  explicit Sums(std::size_t count) : weighted_visible(count, 0.0), weight(count, 0.0), visible(count, 0.0) {}
+  Sums(std::size_t points, int layer_count)
+      : count(points),
+        layers(static_cast<std::size_t>(layer_count)),
+        occluded(points * layers, 0.0),
+        visible(points, 0.0) {}
 
-  void write_fractions(std::size_t direction_count, std::span<float> out) const {
-    for (std::size_t i = 0; i < out.size(); ++i) {
-      out[i] = weight[i] > 0.0 ? static_cast<float>(weighted_visible[i] / weight[i])
-                               : static_cast<float>(visible[i] / static_cast<double>(direction_count));
+  // Adds one RGBA result of visibility.frag for point i.
+  void add(std::size_t i, const float* rgba) {
+    for (std::size_t k = 0; k < layers; ++k) occluded[k * count + i] += rgba[k];
+    visible[i] += rgba[3];
+  }
+
+  // f_k = 1 − O_k / D_k with D_k = Σ w c from the CPU (`weight(k, i)`), or Σ V / K when D_k = 0.
+  // Nothing occluded gives O_k = 0 and f = 1 exactly; nothing visible, f = 0 exactly. In between
+  // the shader's float sums against the double D_k may stray by a rounding error: clamped.
+  template <typename Weight>
+  void write_fractions(std::size_t direction_count, const Weight& weight, std::span<float> out) const {
+    for (std::size_t k = 0; k < layers; ++k) {
+      for (std::size_t i = 0; i < count; ++i) {
+        const double w = weight(k, i);
+        double f = visible[i] / static_cast<double>(direction_count);
+        if (w > 0.0) f = visible[i] > 0.0 ? 1.0 - occluded[k * count + i] / w : 0.0;
+        out[k * count + i] = static_cast<float>(std::clamp(f, 0.0, 1.0));
+      }
     }
   }
 };
@@ -223,8 +243,26 @@ class RasterEngine final : public VisibilityEngine {
            context_.version() + ", on " + context_.platform() + ")";
   }
 
-  void set_directions(std::span<const Vec3> directions) override {
+  int layers() const override { return layers_; }
+
+  void set_weighted_directions(std::span<const Vec3> directions, std::span<const SampleWeights> weights,
+                               int layers) override {
     if (directions.empty()) throw std::invalid_argument("raster engine: no sample directions");
+    if (layers < 1 || layers > 3) throw std::invalid_argument("raster engine: 1 to 3 layers");
+    if (!weights.empty() && weights.size() != directions.size()) {
+      throw std::invalid_argument("raster engine: one weight triple per sample direction");
+    }
+    std::vector<SampleWeights> per_layer;
+    per_layer.reserve(directions.size());
+    for (std::size_t s = 0; s < directions.size(); ++s) {
+      SampleWeights w{0.0f, 0.0f, 0.0f};
+      for (int k = 0; k < layers; ++k) {
+        const float x = weights.empty() ? 1.0f : weights[s][static_cast<std::size_t>(k)];
+        if (!(x >= 0.0f) || !std::isfinite(x)) throw std::invalid_argument("raster engine: weights must be finite, >= 0");
+        w[static_cast<std::size_t>(k)] = x;
+      }
+      per_layer.push_back(w);
+    }
     std::vector<Vec3> unit;
     unit.reserve(directions.size());
     for (const Vec3& w : directions) {
@@ -235,6 +273,8 @@ class RasterEngine final : public VisibilityEngine {
       unit.push_back(w / length);
     }
     directions_ = std::move(unit);
+    weights_ = std::move(per_layer);
+    layers_ = layers;
     loaded_batch_ = -1;
     context_.make_current();
     // With one batch the maps are rendered once here and serve every plane and the vertices.
@@ -248,14 +288,14 @@ class RasterEngine final : public VisibilityEngine {
     const geom::Plane& plane = planes_[static_cast<std::size_t>(plane_index)];
     const auto width = static_cast<std::size_t>(plane.width);
     const auto height = static_cast<std::size_t>(plane.height);
-    if (out.size() != width * height) {
+    if (out.size() != static_cast<std::size_t>(layers_) * width * height) {
       throw std::invalid_argument("raster engine: output for plane '" + plane.name +
-                                  "' must hold width × height values");
+                                  "' must hold layers × width × height values");
     }
     require_directions();
     context_.make_current();
 
-    Sums sums(out.size());
+    Sums sums(width * height, layers_);
     std::vector<float> rgba;
     for (int batch = 0; batch < batch_count(); ++batch) {
       use_batch(batch);
@@ -282,27 +322,28 @@ class RasterEngine final : public VisibilityEngine {
               const std::size_t source = 4 * (static_cast<std::size_t>(row) * static_cast<std::size_t>(tile_width) +
                                               static_cast<std::size_t>(col));
               const std::size_t target = static_cast<std::size_t>(row0 + row) * width + static_cast<std::size_t>(col0 + col);
-              sums.weighted_visible[target] += rgba[source];
-              sums.weight[target] += rgba[source + 1];
-              sums.visible[target] += rgba[source + 2];
+              sums.add(target, &rgba[source]);
             }
           }
         }
       }
       check_gl_error("raster engine: plane pass for '" + plane.name + "'");
     }
-    sums.write_fractions(directions_.size(), out);
+    // The cosine, hence every layer's denominator, is the same for every texel of a plane.
+    const std::array<double, 3> weight = layer_weights(plane.normal());
+    sums.write_fractions(directions_.size(), [&](std::size_t k, std::size_t) { return weight[k]; }, out);
   }
 
   void vertex_fractions(std::span<float> out) override {
-    if (out.size() != mesh_.vertex_count()) {
-      throw std::invalid_argument("raster engine: output must hold one value per mesh vertex");
+    const std::size_t vertices = mesh_.vertex_count();
+    if (out.size() != static_cast<std::size_t>(layers_) * vertices) {
+      throw std::invalid_argument("raster engine: output must hold layers × one value per mesh vertex");
     }
     require_directions();
     if (out.empty()) return;
     context_.make_current();
 
-    Sums sums(out.size());
+    Sums sums(vertices, layers_);
     std::vector<float> rgba;
     const std::size_t per_draw = static_cast<std::size_t>(kVertexTargetWidth) * kMaxTargetSide;
     for (int batch = 0; batch < batch_count(); ++batch) {
@@ -311,8 +352,8 @@ class RasterEngine final : public VisibilityEngine {
       set_visibility_uniforms(vertex_program_.get(), batch);
       glUniform1f(location(vertex_program_.get(), "surface_offset"), static_cast<float>(offset_));
       glBindVertexArray(mesh_vertex_array_.get());
-      for (std::size_t first = 0; first < out.size(); first += per_draw) {
-        const std::size_t count = std::min(per_draw, out.size() - first);
+      for (std::size_t first = 0; first < vertices; first += per_draw) {
+        const std::size_t count = std::min(per_draw, vertices - first);
         const int rows = static_cast<int>((count + kVertexTargetWidth - 1) / kVertexTargetWidth);
         // The attributes start at the draw's first vertex, so gl_VertexID counts from 0.
         point_attributes_at(first);
@@ -322,16 +363,14 @@ class RasterEngine final : public VisibilityEngine {
         glClear(GL_COLOR_BUFFER_BIT);
         glDrawArrays(GL_POINTS, 0, static_cast<GLsizei>(count));
         colour_target_.read(rgba);
-        for (std::size_t i = 0; i < count; ++i) {
-          sums.weighted_visible[first + i] += rgba[4 * i];
-          sums.weight[first + i] += rgba[4 * i + 1];
-          sums.visible[first + i] += rgba[4 * i + 2];
-        }
+        for (std::size_t i = 0; i < count; ++i) sums.add(first + i, &rgba[4 * i]);
       }
       point_attributes_at(0);
       check_gl_error("raster engine: vertex pass");
     }
-    sums.write_fractions(directions_.size(), out);
+    std::vector<std::array<double, 3>> weight(vertices);
+    for (std::size_t v = 0; v < vertices; ++v) weight[v] = layer_weights(mesh_.normals[v].cast<double>());
+    sums.write_fractions(directions_.size(), [&](std::size_t k, std::size_t v) { return weight[v][k]; }, out);
   }
 
  private:
@@ -367,6 +406,16 @@ class RasterEngine final : public VisibilityEngine {
       throw std::logic_error("raster engine: set_directions must be called before plane_fractions or "
                              "vertex_fractions");
     }
+  }
+
+  // Σ_s w_ks max(0, n·ω_s) per layer: the denominators of f_k for a point with normal n.
+  std::array<double, 3> layer_weights(const Vec3& normal) const {
+    std::array<double, 3> total{0.0, 0.0, 0.0};
+    for (std::size_t s = 0; s < directions_.size(); ++s) {
+      const double c = std::max(0.0, normal.dot(directions_[s]));
+      for (std::size_t k = 0; k < 3; ++k) total[k] += weights_[s][k] * c;
+    }
+    return total;
   }
 
   int batch_count() const {
@@ -437,6 +486,7 @@ class RasterEngine final : public VisibilityEngine {
     auto block = std::make_unique<LightBlock>();
     block->shadow_from_world.fill(0.0f);
     block->light_direction.fill(0.0f);
+    block->light_weight.fill(0.0f);
 
     glBindFramebuffer(GL_FRAMEBUFFER, shadow_framebuffer_.get());
     const GLenum none = GL_NONE;
@@ -468,6 +518,8 @@ class RasterEngine final : public VisibilityEngine {
       std::copy(shadow.begin(), shadow.end(), block->shadow_from_world.begin() + 16 * layer);
       for (int axis = 0; axis < 3; ++axis) {
         block->light_direction[static_cast<std::size_t>(4 * layer + axis)] = static_cast<float>(w[axis]);
+        block->light_weight[static_cast<std::size_t>(4 * layer + axis)] =
+            weights_[static_cast<std::size_t>(first + layer)][static_cast<std::size_t>(axis)];
       }
     }
     glDisable(GL_POLYGON_OFFSET_FILL);
@@ -507,6 +559,8 @@ class RasterEngine final : public VisibilityEngine {
   int resolution_;
   int layers_per_batch_ = 1;
   std::vector<Vec3> directions_;
+  std::vector<SampleWeights> weights_;  // per direction, unused layers 0
+  int layers_ = 1;
   int loaded_batch_ = -1;  // whose shadow maps the depth texture holds
 
   // The context first: it is destroyed last, after every GL name below.

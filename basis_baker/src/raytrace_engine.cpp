@@ -63,32 +63,55 @@ using SceneHandle = std::unique_ptr<RTCSceneTy, SceneReleaser>;
 
 constexpr float kInfinity = std::numeric_limits<float>::infinity();
 
-// A sample direction with the weight it carries for the surface at hand.
+// A sample direction with the weights w_{k,s} c_s it carries in each layer for the surface at hand.
 struct WeightedDirection {
   float x, y, z;
-  double weight;
+  std::array<double, 3> weight;
 };
 
-// The directions that count for a surface with normal n, and their weights: c_k = max(0, n·ω_k)
-// for the rays with c_k > 0, or every ray with weight 1 when none faces the surface (the Σ V/K
-// rule of the contract).
-std::vector<WeightedDirection> weigh(const std::vector<Vec3>& directions, const Vec3& normal) {
-  std::vector<WeightedDirection> weighted;
-  weighted.reserve(directions.size());
-  for (const Vec3& w : directions) {
-    const double c = std::max(0.0, normal.dot(w));
-    if (c > 0.0) {
-      weighted.push_back({static_cast<float>(w.x()), static_cast<float>(w.y()),
-                          static_cast<float>(w.z()), c});
-    }
+// The rays to trace for a surface with normal n and what each is worth per layer.
+struct Weighing {
+  std::vector<WeightedDirection> rays;
+  std::array<double, 3> total{0.0, 0.0, 0.0};  // Σ_s w_{k,s} c_s per layer
+  // Some layer has no weight facing the surface: every ray is traced and also counted, for that
+  // layer's Σ V / K (the contract's fallback).
+  bool count_all = false;
+
+  // f_k from the sums of one sample point.
+  float fraction(int layer, double visible_weight, double visible_count) const {
+    const auto k = static_cast<std::size_t>(layer);
+    if (total[k] > 0.0) return static_cast<float>(visible_weight / total[k]);
+    return static_cast<float>(visible_count / static_cast<double>(rays.size()));
   }
-  if (weighted.empty()) {
-    for (const Vec3& w : directions) {
-      weighted.push_back({static_cast<float>(w.x()), static_cast<float>(w.y()),
-                          static_cast<float>(w.z()), 1.0});
+};
+
+Weighing weigh(const std::vector<Vec3>& directions, const std::vector<SampleWeights>& weights, int layers,
+               const Vec3& normal) {
+  Weighing w;
+  w.rays.reserve(directions.size());
+  const auto add = [&](bool all) {
+    for (std::size_t s = 0; s < directions.size(); ++s) {
+      const Vec3& d = directions[s];
+      const double c = std::max(0.0, normal.dot(d));
+      if (c <= 0.0 && !all) continue;
+      WeightedDirection ray{static_cast<float>(d.x()), static_cast<float>(d.y()), static_cast<float>(d.z()),
+                            {0.0, 0.0, 0.0}};
+      for (int k = 0; k < layers; ++k) {
+        const double wk = weights.empty() ? 1.0 : weights[s][static_cast<std::size_t>(k)];
+        ray.weight[static_cast<std::size_t>(k)] = wk * c;
+        w.total[static_cast<std::size_t>(k)] += wk * c;
+      }
+      w.rays.push_back(ray);
     }
+  };
+  add(false);
+  for (int k = 0; k < layers; ++k) w.count_all = w.count_all || !(w.total[static_cast<std::size_t>(k)] > 0.0);
+  if (w.count_all) {
+    w.rays.clear();
+    w.total = {0.0, 0.0, 0.0};
+    add(true);
   }
-  return weighted;
+  return w;
 }
 
 // Runs work(item) for item in [0, count) on `threads` threads; items are handed out one at a
@@ -141,8 +164,20 @@ class RaytraceEngine final : public VisibilityEngine {
            (threads_ == 1 ? "" : "s") + ")";
   }
 
-  void set_directions(std::span<const Vec3> directions) override {
+  int layers() const override { return layers_; }
+
+  void set_weighted_directions(std::span<const Vec3> directions, std::span<const SampleWeights> weights,
+                               int layers) override {
     if (directions.empty()) throw std::invalid_argument("raytrace engine: no sample directions");
+    if (layers < 1 || layers > 3) throw std::invalid_argument("raytrace engine: 1 to 3 layers");
+    if (!weights.empty() && weights.size() != directions.size()) {
+      throw std::invalid_argument("raytrace engine: one weight triple per sample direction");
+    }
+    for (const SampleWeights& w : weights) {
+      for (float x : w) {
+        if (!(x >= 0.0f) || !std::isfinite(x)) throw std::invalid_argument("raytrace engine: weights must be finite, >= 0");
+      }
+    }
     std::vector<Vec3> unit;
     unit.reserve(directions.size());
     for (const Vec3& w : directions) {
@@ -153,6 +188,8 @@ class RaytraceEngine final : public VisibilityEngine {
       unit.push_back(w / length);
     }
     directions_ = std::move(unit);
+    weights_.assign(weights.begin(), weights.end());
+    layers_ = layers;
   }
 
   void plane_fractions(int plane_index, std::span<float> out) override {
@@ -162,15 +199,15 @@ class RaytraceEngine final : public VisibilityEngine {
     }
     const geom::Plane& plane = planes_[static_cast<std::size_t>(plane_index)];
     const std::size_t width = static_cast<std::size_t>(plane.width);
-    if (out.size() != width * static_cast<std::size_t>(plane.height)) {
+    const std::size_t texels = width * static_cast<std::size_t>(plane.height);
+    if (out.size() != static_cast<std::size_t>(layers_) * texels) {
       throw std::invalid_argument("raytrace engine: output for plane '" + plane.name +
-                                  "' must hold width × height values");
+                                  "' must hold layers × width × height values");
     }
     require_directions();
     // The cosine weight is the same for every texel of a plane.
-    const std::vector<WeightedDirection> weighted = weigh(directions_, plane.normal());
-    double total_weight = 0.0;
-    for (const WeightedDirection& w : weighted) total_weight += w.weight;
+    const Weighing weighing = weigh(directions_, weights_, layers_, plane.normal());
+    const std::vector<WeightedDirection>& weighted = weighing.rays;
     const float tnear = static_cast<float>(offset_);
 
     parallel_for(plane.height, threads_, [&](int row) {
@@ -178,7 +215,8 @@ class RaytraceEngine final : public VisibilityEngine {
       // coherent case Embree's stream traversal is built for (measured on 3000 triangles, 2 cores:
       // ~140 M rays/s, against ~60 M with rtcOccluded1 per ray and ~130 M with rtcOccluded16).
       std::vector<RTCRay> rays(width);
-      std::vector<double> visible_weight(width, 0.0);
+      std::vector<std::array<double, 3>> visible_weight(width, {0.0, 0.0, 0.0});
+      std::vector<double> visible_count(width, 0.0);
       for (std::size_t col = 0; col < width; ++col) {
         const Vec3 centre = plane.texel_centre(static_cast<int>(col), row);
         rays[col].org_x = static_cast<float>(centre.x());
@@ -204,12 +242,16 @@ class RaytraceEngine final : public VisibilityEngine {
                       sizeof(RTCRay));
         // An occluded ray comes back with tfar = -inf.
         for (std::size_t col = 0; col < width; ++col) {
-          if (rays[col].tfar >= 0.0f) visible_weight[col] += w.weight;
+          if (rays[col].tfar < 0.0f) continue;
+          for (std::size_t k = 0; k < 3; ++k) visible_weight[col][k] += w.weight[k];
+          visible_count[col] += 1.0;
         }
       }
-      float* row_out = out.data() + static_cast<std::size_t>(row) * width;
-      for (std::size_t col = 0; col < width; ++col) {
-        row_out[col] = static_cast<float>(visible_weight[col] / total_weight);
+      for (int k = 0; k < layers_; ++k) {
+        float* row_out = out.data() + static_cast<std::size_t>(k) * texels + static_cast<std::size_t>(row) * width;
+        for (std::size_t col = 0; col < width; ++col) {
+          row_out[col] = weighing.fraction(k, visible_weight[col][static_cast<std::size_t>(k)], visible_count[col]);
+        }
       }
     });
     errors_->throw_if_any("plane_fractions");
@@ -272,8 +314,9 @@ class RaytraceEngine final : public VisibilityEngine {
   }
 
   void vertex_fractions(std::span<float> out) override {
-    if (out.size() != mesh_.vertex_count()) {
-      throw std::invalid_argument("raytrace engine: output must hold one value per mesh vertex");
+    const std::size_t vertices = mesh_.vertex_count();
+    if (out.size() != static_cast<std::size_t>(layers_) * vertices) {
+      throw std::invalid_argument("raytrace engine: output must hold layers × one value per mesh vertex");
     }
     require_directions();
     constexpr int kVerticesPerTask = 256;
@@ -289,10 +332,10 @@ class RaytraceEngine final : public VisibilityEngine {
         const auto index = static_cast<std::size_t>(v);
         const Eigen::Vector3f& normal = mesh_.normals[index];
         const Eigen::Vector3f origin = mesh_.positions[index] + offset * normal;
-        const std::vector<WeightedDirection> weighted = weigh(directions_, normal.cast<double>());
-        double total_weight = 0.0;
-        double visible_weight = 0.0;
-        for (const WeightedDirection& w : weighted) {
+        const Weighing weighing = weigh(directions_, weights_, layers_, normal.cast<double>());
+        std::array<double, 3> visible_weight{0.0, 0.0, 0.0};
+        double visible_count = 0.0;
+        for (const WeightedDirection& w : weighing.rays) {
           RTCRay ray{};
           ray.org_x = origin.x();
           ray.org_y = origin.y();
@@ -304,10 +347,14 @@ class RaytraceEngine final : public VisibilityEngine {
           ray.tfar = kInfinity;
           ray.mask = ~0u;
           rtcOccluded1(scene_.get(), &context, &ray);
-          total_weight += w.weight;
-          if (ray.tfar >= 0.0f) visible_weight += w.weight;
+          if (ray.tfar < 0.0f) continue;
+          for (std::size_t k = 0; k < 3; ++k) visible_weight[k] += w.weight[k];
+          visible_count += 1.0;
         }
-        out[index] = static_cast<float>(visible_weight / total_weight);
+        for (int k = 0; k < layers_; ++k) {
+          out[static_cast<std::size_t>(k) * vertices + index] =
+              weighing.fraction(k, visible_weight[static_cast<std::size_t>(k)], visible_count);
+        }
       }
     });
     errors_->throw_if_any("vertex_fractions");
@@ -385,6 +432,8 @@ class RaytraceEngine final : public VisibilityEngine {
   double offset_;
   int threads_ = 1;
   std::vector<Vec3> directions_;
+  std::vector<SampleWeights> weights_;  // empty: 1 in every layer
+  int layers_ = 1;
   // Declared before the device so that it outlives every callback the device might make.
   std::unique_ptr<DeviceErrors> errors_ = std::make_unique<DeviceErrors>();
   DeviceHandle device_;

@@ -78,27 +78,29 @@ inline float sample_basis(std::size_t plane, int face, std::size_t texel) {
 }
 
 // A complete, valid bake of sample_plan() on a ν=2 dome (40 faces of equal solid angle 2π/40),
-// written with the library's own writers. Returns its manifest as written.
-inline Manifest write_synthetic_bake(const fs::path& dir) {
+// written with the library's own writers, with one layer per face (faces) or three (corners).
+// Returns its manifest as written.
+inline Manifest write_synthetic_bake(const fs::path& dir, geom::DomeBasis basis = geom::DomeBasis::Faces) {
   Manifest m;
   m.generator = "skylit-bake test";
   m.created_utc = "2024-06-21T12:00:00Z";
   m.plan = sample_plan();
-  const int n = 10 * m.plan.frequency * m.plan.frequency;
-  const double omega = 2.0 * std::numbers::pi / n;
-  for (int i = 0; i < n; ++i) {
+  m.plan.basis = basis;
+  const int faces = 10 * m.plan.frequency * m.plan.frequency;
+  const int n = faces * geom::layers_per_face(basis);  // layers
+  const double omega = 2.0 * std::numbers::pi / faces;
+  for (int i = 0; i < faces; ++i) {
     FaceRecord f;
     f.index = i;
-    const double azimuth = 2.0 * std::numbers::pi * i / n;
+    const double azimuth = 2.0 * std::numbers::pi * i / faces;
     f.direction = geom::Vec3(std::cos(azimuth), std::sin(azimuth), 0.5).normalized();
     f.solid_angle = omega;
     f.vertices = {geom::Vec3(0, 0, 1), geom::Vec3(std::cos(azimuth), std::sin(azimuth), 0),
                   geom::Vec3(-std::sin(azimuth), std::cos(azimuth), 0)};
-    f.neighbours = {(i + 1) % n, (i + n - 1) % n, -1};
+    f.neighbours = {(i + 1) % faces, (i + faces - 1) % faces, -1};
     m.faces.push_back(f);
   }
-  std::vector<std::string> names;
-  for (int i = 0; i < n; ++i) names.push_back(face_layer_name(i));
+  const std::vector<std::string> names = layer_names(basis, faces);
   fs::create_directories(dir / "planes");
   for (std::size_t j = 0; j < m.plan.planes.size(); ++j) {
     const geom::Plane& p = m.plan.planes[j];

@@ -28,6 +28,9 @@ const std::vector<std::vector<std::string>> kPipelines = {
     {"shadow_depth.vert", "shadow_depth.frag"},
     {"plane_texels.vert", "visibility.frag"},
     {"vertex_samples.vert", "visibility.frag"},
+    {"compose_building.vert", "compose_building.frag"},
+    {"compose_fullscreen.vert", "compose_final.frag"},
+    {"compose_depth.vert", "compose_depth.frag"},
 };
 
 std::vector<fs::path> shader_files() {

@@ -173,6 +173,86 @@ TEST(LoadModel, GltfMirroringNodeKeepsFrontFacesOutward) {
   EXPECT_NEAR((face_normal(mesh, 0) - Vector3f(1, 0, 0)).norm(), 0.0f, 1e-6f);
 }
 
+// A 2×2 RGBA PNG: red, green on the top row; blue, white at half alpha on the bottom row.
+const std::array<unsigned char, 76> kTinyPng = {
+    0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a, 0x00, 0x00, 0x00, 0x0d, 0x49, 0x48, 0x44, 0x52,
+    0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x00, 0x02, 0x08, 0x06, 0x00, 0x00, 0x00, 0x72, 0xb6, 0x0d,
+    0x24, 0x00, 0x00, 0x00, 0x13, 0x49, 0x44, 0x41, 0x54, 0x78, 0x9c, 0x63, 0xf8, 0xcf, 0xc0, 0xf0,
+    0x1f, 0x0c, 0x81, 0x34, 0x08, 0x34, 0x00, 0x00, 0x49, 0x49, 0x09, 0x78, 0x28, 0xa0, 0xdb, 0x77,
+    0x00, 0x00, 0x00, 0x00, 0x49, 0x45, 0x4e, 0x44, 0xae, 0x42, 0x60, 0x82};
+
+// A textured quad: 4 shared vertices (positions, normals, TEXCOORD_1 as normalised bytes, set 1
+// named by the material), 2 indexed triangles; `image` is the PNG's uri.
+std::filesystem::path write_textured_quad_gltf(const TempDir& dir, const std::string& image) {
+  const std::array<float, 12> xyz = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
+  const std::array<float, 12> normals = {0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1};
+  const std::array<std::uint8_t, 8> uv = {0, 255, 255, 255, 255, 0, 0, 0};
+  const std::array<std::uint16_t, 6> index = {0, 1, 2, 0, 2, 3};
+  std::string bin(48 + 48 + 8 + 12, '\0');
+  std::memcpy(bin.data(), xyz.data(), 48);
+  std::memcpy(bin.data() + 48, normals.data(), 48);
+  std::memcpy(bin.data() + 96, uv.data(), 8);
+  std::memcpy(bin.data() + 104, index.data(), 12);
+  dir.write("quad.bin", bin);
+  dir.write("tiles.png", std::string(kTinyPng.begin(), kTinyPng.end()));
+  const std::string json = R"({"asset": {"version": "2.0"}, "scene": 0,
+    "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_1": 2},
+                                "indices": 3, "material": 0}]}],
+    "materials": [{"name": "tiles", "pbrMetallicRoughness": {"baseColorFactor": [1, 0.5, 1, 1],
+                   "baseColorTexture": {"index": 0, "texCoord": 1}}}],
+    "textures": [{"source": 0}],
+    "images": [{"uri": ")" + image + R"("}],
+    "accessors": [
+      {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]},
+      {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
+      {"bufferView": 2, "componentType": 5121, "normalized": true, "count": 4, "type": "VEC2"},
+      {"bufferView": 3, "componentType": 5123, "count": 6, "type": "SCALAR"}],
+    "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48},
+                    {"buffer": 0, "byteOffset": 48, "byteLength": 48},
+                    {"buffer": 0, "byteOffset": 96, "byteLength": 8},
+                    {"buffer": 0, "byteOffset": 104, "byteLength": 12}],
+    "buffers": [{"byteLength": 116, "uri": "quad.bin"}]})";
+  return dir.write("quad.gltf", json);
+}
+
+TEST(LoadModel, GltfTexcoordsAndBaseColourTextureKeepVertexOrder) {
+  TempDir dir;
+  const Mesh mesh = load_model(write_textured_quad_gltf(dir, "tiles.png"), UpAxis::Z, 1.0);
+  ASSERT_EQ(mesh.vertex_count(), 4u);  // shared vertices, in file order
+  EXPECT_EQ(mesh.positions[1], Vector3f(1, 0, 0));
+  ASSERT_EQ(mesh.texcoords.size(), 4u);
+  EXPECT_EQ(mesh.texcoords[0], Eigen::Vector2f(0, 1));
+  EXPECT_EQ(mesh.texcoords[2], Eigen::Vector2f(1, 0));
+  ASSERT_EQ(mesh.materials.size(), 1u);
+  EXPECT_EQ(mesh.materials[0].base_colour, Eigen::Vector4f(1, 0.5f, 1, 1));
+  ASSERT_EQ(mesh.materials[0].base_colour_texture, 0);
+  ASSERT_EQ(mesh.textures.size(), 1u);
+  const TextureImage& texture = mesh.textures[0];
+  ASSERT_EQ(texture.width, 2);
+  ASSERT_EQ(texture.height, 2);
+  // Rows from the top of the picture: red, green; blue, white at alpha 128.
+  const std::vector<std::uint8_t> expected = {255, 0, 0, 255, 0, 255, 0, 255,
+                                              0, 0, 255, 255, 255, 255, 255, 128};
+  EXPECT_EQ(texture.rgba, expected);
+}
+
+TEST(LoadModel, UndecodableTextureIsLeftOutNotAnError) {
+  TempDir dir;
+  dir.write("broken.png", "not a png at all");
+  const Mesh mesh = load_model(write_textured_quad_gltf(dir, "broken.png"), UpAxis::Z, 1.0);
+  EXPECT_EQ(mesh.vertex_count(), 4u);
+  EXPECT_TRUE(mesh.textures.empty());
+  EXPECT_EQ(mesh.materials[0].base_colour_texture, -1);
+  EXPECT_EQ(mesh.texcoords.size(), 4u);
+}
+
+TEST(LoadModel, ModelsWithoutTexcoordsHaveNone) {
+  TempDir dir;
+  EXPECT_TRUE(load_model(write_triangle_gltf(dir, "tri", R"({"mesh": 0})"), UpAxis::Y, 1.0).texcoords.empty());
+  EXPECT_TRUE(load_model(dir.write("cube.obj", kCubeWithNormals), UpAxis::Z, 1.0).texcoords.empty());
+}
+
 Mesh two_material_mesh() {
   Mesh mesh;
   mesh.materials = {Material{"red", {1.0f, 0.0f, 0.0f, 1.0f}},

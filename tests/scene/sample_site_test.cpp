@@ -201,7 +201,9 @@ TEST(SampleSite, CommittedYamlMatchesTheCode) {
     EXPECT_EQ(file.planes[k].v, code.planes[k].v);
     EXPECT_EQ(file.planes[k].width, code.planes[k].width);
     EXPECT_EQ(file.planes[k].height, code.planes[k].height);
+    EXPECT_EQ(file.surface_of(k), code.surface_of(k));
   }
+  EXPECT_EQ(file.plane_surfaces.size(), file.planes.size());
   // And the model it names loads.
   EXPECT_EQ(load_model(file.model, file.up, file.scale).triangle_count(),
             make_sample_gate().triangle_count());
@@ -220,6 +222,10 @@ TEST(SampleSite, PlanesHaveSquareTexelsAndTheExpectedFrames) {
     EXPECT_NEAR(plane.u.dot(plane.v), 0.0, 1e-12);  // rectangles
   }
   EXPECT_LT((plane_named(site, "ground").normal() - Vec3(0, 0, 1)).norm(), 1e-12);
+  // The ground is real (the camera sees it); the wall and the roof belong to the gate.
+  EXPECT_EQ(site.surface_of(0), PlaneSurface::Real);
+  EXPECT_EQ(site.surface_of(1), PlaneSurface::Virtual);
+  EXPECT_EQ(site.surface_of(2), PlaneSurface::Virtual);
   EXPECT_LT((plane_named(site, "wall").normal() - Vec3(0, -1, 0)).norm(), 1e-12);
   const Vec3 roof_normal = plane_named(site, "roof").normal();
   EXPECT_LT(roof_normal.y(), -0.5);  // up and south

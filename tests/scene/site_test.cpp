@@ -212,6 +212,10 @@ std::vector<BadCase> bad_cases() {
       {"up x", good_with(3, "  up: x"), 3, "scene.up", "expected 'y' or 'z'"},
       {"empty model", good_with(2, "  model: \"\""), 2, "scene.model", "expected a file name"},
       {"scene not a map", "scene: 3\n" + without_lines(1, 4), 1, "scene", "expected a map"},
+      {"unknown surface", good_with(12, "    resolution: [512, 256]\n    surface: ground"), 13,
+       "planes[0].surface", "expected 'real' or 'virtual', got 'ground'"},
+      {"surface not text", good_with(17, "    resolution: [64, 32]\n    surface: [real]"), 18,
+       "planes[1].surface", "expected 'real' or 'virtual'"},
   };
 }
 
@@ -257,6 +261,23 @@ TEST(LoadSite, EmptyAndMissingFilesAreInputErrors) {
   }
 }
 
+TEST(LoadSite, PlaneSurfaceIsOptionalAndVirtualByDefault) {
+  TempDir dir;
+  // Without the field (a file from before it existed) every plane is virtual.
+  const Site old = load_site(dir.write("old.yaml", join(kGoodLines)));
+  ASSERT_EQ(old.plane_surfaces.size(), 2u);
+  EXPECT_EQ(old.surface_of(0), PlaneSurface::Virtual);
+  EXPECT_EQ(old.surface_of(1), PlaneSurface::Virtual);
+  EXPECT_EQ(old.surface_of(7), PlaneSurface::Virtual);  // past the end: virtual, as documented
+
+  std::vector<std::string> lines = kGoodLines;
+  lines.insert(lines.begin() + 12, "    surface: real");
+  lines.push_back("    surface: virtual");
+  const Site both = load_site(dir.write("both.yaml", join(lines)));
+  EXPECT_EQ(both.surface_of(0), PlaneSurface::Real);
+  EXPECT_EQ(both.surface_of(1), PlaneSurface::Virtual);
+}
+
 TEST(SiteToYaml, RoundTripsExactly) {
   TempDir dir;
   Site site;
@@ -276,6 +297,7 @@ TEST(SiteToYaml, RoundTripsExactly) {
   plane.name = "second";
   plane.origin = geom::Vec3(0, 0, 0);
   site.planes.push_back(plane);
+  site.plane_surfaces = {PlaneSurface::Real};  // the second is left out: virtual
 
   const auto file = dir.write("config/site.yaml", site_to_yaml(site));
   const Site back = load_site(file);
@@ -292,7 +314,10 @@ TEST(SiteToYaml, RoundTripsExactly) {
     EXPECT_EQ(back.planes[k].v, site.planes[k].v);
     EXPECT_EQ(back.planes[k].width, site.planes[k].width);
     EXPECT_EQ(back.planes[k].height, site.planes[k].height);
+    EXPECT_EQ(back.surface_of(k), site.surface_of(k));
   }
+  EXPECT_EQ(back.surface_of(0), PlaneSurface::Real);
+  EXPECT_EQ(back.surface_of(1), PlaneSurface::Virtual);
 }
 
 }  // namespace

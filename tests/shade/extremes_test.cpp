@@ -1,6 +1,9 @@
 // The sky stage and the CPU blend at the numerical extremes, end to end: a real (small) bake of a
 // box beside a wall, sky frames rendered into a sky camera, luminance parameters, the sun, and
 // the shadow ratios. In every case T is finite and in [0, 1], and the flag says what happened.
+// Every case runs on a faces bake and on a corners bake (three layers per face, corner
+// coefficients that may be negative).
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -41,7 +44,7 @@ double angle(const Vec3& a, const Vec3& b) { return std::atan2(a.cross(b).norm()
 
 // A box 2 m tall on the ground, a ground plane around it, and a wall plane on the box's north
 // face that faces north (away from a southern sky).
-class ExtremesTest : public ::testing::Test {
+class ExtremesTest : public ::testing::TestWithParam<geom::DomeBasis> {
  protected:
   static void SetUpTestSuite() {
     dir_ = new fs::path(fs::temp_directory_path() /
@@ -58,16 +61,19 @@ class ExtremesTest : public ::testing::Test {
                                           "    v: [0, 12, 0]\n    resolution: [24, 24]\n"
                                           "  - name: north_wall\n    origin: [1, 1.01, 0]\n    u: [-2, 0, 0]\n"
                                           "    v: [0, 0, 2]\n    resolution: [8, 8]\n";
-    baker::BakeOptions options;
-    options.site_file = *dir_ / "site.yaml";
-    options.out_dir = *dir_ / "bake";
-    options.samples = 4;
-    options.method = "raytrace";
-    options.previews = false;
     std::FILE* quiet = std::fopen("/dev/null", "w");
-    baker::run_bake(options, quiet);
+    for (const geom::DomeBasis basis : {geom::DomeBasis::Faces, geom::DomeBasis::Corners}) {
+      baker::BakeOptions options;
+      options.site_file = *dir_ / "site.yaml";
+      options.out_dir = bake_dir(basis);
+      options.samples = 4;
+      options.basis = basis;
+      options.method = "raytrace";
+      options.previews = false;
+      baker::run_bake(options, quiet);
+      manifests_[static_cast<std::size_t>(basis)] = bake::read_manifest(bake_dir(basis));
+    }
     std::fclose(quiet);
-    manifest_ = new bake::Manifest(bake::read_manifest(*dir_ / "bake"));
     const scene::Site site = scene::load_site(*dir_ / "site.yaml");
     mesh_ = new scene::Mesh(scene::load_model(site.model, site.up, site.scale));
   }
@@ -75,9 +81,13 @@ class ExtremesTest : public ::testing::Test {
     std::error_code ignored;
     fs::remove_all(*dir_, ignored);
     delete dir_;
-    delete manifest_;
     delete mesh_;
   }
+
+  static fs::path bake_dir(geom::DomeBasis basis) {
+    return *dir_ / ("bake_" + std::string(geom::basis_name(basis)));
+  }
+  static const bake::Manifest& manifest() { return manifests_[static_cast<std::size_t>(GetParam())]; }
 
   static sky::CameraCalibration camera(double edge_angle_deg = 90.0) {
     sky::CameraCalibration c;
@@ -94,25 +104,27 @@ class ExtremesTest : public ::testing::Test {
     std::vector<std::vector<float>> T;
   };
 
-  // Sky frame → S (and sun) → T for every plane, as skylit-shade does it.
+  // Sky frame → S (and sun) → T for every plane, as skylit-shade does it, on the bake of the
+  // test's basis.
   static Outcome shade(const sky::RadianceFrame& frame, const sky::CameraCalibration& calibration,
                        sky::SunMode sun_mode) {
     const geom::Dome dome(2);
     sky::SkyEstimateOptions options;
     options.sun_mode = sun_mode;
+    options.table.basis = GetParam();
     const sky::SkyEstimator estimator(calibration, dome, options);
     Outcome o;
     o.estimate = estimator.estimate(frame);
-    std::vector<Eigen::Vector3d> S;
-    for (const auto& f : o.estimate.luminance.faces) S.push_back(f.rgb);
+    const std::vector<Eigen::Vector3d> S = sky::layer_radiances(o.estimate.luminance);
     std::optional<render::SunLight> sun;
     if (o.estimate.sun) sun = render::SunLight{o.estimate.sun->direction, o.estimate.sun->energy};
-    for (std::size_t j = 0; j < manifest_->planes.size(); ++j) {
-      const render::BasisImages basis = render::load_basis(*dir_ / "bake", *manifest_, static_cast<int>(j));
+    const bake::Manifest& m = manifest();
+    for (std::size_t j = 0; j < m.planes.size(); ++j) {
+      const render::BasisImages basis = render::load_basis(bake_dir(GetParam()), m, static_cast<int>(j));
       std::vector<float> visibility;
       if (sun) {
         visibility.resize(basis.texel_count());
-        baker::area_light_visibility(*mesh_, manifest_->planes[j].plane, o.estimate.sun->disc_directions,
+        baker::area_light_visibility(*mesh_, m.planes[j].plane, o.estimate.sun->disc_directions,
                                      o.estimate.sun->disc_weights, visibility);
       }
       o.weights.push_back(render::blend_weights(basis, S, sun));
@@ -152,12 +164,12 @@ class ExtremesTest : public ::testing::Test {
   static bool any_no_light(const render::BlendWeights& w) { return w.no_light[0] || w.no_light[1] || w.no_light[2]; }
 
   static fs::path* dir_;
-  static bake::Manifest* manifest_;
+  static std::array<bake::Manifest, 2> manifests_;  // by basis
   static scene::Mesh* mesh_;
 };
 
 fs::path* ExtremesTest::dir_ = nullptr;
-bake::Manifest* ExtremesTest::manifest_ = nullptr;
+std::array<bake::Manifest, 2> ExtremesTest::manifests_;
 scene::Mesh* ExtremesTest::mesh_ = nullptr;
 
 // A blue sky with a sun of the given radiance and radius.
@@ -170,7 +182,7 @@ std::function<Eigen::Vector3d(const Vec3&)> sunny(const Vec3& sun, double sun_ra
   };
 }
 
-TEST_F(ExtremesTest, BlackSkyGivesOneAndTheNoLightFlag) {
+TEST_P(ExtremesTest, BlackSkyGivesOneAndTheNoLightFlag) {
   for (sky::SunMode mode : {sky::SunMode::Off, sky::SunMode::Auto}) {
     const Outcome o = shade(paint(camera(), [](const Vec3&) { return Eigen::Vector3d::Zero(); }), camera(), mode);
     expect_finite_unit(o);
@@ -182,7 +194,7 @@ TEST_F(ExtremesTest, BlackSkyGivesOneAndTheNoLightFlag) {
   }
 }
 
-TEST_F(ExtremesTest, OnlyTheSunCastsAHardShadow) {
+TEST_P(ExtremesTest, OnlyTheSunCastsAHardShadow) {
   const Vec3 sun = from_angles(180.0, 45.0);
   const Outcome o = shade(paint(camera(), [&](const Vec3& d) {
                             return Eigen::Vector3d::Constant(angle(d, sun) <= 0.6 * kDeg ? 1e4 : 0.0);
@@ -191,7 +203,7 @@ TEST_F(ExtremesTest, OnlyTheSunCastsAHardShadow) {
   expect_finite_unit(o);
   ASSERT_TRUE(o.estimate.sun) << o.estimate.sun_reason;
   // The ground north of the box is in full shadow, the ground far south fully lit.
-  const auto& ground = manifest_->planes[0].plane;
+  const auto& ground = manifest().planes[0].plane;
   const auto texel = [&](double x, double y) {
     const int col = static_cast<int>((x - ground.origin.x()) / ground.u.x() * ground.width);
     const int row = static_cast<int>((y - ground.origin.y()) / ground.v.y() * ground.height);
@@ -201,7 +213,7 @@ TEST_F(ExtremesTest, OnlyTheSunCastsAHardShadow) {
   EXPECT_GT(texel(0.0, -4.0), 0.98f);
 }
 
-TEST_F(ExtremesTest, SunOnADomeVertexAnEdgeTheHorizonAndBelow) {
+TEST_P(ExtremesTest, SunOnADomeVertexAnEdgeTheHorizonAndBelow) {
   const geom::Dome dome(2);
   const auto& f = dome.face(12);
   const Vec3 vertex = dome.vertices()[static_cast<std::size_t>(f.vertex[1])];
@@ -224,6 +236,14 @@ TEST_F(ExtremesTest, SunOnADomeVertexAnEdgeTheHorizonAndBelow) {
       expect_finite_unit(o);
       if (mode == sky::SunMode::Off) {
         EXPECT_FALSE(o.estimate.sun);
+        if (GetParam() == geom::DomeBasis::Corners && c.visible) {
+          // A 1e4 sun in a linear fit: the corners away from it go negative, T stays in [0, 1].
+          double lowest = 0;
+          for (const auto& face : o.estimate.luminance.faces) {
+            for (const Eigen::Vector3d& corner : face.corners) lowest = std::min(lowest, corner.minCoeff());
+          }
+          EXPECT_LT(lowest, -1.0);
+        }
         continue;
       }
       EXPECT_EQ(o.estimate.sun.has_value(), c.visible) << o.estimate.sun_reason;
@@ -237,14 +257,14 @@ TEST_F(ExtremesTest, SunOnADomeVertexAnEdgeTheHorizonAndBelow) {
   }
 }
 
-TEST_F(ExtremesTest, DynamicRangeOfAMillion) {
+TEST_P(ExtremesTest, DynamicRangeOfAMillion) {
   const Outcome o = shade(paint(camera(), sunny(from_angles(90.0, 30.0), 1e3, 1e-3)), camera(), sky::SunMode::Auto);
   expect_finite_unit(o);
   ASSERT_TRUE(o.estimate.sun) << o.estimate.sun_reason;
   EXPECT_GT(o.estimate.sun->contrast, 1e5);
 }
 
-TEST_F(ExtremesTest, NegativeNanAndInfPixelsAreCountedNeverPropagated) {
+TEST_P(ExtremesTest, NegativeNanAndInfPixelsAreCountedNeverPropagated) {
   sky::RadianceFrame frame = paint(camera(), sunny(from_angles(90.0, 50.0), 1e4));
   const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
   for (int k = 0; k < 50; ++k) {
@@ -262,7 +282,7 @@ TEST_F(ExtremesTest, NegativeNanAndInfPixelsAreCountedNeverPropagated) {
   }
 }
 
-TEST_F(ExtremesTest, EightBitFrameWithAClippedSun) {
+TEST_P(ExtremesTest, EightBitFrameWithAClippedSun) {
   const sky::RadianceFrame hdr = paint(camera(), sunny(from_angles(135.0, 40.0), 1e4));
   // Exposed for the sky: the sun clips, as it does on every real 8-bit sky camera.
   const cv::Mat frame8 = sky::to_8bit(hdr.radiance, 0.5);
@@ -282,7 +302,7 @@ TEST_F(ExtremesTest, EightBitFrameWithAClippedSun) {
   EXPECT_GE(clipped_faces, 1);
 }
 
-TEST_F(ExtremesTest, NarrowLensesSeeLessOfTheHorizon) {
+TEST_P(ExtremesTest, NarrowLensesSeeLessOfTheHorizon) {
   // A real lens sees nothing outside its image circle: a mask at the circle's edge.
   const auto lens_of = [&](double half_fov_deg) {
     sky::CameraCalibration c = camera(half_fov_deg);
@@ -309,23 +329,31 @@ TEST_F(ExtremesTest, NarrowLensesSeeLessOfTheHorizon) {
     if (face.flags & sky::kFaceUnseen) {
       ++flagged;
       EXPECT_GT(face.rgb.minCoeff(), 0.0);  // filled from the seen neighbours
+      if (GetParam() == geom::DomeBasis::Corners) {
+        for (const Eigen::Vector3d& corner : face.corners) EXPECT_EQ(corner, face.rgb);  // all three corners
+      }
     }
   }
   EXPECT_EQ(flagged, o100.estimate.luminance.unseen_faces);
 }
 
-TEST_F(ExtremesTest, PlaneFacingAwayFromEveryLitFace) {
+TEST_P(ExtremesTest, PlaneFacingAwayFromEveryLitFace) {
   // Light only from deep in the south: the north-facing wall sees none of it.
   const Outcome o = shade(paint(camera(), [](const Vec3& d) {
                             return Eigen::Vector3d::Constant(d.z() >= 0 && d.y() < -0.75 ? 1.0 : 0.0);
                           }),
                           camera(), sky::SunMode::Auto);
   expect_finite_unit(o);
-  ASSERT_EQ(manifest_->planes[1].plane.name, "north_wall");
+  ASSERT_EQ(manifest().planes[1].plane.name, "north_wall");
   EXPECT_TRUE(any_no_light(o.weights[1]));
   for (float t : o.T[1]) EXPECT_EQ(t, 1.0f);
   EXPECT_FALSE(any_no_light(o.weights[0]));  // the ground is lit
 }
+
+INSTANTIATE_TEST_SUITE_P(Basis, ExtremesTest, ::testing::Values(geom::DomeBasis::Faces, geom::DomeBasis::Corners),
+                         [](const ::testing::TestParamInfo<geom::DomeBasis>& param) {
+                           return std::string(geom::basis_name(param.param));
+                         });
 
 }  // namespace
 }  // namespace skylit

@@ -108,6 +108,20 @@ std::string face_layer_name(int face) {
   return buffer;
 }
 
+std::string layer_name(geom::DomeBasis basis, int layer) {
+  if (basis == geom::DomeBasis::Faces) return face_layer_name(layer);
+  const int per_face = geom::layers_per_face(basis);
+  return face_layer_name(layer / per_face) + "_" + std::to_string(layer % per_face);
+}
+
+std::vector<std::string> layer_names(geom::DomeBasis basis, int face_count) {
+  std::vector<std::string> names;
+  const int layers = face_count * geom::layers_per_face(basis);
+  names.reserve(static_cast<std::size_t>(layers));
+  for (int l = 0; l < layers; ++l) names.push_back(layer_name(basis, l));
+  return names;
+}
+
 void write_exr_stack(const fs::path& file, const ImageStack& stack, std::span<const std::string> layer_names) {
   if (stack.width <= 0 || stack.height <= 0 || stack.layers <= 0) {
     throw std::invalid_argument("write_exr_stack: empty image " + std::to_string(stack.width) + "x" +

@@ -123,6 +123,16 @@ geom::Plane plane_from(const Source& src, const json& j, const std::string& fiel
 
 // ---- plan ----
 
+// `basis` is optional: bakes from before the corners basis have none and are faces.
+geom::DomeBasis basis_from(const Source& src, const json& object, const std::string& parent) {
+  if (!object.is_object() || !object.contains("basis")) return geom::DomeBasis::Faces;
+  const std::string field = join(parent, "basis");
+  const std::string name = to_string(src, object["basis"], field);
+  const std::optional<geom::DomeBasis> basis = geom::parse_basis(name);
+  if (!basis) src.fail(field, "got '" + name + "', expected 'faces' or 'corners'");
+  return *basis;
+}
+
 Plan plan_from(const Source& src, const json& j, const std::string& field) {
   Plan plan;
   const auto get = [&](const char* key) -> const json& { return member(src, j, field, key); };
@@ -132,6 +142,7 @@ Plan plan_from(const Source& src, const json& j, const std::string& field) {
   plan.model_file = to_string(src, get("model_file"), name("model_file"));
   plan.model_sha256 = to_string(src, get("model_sha256"), name("model_sha256"));
   plan.frequency = to_int(src, get("frequency"), name("frequency"), 1);
+  plan.basis = basis_from(src, j, field);
   plan.samples = to_int(src, get("samples"), name("samples"), 1);
   plan.method = to_string(src, get("method"), name("method"));
   if (plan.method != "raster" && plan.method != "raytrace") {
@@ -194,7 +205,8 @@ bool Plan::operator==(const Plan& other) const {
     if (!same_plane(planes[i], other.planes[i])) return false;
   }
   return site_file == other.site_file && site_sha256 == other.site_sha256 && model_file == other.model_file &&
-         model_sha256 == other.model_sha256 && frequency == other.frequency && samples == other.samples &&
+         model_sha256 == other.model_sha256 && frequency == other.frequency && basis == other.basis &&
+         samples == other.samples &&
          method == other.method && shadow_map_resolution == other.shadow_map_resolution &&
          vertex_count == other.vertex_count && triangle_count == other.triangle_count;
 }
@@ -212,6 +224,7 @@ std::string Plan::difference(const Plan& other) const {
   text("model_file", model_file, other.model_file);
   if (model_sha256 != other.model_sha256) items.push_back("model file contents (SHA-256) differ");
   number("frequency", frequency, other.frequency);
+  text("basis", std::string(geom::basis_name(basis)), std::string(geom::basis_name(other.basis)));
   number("samples", samples, other.samples);
   text("method", method, other.method);
   number("shadow_map_resolution", shadow_map_resolution, other.shadow_map_resolution);
@@ -256,6 +269,7 @@ json to_json(const Plan& plan) {
           {"model_file", plan.model_file},
           {"model_sha256", plan.model_sha256},
           {"frequency", plan.frequency},
+          {"basis", geom::basis_name(plan.basis)},
           {"samples", plan.samples},
           {"method", plan.method},
           {"shadow_map_resolution", plan.shadow_map_resolution},
@@ -292,15 +306,15 @@ json to_json(const Manifest& m) {
   }
   json files = json::array();
   for (const FileRecord& f : m.files) files.push_back({{"path", f.path}, {"size", f.size}, {"sha256", f.sha256}});
-  const std::uint64_t face_count = m.faces.size();
+  const std::uint64_t layer_count = m.layer_count();
   return {{"format", kFormatName},
           {"schema_version", m.schema_version},
           {"generator", m.generator},
           {"created_utc", m.created_utc},
           {"plan", to_json(m.plan)},
-          {"dome", {{"frequency", m.plan.frequency}, {"faces", std::move(faces)}}},
+          {"dome", {{"frequency", m.plan.frequency}, {"basis", geom::basis_name(m.plan.basis)}, {"faces", std::move(faces)}}},
           {"planes", std::move(planes)},
-          {"transfer", {{"file", m.transfer_file}, {"shape", json::array({m.plan.vertex_count, face_count})}}},
+          {"transfer", {{"file", m.transfer_file}, {"shape", json::array({m.plan.vertex_count, layer_count})}}},
           {"vertices", {{"file", m.vertices_file}, {"shape", json::array({m.plan.vertex_count, 6})}}},
           {"timings", {{"bake_seconds", m.bake_seconds}, {"finalize_seconds", m.finalize_seconds}}},
           {"files", std::move(files)}};
@@ -338,6 +352,13 @@ Manifest manifest_from_json(const json& j, const fs::path& source) {
   if (dome_frequency != m.plan.frequency) {
     src.fail("dome.frequency", "is " + std::to_string(dome_frequency) + " but plan.frequency is " +
                                    std::to_string(m.plan.frequency));
+  }
+  if (const geom::DomeBasis dome_basis = basis_from(src, dome, "dome"); dome_basis != m.plan.basis) {
+    src.fail("dome.basis", std::string("is '")
+                               .append(geom::basis_name(dome_basis))
+                               .append("' but plan.basis is '")
+                               .append(geom::basis_name(m.plan.basis))
+                               .append("'"));
   }
   const json& faces = array_of(src, get(dome, "dome", "faces"), "dome.faces");
   for (std::size_t i = 0; i < faces.size(); ++i) {
@@ -384,7 +405,7 @@ Manifest manifest_from_json(const json& j, const fs::path& source) {
                            " columns are expected");
     }
   };
-  array_file("transfer", m.faces.size(), m.transfer_file);
+  array_file("transfer", m.layer_count(), m.transfer_file);
   array_file("vertices", 6, m.vertices_file);
 
   const json& timings = get(j, "", "timings");

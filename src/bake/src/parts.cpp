@@ -2,14 +2,16 @@
 //
 // Part file layout (all integers little-endian):
 //   char[8]   "SKYLITPT"
-//   uint32    part format version (1)
+//   uint32    part format version: 1 (one layer per face), 2 (the layer count follows)
 //   int32     face index
+//   uint32    version 2 only: layers per face L (3 for the corners basis)
 //   uint32    plane count P
 //   P × (uint32 width, uint32 height)
 //   uint64    vertex count V
 //   byte[32]  SHA-256 of the payload
-//   payload:  float32 plane fractions (plane 0 row-major, plane 1, ...), then V float32 vertex
-//             fractions
+//   payload:  float32 plane fractions (plane 0: layer 0 row-major, layer 1, ...; plane 1, ...),
+//             then L × V float32 vertex fractions (layer-major)
+// A faces bake writes version 1, so that its parts are those of earlier bakers.
 #include <array>
 #include <bit>
 #include <cstdio>
@@ -32,12 +34,14 @@ namespace fs = std::filesystem;
 static_assert(std::endian::native == std::endian::little, "part files are written as little-endian");
 
 constexpr char kPartMagic[8] = {'S', 'K', 'Y', 'L', 'I', 'T', 'P', 'T'};
-constexpr std::uint32_t kPartVersion = 1;
+constexpr std::uint32_t kPartVersionOneLayer = 1;
+constexpr std::uint32_t kPartVersionLayers = 2;
 constexpr std::size_t kHashSize = 32;
 
 struct PartHeader {
   std::uint32_t version = 0;
   std::int32_t face = 0;
+  std::uint32_t layers = 1;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> resolutions;
   std::uint64_t vertex_count = 0;
   std::array<unsigned char, kHashSize> sha256{};
@@ -46,11 +50,11 @@ struct PartHeader {
   std::uint64_t payload_floats() const {
     std::uint64_t n = vertex_count;
     for (const auto& [w, h] : resolutions) n += static_cast<std::uint64_t>(w) * h;
-    return n;
+    return n * layers;
   }
 };
 
-std::uint64_t header_size_for(std::size_t planes) { return 8 + 4 + 4 + 4 + 8 * planes + 8 + kHashSize; }
+std::uint64_t header_size_for(std::size_t planes) { return 8 + 4 + 4 + 4 + 4 + 8 * planes + 8 + kHashSize; }
 
 template <typename T>
 void put(std::string& out, T value) {
@@ -96,7 +100,9 @@ std::optional<PartHeader> parse_header(std::string_view bytes) {
   if (!r.get(skip)) return std::nullopt;  // the magic, already compared
   PartHeader h;
   std::uint32_t planes = 0;
-  if (!r.get(h.version) || !r.get(h.face) || !r.get(planes) || planes > kMaxPlanes) return std::nullopt;
+  if (!r.get(h.version) || !r.get(h.face)) return std::nullopt;
+  if (h.version == kPartVersionLayers && (!r.get(h.layers) || h.layers == 0 || h.layers > 3)) return std::nullopt;
+  if (!r.get(planes) || planes > kMaxPlanes) return std::nullopt;
   for (std::uint32_t j = 0; j < planes; ++j) {
     std::uint32_t w = 0;
     std::uint32_t height = 0;
@@ -120,10 +126,15 @@ std::string read_prefix(const fs::path& file, std::size_t max_bytes) {
 
 // Why the header does not fit `plan` for `face`, or empty when it does.
 std::string mismatch(const PartHeader& h, int face, const Plan& plan) {
-  if (h.version != kPartVersion) {
-    return "part format version " + std::to_string(h.version) + ", expected " + std::to_string(kPartVersion);
+  if (h.version != kPartVersionOneLayer && h.version != kPartVersionLayers) {
+    return "part format version " + std::to_string(h.version) + ", expected " + std::to_string(kPartVersionOneLayer) +
+           " or " + std::to_string(kPartVersionLayers);
   }
   if (h.face != face) return "holds face " + std::to_string(h.face) + ", expected " + std::to_string(face);
+  if (h.layers != static_cast<std::uint32_t>(plan.layers_per_face())) {
+    return std::to_string(h.layers) + " layer(s) per face, the plan's " + std::string(geom::basis_name(plan.basis)) +
+           " basis has " + std::to_string(plan.layers_per_face());
+  }
   if (h.resolutions.size() != plan.planes.size()) {
     return std::to_string(h.resolutions.size()) + " planes, the plan has " + std::to_string(plan.planes.size());
   }
@@ -199,20 +210,23 @@ void PartStore::write(const FacePart& part) const {
   // The header records each plane's width and height, which only the plan knows.
   const std::optional<Plan> plan = read_plan();
   if (!plan) throw std::logic_error("PartStore::write: " + (dir_ / "plan.json").string() + " is not written yet");
-  if (part.plane_fractions.size() != plan->planes.size() || part.vertex_fractions.size() != plan->vertex_count) {
+  const std::size_t layers = static_cast<std::size_t>(plan->layers_per_face());
+  if (part.plane_fractions.size() != plan->planes.size() ||
+      part.vertex_fractions.size() != layers * plan->vertex_count) {
     throw std::invalid_argument("PartStore::write: face " + std::to_string(part.face) + " has " +
                                 std::to_string(part.plane_fractions.size()) + " planes and " +
-                                std::to_string(part.vertex_fractions.size()) + " vertices; the plan has " +
-                                std::to_string(plan->planes.size()) + " and " + std::to_string(plan->vertex_count));
+                                std::to_string(part.vertex_fractions.size()) + " vertex values; the plan has " +
+                                std::to_string(plan->planes.size()) + " planes and " + std::to_string(layers) + " × " +
+                                std::to_string(plan->vertex_count) + " vertex values");
   }
   std::string payload;
   for (std::size_t j = 0; j < plan->planes.size(); ++j) {
     const geom::Plane& p = plan->planes[j];
     const std::vector<float>& f = part.plane_fractions[j];
-    if (f.size() != static_cast<std::size_t>(p.width) * static_cast<std::size_t>(p.height)) {
+    if (f.size() != layers * static_cast<std::size_t>(p.width) * static_cast<std::size_t>(p.height)) {
       throw std::invalid_argument("PartStore::write: plane '" + p.name + "' of face " + std::to_string(part.face) +
-                                  " has " + std::to_string(f.size()) + " values, expected " +
-                                  std::to_string(p.width) + "x" + std::to_string(p.height));
+                                  " has " + std::to_string(f.size()) + " values, expected " + std::to_string(layers) +
+                                  " × " + std::to_string(p.width) + "x" + std::to_string(p.height));
     }
     payload.append(reinterpret_cast<const char*>(f.data()), f.size() * sizeof(float));
   }
@@ -220,8 +234,9 @@ void PartStore::write(const FacePart& part) const {
                  part.vertex_fractions.size() * sizeof(float));
 
   std::string bytes(kPartMagic, sizeof kPartMagic);
-  put(bytes, kPartVersion);
+  put(bytes, layers == 1 ? kPartVersionOneLayer : kPartVersionLayers);
   put(bytes, static_cast<std::int32_t>(part.face));
+  if (layers != 1) put(bytes, static_cast<std::uint32_t>(layers));
   put(bytes, static_cast<std::uint32_t>(plan->planes.size()));
   for (const geom::Plane& p : plan->planes) {
     put(bytes, static_cast<std::uint32_t>(p.width));
@@ -269,14 +284,17 @@ FacePart PartStore::read(int face, const Plan& plan) const {
   FacePart part;
   part.face = face;
   const char* at = payload.data();
+  const std::size_t layers = static_cast<std::size_t>(plan.layers_per_face());
   for (const geom::Plane& p : plan.planes) {
-    std::vector<float> f(static_cast<std::size_t>(p.width) * static_cast<std::size_t>(p.height));
+    std::vector<float> f(layers * static_cast<std::size_t>(p.width) * static_cast<std::size_t>(p.height));
     std::memcpy(f.data(), at, f.size() * sizeof(float));
     at += f.size() * sizeof(float);
     part.plane_fractions.push_back(std::move(f));
   }
-  part.vertex_fractions.resize(plan.vertex_count);
-  if (!part.vertex_fractions.empty()) std::memcpy(part.vertex_fractions.data(), at, plan.vertex_count * sizeof(float));
+  part.vertex_fractions.resize(layers * plan.vertex_count);
+  if (!part.vertex_fractions.empty()) {
+    std::memcpy(part.vertex_fractions.data(), at, part.vertex_fractions.size() * sizeof(float));
+  }
   return part;
 }
 

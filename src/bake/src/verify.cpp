@@ -86,14 +86,17 @@ class Checker {
                   std::to_string(p.width) + "x" + std::to_string(p.height) + "). " + kRebake);
         }
       }
-      if (r.unoccluded.size() != m.faces.size()) {
+      const std::size_t per_face = static_cast<std::size_t>(m.plan.layers_per_face());
+      if (r.unoccluded.size() != m.layer_count()) {
         problem(label + " has " + std::to_string(r.unoccluded.size()) + " unoccluded values for " +
-                std::to_string(m.faces.size()) + " faces. " + kRebake);
+                std::to_string(m.faces.size()) + " faces" +
+                (per_face == 1 ? std::string() : " × " + std::to_string(per_face) + " corners") + ". " + kRebake);
       }
       for (std::size_t i = 0; i < r.unoccluded.size(); ++i) {
         const double a = r.unoccluded[i];
-        // 0 ≤ A_i ≤ Ω_i because 0 ≤ max(0, n·ω) ≤ 1.
-        const bool bounded = i >= m.faces.size() || a <= m.faces[i].solid_angle * (1.0 + 1e-9) + 1e-12;
+        // 0 ≤ A_l ≤ Ω_i because 0 ≤ λ · max(0, n·ω) ≤ 1 (layer l of face i = l / per_face).
+        const std::size_t face = i / per_face;
+        const bool bounded = face >= m.faces.size() || a <= m.faces[face].solid_angle * (1.0 + 1e-9) + 1e-12;
         if (!std::isfinite(a) || a < 0.0 || !bounded) {
           problem(label + " unoccluded[" + std::to_string(i) + "] = " + std::to_string(a) +
                   " sr is not in [0, Ω_i]. " + kRebake);
@@ -165,14 +168,21 @@ class Checker {
                   ", the manifest says " + std::to_string(r.plane.width) + "x" + std::to_string(r.plane.height) +
                   ". " + kRestore);
         }
-        if (info.layer_names.size() != m.faces.size()) {
+        if (info.layer_names.size() != m.layer_count()) {
           problem(r.file + ": " + std::to_string(info.layer_names.size()) + " layers, the dome has " +
-                  std::to_string(m.faces.size()) + " faces. " + kRestore);
+                  std::to_string(m.faces.size()) + " faces" +
+                  (m.plan.layers_per_face() == 1
+                       ? std::string()
+                       : " and the " + std::string(geom::basis_name(m.plan.basis)) + " basis " +
+                             std::to_string(m.plan.layers_per_face()) + " layers per face (" +
+                             std::to_string(m.layer_count()) + ")") +
+                  ". " + kRestore);
         } else {
           for (std::size_t i = 0; i < info.layer_names.size(); ++i) {
-            if (info.layer_names[i] != face_layer_name(static_cast<int>(i))) {
+            const std::string expected = layer_name(m.plan.basis, static_cast<int>(i));
+            if (info.layer_names[i] != expected) {
               problem(r.file + ": layer " + std::to_string(i) + " is named '" + info.layer_names[i] +
-                      "', expected '" + face_layer_name(static_cast<int>(i)) + "'. " + kRestore);
+                      "', expected '" + expected + "'. " + kRestore);
               break;
             }
           }
@@ -254,7 +264,9 @@ VerifyReport verify(const fs::path& bake_dir) {
   const std::set<std::string> present = check.check_files(m);
   check.check_images(m, present);
   const std::size_t vertices = static_cast<std::size_t>(m.plan.vertex_count);
-  check.check_array(m.transfer_file, {vertices, m.faces.size()}, "(vertex_count, face_count)", present);
+  check.check_array(m.transfer_file, {vertices, m.layer_count()},
+                    m.plan.layers_per_face() == 1 ? "(vertex_count, face_count)" : "(vertex_count, 3 × face_count)",
+                    present);
   check.check_array(m.vertices_file, {vertices, 6}, "(vertex_count, 6: position, normal)", present);
   report.ok = report.problems.empty();
   return report;

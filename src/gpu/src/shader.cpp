@@ -138,9 +138,33 @@ Program load_program(const fs::path& shader_dir, std::initializer_list<fs::path>
                                      "point --shader-dir or SKYLIT_SHADER_DIR at a complete copy of "
                                      "skylit's shaders/ folder"));
     }
-    sources.push_back({shader_stage(file), path.string(), read_file(path)});
+    sources.push_back({shader_stage(file), path.string(), read_shader(shader_dir, file)});
   }
   return link_program(sources);
+}
+
+std::string read_shader(const fs::path& shader_dir, const fs::path& file) {
+  std::string text = read_file(shader_dir / file);
+  // Libraries go after the shader's own text, so that the driver's line numbers within the
+  // shader stay the file's; the shader declares the library functions it calls.
+  static const std::regex library_line(R"(^// library: *([A-Za-z0-9_.-]+\.glsl) *\r?$)");
+  std::string appended;
+  std::istringstream lines(text);
+  std::string line;
+  while (std::getline(lines, line)) {
+    std::smatch match;
+    if (!std::regex_match(line, match, library_line)) continue;
+    const fs::path library = shader_dir / match[1].str();
+    std::error_code error;
+    if (!fs::is_regular_file(library, error)) {
+      throw InputError(input_message(shader_dir / file, -1, -1, "library",
+                                     std::string("shader library ").append(library.string()).append(" not found"),
+                                     "point --shader-dir or SKYLIT_SHADER_DIR at a complete copy of skylit's "
+                                     "shaders/ folder"));
+    }
+    appended.append("\n// ---- ").append(match[1].str()).append(" ----\n").append(read_file(library));
+  }
+  return text + appended;
 }
 
 std::string format_shader_log(const std::string& label, const std::string& log) {

@@ -33,7 +33,10 @@ void check_values(const fs::path& file, const BasisImages& basis) {
       const std::size_t texel = k % texels;
       const std::size_t width = static_cast<std::size_t>(basis.width);
       throw InputError(input_message(
-          file, -1, -1, bake::face_layer_name(static_cast<int>(layer)) + ".Y",
+          file, -1, -1,
+          bake::layer_name(basis.layers_per_face == 1 ? geom::DomeBasis::Faces : geom::DomeBasis::Corners,
+                           static_cast<int>(layer)) +
+              ".Y",
           "texel (col " + std::to_string(texel % width) + ", row " + std::to_string(texel / width) + ") holds " +
               std::to_string(half_to_float(h)) + "; basis values are finite and >= 0 (steradians)",
           kRebake));
@@ -57,14 +60,19 @@ BasisImages load_basis(const fs::path& bake_dir, const bake::Manifest& manifest,
                                                     : "choose a plane from 0 to " + std::to_string(plane_count - 1)));
   }
   const bake::PlaneRecord& record = manifest.planes[static_cast<std::size_t>(plane)];
-  const std::size_t faces = manifest.faces.size();
-  if (faces == 0) {
+  if (manifest.faces.empty()) {
     throw InputError(input_message(manifest_file, -1, -1, "dome.faces", "the dome has no faces", kRebake));
   }
+  // The layers: one per face, or three per face with the corners basis.
+  const std::size_t faces = manifest.layer_count();
+  const geom::DomeBasis basis_kind = manifest.plan.basis;
+  const std::string layers_text = manifest.plan.layers_per_face() == 1
+                                      ? std::to_string(faces) + " dome faces"
+                                      : std::to_string(faces) + " layers (3 corners of " +
+                                            std::to_string(manifest.faces.size()) + " dome faces)";
   if (record.unoccluded.size() != faces) {
     throw InputError(input_message(manifest_file, -1, -1, plane_field(plane, "unoccluded"),
-                                   "has " + std::to_string(record.unoccluded.size()) + " values for " +
-                                       std::to_string(faces) + " dome faces",
+                                   "has " + std::to_string(record.unoccluded.size()) + " values for " + layers_text,
                                    kRebake));
   }
   for (std::size_t i = 0; i < faces; ++i) {
@@ -89,18 +97,18 @@ BasisImages load_basis(const fs::path& bake_dir, const bake::Manifest& manifest,
   }
   // Layers are read in face order; the first name out of place is the missing (or foreign) one.
   for (std::size_t i = 0; i < faces; ++i) {
-    const std::string expected = bake::face_layer_name(static_cast<int>(i));
+    const std::string expected = bake::layer_name(basis_kind, static_cast<int>(i));
     if (i >= names.size() || names[i] != expected) {
       throw InputError(input_message(file, -1, -1, expected + ".Y",
-                                     "missing: the image has " + std::to_string(names.size()) +
-                                         " layers, the dome " + std::to_string(faces) + " faces (face_000 … " +
-                                         bake::face_layer_name(static_cast<int>(faces) - 1) + ")",
+                                     "missing: the image has " + std::to_string(names.size()) + " layers, the bake " +
+                                         layers_text + " (" + bake::layer_name(basis_kind, 0) + " … " +
+                                         bake::layer_name(basis_kind, static_cast<int>(faces) - 1) + ")",
                                      kRebake));
     }
   }
   if (names.size() != faces) {
     throw InputError(input_message(file, -1, -1, names[faces] + ".Y",
-                                   "unexpected layer: the dome has " + std::to_string(faces) + " faces", kRebake));
+                                   "unexpected layer: the bake has " + layers_text, kRebake));
   }
 
   BasisImages basis;
@@ -111,6 +119,7 @@ BasisImages load_basis(const fs::path& bake_dir, const bake::Manifest& manifest,
   basis.half = std::move(stack.data);
   basis.unoccluded = record.unoccluded;
   basis.normal = record.plane.normal();
+  basis.layers_per_face = manifest.plan.layers_per_face();
   check_values(file, basis);
   return basis;
 }

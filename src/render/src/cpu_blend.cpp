@@ -130,6 +130,14 @@ BlendWeights blend_weights(const BasisImages& basis, std::span<const Eigen::Vect
               "give one RGB value per dome face of the bake");
   }
   for (std::size_t i = 0; i < layers; ++i) {
+    if (basis.layers_per_face > 1) {
+      // Corner coefficients of a linear fit may be negative, never non-finite.
+      if (!S[i].allFinite()) {
+        bad_input("S[" + std::to_string(i) + "]", "is not finite",
+                  "luminance parameters are finite; check the sky camera and its calibration");
+      }
+      continue;
+    }
     check_rgb(S[i], "S[" + std::to_string(i) + "]",
               "luminance parameters are linear radiances >= 0; check the sky camera and its calibration");
   }

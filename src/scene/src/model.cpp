@@ -47,10 +47,14 @@ const std::string kExportFix =
 struct MeshBuilder {
   Mesh mesh;
   std::vector<bool> needs_flat_normal;  // per vertex
+  bool any_texcoord = false;            // texcoords are kept only when some vertex has one
 
-  std::uint32_t add_vertex(const Eigen::Vector3d& position, const Eigen::Vector3d* normal) {
+  std::uint32_t add_vertex(const Eigen::Vector3d& position, const Eigen::Vector3d* normal,
+                           const Eigen::Vector2f* texcoord = nullptr) {
     mesh.positions.push_back(position.cast<float>());
     mesh.normals.push_back(normal ? Eigen::Vector3f(normal->cast<float>()) : Eigen::Vector3f::Zero());
+    mesh.texcoords.push_back(texcoord ? *texcoord : Eigen::Vector2f::Zero());
+    any_texcoord = any_texcoord || texcoord != nullptr;
     needs_flat_normal.push_back(normal == nullptr);
     return static_cast<std::uint32_t>(mesh.positions.size() - 1);
   }
@@ -64,6 +68,7 @@ struct MeshBuilder {
 // Model frame → site frame, then normals: flat where the file had none, unit everywhere.
 Mesh finish(MeshBuilder builder, const fs::path& file, UpAxis up, double scale) {
   Mesh& mesh = builder.mesh;
+  if (!builder.any_texcoord) mesh.texcoords.clear();
   if (mesh.triangle_count() == 0) {
     fail(file, "the model has no triangles",
          "export the meshes as triangles (or polygons, for OBJ); points and lines are not used");
@@ -130,12 +135,20 @@ class GltfReader {
   GltfReader(const tinygltf::Model& model, const fs::path& file) : model_(model), file_(file) {}
 
   Mesh read(UpAxis up, double scale) {
+    const std::vector<int> image_texture = read_images();
     for (const tinygltf::Material& material : model_.materials) {
       Material m;
       m.name = material.name;
       const std::vector<double>& factor = material.pbrMetallicRoughness.baseColorFactor;
       if (factor.size() == 4) {
         m.base_colour = Eigen::Vector4d(factor[0], factor[1], factor[2], factor[3]).cast<float>();
+      }
+      const int texture = material.pbrMetallicRoughness.baseColorTexture.index;
+      if (texture >= 0 && static_cast<std::size_t>(texture) < model_.textures.size()) {
+        const int source = model_.textures[static_cast<std::size_t>(texture)].source;
+        if (source >= 0 && static_cast<std::size_t>(source) < image_texture.size()) {
+          m.base_colour_texture = image_texture[static_cast<std::size_t>(source)];
+        }
       }
       builder_.mesh.materials.push_back(std::move(m));
     }
@@ -167,6 +180,78 @@ class GltfReader {
 
  private:
   [[noreturn]] void corrupt(const std::string& problem) const { fail(file_, problem, kExportFix); }
+
+  // The decoded images as RGBA8 textures; per glTF image its texture index, or -1 when it was not
+  // decoded (see lenient_image_loader).
+  std::vector<int> read_images() {
+    std::vector<int> index(model_.images.size(), -1);
+    for (std::size_t k = 0; k < model_.images.size(); ++k) {
+      const tinygltf::Image& image = model_.images[k];
+      const int channels = image.component;
+      const int bytes_per_channel = image.bits == 16 ? 2 : 1;
+      const std::size_t pixels = static_cast<std::size_t>(std::max(0, image.width)) *
+                                 static_cast<std::size_t>(std::max(0, image.height));
+      if (pixels == 0 || channels < 1 || channels > 4 || (image.bits != 8 && image.bits != 16) ||
+          image.image.size() != pixels * static_cast<std::size_t>(channels * bytes_per_channel)) {
+        continue;
+      }
+      TextureImage texture;
+      texture.name = image.name.empty() ? image.uri : image.name;
+      texture.width = image.width;
+      texture.height = image.height;
+      texture.rgba.resize(pixels * 4);
+      for (std::size_t p = 0; p < pixels; ++p) {
+        std::uint8_t value[4] = {0, 0, 0, 255};
+        for (int c = 0; c < channels; ++c) {
+          // 16-bit samples are little-endian in tinygltf's buffer: the high byte is the second.
+          const std::size_t at = (p * static_cast<std::size_t>(channels) + static_cast<std::size_t>(c)) *
+                                 static_cast<std::size_t>(bytes_per_channel);
+          value[c] = image.image[at + static_cast<std::size_t>(bytes_per_channel - 1)];
+        }
+        if (channels == 1 || channels == 2) {  // grey (and alpha): the grey goes to r, g and b
+          value[3] = channels == 2 ? value[1] : std::uint8_t{255};
+          value[1] = value[2] = value[0];
+        }
+        std::copy(value, value + 4, texture.rgba.begin() + static_cast<std::ptrdiff_t>(4 * p));
+      }
+      index[k] = static_cast<int>(builder_.mesh.textures.size());
+      builder_.mesh.textures.push_back(std::move(texture));
+    }
+    return index;
+  }
+
+  // TEXCOORD_n as floats: float pairs, or normalised unsigned bytes or shorts (glTF allows them).
+  std::vector<Eigen::Vector2f> read_texcoords(int accessor_index, const std::string& what) const {
+    if (accessor_index < 0 || static_cast<std::size_t>(accessor_index) >= model_.accessors.size()) {
+      corrupt(what + " refers to a missing accessor");
+    }
+    const tinygltf::Accessor& accessor = model_.accessors[static_cast<std::size_t>(accessor_index)];
+    const int type = accessor.componentType;
+    if (accessor.type != TINYGLTF_TYPE_VEC2 ||
+        (type != TINYGLTF_COMPONENT_TYPE_FLOAT && type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+         type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT)) {
+      corrupt(what + " is not a list of 2-vectors of floats or normalised unsigned integers");
+    }
+    const std::size_t size = component_size(type);
+    std::vector<Eigen::Vector2f> values(accessor.count);
+    for (std::size_t k = 0; k < accessor.count; ++k) {
+      const unsigned char* p = element(accessor, 2 * size, k, what);
+      for (std::size_t c = 0; c < 2; ++c) {
+        float value = 0.0f;
+        if (type == TINYGLTF_COMPONENT_TYPE_FLOAT) {
+          std::memcpy(&value, p + 4 * c, 4);
+        } else if (type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE) {
+          value = static_cast<float>(p[c]) / 255.0f;
+        } else {
+          std::uint16_t v16 = 0;
+          std::memcpy(&v16, p + 2 * c, 2);
+          value = static_cast<float>(v16) / 65535.0f;
+        }
+        values[k][static_cast<Eigen::Index>(c)] = value;
+      }
+    }
+    return values;
+  }
 
   static Eigen::Matrix4d local_transform(const tinygltf::Node& node) {
     Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
@@ -340,6 +425,20 @@ class GltfReader {
           triangles(primitive.mode, read_indices(primitive, positions.size(), what));
       if (corners.empty()) continue;
       const std::uint32_t material = material_index(primitive.material);
+      // The texture coordinates the material's base-colour texture reads (set 0 unless it says).
+      std::vector<Eigen::Vector2f> texcoords;
+      if (primitive.material >= 0 && static_cast<std::size_t>(primitive.material) < model_.materials.size()) {
+        const int set = model_.materials[static_cast<std::size_t>(primitive.material)]
+                            .pbrMetallicRoughness.baseColorTexture.texCoord;
+        const auto texcoord_it = primitive.attributes.find("TEXCOORD_" + std::to_string(std::max(0, set)));
+        if (texcoord_it != primitive.attributes.end()) {
+          texcoords = read_texcoords(texcoord_it->second, what + " " + texcoord_it->first);
+          if (texcoords.size() != positions.size()) {
+            corrupt(what + " has a different number of texture coordinates than positions");
+          }
+        }
+      }
+      auto texcoord_of = [&](std::size_t k) { return texcoords.empty() ? nullptr : &texcoords[k]; };
 
       auto transform_point = [&](std::size_t k) {
         return Eigen::Vector3d((world * positions[k].homogeneous()).head<3>());
@@ -351,7 +450,7 @@ class GltfReader {
           const auto base = static_cast<std::uint32_t>(builder_.mesh.positions.size());
           for (std::size_t k = 0; k < positions.size(); ++k) {
             const Eigen::Vector3d n = normal_matrix * normals[k];
-            builder_.add_vertex(transform_point(k), &n);
+            builder_.add_vertex(transform_point(k), &n, texcoord_of(k));
           }
           found = shared_base.emplace(key, base).first;
         }
@@ -363,11 +462,11 @@ class GltfReader {
         }
       } else {
         for (std::size_t t = 0; t + 2 < corners.size(); t += 3) {
-          const std::uint32_t a = builder_.add_vertex(transform_point(corners[t]), nullptr);
-          const std::uint32_t b =
-              builder_.add_vertex(transform_point(corners[t + (mirrored ? 2 : 1)]), nullptr);
-          const std::uint32_t c =
-              builder_.add_vertex(transform_point(corners[t + (mirrored ? 1 : 2)]), nullptr);
+          const std::uint32_t corner_b = corners[t + (mirrored ? 2 : 1)];
+          const std::uint32_t corner_c = corners[t + (mirrored ? 1 : 2)];
+          const std::uint32_t a = builder_.add_vertex(transform_point(corners[t]), nullptr, texcoord_of(corners[t]));
+          const std::uint32_t b = builder_.add_vertex(transform_point(corner_b), nullptr, texcoord_of(corner_b));
+          const std::uint32_t c = builder_.add_vertex(transform_point(corner_c), nullptr, texcoord_of(corner_c));
           builder_.add_triangle(a, b, c, material);
         }
       }
@@ -381,16 +480,25 @@ class GltfReader {
   std::optional<std::uint32_t> default_material_;
 };
 
-// Textures do not matter to the baker: skip decoding them (faster, and no failure on exotic
-// image formats).
-bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, int,
-                const unsigned char*, int, void*) {
+// Base-colour textures are decoded for the compositor (the baker ignores them). An image the
+// decoder cannot read (an exotic format) must not make the model unusable for the baker: it is
+// left empty, and read_images leaves it out.
+bool lenient_image_loader(tinygltf::Image* image, const int image_index, std::string* error,
+                          std::string* warning, int width, int height, const unsigned char* bytes,
+                          int size, void* user_data) {
+  std::string ignored;
+  if (!tinygltf::LoadImageData(image, image_index, &ignored, warning, width, height, bytes, size,
+                               user_data)) {
+    image->image.clear();
+    image->width = image->height = 0;
+  }
+  (void)error;
   return true;
 }
 
 Mesh load_gltf(const fs::path& file, bool binary, UpAxis up, double scale) {
   tinygltf::TinyGLTF loader;
-  loader.SetImageLoader(&skip_image, nullptr);
+  loader.SetImageLoader(&lenient_image_loader, nullptr);
   tinygltf::Model model;
   std::string error;
   std::string warning;

@@ -256,6 +256,8 @@ Site make_sample_site(const std::filesystem::path& model) {
   roof.height = 110;  // 13 m × 5.58 m: square texels of 5.1 cm
 
   site.planes = {ground, wall, roof};
+  // The ground is the real ground the HMD camera sees; the wall and the roof are the gate's.
+  site.plane_surfaces = {PlaneSurface::Real, PlaneSurface::Virtual, PlaneSurface::Virtual};
   return site;
 }
 

@@ -29,8 +29,8 @@ constexpr std::size_t kMaxPlaneNameLength = 128;
 
 const std::array<std::string_view, 3> kTopKeys{"scene", "dome", "planes"};
 const std::array<std::string_view, 3> kSceneKeys{"model", "up", "scale"};
-const std::array<std::string_view, 1> kDomeKeys{"frequency"};
-const std::array<std::string_view, 5> kPlaneKeys{"name", "origin", "u", "v", "resolution"};
+const std::array<std::string_view, 2> kDomeKeys{"frequency", "basis"};
+const std::array<std::string_view, 6> kPlaneKeys{"name", "origin", "u", "v", "resolution", "surface"};
 
 
 // Reads one site file; every error names the file, the line and column of the offending node
@@ -247,6 +247,15 @@ class SiteParser {
            fix);
     }
     site.dome_frequency = static_cast<int>(value);
+    if (const YAML::Node basis = dome["basis"]; basis.IsDefined()) {
+      const std::string basis_fix =
+          "write 'basis: faces' (one radiance per sky face) or 'basis: corners' (three per face, "
+          "linear across it), or leave the field out for faces";
+      if (!basis.IsScalar()) fail(basis.IsNull() ? key_node(dome, "basis") : basis, "dome.basis", "expected a name", basis_fix);
+      const std::optional<geom::DomeBasis> parsed = geom::parse_basis(basis.Scalar());
+      if (!parsed) fail(basis, "dome.basis", "unknown basis '" + basis.Scalar() + "'", basis_fix);
+      site.dome_basis = *parsed;
+    }
   }
 
   void parse_planes(const YAML::Node& root, Site& site) const {
@@ -274,7 +283,22 @@ class SiteParser {
              "give every plane its own name (names become file names of the bake)");
       }
       site.planes.push_back(std::move(plane));
+      site.plane_surfaces.push_back(parse_surface(entry, path));
     }
+  }
+
+  // Optional; absent means virtual (files written before the field existed keep their meaning).
+  PlaneSurface parse_surface(const YAML::Node& entry, const std::string& path) const {
+    const YAML::Node surface = entry["surface"];
+    if (!surface.IsDefined() || surface.IsNull()) return PlaneSurface::Virtual;
+    const std::string text = surface.IsScalar() ? surface.Scalar() : std::string();
+    if (text == "real") return PlaneSurface::Real;
+    if (text == "virtual") return PlaneSurface::Virtual;
+    std::string problem = "expected 'real' or 'virtual'";
+    if (!text.empty()) problem.append(", got '").append(text).append("'");
+    fail(surface, path + ".surface", problem,
+         "write 'surface: real' for a real surface the camera sees (the ground) or "
+         "'surface: virtual' for a surface of the virtual building (a wall, a roof)");
   }
 
   geom::Plane parse_plane(const YAML::Node& entry, const std::string& path) const {
@@ -411,17 +435,24 @@ std::string site_to_yaml(const Site& site) {
       << "  scale: " << format_number(site.scale) << "  # metres per model unit\n"
       << "dome:\n"
       << "  frequency: " << site.dome_frequency
-      << "  # geodesic sky dome, even: 2 = 40 faces, 4 = 160, 6 = 360, 8 = 640\n"
+      << "  # geodesic sky dome, even: 2 = 40 faces, 4 = 160, 6 = 360, 8 = 640\n";
+  if (site.dome_basis != geom::DomeBasis::Faces) {
+    out << "  basis: " << geom::basis_name(site.dome_basis) << "  # radiance per face: faces (constant) or corners (linear)\n";
+  }
+  out
       << "# Shadowing planes: rectangles origin + s·u + t·v (s, t in [0, 1]), normal = u × v.\n"
       << "# Texel (col, row) has its centre at origin + (col+0.5)/W·u + (row+0.5)/H·v.\n"
       << "planes:\n";
-  for (const geom::Plane& plane : site.planes) {
+  for (std::size_t index = 0; index < site.planes.size(); ++index) {
+    const geom::Plane& plane = site.planes[index];
     out << "  - name: " << quote(plane.name) << "  # letters, digits, '_' and '-': it names bake files\n"
         << "    origin: " << format_vector(plane.origin) << "  # one corner, metres\n"
         << "    u: " << format_vector(plane.u) << "  # first edge: columns run along it\n"
         << "    v: " << format_vector(plane.v) << "  # second edge: rows run along it\n"
         << "    resolution: [" << plane.width << ", " << plane.height
-        << "]  # texels along u and v (1 to " << kMaxPlaneResolution << ")\n";
+        << "]  # texels along u and v (1 to " << kMaxPlaneResolution << ")\n"
+        << "    surface: " << (site.surface_of(index) == PlaneSurface::Real ? "real" : "virtual")
+        << "  # real: seen by the camera (ground); virtual: on the virtual building\n";
   }
   return out.str();
 }

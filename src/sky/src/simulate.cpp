@@ -15,7 +15,9 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
+#include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/sky_table.hpp"
+#include "skylit/sky/solar.hpp"
 
 namespace skylit::sky {
 namespace {
@@ -208,6 +210,21 @@ SkyFunction sky_function(const OvercastSky& sky) {
   SkyFunction f;
   f.sky = [sky](const Vec3& d) { return sky.radiance(d); };
   return f;
+}
+
+SkyFunction analytic_sky(const AnalyticSkySettings& settings, std::chrono::sys_seconds utc) {
+  if (settings.kind == AnalyticSkySettings::Kind::Overcast) {
+    return sky_function(OvercastSky(settings.zenith_radiance));
+  }
+  const SolarPosition sun = solar_position(utc, settings.latitude_deg, settings.longitude_deg);
+  return sky_function(ClearSky(sun.direction(), settings.turbidity));
+}
+
+cv::Mat read_equirect(const std::filesystem::path& file) {
+  const cv::Mat image = read_sky_image(file);
+  if (image.depth() == CV_32F) return image;
+  const int bits = image.depth() == CV_16U ? 16 : 8;
+  return linearise(image, ResponseCurve::srgb(bits), Exposure{}).radiance;
 }
 
 cv::Mat render_fisheye(const Lens& lens, const cv::Mat& equirect, const RenderOptions& options) {

@@ -7,6 +7,8 @@
 #include <string>
 #include <thread>
 
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
 #include <opencv2/imgcodecs.hpp>
 
 #include "skylit/base/error.hpp"
@@ -84,12 +86,16 @@ class Axis {
 struct Band {
   std::vector<PixelRun> runs;
   std::vector<float> weights;
+  std::vector<std::uint16_t> corner_weights;  // corners basis: λ0, λ1 per sample, 16-bit
 };
+
+// The hats' mass matrix needs only a coarse quadrature: it sets a threshold, not a value.
+constexpr int kFullMassSubdivisions = 16;
 
 // Rows of blocks [by_begin, by_end). Corner directions are shared by neighbouring blocks, so
 // they are unprojected once per corner row and kept for the next block row.
-void build_band(const Lens& lens, const geom::Dome& dome, const cv::Mat& mask, const Axis& ax,
-                const Axis& ay, int by_begin, int by_end, Band& band) {
+void build_band(const Lens& lens, const geom::Dome& dome, const geom::CornerWeights* corners, const cv::Mat& mask,
+                const Axis& ax, const Axis& ay, int by_begin, int by_end, Band& band) {
   const int nbx = ax.blocks();
   const auto unproject_corners = [&](double y, std::vector<std::optional<Vec3>>& row) {
     for (int bx = 0; bx <= nbx; ++bx)
@@ -108,9 +114,11 @@ void build_band(const Lens& lens, const geom::Dome& dome, const cv::Mat& mask, c
       const int col = ax.sample(bx);
       const auto b = static_cast<std::size_t>(bx);
       int face = -1;
+      Vec3 seen = Vec3::UnitZ();
       if ((!mask_row || mask_row[col] != 0) && top[b] && top[b + 1] && bottom[b] && bottom[b + 1]) {
         if (const std::optional<Vec3> direction = lens.pixel_to_site(Vec2(col, row))) {
           face = dome.face_of(*direction);  // -1 below the horizon
+          seen = *direction;
         }
       }
       if (face < 0) {
@@ -131,12 +139,54 @@ void build_band(const Lens& lens, const geom::Dome& dome, const cv::Mat& mask, c
         open = &band.runs.back();
       }
       band.weights.push_back(static_cast<float>(weight));
+      if (corners) {
+        const std::array<double, 3> lambda = (*corners)(face, seen);
+        auto q0 = static_cast<std::uint16_t>(std::lround(lambda[0] / kCornerWeightUnit));
+        auto q1 = static_cast<std::uint16_t>(std::lround(lambda[1] / kCornerWeightUnit));
+        if (q0 + q1 > 65535) --(q0 > q1 ? q0 : q1);  // keep λ2 = 1 − λ0 − λ1 ≥ 0 after rounding
+        band.corner_weights.push_back(q0);
+        band.corner_weights.push_back(q1);
+      }
     }
     top.swap(bottom);
   }
 }
 
+// Mass matrices and their inverses from the stored (float) weights, in one fixed order.
+void add_corner_matrices(const geom::Dome& dome, SkyTable& table) {
+  const auto faces = static_cast<std::size_t>(dome.face_count());
+  table.corner_mass.assign(faces, Eigen::Matrix3d::Zero());
+  for (const PixelRun& run : table.runs) {
+    Eigen::Matrix3d& m = table.corner_mass[static_cast<std::size_t>(run.face)];
+    for (std::int32_t k = 0; k < run.count; ++k) {
+      const std::size_t at = run.weight_offset + static_cast<std::uint32_t>(k);
+      const double w = table.weights[at];
+      const double l0 = table.corner_weights[2 * at] * kCornerWeightUnit;
+      const double l1 = table.corner_weights[2 * at + 1] * kCornerWeightUnit;
+      const Eigen::Vector3d l(l0, l1, 1.0 - l0 - l1);
+      m.noalias() += w * l * l.transpose();
+    }
+  }
+  table.corner_inverse.resize(faces);
+  table.corner_full_mass.resize(faces);
+  table.corner_conditioning.resize(faces);
+  for (std::size_t i = 0; i < faces; ++i) {
+    table.corner_full_mass[i] = geom::face_quadrature(dome, static_cast<int>(i), kFullMassSubdivisions).mass;
+    table.corner_conditioning[i] = corner_conditioning(table.corner_mass[i], table.corner_full_mass[i]);
+    table.corner_inverse[i] =
+        table.corner_conditioning[i] > 0.0 ? Eigen::Matrix3d(table.corner_mass[i].inverse()) : Eigen::Matrix3d::Zero();
+  }
+}
+
 }  // namespace
+
+double corner_conditioning(const Eigen::Matrix3d& m, const Eigen::Matrix3d& full) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> seen(m, Eigen::EigenvaluesOnly);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> whole(full, Eigen::EigenvaluesOnly);
+  const double low = seen.eigenvalues().minCoeff(), reference = whole.eigenvalues().minCoeff();
+  if (!(low > 0.0) || !(reference > 0.0)) return 0.0;
+  return low / reference;
+}
 
 double block_solid_angle(const Lens& lens, double x0, double y0, double x1, double y1) {
   const std::optional<Vec3> d00 = lens.unproject(Vec2(x0, y0));
@@ -178,6 +228,8 @@ SkyTable build_sky_table(const Lens& lens, const geom::Dome& dome, const cv::Mat
   const int nby = ay.blocks();
   const int hardware = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const int threads = std::clamp(std::min(hardware, nby / kMinBlockRowsPerThread), 1, kMaxThreads);
+  std::optional<geom::CornerWeights> corners;
+  if (options.basis == geom::DomeBasis::Corners) corners.emplace(dome);
 
   std::vector<Band> bands(static_cast<std::size_t>(threads));
   std::vector<std::exception_ptr> errors(bands.size());
@@ -189,7 +241,7 @@ SkyTable build_sky_table(const Lens& lens, const geom::Dome& dome, const cv::Mat
       const auto index = static_cast<std::size_t>(t);
       workers.emplace_back([&, begin, end, index] {
         try {
-          build_band(lens, dome, mask, ax, ay, begin, end, bands[index]);
+          build_band(lens, dome, corners ? &*corners : nullptr, mask, ax, ay, begin, end, bands[index]);
         } catch (...) {
           errors[index] = std::current_exception();
         }
@@ -218,7 +270,9 @@ SkyTable build_sky_table(const Lens& lens, const geom::Dome& dome, const cv::Mat
       table.runs.push_back(run);
     }
     table.weights.insert(table.weights.end(), band.weights.begin(), band.weights.end());
+    table.corner_weights.insert(table.corner_weights.end(), band.corner_weights.begin(), band.corner_weights.end());
   }
+  table.basis = options.basis;
 
   // From the stored (float) weights, in one fixed order: the same sums the luminance pass sees,
   // independent of the thread count.
@@ -234,6 +288,7 @@ SkyTable build_sky_table(const Lens& lens, const geom::Dome& dome, const cv::Mat
   for (std::size_t i = 0; i < faces; ++i) {
     table.coverage[i] = table.face_solid_angle[i] / dome.faces()[i].solid_angle;
   }
+  if (table.basis == geom::DomeBasis::Corners) add_corner_matrices(dome, table);
   return table;
 }
 

@@ -152,4 +152,21 @@ std::string format_utc(std::chrono::sys_seconds utc) {
   return buffer;
 }
 
+std::chrono::seconds parse_interval(const std::string& text) {
+  static const std::regex pattern(R"(\s*(\d+(?:\.\d*)?)\s*(s|sec|m|min|h)\s*)");
+  std::smatch match;
+  if (!std::regex_match(text, match, pattern)) {
+    throw InputError(input_message("", -1, -1, "", "'" + text + "' is not an interval",
+                                   "write a number and a unit: 30s, 10min, 1h"));
+  }
+  const std::string unit = match[2].str();
+  const double scale = unit == "h" ? 3600.0 : (unit == "m" || unit == "min") ? 60.0 : 1.0;
+  const double seconds = std::stod(match[1].str()) * scale;
+  if (!(seconds >= 1.0) || seconds > 366.0 * 86400.0) {
+    throw InputError(input_message("", -1, -1, "", "'" + text + "' is under a second or over a year",
+                                   "use e.g. 30s, 10min or 1h"));
+  }
+  return std::chrono::seconds(std::llround(seconds));
+}
+
 }  // namespace skylit::sky

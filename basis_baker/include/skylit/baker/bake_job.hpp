@@ -9,6 +9,7 @@
 
 #include "skylit/bake/format.hpp"
 #include "skylit/geom/dome.hpp"
+#include "skylit/geom/dome_basis.hpp"
 
 namespace skylit::baker {
 
@@ -21,7 +22,9 @@ struct BakeOptions {
   std::filesystem::path site_file;
   std::filesystem::path out_dir;
   std::optional<int> frequency;            // overrides the site's dome.frequency
-  int samples = 1;                         // per face: 1 = face centre (the paper), K = stratified
+  std::optional<geom::DomeBasis> basis;    // overrides the site's dome.basis
+  int samples = 1;                         // per face: 1 = face centre (the paper), K = stratified;
+                                           // the corners basis needs K ≥ 3
   std::string method = "raster";           // raster | raytrace
   std::optional<std::pair<int, int>> resolution;  // sets every plane to W×H texels
   std::optional<Shard> shard;              // bake only faces i with i % count == index
@@ -59,5 +62,16 @@ BakeSummary merge_bakes(const std::vector<std::filesystem::path>& shard_dirs,
 
 // The sample directions of dome face `face`: its centre for samples == 1, else stratified.
 std::vector<geom::Vec3> face_sample_directions(const geom::Dome& dome, int face, int samples);
+
+// The corners basis needs at least this many samples per face: one direction (the centre)
+// weighs the three corners alike and cannot tell their visibility apart.
+inline constexpr int kMinCornerSamples = 3;
+
+// A_{j,l} of every layer of every face for a surface with normal n (faces: the exact cosine
+// integral of the face; corners: geom::corner_cosine_integrals), layer-major as the bake stores
+// them. `quadratures` (corners only) from corner_quadratures.
+std::vector<geom::FaceQuadrature> corner_quadratures(const geom::Dome& dome, geom::DomeBasis basis);
+std::vector<double> layer_cosine_integrals(const geom::Dome& dome, geom::DomeBasis basis,
+                                           const std::vector<geom::FaceQuadrature>& quadratures, const geom::Vec3& n);
 
 }  // namespace skylit::baker

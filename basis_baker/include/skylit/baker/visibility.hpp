@@ -2,13 +2,17 @@
 // Visibility engines: for a set of sample directions inside one dome face, the fraction of
 // light from those directions that reaches each plane texel and each model vertex.
 //
-// With c_k = max(0, n·ω_k) and V_k = 1 when nothing of the model lies along ω_k:
-//     f = Σ_k c_k V_k / Σ_k c_k,       or  Σ_k V_k / K  when Σ_k c_k = 0.
-// The baker stores B_{j,i} = A_{j,i} · f, with A_{j,i} the exact cosine integral of the face:
-// an unoccluded texel gets B = A exactly, and a plane that faces away gets A = B = 0.
+// With c_s = max(0, n·ω_s) and V_s = 1 when nothing of the model lies along ω_s, and per-sample
+// weights w_{k,s} for the layers k of the face (the faces basis: one layer, w = 1; the corners
+// basis: three layers, w = the sample's barycentric coordinates in the face):
+//     f_k = Σ_s w_{k,s} c_s V_s / Σ_s w_{k,s} c_s,   or  Σ_s V_s / K  when Σ_s w_{k,s} c_s = 0,
+// all layers in one pass. The baker stores B_{j,l} = A_{j,l} · f_l, with A_{j,l} the cosine
+// integral of the layer's basis function over the face: an unoccluded texel gets B = A exactly,
+// and a plane that faces away gets A = B = 0.
 //
 // Two engines, same contract: `raster` (OpenGL ES 3.1 shadow maps, headless EGL) and `raytrace`
 // (Embree 3 on the CPU, the reference).
+#include <array>
 #include <filesystem>
 #include <memory>
 #include <span>
@@ -21,18 +25,29 @@ namespace skylit::baker {
 
 using geom::Vec3;
 
+// The weights of one sample direction for up to three layers (unused layers: 0).
+using SampleWeights = std::array<float, 3>;
+
 class VisibilityEngine {
  public:
   virtual ~VisibilityEngine() = default;
   virtual std::string name() const = 0;
 
   // Sets the sample directions (unit, site frame, pointing towards the sky) for the calls that
-  // follow; a raster engine renders its shadow maps here.
-  virtual void set_directions(std::span<const Vec3> directions) = 0;
-  // f for every texel of planes[plane], out[row * width + col] (texel convention of geom::Plane).
+  // follow, with one layer of weight 1 (the faces basis); a raster engine renders its shadow
+  // maps here.
+  void set_directions(std::span<const Vec3> directions) { set_weighted_directions(directions, {}, 1); }
+  // The same with `layers` (1 to 3) weighted layers: weights[s][k] ≥ 0 is the weight of
+  // direction s in layer k. Empty weights: 1 in every layer.
+  virtual void set_weighted_directions(std::span<const Vec3> directions, std::span<const SampleWeights> weights,
+                                       int layers) = 0;
+  // Layers set by the last set_*directions call.
+  virtual int layers() const = 0;
+  // f_k for every texel of planes[plane]: out[k * texels + row * width + col] (texel convention
+  // of geom::Plane), layers() × width × height values.
   virtual void plane_fractions(int plane, std::span<float> out) = 0;
-  // f for every mesh vertex, seen from the vertex (nudged off the surface along its normal)
-  // with c_k = max(0, normal·ω_k).
+  // f_k for every mesh vertex, seen from the vertex (nudged off the surface along its normal)
+  // with c_s = max(0, normal·ω_s): out[k * vertex_count + v].
   virtual void vertex_fractions(std::span<float> out) = 0;
 };
 

@@ -4,10 +4,12 @@
 //
 //   BAKE_DIR/manifest.json        written last, atomically; lists every data file with its
 //                                 size and SHA-256. No manifest, no bake.
-//   BAKE_DIR/planes/<name>.exr    per plane: multi-layer half-float OpenEXR, one layer per dome
-//                                 face, channel "face_NNN.Y" = B_{j,i} in steradians; scanline y
-//                                 = texel row (along v), x = column (along u)
-//   BAKE_DIR/transfer.npy         float32 [vertex_count, face_count]: t_{v,i}, steradians
+//   BAKE_DIR/planes/<name>.exr    per plane: multi-layer half-float OpenEXR, one layer per basis
+//                                 function: per dome face ("face_NNN.Y") with the faces basis,
+//                                 per face and corner k ("face_NNN_k.Y", layer 3i+k) with the
+//                                 corners basis; B_{j,l} in steradians; scanline y = texel row
+//                                 (along v), x = column (along u)
+//   BAKE_DIR/transfer.npy         float32 [vertex_count, layer_count]: t_{v,l}, steradians
 //   BAKE_DIR/vertices.npy         float32 [vertex_count, 6]: position xyz, normal xyz (site frame)
 //   BAKE_DIR/preview/*.png        contact sheets (not part of the verified data)
 //
@@ -24,6 +26,7 @@
 
 #include <nlohmann/json_fwd.hpp>
 
+#include "skylit/geom/dome_basis.hpp"
 #include "skylit/geom/plane.hpp"
 
 namespace skylit::bake {
@@ -43,7 +46,7 @@ struct FaceRecord {
 
 struct PlaneRecord {
   geom::Plane plane;
-  std::vector<double> unoccluded;         // A_{j,i}, one per face, steradians (exact)
+  std::vector<double> unoccluded;         // A_{j,l}, one per layer, steradians
   std::string file;                       // relative to the bake directory
 };
 
@@ -60,12 +63,17 @@ struct Plan {
   std::string model_file;
   std::string model_sha256;
   int frequency = 2;
+  // The radiance basis (docs/bake-format.md): faces (one layer per face) or corners (three).
+  // Manifests and plans without the field are faces.
+  geom::DomeBasis basis = geom::DomeBasis::Faces;
   int samples = 1;
   std::string method = "raster";          // raster | raytrace
   int shadow_map_resolution = 0;          // raster only; 0 for raytrace
   std::vector<geom::Plane> planes;        // after any --resolution override
   std::uint64_t vertex_count = 0;
   std::uint64_t triangle_count = 0;
+
+  int layers_per_face() const { return geom::layers_per_face(basis); }
 
   bool operator==(const Plan&) const;
   // Human-readable list of what differs ("samples: 1 vs 16; plane 'roof' resolution ...").
@@ -84,6 +92,9 @@ struct Manifest {
   double bake_seconds = 0.0;              // wall time of the face work (all shards)
   double finalize_seconds = 0.0;
   std::vector<FileRecord> files;          // every data file, hashed
+
+  // Layers of every plane image and columns of transfer.npy: faces × layers per face.
+  std::size_t layer_count() const { return faces.size() * static_cast<std::size_t>(plan.layers_per_face()); }
 };
 
 nlohmann::json to_json(const Plan& plan);
@@ -120,6 +131,10 @@ struct ImageStack {
 };
 
 std::string face_layer_name(int face);    // "face_007"
+// Layer `layer` of a bake with this basis: face_layer_name(layer) for faces, "face_007_2" for
+// layer 3·7 + 2 of a corners bake.
+std::string layer_name(geom::DomeBasis basis, int layer);
+std::vector<std::string> layer_names(geom::DomeBasis basis, int face_count);
 // Multi-layer half-float OpenEXR (ZIP compressed), channel "<layer_names[i]>.Y" per layer.
 void write_exr_stack(const std::filesystem::path& file, const ImageStack& stack,
                      std::span<const std::string> layer_names);
@@ -162,11 +177,12 @@ NpyInfo read_npy_info(const std::filesystem::path& file);
 // ---- parts of a bake in progress ----
 
 // Visible fractions of one dome face for every plane texel and every model vertex, as computed
-// by a visibility engine (B = A · fraction, see basis_baker/).
+// by a visibility engine (B = A · fraction, see basis_baker/), one set per layer of the face
+// (plan.layers_per_face(): 1 for faces, 3 for corners), layer-major.
 struct FacePart {
   int face = 0;
-  std::vector<std::vector<float>> plane_fractions;  // per plane, width*height, row-major
-  std::vector<float> vertex_fractions;              // per vertex
+  std::vector<std::vector<float>> plane_fractions;  // per plane: layers × width*height, row-major
+  std::vector<float> vertex_fractions;              // layers × vertex count
 };
 
 class PartStore {

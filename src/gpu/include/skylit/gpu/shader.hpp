@@ -40,10 +40,17 @@ Shader compile_shader(const ShaderSource& source);
 // Compiles and links the sources into a program (the context must be current).
 Program link_program(std::span<const ShaderSource> sources);
 
-// Reads shader_dir/file for each file and links them (the context must be current). Throws
-// InputError for a missing file, ShaderError for a compile or link failure.
+// Reads shader_dir/file for each file (with its libraries, read_shader) and links them (the
+// context must be current). Throws InputError for a missing file, ShaderError for a compile or
+// link failure.
 Program load_program(const std::filesystem::path& shader_dir,
                      std::initializer_list<std::filesystem::path> files);
+
+// The text of shader_dir/file followed by the text of every shader library it names in a line
+// "// library: NAME.glsl" (in shader_dir; GLSL ES has no #include). A library holds functions
+// and uniforms shared by several shaders, without a #version line; the shader declares the
+// functions it calls (a prototype) before using them. InputError for a missing file.
+std::string read_shader(const std::filesystem::path& shader_dir, const std::filesystem::path& file);
 
 // Rewrites a driver's info log as "label:LINE: message" lines. Understands Mesa ("0:12(5): error:
 // ..."), NVIDIA ("0(12) : error C0000: ...") and glslang/ANGLE ("ERROR: 0:12: ..."); other

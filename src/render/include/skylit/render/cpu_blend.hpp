@@ -38,6 +38,9 @@ struct BasisImages {
   std::vector<std::uint16_t> half;
   std::vector<double> unoccluded;      // A_{j,i}, one per layer
   Vec3 normal = Vec3::UnitZ();
+  // 1: one layer per dome face (faces basis); 3: layer 3i+k per face i and corner k (corners
+  // basis), whose S may be negative (a linear fit across the face).
+  int layers_per_face = 1;
   std::size_t texel_count() const { return static_cast<std::size_t>(width) * height; }
 };
 
@@ -70,7 +73,9 @@ struct BlendWeights {
 };
 
 // S: one RGB value per layer (faces without light may be zero). InputError when S has the
-// wrong size or holds a negative or non-finite value.
+// wrong size or holds a non-finite value, or a negative one in a faces basis (corner
+// coefficients may be negative: T stays in [0, 1] by the clamp, and a channel whose
+// denominator is not above min_denominator is no light).
 BlendWeights blend_weights(const BasisImages& basis, std::span<const Eigen::Vector3d> S,
                            const std::optional<SunLight>& sun, const BlendOptions& options = {});
 

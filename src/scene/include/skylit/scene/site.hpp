@@ -2,12 +2,13 @@
 // The site description: a YAML file (the schema is a contract, see docs/site-format.md).
 //
 //   scene:  {model: models/gate.glb, up: z|y, scale: 1.0}
-//   dome:   {frequency: 2}
-//   planes: [{name, origin: [x,y,z], u: [..], v: [..], resolution: [W, H]}, ...]
+//   dome:   {frequency: 2, basis: faces|corners}
+//   planes: [{name, origin: [x,y,z], u: [..], v: [..], resolution: [W, H], surface}, ...]
 #include <filesystem>
 #include <string>
 #include <vector>
 
+#include "skylit/geom/dome_basis.hpp"
 #include "skylit/geom/plane.hpp"
 #include "skylit/scene/mesh.hpp"
 
@@ -15,13 +16,26 @@ namespace skylit::scene {
 
 inline constexpr int kMaxPlaneResolution = 16384;
 
+// What a shadowing plane stands for (`surface` in the site file). A real surface is seen by the
+// HMD camera (the real ground): the compositor multiplies the camera's pixels by T there. A
+// virtual one lies on the virtual building (a wall, a roof): T shades the building there.
+enum class PlaneSurface { Virtual, Real };
+
 struct Site {
   std::filesystem::path file;    // the YAML it came from
   std::filesystem::path model;   // resolved against the YAML's directory
   UpAxis up = UpAxis::Z;         // default z for OBJ, y for glTF when `up` is absent
   double scale = 1.0;
   int dome_frequency = 2;
+  geom::DomeBasis dome_basis = geom::DomeBasis::Faces;  // `dome.basis`, optional
   std::vector<geom::Plane> planes;
+  // One per plane, in the same order. A Site built in code may leave it shorter: the planes
+  // without an entry are Virtual, as in a file without `surface`.
+  std::vector<PlaneSurface> plane_surfaces;
+
+  PlaneSurface surface_of(std::size_t plane) const {
+    return plane < plane_surfaces.size() ? plane_surfaces[plane] : PlaneSurface::Virtual;
+  }
 };
 
 // Parses and validates a site file. Any problem (missing or mistyped field, unknown field, odd

@@ -15,6 +15,8 @@
 //                                           (last row) the nadir; the horizon is edge row H/2.
 //   direction  (sin az cos el, cos az cos el, sin el)
 // Images are OpenCV BGR; the sky functions return RGB (Eigen r, g, b).
+#include <chrono>
+#include <filesystem>
 #include <functional>
 #include <optional>
 
@@ -44,6 +46,25 @@ struct SkyFunction {
 };
 SkyFunction sky_function(const ClearSky& sky);     // its sky_radiance and its sun (if up)
 SkyFunction sky_function(const OvercastSky& sky);  // no sun
+
+// An analytic sky as the simulators describe it (skylit-sky, the sky-sim frame source).
+struct AnalyticSkySettings {
+  enum class Kind { Clear, Overcast };
+  Kind kind = Kind::Clear;
+  double turbidity = 3.0;        // clear sky haze, 2..10
+  double zenith_radiance = 5.0;  // overcast zenith radiance
+  double latitude_deg = 0;       // clear: the place whose sun is drawn
+  double longitude_deg = 0;
+};
+// The sky at `utc`: ClearSky with the sun where solar_position puts it at the settings' place,
+// or OvercastSky (time and place ignored). InputError naming the field for a turbidity,
+// radiance, latitude or longitude out of range.
+SkyFunction analytic_sky(const AnalyticSkySettings& settings, std::chrono::sys_seconds utc);
+
+// An equirect sky image as linear radiance (CV_32FC3 BGR): float files (EXR, HDR) as stored,
+// 8/16-bit files taken as sRGB-encoded. InputError naming the file when it cannot be read.
+// The caller may warn when it is not 2:1 (it is used all the same).
+cv::Mat read_equirect(const std::filesystem::path& file);
 
 // Rendering options shared by the renderers.
 struct RenderOptions {

@@ -31,4 +31,9 @@ std::chrono::sys_seconds parse_utc(const std::string& text);
 // "YYYY-MM-DDTHH:MM:SSZ" (parse_utc reads it back).
 std::string format_utc(std::chrono::sys_seconds utc);
 
+// A time step of a time-lapse: "30min", "10s", "1h", "1.5h", "90 s" (units s, sec, m, min, h),
+// a whole number of seconds from 1 s to a year. InputError naming the value and the form
+// otherwise (callers add the option or field it came from).
+std::chrono::seconds parse_interval(const std::string& text);
+
 }  // namespace skylit::sky

@@ -1,0 +1,281 @@
+// The compositor per frame: the sample gate (bake made once, ray-traced) under a clear sky with a
+// sun and its shadow map, composited into HMD frames of three sizes. draw(): the frame on the
+// GPU, glFinish included (what a display waits for); composite(): the same plus the read-back
+// (what a recording or a test pays). On llvmpipe these are CPU figures.
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cstdlib>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <numbers>
+#include <unistd.h>
+#include <vector>
+
+#include <benchmark/benchmark.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/core/matx.hpp>
+
+#include "skylit/bake/format.hpp"
+#include "skylit/baker/bake_job.hpp"
+#include "skylit/gpu/egl_context.hpp"
+#include "skylit/render/compositor.hpp"
+#include "skylit/render/cpu_blend.hpp"
+#include "skylit/render/sun_shadow_map.hpp"
+#include "skylit/scene/site.hpp"
+#include "skylit/sky/calibration.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace skylit;
+
+struct Scene {
+  fs::path dir;
+  gpu::HeadlessContext context;
+  scene::Site site;
+  scene::Mesh mesh;
+  bake::Manifest manifest;
+  std::vector<float> transfer;
+  std::vector<Eigen::Vector3d> sky;
+  render::SunLight sun;
+  std::vector<gpu::Texture> ratios;
+  std::vector<GLuint> ratio_names;
+  std::unique_ptr<render::SunShadowMap> shadow_map;
+
+  Scene() {
+    dir = fs::temp_directory_path() / ("skylit-compose-bench-" + std::to_string(::getpid()));
+    baker::BakeOptions options;
+    options.site_file = fs::path(SKYLIT_SOURCE_DIR) / "config/sample_site.yaml";
+    options.out_dir = dir;
+    options.method = "raytrace";
+    options.previews = false;
+    options.force = true;
+    std::FILE* quiet = std::fopen("/dev/null", "w");
+    baker::run_bake(options, quiet);
+    std::fclose(quiet);
+    manifest = bake::read_manifest(dir);
+    site = scene::load_site(options.site_file);
+    mesh = scene::load_model(site.model, site.up, site.scale);
+    std::vector<std::size_t> shape;
+    transfer = bake::read_npy(dir / manifest.transfer_file, &shape);
+    sky.assign(manifest.faces.size(), Eigen::Vector3d(0.3, 0.4, 0.6));
+    const double az = 140 * std::numbers::pi / 180, el = 35 * std::numbers::pi / 180;
+    sun = {Eigen::Vector3d(std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)), Eigen::Vector3d::Constant(3.0)};
+    std::vector<geom::Plane> planes;
+    for (const auto& record : manifest.planes) planes.push_back(record.plane);
+    shadow_map = std::make_unique<render::SunShadowMap>(mesh, planes);
+    shadow_map->update(sun.direction, 0.0047);
+    for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
+      const render::BasisImages basis = render::load_basis(dir, manifest, static_cast<int>(j));
+      const std::vector<float> visibility = shadow_map->read_visibility(static_cast<int>(j));
+      std::vector<float> T(basis.texel_count() * 3);
+      render::blend_cpu(basis, render::blend_weights(basis, sky, sun), visibility, T);
+      ratios.push_back(render::upload_shadow_ratio(T, basis.width, basis.height));
+      ratio_names.push_back(ratios.back().get());
+    }
+  }
+  ~Scene() {
+    std::error_code ignored;
+    fs::remove_all(dir, ignored);
+  }
+
+  static Scene& get() {
+    static Scene scene;
+    return scene;
+  }
+};
+
+// The sample HMD camera (config/hmd_camera.yaml) scaled to width (same focal length per pixel of
+// width), any height.
+sky::CameraCalibration camera(int width, int height) {
+  sky::CameraCalibration c = sky::load_calibration(fs::path(SKYLIT_SOURCE_DIR) / "config/hmd_camera.yaml");
+  const double s = static_cast<double>(width) / c.image_width;
+  c.fx *= s;
+  c.fy *= s;
+  c.cx = (width - 1) / 2.0;   // centred, whatever the aspect ratio
+  c.cy = (height - 1) / 2.0;
+  c.image_width = width;
+  c.image_height = height;
+  return c;
+}
+
+// A visitor's view: eye height 1.6 m, 18 m south of the gate's centre, looking at its middle
+// (0, 0, 3 m), as the demo's walk (config/demo.yaml) at its midpoint. The gate spans the frame;
+// the ground in front of it, lit, and the eaves' shadows on its south face are in view.
+render::CameraPose visitor_pose() {
+  const Eigen::Vector3d eye(0.0, -18.0, 1.6);
+  const Eigen::Vector3d forward = (Eigen::Vector3d(0.0, 0.0, 3.0) - eye).normalized();
+  const Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();
+  render::CameraPose pose;
+  pose.R_site_from_camera.col(0) = right;
+  pose.R_site_from_camera.col(1) = forward.cross(right);  // down
+  pose.R_site_from_camera.col(2) = forward;
+  pose.t_site_from_camera = eye;
+  return pose;
+}
+
+render::CompositeInput frame_input(const Scene& scene, const sky::CameraCalibration& calibration, cv::Mat& image) {
+  image = cv::Mat(calibration.image_height, calibration.image_width, CV_8UC3);
+  cv::randu(image, cv::Scalar::all(0), cv::Scalar::all(256));
+  render::CompositeInput input;
+  input.camera = image;
+  input.pose = visitor_pose();
+  input.sky = scene.sky;
+  input.sun = scene.sun;
+  input.shadow_ratios = scene.ratio_names;
+  input.sun_shadow = scene.shadow_map.get();
+  return input;
+}
+
+void pinhole_counters(benchmark::State& state, const render::Compositor& compositor) {
+  state.counters["pinhole_width"] = compositor.lens_remap().pinhole.width;
+  state.counters["pinhole_height"] = compositor.lens_remap().pinhole.height;
+  std::array<double, 1> load{};
+  if (getloadavg(load.data(), 1) == 1) state.counters["load_1min"] = load[0];
+}
+
+// args: width, height, render scale in percent.
+void frame(benchmark::State& state, bool read_back) {
+  Scene& scene = Scene::get();
+  const int width = static_cast<int>(state.range(0));
+  const int height = static_cast<int>(state.range(1));
+  const sky::CameraCalibration calibration = camera(width, height);
+  render::CompositorOptions options;
+  options.lens.render_scale = static_cast<double>(state.range(2)) / 100.0;
+  render::Compositor compositor(scene.site, scene.mesh, scene.manifest, scene.transfer, calibration, options);
+  cv::Mat image;
+  const render::CompositeInput input = frame_input(scene, calibration, image);
+  compositor.composite(input);  // warm-up: first-use allocations in the driver
+  for (auto _ : state) {
+    if (read_back) {
+      benchmark::DoNotOptimize(compositor.composite(input));
+    } else {
+      compositor.draw(input);
+      glFinish();
+    }
+  }
+  pinhole_counters(state, compositor);
+  state.counters["Mpixel/s"] =
+      benchmark::Counter(static_cast<double>(width) * height * static_cast<double>(state.iterations()) / 1e6,
+                         benchmark::Counter::kIsRate);
+}
+
+double median(std::vector<double> values) {
+  if (values.empty()) return 0.0;
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2), values.end());
+  return values[values.size() / 2];
+}
+
+// The frame with read-back split by stage (glFinish after each: CompositorOptions::time_stages);
+// counters are the medians over the iterations, in ms. args: width, height, render scale in
+// percent, sun shadow map (1) or none (0).
+void BM_CompositeStages(benchmark::State& state) {
+  Scene& scene = Scene::get();
+  const int width = static_cast<int>(state.range(0));
+  const int height = static_cast<int>(state.range(1));
+  const sky::CameraCalibration calibration = camera(width, height);
+  render::CompositorOptions options;
+  options.lens.render_scale = static_cast<double>(state.range(2)) / 100.0;
+  options.time_stages = true;
+  render::Compositor compositor(scene.site, scene.mesh, scene.manifest, scene.transfer, calibration, options);
+  cv::Mat image;
+  render::CompositeInput input = frame_input(scene, calibration, image);
+  if (state.range(3) == 0) input.sun_shadow = nullptr;
+  compositor.composite(input);
+  std::vector<double> stages[4][2];
+  std::vector<double> total[2];
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(compositor.composite(input));
+    const render::CompositeTimings& t = compositor.last_timings();
+    const std::array<render::CompositeTimings::Stage, 4> each{t.upload, t.building, t.composite, t.read_back};
+    double wall = 0, cpu = 0;
+    for (std::size_t k = 0; k < each.size(); ++k) {
+      stages[k][0].push_back(each[k].wall_ms);
+      stages[k][1].push_back(each[k].cpu_ms);
+      wall += each[k].wall_ms;
+      cpu += each[k].cpu_ms;
+    }
+    total[0].push_back(wall);
+    total[1].push_back(cpu);
+  }
+  pinhole_counters(state, compositor);
+  const std::array<const char*, 4> names{"upload", "building", "composite", "read_back"};
+  for (std::size_t k = 0; k < names.size(); ++k) {
+    state.counters[std::string(names[k]) + "_ms"] = median(stages[k][0]);
+    state.counters[std::string(names[k]) + "_cpu_ms"] = median(stages[k][1]);
+  }
+  state.counters["frame_ms"] = median(total[0]);
+  state.counters["frame_cpu_ms"] = median(total[1]);
+}
+
+void BM_CompositeDraw(benchmark::State& state) { frame(state, false); }
+void BM_CompositeWithReadBack(benchmark::State& state) { frame(state, true); }
+
+BENCHMARK(BM_CompositeDraw)->Args({640, 480, 100})->Args({1280, 720, 100})->Args({1920, 1080, 100})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_CompositeWithReadBack)->Args({640, 480, 100})->Args({1280, 720, 100})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_CompositeStages)
+    ->ArgNames({"w", "h", "scale%", "sun_map"})
+    ->Args({640, 480, 100, 1})
+    ->Args({640, 480, 100, 0})
+    ->Args({640, 480, 75, 1})
+    ->Args({1280, 720, 100, 1})
+    ->Args({1280, 720, 75, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+}  // namespace
+
+
+// TEMPORARY A/B (remove before commit)
+namespace {
+void BM_AB(benchmark::State& state) {
+  Scene& scene = Scene::get();
+  const sky::CameraCalibration calibration = camera(640, 480);
+  render::CompositorOptions a_options;
+  a_options.time_stages = true;
+  a_options.shader_dir = std::getenv("AB_A");
+  render::CompositorOptions b_options = a_options;
+  b_options.shader_dir = std::getenv("AB_B");
+  render::Compositor a(scene.site, scene.mesh, scene.manifest, scene.transfer, calibration, a_options);
+  render::Compositor b(scene.site, scene.mesh, scene.manifest, scene.transfer, calibration, b_options);
+  cv::Mat image;
+  render::CompositeInput input = frame_input(scene, calibration, image);
+  cv::imwrite("/tmp/ab_a.png", a.composite(input));
+  cv::imwrite("/tmp/ab_b.png", b.composite(input));
+  {
+    const cv::Mat la = a.read_linear(), lb = b.read_linear();
+    cv::Mat d;
+    cv::absdiff(la, lb, d);
+    cv::imwrite("/tmp/ab_diff_x10.png", d * 10.0 * 255.0);
+    double mx = 0;
+    cv::minMaxLoc(d.reshape(1), nullptr, &mx);
+    cv::Mat gray;
+    cv::transform(d, gray, cv::Matx13f(1, 1, 1));
+    std::printf("AB diff: mean %.3g max %.3g, px > 0.01: %d, > 0.05: %d, > 0.2: %d (linear; building mean %.3g)\n",
+                cv::mean(d)[1], mx, cv::countNonZero(gray > 0.01), cv::countNonZero(gray > 0.05),
+                cv::countNonZero(gray > 0.2), cv::mean(la)[1]);
+  }
+  std::vector<double> v[2][3];
+  for (auto _ : state) {
+    for (int k = 0; k < 2; ++k) {
+      render::Compositor& c = k == 0 ? a : b;
+      benchmark::DoNotOptimize(c.composite(input));
+      v[k][0].push_back(c.last_timings().building.cpu_ms);
+      v[k][1].push_back(c.last_timings().composite.cpu_ms);
+      v[k][2].push_back(c.last_timings().building.cpu_ms + c.last_timings().composite.cpu_ms + c.last_timings().upload.cpu_ms + c.last_timings().read_back.cpu_ms);
+    }
+  }
+  state.counters["A_building_cpu_ms"] = median(v[0][0]);
+  state.counters["B_building_cpu_ms"] = median(v[1][0]);
+  state.counters["A_composite_cpu_ms"] = median(v[0][1]);
+  state.counters["B_composite_cpu_ms"] = median(v[1][1]);
+  state.counters["A_frame_cpu_ms"] = median(v[0][2]);
+  state.counters["B_frame_cpu_ms"] = median(v[1][2]);
+}
+BENCHMARK(BM_AB)->Unit(benchmark::kMillisecond)->UseRealTime();
+}  // namespace
+BENCHMARK_MAIN();

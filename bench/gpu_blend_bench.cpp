@@ -1,0 +1,395 @@
+// The GPU blend alone (render/gpu_blend.hpp): ν = 2, 4, 8 (40, 160, 640 layers) and 1, 4, 16
+// planes of 512², R16F and R8 basis storage, against the memory-bandwidth floor measured in the
+// same run on the same device (the basis bytes read once, at the device's copy bandwidth).
+// Prints markdown tables; see bench/RESULTS.md ("GPU blend").
+//
+//   gpu_blend_bench [--size 512] [--repeats 9] [--batch 20] [--frequencies 2,4,8] [--planes 1,4,16]
+//                   [--storage r16f,r8] [--layout packed,single] [--no-check] [--shader-dir DIR]
+//
+// Layouts: packed = four layers per texel (RGBA16F / RGBA8 arrays), single = one (R16F / R8).
+// Per configuration: every plane blended once per call (all layers active, no savings), wall
+// time to glFinish and, where the driver has GL_EXT_disjoint_timer_query, GPU time; medians of
+// --repeats calls after a second of warm-up calls. "Sustained" times --batch calls issued back to back
+// (as a frame loop does) and divides by --batch; medians of --repeats such batches. The check table compares each storage's T (RGBA32F
+// output) with blend_cpu on one plane. Builds without CMake: bench/gpu_standalone.sh.
+#include <EGL/egl.h>
+#include <GLES3/gl31.h>
+#include <GLES2/gl2ext.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "skylit/gpu/egl_context.hpp"
+#include "skylit/gpu/gl.hpp"
+#include "skylit/gpu/shader.hpp"
+#include "skylit/render/cpu_blend.hpp"
+#include "skylit/render/gpu_blend.hpp"
+
+namespace {
+
+using skylit::render::BasisImages;
+using skylit::render::BasisStorage;
+using skylit::render::BlendWeights;
+using skylit::render::GpuBlender;
+using skylit::render::GpuBlendOptions;
+using skylit::render::ShadowRatioFormat;
+using Clock = std::chrono::steady_clock;
+
+struct Settings {
+  int size = 512;
+  int repeats = 9;
+  int batch = 20;  // calls per sample of the sustained rate
+  std::vector<int> frequencies{2, 4, 8};
+  std::vector<int> planes{1, 4, 16};
+  std::vector<BasisStorage> storages{BasisStorage::Half, BasisStorage::Unorm8};
+  std::vector<bool> packed{true, false};
+  bool check = true;
+  std::string shader_dir;
+};
+
+[[noreturn]] void usage(const std::string& problem) {
+  std::fprintf(stderr,
+               "gpu_blend_bench: %s\nusage: gpu_blend_bench [--size N] [--repeats N] [--batch N] [--frequencies 2,4,8] "
+               "[--planes 1,4,16] [--storage r16f,r8] [--layout packed,single] [--no-check] [--shader-dir DIR]\n",
+               problem.c_str());
+  std::exit(2);
+}
+
+std::vector<std::string> split(const std::string& text) {
+  std::vector<std::string> parts;
+  std::stringstream stream(text);
+  std::string part;
+  while (std::getline(stream, part, ',')) parts.push_back(part);
+  return parts;
+}
+
+int positive(const std::string& text, const std::string& option) {
+  try {
+    std::size_t used = 0;
+    const int value = std::stoi(text, &used);
+    if (used == text.size() && value > 0) return value;
+  } catch (const std::exception&) {
+  }
+  usage("option " + option + " needs positive integers, got '" + text + "'");
+}
+
+Settings parse(int argc, char** argv) {
+  Settings s;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    const auto value = [&]() -> std::string {
+      if (i + 1 >= argc) usage("option " + arg + " needs a value");
+      return argv[++i];
+    };
+    if (arg == "--size") {
+      s.size = positive(value(), arg);
+    } else if (arg == "--repeats") {
+      s.repeats = positive(value(), arg);
+    } else if (arg == "--batch") {
+      s.batch = positive(value(), arg);
+    } else if (arg == "--frequencies") {
+      s.frequencies.clear();
+      for (const std::string& f : split(value())) s.frequencies.push_back(positive(f, arg));
+    } else if (arg == "--planes") {
+      s.planes.clear();
+      for (const std::string& p : split(value())) s.planes.push_back(positive(p, arg));
+    } else if (arg == "--storage") {
+      s.storages.clear();
+      for (const std::string& name : split(value())) {
+        if (name == "r16f") {
+          s.storages.push_back(BasisStorage::Half);
+        } else if (name == "r8") {
+          s.storages.push_back(BasisStorage::Unorm8);
+        } else {
+          usage("--storage takes r16f and/or r8, got '" + name + "'");
+        }
+      }
+    } else if (arg == "--layout") {
+      s.packed.clear();
+      for (const std::string& name : split(value())) {
+        if (name != "packed" && name != "single") usage("--layout takes packed and/or single, got '" + name + "'");
+        s.packed.push_back(name == "packed");
+      }
+    } else if (arg == "--no-check") {
+      s.check = false;
+    } else if (arg == "--shader-dir") {
+      s.shader_dir = value();
+    } else {
+      usage("unknown option '" + arg + "'");
+    }
+  }
+  return s;
+}
+
+double median(std::vector<double> values) {
+  if (values.empty()) return std::nan("");
+  std::sort(values.begin(), values.end());
+  const std::size_t n = values.size();
+  return n % 2 == 1 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+}
+
+// GL_EXT_disjoint_timer_query: GPU time of the commands between begin() and end().
+class GpuTimer {
+ public:
+  explicit GpuTimer(const skylit::gpu::HeadlessContext& context) {
+    if (!context.has_extension("GL_EXT_disjoint_timer_query")) return;
+    get_result_ = reinterpret_cast<PFNGLGETQUERYOBJECTUI64VEXTPROC>(eglGetProcAddress("glGetQueryObjectui64vEXT"));
+    if (get_result_ == nullptr) return;
+    glGenQueries(1, &query_);
+  }
+  ~GpuTimer() {
+    if (query_ != 0) glDeleteQueries(1, &query_);
+  }
+  GpuTimer(const GpuTimer&) = delete;
+  GpuTimer& operator=(const GpuTimer&) = delete;
+
+  bool available() const { return query_ != 0; }
+  void begin() const {
+    if (!available()) return;
+    GLint disjoint = 0;
+    glGetIntegerv(GL_GPU_DISJOINT_EXT, &disjoint);  // clears the flag
+    glBeginQuery(GL_TIME_ELAPSED_EXT, query_);
+  }
+  void end() const {
+    if (available()) glEndQuery(GL_TIME_ELAPSED_EXT);
+  }
+  // Seconds, or nothing when unavailable or when the measurement was disturbed (disjoint).
+  std::optional<double> seconds() const {
+    if (!available()) return std::nullopt;
+    GLuint64 nanoseconds = 0;
+    get_result_(query_, GL_QUERY_RESULT, &nanoseconds);
+    GLint disjoint = 0;
+    glGetIntegerv(GL_GPU_DISJOINT_EXT, &disjoint);
+    if (disjoint != 0) return std::nullopt;
+    return static_cast<double>(nanoseconds) * 1e-9;
+  }
+
+ private:
+  GLuint query_ = 0;
+  PFNGLGETQUERYOBJECTUI64VEXTPROC get_result_ = nullptr;
+};
+
+struct Timing {
+  double wall_s = 0;
+  std::optional<double> gpu_s;
+};
+
+// Median wall and GPU time of `work` (per call of `batch` calls issued back to back).
+// Warm-up: at least two calls, and `warm_up` of them. A GPU runs a freshly uploaded or long
+// idle workload several times slower for a while (seen on an H100: one 640-layer plane took
+// 0.51 ms after 150 ms of blending, 0.15 ms after a second), and the service blends every frame.
+template <class Work>
+Timing time_it(const GpuTimer& timer, int repeats, Work&& work, int batch = 1,
+               std::chrono::milliseconds warm_up = std::chrono::milliseconds(1000)) {
+  const auto warm_until = Clock::now() + warm_up;
+  for (int i = 0; i < 2 || Clock::now() < warm_until; ++i) {
+    work();
+    glFinish();
+  }
+  std::vector<double> wall;
+  std::vector<double> gpu;
+  for (int i = 0; i < repeats; ++i) {
+    const auto start = Clock::now();
+    timer.begin();
+    for (int b = 0; b < batch; ++b) work();
+    timer.end();
+    glFinish();
+    wall.push_back(std::chrono::duration<double>(Clock::now() - start).count() / batch);
+    if (const std::optional<double> s = timer.seconds()) gpu.push_back(*s / batch);
+  }
+  Timing t;
+  t.wall_s = median(wall);
+  // A timer that reads less than 1 % of the wall time measured nothing (llvmpipe offers the
+  // extension but runs the work outside the query): wall time it is.
+  if (gpu.size() == wall.size() && median(gpu) >= 0.01 * t.wall_s) t.gpu_s = median(gpu);
+  return t;
+}
+
+// The device's copy bandwidth: a 256 MiB buffer copied into another, bytes read plus written
+// per second, by glCopyBufferSubData and by a compute shader (shaders/bandwidth_copy.comp); the
+// floor uses the faster (a driver may give glCopyBufferSubData to a slower copy engine).
+struct Bandwidth {
+  double copy_bytes_per_s = 0;     // glCopyBufferSubData
+  double compute_bytes_per_s = 0;  // bandwidth_copy.comp
+  bool from_gpu_timer = false;
+  double best() const { return std::max(copy_bytes_per_s, compute_bytes_per_s); }
+};
+
+Bandwidth copy_bandwidth(const GpuTimer& timer, int repeats, const std::string& shader_dir) {
+  constexpr GLsizeiptr kBytes = GLsizeiptr{256} << 20;
+  constexpr GLuint kGroups = 32768;  // × 256 invocations × 2 rows × 16 bytes = 256 MiB
+  const skylit::gpu::Buffer source = skylit::gpu::make_buffer();
+  const skylit::gpu::Buffer target = skylit::gpu::make_buffer();
+  glBindBuffer(GL_COPY_READ_BUFFER, source.get());
+  glBufferData(GL_COPY_READ_BUFFER, kBytes, nullptr, GL_STATIC_DRAW);
+  glBindBuffer(GL_COPY_WRITE_BUFFER, target.get());
+  glBufferData(GL_COPY_WRITE_BUFFER, kBytes, nullptr, GL_STATIC_DRAW);
+  // Written once, so that no driver can treat the source as empty.
+  glCopyBufferSubData(GL_COPY_WRITE_BUFFER, GL_COPY_READ_BUFFER, 0, 0, kBytes);
+  skylit::gpu::check_gl_error("copy bandwidth: buffers");
+  const Timing copy = time_it(timer, std::max(repeats, 5),
+                              [&] { glCopyBufferSubData(GL_COPY_READ_BUFFER, GL_COPY_WRITE_BUFFER, 0, 0, kBytes); });
+  const skylit::gpu::Program program =
+      skylit::gpu::load_program(skylit::gpu::find_shader_dir(shader_dir), {"bandwidth_copy.comp"});
+  glUseProgram(program.get());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, source.get());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, target.get());
+  const Timing compute = time_it(timer, std::max(repeats, 5), [&] {
+    glDispatchCompute(kGroups, 2, 1);
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+  });
+  skylit::gpu::check_gl_error("copy bandwidth: copies");
+  Bandwidth b;
+  b.from_gpu_timer = copy.gpu_s.has_value() && compute.gpu_s.has_value();
+  b.copy_bytes_per_s = 2.0 * static_cast<double>(kBytes) / (copy.gpu_s ? *copy.gpu_s : copy.wall_s);
+  b.compute_bytes_per_s = 2.0 * static_cast<double>(kBytes) / (compute.gpu_s ? *compute.gpu_s : compute.wall_s);
+  return b;
+}
+
+// xorshift64*: fast enough for 168 M values.
+struct Random {
+  std::uint64_t state;
+  double next() {
+    state ^= state >> 12;
+    state ^= state << 25;
+    state ^= state >> 27;
+    return static_cast<double>((state * 0x2545F4914F6CDD1DULL) >> 11) * 0x1p-53;
+  }
+};
+
+// A plane of `layers` faces of a hemisphere, B = A·f with f = 0 (shadow), 1 (open sky) or
+// between; every A > 0, so that every layer is active.
+BasisImages synthetic_basis(int size, int layers, std::uint64_t seed) {
+  Random random{seed};
+  BasisImages basis;
+  basis.name = "synthetic";
+  basis.width = size;
+  basis.height = size;
+  basis.layers = layers;
+  const double omega = 6.283185307179586 / layers;
+  for (int i = 0; i < layers; ++i) basis.unoccluded.push_back(omega * (0.1 + 0.9 * random.next()));
+  basis.half.resize(basis.texel_count() * static_cast<std::size_t>(layers));
+  for (int i = 0; i < layers; ++i) {
+    const double a = basis.unoccluded[static_cast<std::size_t>(i)];
+    std::uint16_t* layer = basis.half.data() + static_cast<std::size_t>(i) * basis.texel_count();
+    for (std::size_t k = 0; k < basis.texel_count(); ++k) {
+      const double pick = random.next();
+      const double f = pick < 0.3 ? 0.0 : (pick < 0.6 ? 1.0 : random.next());
+      layer[k] = skylit::render::float_to_half(static_cast<float>(a * f));
+    }
+  }
+  return basis;
+}
+
+BlendWeights sky_weights(const BasisImages& basis, std::uint64_t seed) {
+  Random random{seed};
+  std::vector<Eigen::Vector3d> S;
+  for (int i = 0; i < basis.layers; ++i) S.emplace_back(0.2 + random.next(), 0.3 + random.next(), 0.5 + random.next());
+  return skylit::render::blend_weights(basis, S, std::nullopt);
+}
+
+const char* storage_name(BasisStorage storage, bool packed) {
+  if (storage == BasisStorage::Half) return packed ? "RGBA16F (4 layers/texel)" : "R16F";
+  return packed ? "RGBA8 (4 layers/texel)" : "R8";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const Settings settings = parse(argc, argv);
+  try {
+    const skylit::gpu::HeadlessContext context;
+    std::printf("device: %s\n", context.description().c_str());
+    const GpuTimer timer(context);
+    const Bandwidth bandwidth = copy_bandwidth(timer, settings.repeats, settings.shader_dir);
+    std::printf("copy bandwidth (256 MiB buffer, bytes read + written, %s): glCopyBufferSubData %.1f GB/s, "
+                "compute shader %.1f GB/s\n",
+                bandwidth.from_gpu_timer ? "GPU timer" : "wall time to glFinish", bandwidth.copy_bytes_per_s * 1e-9,
+                bandwidth.compute_bytes_per_s * 1e-9);
+    std::printf("GPU timer (GL_EXT_disjoint_timer_query): %s\n\n",
+                !timer.available() ? "no" : (bandwidth.from_gpu_timer ? "yes" : "offered, but reads no time: wall time used"));
+
+    std::printf("| basis | ν (layers) | planes of %d² | basis read | wall | GPU | sustained | floor | GPU / floor | "
+                "sustained / floor |\n",
+                settings.size);
+    std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
+    struct Check {
+      BasisStorage storage;
+      bool packed;
+      int frequency;
+      double max_difference;
+    };
+    std::vector<Check> checks;
+    for (const int frequency : settings.frequencies) {
+      const int layers = 10 * frequency * frequency;
+      const BasisImages basis = synthetic_basis(settings.size, layers, 0x5EED0000ULL + static_cast<std::uint64_t>(frequency));
+      const BlendWeights weights = sky_weights(basis, 17);
+      for (const bool packed : settings.packed) {
+      for (const BasisStorage storage : settings.storages) {
+        GpuBlendOptions options;
+        options.storage = storage;
+        options.pack_layers = packed;
+        options.shader_dir = settings.shader_dir;
+        std::vector<std::unique_ptr<GpuBlender>> blenders;
+        for (const int planes : settings.planes) {
+          while (static_cast<int>(blenders.size()) < planes) blenders.push_back(std::make_unique<GpuBlender>(basis, options));
+          const auto call = [&] {
+            for (int j = 0; j < planes; ++j) {
+              blenders[static_cast<std::size_t>(j)]->invalidate();
+              blenders[static_cast<std::size_t>(j)]->blend(weights);
+            }
+          };
+          const Timing t = time_it(timer, settings.repeats, call);
+          const Timing sustained = time_it(timer, settings.repeats, call, settings.batch, std::chrono::milliseconds(0));
+          const double bytes = static_cast<double>(planes) * static_cast<double>(blenders.front()->basis_bytes());
+          const double floor_s = bytes / bandwidth.best();
+          const double measured = t.gpu_s ? *t.gpu_s : t.wall_s;
+          const double measured_sustained = sustained.gpu_s ? *sustained.gpu_s : sustained.wall_s;
+          char gpu_text[32] = "n/a";
+          if (t.gpu_s) std::snprintf(gpu_text, sizeof gpu_text, "%.3f ms", *t.gpu_s * 1e3);
+          std::printf("| %s | %d (%d) | %d | %.0f MiB | %.3f ms | %s | %.3f ms | %.3f ms | %.2f× | %.2f× |\n",
+                      storage_name(storage, packed), frequency, layers, planes, bytes / (1 << 20), t.wall_s * 1e3, gpu_text,
+                      measured_sustained * 1e3, floor_s * 1e3, measured / floor_s, measured_sustained / floor_s);
+          std::fflush(stdout);
+        }
+        blenders.clear();
+        if (settings.check) {
+          GpuBlendOptions exact = options;
+          exact.output = ShadowRatioFormat::Float;
+          GpuBlender blender(basis, exact);
+          blender.blend(weights);
+          const std::vector<float> gpu = blender.read_back();
+          std::vector<float> cpu(3 * basis.texel_count());
+          skylit::render::blend_cpu(basis, weights, {}, cpu);
+          double worst = 0;
+          for (std::size_t k = 0; k < cpu.size(); ++k) worst = std::max(worst, std::abs(static_cast<double>(gpu[k]) - cpu[k]));
+          checks.push_back({storage, packed, frequency, worst});
+        }
+      }
+      }
+    }
+    if (!checks.empty()) {
+      std::printf("\nmax |T_gpu - T_cpu| on one plane (RGBA32F output, blend_cpu reference):\n\n");
+      std::printf("| basis | ν | max abs difference |\n|---|---|---|\n");
+      for (const Check& c : checks) {
+        std::printf("| %s | %d | %.3g |\n", storage_name(c.storage, c.packed), c.frequency, c.max_difference);
+      }
+    }
+    std::printf("\nfloor = basis bytes / the faster copy bandwidth (read + written); time = GPU time where the "
+                "driver has a timer, else wall time\n");
+  } catch (const std::exception& error) {
+    std::fprintf(stderr, "gpu_blend_bench: %s\n", error.what());
+    return 1;
+  }
+  return 0;
+}

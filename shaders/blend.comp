@@ -1,0 +1,80 @@
+#version 310 es
+// Shadow ratios of one plane (render/gpu_blend.hpp): per texel
+//     T = Σ_i w_i B_i + w_sun V     per colour channel, fp32,
+// then a channel without light is 1 and T is clamped to [0, 1], as blend_cpu does. One
+// invocation per texel. The basis array holds one layer per slice (R16F, R8) or four, one per
+// colour channel (RGBA16F, RGBA8); the CPU lists the slices to read with the weights of their
+// layers, so that one fetch and three dot products add up to four layers.
+precision highp float;
+precision highp int;
+precision highp sampler2D;
+precision highp sampler2DArray;
+precision highp image2D;
+
+// The loader defines SKYLIT_T_FORMAT as rgba32f for a float shadow-ratio texture.
+#ifndef SKYLIT_T_FORMAT
+#define SKYLIT_T_FORMAT rgba16f
+#endif
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+// The weights of a slice's layers (times their scale for 8-bit storage), one vec4 per colour
+// channel with a layer per component (unused components 0), and the slice's index.
+struct Slice {
+  vec4 red;
+  vec4 green;
+  vec4 blue;
+  ivec4 index;  // x
+};
+layout(std430, binding = 0) readonly buffer Slices {
+  Slice slices[];
+};
+
+uniform int slice_count;   // entries of `slices` to sum
+uniform vec3 sun_weight;   // w_sun
+uniform bool use_sun;      // add w_sun V (false: no sun term, V is not read)
+uniform bvec3 no_light;    // channels whose T is 1
+
+layout(binding = 0) uniform sampler2DArray basis;       // B: a layer per slice or per channel
+layout(binding = 1) uniform sampler2D sun_visibility;   // V in red, same texels as B
+layout(SKYLIT_T_FORMAT, binding = 0) writeonly uniform image2D shadow_ratio;
+
+void main() {
+  ivec2 texel = ivec2(gl_GlobalInvocationID.xy);
+  ivec2 size = imageSize(shadow_ratio);
+  if (texel.x >= size.x || texel.y >= size.y) return;
+
+  // Four fetches are issued before their sums: a single one in flight per invocation leaves
+  // the memory idle while it waits (measured on an H100: one 512² plane of 640 layers took 5×
+  // its bandwidth floor). The sums still run in slice order. An R16F or R8 slice reads
+  // (b, 0, 0, 1): its weights sit in x alone.
+  vec3 sum = vec3(0.0);
+  int k = 0;
+  for (; k + 4 <= slice_count; k += 4) {
+    vec4 b0 = texelFetch(basis, ivec3(texel, slices[k].index.x), 0);
+    vec4 b1 = texelFetch(basis, ivec3(texel, slices[k + 1].index.x), 0);
+    vec4 b2 = texelFetch(basis, ivec3(texel, slices[k + 2].index.x), 0);
+    vec4 b3 = texelFetch(basis, ivec3(texel, slices[k + 3].index.x), 0);
+    sum += vec3(dot(slices[k].red, b0), dot(slices[k].green, b0), dot(slices[k].blue, b0));
+    sum += vec3(dot(slices[k + 1].red, b1), dot(slices[k + 1].green, b1), dot(slices[k + 1].blue, b1));
+    sum += vec3(dot(slices[k + 2].red, b2), dot(slices[k + 2].green, b2), dot(slices[k + 2].blue, b2));
+    sum += vec3(dot(slices[k + 3].red, b3), dot(slices[k + 3].green, b3), dot(slices[k + 3].blue, b3));
+  }
+  for (; k < slice_count; ++k) {
+    vec4 b = texelFetch(basis, ivec3(texel, slices[k].index.x), 0);
+    sum += vec3(dot(slices[k].red, b), dot(slices[k].green, b), dot(slices[k].blue, b));
+  }
+  if (use_sun) {
+    // blend_cpu rejects a V outside [0, 1]; here it is clamped (NaN to 0).
+    float v = texelFetch(sun_visibility, texel, 0).r;
+    v = v > 1.0 ? 1.0 : (v >= 0.0 ? v : 0.0);
+    sum += sun_weight * v;
+  }
+  vec3 t;
+  for (int c = 0; c < 3; ++c) {
+    float x = sum[c];
+    // Written with comparisons rather than clamp(), whose result for NaN is undefined: NaN → 0.
+    t[c] = no_light[c] ? 1.0 : (x > 1.0 ? 1.0 : (x >= 0.0 ? x : 0.0));
+  }
+  imageStore(shadow_ratio, texel, vec4(t, 1.0));
+}

@@ -1,0 +1,157 @@
+#version 310 es
+// The building's radiance in camera units, k ⊙ ρ/π · E (alpha 1: drawn), and its camera depth
+// (a second target). E is exact from a virtual plane's shadow ratio where one covers the
+// fragment, T_j ⊙ D_j (D_j = Σ S_i A_{j,i} + E_sun max(0, n_j·ω_sun), from the CPU), and the
+// interpolated transfer sum plus the sun (its shadow map's visibility) elsewhere.
+//
+// The compositor compiles it for its site: VIRTUAL_PLANES (0 … 8) virtual planes, and
+// SUN_SHADOWS 1 with a sun shadow map bound, 0 without (the sun term then unshadowed). Code
+// for planes that do not exist is not compiled (a SIMD renderer such as llvmpipe would run every
+// branch of a run-time choice). FILTERED_LOOKUPS 1: the shadow ratios are bound with a bilinear
+// sampler (float textures are filterable), one lookup instead of four texel reads.
+// library: sun_shadow.glsl
+precision highp float;
+precision highp int;
+
+#ifndef VIRTUAL_PLANES
+#define VIRTUAL_PLANES 8
+#endif
+#ifndef FILTERED_LOOKUPS
+#define FILTERED_LOOKUPS 0
+#endif
+#ifndef SUN_SHADOWS
+#define SUN_SHADOWS 1
+#endif
+// The library's minimum/maximum map, bound by SunShadowMap::bind with two units.
+#define SUN_SHADOW_MINMAX 1
+
+const int kMaxVirtualPlanes = 8;
+const float kPi = 3.14159265358979;
+
+in vec3 site_position;
+in vec3 site_normal;
+in vec2 uv;
+in vec3 sky_irradiance;
+in float camera_depth;
+
+uniform vec3 base_colour;                 // linear glTF baseColorFactor
+uniform vec3 photometric_scale;           // k
+uniform vec3 sun_direction;               // unit, towards the sun
+uniform vec3 sun_energy;                  // E_sun; zero without a sun
+uniform float cover_distance;
+uniform float cover_cos;
+uniform vec3 plane_origin[kMaxVirtualPlanes];
+uniform vec3 plane_s_axis[kMaxVirtualPlanes];   // s = dot(x − origin, s_axis): the dual basis of (u, v)
+uniform vec3 plane_t_axis[kMaxVirtualPlanes];
+uniform vec3 plane_normal[kMaxVirtualPlanes];
+uniform vec3 plane_irradiance[kMaxVirtualPlanes];
+
+layout(binding = 2) uniform highp sampler2D albedo_texture;   // sRGB8_ALPHA8: decoded on fetch
+layout(binding = 4) uniform highp sampler2D plane_ratio_0;
+layout(binding = 5) uniform highp sampler2D plane_ratio_1;
+layout(binding = 6) uniform highp sampler2D plane_ratio_2;
+layout(binding = 7) uniform highp sampler2D plane_ratio_3;
+layout(binding = 8) uniform highp sampler2D plane_ratio_4;
+layout(binding = 9) uniform highp sampler2D plane_ratio_5;
+layout(binding = 10) uniform highp sampler2D plane_ratio_6;
+layout(binding = 11) uniform highp sampler2D plane_ratio_7;
+
+layout(location = 0) out vec4 result;
+layout(location = 1) out float result_depth;
+
+// Bilinear T at plane coordinates (s, t), texel centres at ((col + ½)/W, (row + ½)/H), clamped to
+// the edge texels: through the bound sampler, or with texelFetch so that no texture format needs
+// to be filterable. A NaN becomes 1 (no shadow) and everything else is clamped to [0, 1], as the
+// CPU blend guarantees.
+vec3 bilinear_ratio(highp sampler2D ratio, vec2 st) {
+#if FILTERED_LOOKUPS
+  vec3 t = textureLod(ratio, st, 0.0).rgb;
+#else
+  ivec2 size = textureSize(ratio, 0);
+  vec2 c = st * vec2(size) - 0.5;
+  vec2 base = floor(c);
+  vec2 f = c - base;
+  ivec2 i0 = clamp(ivec2(base), ivec2(0), size - 1);
+  ivec2 i1 = clamp(ivec2(base) + 1, ivec2(0), size - 1);
+  vec3 a = texelFetch(ratio, ivec2(i0.x, i0.y), 0).rgb;
+  vec3 b = texelFetch(ratio, ivec2(i1.x, i0.y), 0).rgb;
+  vec3 d = texelFetch(ratio, ivec2(i0.x, i1.y), 0).rgb;
+  vec3 e = texelFetch(ratio, ivec2(i1.x, i1.y), 0).rgb;
+  vec3 t = mix(mix(a, b, f.x), mix(d, e, f.x), f.y);
+#endif
+  bvec3 bad = isnan(t);
+  return vec3(bad.x ? 1.0 : clamp(t.x, 0.0, 1.0), bad.y ? 1.0 : clamp(t.y, 0.0, 1.0),
+              bad.z ? 1.0 : clamp(t.z, 0.0, 1.0));
+}
+
+// Samplers may be indexed by constant expressions only (GLSL ES 3.10); only the planes that
+// exist are read.
+vec3 plane_ratio(int j, vec2 st) {
+  vec3 t = vec3(1.0);
+#if VIRTUAL_PLANES > 0
+  if (j == 0) t = bilinear_ratio(plane_ratio_0, st);
+#endif
+#if VIRTUAL_PLANES > 1
+  if (j == 1) t = bilinear_ratio(plane_ratio_1, st);
+#endif
+#if VIRTUAL_PLANES > 2
+  if (j == 2) t = bilinear_ratio(plane_ratio_2, st);
+#endif
+#if VIRTUAL_PLANES > 3
+  if (j == 3) t = bilinear_ratio(plane_ratio_3, st);
+#endif
+#if VIRTUAL_PLANES > 4
+  if (j == 4) t = bilinear_ratio(plane_ratio_4, st);
+#endif
+#if VIRTUAL_PLANES > 5
+  if (j == 5) t = bilinear_ratio(plane_ratio_5, st);
+#endif
+#if VIRTUAL_PLANES > 6
+  if (j == 6) t = bilinear_ratio(plane_ratio_6, st);
+#endif
+#if VIRTUAL_PLANES > 7
+  if (j == 7) t = bilinear_ratio(plane_ratio_7, st);
+#endif
+  return t;
+}
+
+// Visible fraction of the sun's disc where `needed`, 1 elsewhere (shaders/sun_shadow.glsl,
+// appended to this file).
+float sun_visibility_if(vec3 world_position, bool needed);
+
+void main() {
+  vec3 n = normalize(site_normal);
+  // The nearest virtual plane that covers the fragment, if any.
+  int covering = -1;
+  float nearest = cover_distance;
+  vec2 covering_st = vec2(0.0);
+  for (int j = 0; j < VIRTUAL_PLANES; ++j) {
+    vec3 offset = site_position - plane_origin[j];
+    float distance = abs(dot(offset, plane_normal[j]));
+    vec2 st = vec2(dot(offset, plane_s_axis[j]), dot(offset, plane_t_axis[j]));
+    if (distance <= nearest && dot(n, plane_normal[j]) >= cover_cos && all(greaterThanEqual(st, vec2(0.0))) &&
+        all(lessThanEqual(st, vec2(1.0)))) {
+      covering = j;
+      nearest = distance;
+      covering_st = st;
+    }
+  }
+  // A covered fragment takes T_j D_j; elsewhere the transfer sum and the sun, whose shadow map is
+  // needed only where the sun can light the fragment at all (llvmpipe runs both branches).
+  vec3 irradiance;
+  float facing = max(0.0, dot(n, sun_direction));
+#if SUN_SHADOWS
+  facing *= sun_visibility_if(site_position, covering < 0 && facing > 0.0 && any(greaterThan(sun_energy, vec3(0.0))));
+#endif
+  if (covering >= 0) {
+    irradiance = plane_ratio(covering, covering_st) * plane_irradiance[covering];
+  } else {
+    irradiance = sky_irradiance + sun_energy * facing;
+  }
+  vec3 albedo = base_colour * texture(albedo_texture, uv).rgb;
+  vec3 radiance = photometric_scale * albedo / kPi * irradiance;
+  bvec3 bad = isnan(radiance);
+  radiance = vec3(bad.x ? 0.0 : radiance.x, bad.y ? 0.0 : radiance.y, bad.z ? 0.0 : radiance.z);
+  result = vec4(max(radiance, vec3(0.0)), 1.0);
+  result_depth = camera_depth;
+}

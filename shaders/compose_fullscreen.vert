@@ -1,0 +1,7 @@
+#version 310 es
+// One triangle that covers the viewport (3 vertices, no attributes): the compositing pass runs
+// its fragment shader once per output pixel.
+void main() {
+  vec2 corner = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));
+  gl_Position = vec4(corner * 2.0 - 1.0, 0.0, 1.0);
+}

@@ -1,0 +1,53 @@
+#pragma once
+// Reading YAML config files with errors a user can act on: every failure is an InputError that
+// names the file, line, column and field, and says how to fix it (input_message's format).
+#include <filesystem>
+#include <span>
+#include <string>
+#include <string_view>
+
+#include <yaml-cpp/yaml.h>
+
+namespace skylit {
+
+class YamlReader {
+ public:
+  explicit YamlReader(std::filesystem::path file) : file_(std::move(file)) {}
+
+  // Parses the file (InputError naming it when missing, unreadable or not YAML, with the line).
+  YAML::Node load() const;
+
+  [[noreturn]] void fail(const YAML::Node& node, const std::string& field, const std::string& problem,
+                         const std::string& fix) const;
+  // Every key of `map` must be in `allowed` (unknown keys get a "did you mean" fix) and appear once.
+  void check_keys(const YAML::Node& map, const std::string& prefix, std::span<const std::string_view> allowed) const;
+  // A map (InputError otherwise).
+  void expect_map(const YAML::Node& node, const std::string& field, const std::string& fix) const;
+
+  // The value of `key`, or an undefined node when absent or null.
+  static YAML::Node optional(const YAML::Node& map, const std::string& key);
+  YAML::Node require(const YAML::Node& map, const std::string& key, const std::string& field,
+                     const std::string& fix) const;
+
+  std::string text(const YAML::Node& node, const std::string& field, const std::string& fix) const;
+  double number(const YAML::Node& node, const std::string& field, const std::string& fix) const;
+  double non_negative(const YAML::Node& node, const std::string& field, const std::string& fix) const;
+  double positive(const YAML::Node& node, const std::string& field, const std::string& fix) const;
+  long long integer(const YAML::Node& node, const std::string& field, long long lo, long long hi,
+                    const std::string& fix) const;
+  bool boolean(const YAML::Node& node, const std::string& field, const std::string& fix) const;
+  // Exactly `count` numbers in a sequence.
+  std::vector<double> numbers(const YAML::Node& node, std::size_t count, const std::string& field,
+                              const std::string& fix) const;
+  // One of `choices`.
+  std::string choice(const YAML::Node& node, const std::string& field, std::span<const std::string_view> choices) const;
+  // A path, relative to the config file's folder unless absolute.
+  std::filesystem::path path(const YAML::Node& node, const std::string& field, const std::string& fix) const;
+
+  const std::filesystem::path& file() const { return file_; }
+
+ private:
+  std::filesystem::path file_;
+};
+
+}  // namespace skylit

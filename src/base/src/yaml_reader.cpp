@@ -1,0 +1,158 @@
+#include "skylit/base/yaml_reader.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+
+#include "skylit/base/error.hpp"
+
+namespace skylit {
+
+YAML::Node YamlReader::load() const {
+  if (!std::filesystem::exists(file_)) {
+    throw InputError(input_message(file_, -1, -1, "", "the file does not exist", "check the path"));
+  }
+  try {
+    return YAML::LoadFile(file_.string());
+  } catch (const YAML::ParserException& e) {
+    throw InputError(input_message(file_, e.mark.line + 1, e.mark.column + 1, "", "not valid YAML: " + e.msg,
+                                   "correct the syntax at that place"));
+  } catch (const YAML::BadFile&) {
+    throw InputError(input_message(file_, -1, -1, "", "cannot be read", "check its permissions"));
+  }
+}
+
+void YamlReader::fail(const YAML::Node& node, const std::string& field, const std::string& problem,
+                      const std::string& fix) const {
+  int line = -1, column = -1;
+  if (node.IsDefined() && node.Mark().line >= 0) {
+    line = node.Mark().line + 1;
+    column = node.Mark().column + 1;
+  }
+  throw InputError(input_message(file_, line, column, field, problem, fix));
+}
+
+void YamlReader::check_keys(const YAML::Node& map, const std::string& prefix,
+                            std::span<const std::string_view> allowed) const {
+  std::set<std::string> seen;
+  for (const auto& entry : map) {
+    const YAML::Node& key = entry.first;
+    if (!key.IsScalar()) fail(key, prefix, "a key is not a plain name", "use plain names as keys");
+    const std::string name = key.Scalar();
+    if (std::find(allowed.begin(), allowed.end(), name) == allowed.end()) {
+      fail(key, prefix + name, "unknown field", unknown_key_fix(name, allowed));
+    }
+    if (!seen.insert(name).second) fail(key, prefix + name, "the field appears twice", "keep one of them");
+  }
+}
+
+void YamlReader::expect_map(const YAML::Node& node, const std::string& field, const std::string& fix) const {
+  if (!node.IsMap()) fail(node, field, "expected a map of fields", fix);
+}
+
+YAML::Node YamlReader::optional(const YAML::Node& map, const std::string& key) {
+  const YAML::Node node = map[key];
+  if (!node.IsDefined() || node.IsNull()) return YAML::Node(YAML::NodeType::Undefined);
+  return node;
+}
+
+YAML::Node YamlReader::require(const YAML::Node& map, const std::string& key, const std::string& field,
+                               const std::string& fix) const {
+  const YAML::Node node = optional(map, key);
+  if (!node.IsDefined()) fail(map, field, "required field is missing", "add it: " + fix);
+  return node;
+}
+
+std::string YamlReader::text(const YAML::Node& node, const std::string& field, const std::string& fix) const {
+  if (!node.IsScalar() || node.Scalar().empty()) fail(node, field, "expected a text value", fix);
+  return node.Scalar();
+}
+
+double YamlReader::number(const YAML::Node& node, const std::string& field, const std::string& fix) const {
+  if (!node.IsScalar()) fail(node, field, "expected a number", fix);
+  double value = 0;
+  try {
+    value = node.as<double>();
+  } catch (const YAML::BadConversion&) {
+    fail(node, field, "'" + node.Scalar() + "' is not a number", fix);
+  }
+  if (!std::isfinite(value)) fail(node, field, "the number is not finite", fix);
+  return value;
+}
+
+double YamlReader::non_negative(const YAML::Node& node, const std::string& field, const std::string& fix) const {
+  const double value = number(node, field, fix);
+  if (value < 0) fail(node, field, "must not be negative, got " + node.Scalar(), fix);
+  return value;
+}
+
+double YamlReader::positive(const YAML::Node& node, const std::string& field, const std::string& fix) const {
+  const double value = number(node, field, fix);
+  if (value <= 0) fail(node, field, "must be positive, got " + node.Scalar(), fix);
+  return value;
+}
+
+long long YamlReader::integer(const YAML::Node& node, const std::string& field, long long lo, long long hi,
+                              const std::string& fix) const {
+  if (!node.IsScalar()) fail(node, field, "expected an integer", fix);
+  long long value = 0;
+  try {
+    value = node.as<long long>();
+  } catch (const YAML::BadConversion&) {
+    fail(node, field, "'" + node.Scalar() + "' is not an integer", fix);
+  }
+  if (value < lo || value > hi) {
+    fail(node, field, node.Scalar() + " is outside " + std::to_string(lo) + ".." + std::to_string(hi), fix);
+  }
+  return value;
+}
+
+bool YamlReader::boolean(const YAML::Node& node, const std::string& field, const std::string& fix) const {
+  if (!node.IsScalar()) fail(node, field, "expected true or false", fix);
+  try {
+    return node.as<bool>();
+  } catch (const YAML::BadConversion&) {
+    fail(node, field, "'" + node.Scalar() + "' is not true or false", fix);
+  }
+}
+
+std::vector<double> YamlReader::numbers(const YAML::Node& node, std::size_t count, const std::string& field,
+                                        const std::string& fix) const {
+  if (!node.IsSequence() || node.size() != count) {
+    fail(node, field, "expected a list of " + std::to_string(count) + " numbers", fix);
+  }
+  std::vector<double> values;
+  for (std::size_t i = 0; i < count; ++i) {
+    const YAML::Node element = node[i];
+    double value = 0;
+    bool ok = element.IsScalar();
+    if (ok) {
+      try {
+        value = element.as<double>();
+      } catch (const YAML::BadConversion&) {
+        ok = false;
+      }
+    }
+    if (!ok || !std::isfinite(value)) fail(element, field, "element " + std::to_string(i) + " is not a finite number", fix);
+    values.push_back(value);
+  }
+  return values;
+}
+
+std::string YamlReader::choice(const YAML::Node& node, const std::string& field,
+                               std::span<const std::string_view> choices) const {
+  std::string allowed;
+  for (auto c : choices) allowed += (allowed.empty() ? "" : " | ") + std::string(c);
+  const std::string value = text(node, field, "one of " + allowed);
+  if (std::find(choices.begin(), choices.end(), value) == choices.end()) {
+    fail(node, field, "'" + value + "' is not allowed", unknown_key_fix(value, choices));
+  }
+  return value;
+}
+
+std::filesystem::path YamlReader::path(const YAML::Node& node, const std::string& field, const std::string& fix) const {
+  const std::filesystem::path value(text(node, field, fix));
+  return value.is_absolute() ? value : (file_.parent_path() / value).lexically_normal();
+}
+
+}  // namespace skylit

@@ -1,0 +1,93 @@
+#pragma once
+// skylit-live's configuration: one YAML file, paths relative to it (docs/live.md, "Configuration").
+//
+//   site: sample_site.yaml              # the site the bake was made for
+//   bake: ../build/demo/bake            # the bake folder (skylit-bake's output)
+//   sky:
+//     calibration: sky_camera.yaml
+//     source: {kind: sky-sim, ...}      # capture::SourceConfig (docs/live.md, "Frame sources")
+//     response: srgb | linear | FILE    # 8/16-bit frames: how codes become radiance (default srgb)
+//     rate: 1                           # sky estimates per second at most (0: every frame)
+//     sun: auto | off
+//     smoothing: 0                      # seconds, time constant of S's smoothing (0: off)
+//     stale_after: 30                   # seconds without a new sky before it is flagged stale
+//   camera:
+//     calibration: hmd_camera.yaml
+//     source: {kind: images, ...}
+//   pose: {kind: fixed | track, ...}    # track::PoseConfig
+//   blend:
+//     storage: half | unorm8
+//     skip_threshold: 0                 # T units (docs/live.md, "GPU blend")
+//     change_threshold: 0.002
+//   photometric:
+//     scale: [1, 1, 1]                  # camera linear value per unit radiance; or
+//     estimate: {plane: ground, region: [s0, s1, t0, t1], albedo: [0.2, 0.2, 0.2], every: 30}
+//   output:
+//     record: out.mp4                   # .mp4/.avi: a video; otherwise a folder of PNG frames
+//     window: false                     # a window on the display (overridden by --headless)
+//   status:
+//     listen: 127.0.0.1:8080            # omit for no HTTP status
+#include <array>
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "skylit/capture/config.hpp"
+#include "skylit/track/pose.hpp"
+
+namespace skylit::live {
+
+struct SkySettings {
+  std::filesystem::path calibration;
+  capture::SourceConfig source;
+  std::string response = "srgb";      // srgb | linear | a response file (skylit-sky response)
+  double rate = 1.0;                  // estimates per second at most; 0: every frame
+  bool sun = true;                    // sun separation (auto)
+  double smoothing = 0.0;             // seconds
+  double stale_after = 30.0;          // seconds
+};
+
+struct CameraSettings {
+  std::filesystem::path calibration;
+  capture::SourceConfig source;
+};
+
+struct BlendSettings {
+  bool unorm8 = false;
+  double skip_threshold = 0.0;
+  double change_threshold = 0.002;
+};
+
+struct PhotometricSettings {
+  Eigen::Vector3d scale = Eigen::Vector3d::Ones();
+  // Estimated from a reference region of a real plane instead, when set.
+  std::optional<std::string> plane;
+  std::array<double, 4> region{0, 1, 0, 1};       // s0, s1, t0, t1 on the plane
+  Eigen::Vector3d albedo = Eigen::Vector3d::Constant(0.2);
+  int every = 30;                                 // frames between estimates
+};
+
+struct OutputSettings {
+  std::filesystem::path record;   // empty: none
+  bool window = false;
+};
+
+struct LiveConfig {
+  std::filesystem::path file;
+  std::filesystem::path site;
+  std::filesystem::path bake;
+  SkySettings sky;
+  CameraSettings camera;
+  track::PoseConfig pose;
+  BlendSettings blend;
+  PhotometricSettings photometric;
+  OutputSettings output;
+  std::optional<std::string> status_listen;  // "ADDR:PORT"
+};
+
+// InputError naming the file, line, column and field, with the fix, for anything wrong.
+LiveConfig load_live_config(const std::filesystem::path& file);
+
+}  // namespace skylit::live

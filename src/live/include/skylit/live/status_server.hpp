@@ -1,0 +1,52 @@
+#pragma once
+// The service's status over HTTP: /status (JSON), /metrics (Prometheus text format), /sky.jpg
+// and /frame.jpg. Each answer comes from a callback, called on the server's own thread, so the
+// callbacks must be thread-safe. cpp-httplib stays inside the .cpp.
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace skylit::live {
+
+struct StatusHandlers {
+  std::function<std::string()> status_json;
+  std::function<std::string()> metrics_text;
+  std::function<std::vector<std::uint8_t>()> sky_jpeg;    // empty: 503 (no sky yet)
+  std::function<std::vector<std::uint8_t>()> frame_jpeg;  // empty: 503 (no frame yet)
+};
+
+class StatusServer {
+ public:
+  // Listens on address:port (port 0 picks a free one) in a thread of its own. Throws InputError
+  // when the address cannot be bound, naming it and the fix.
+  StatusServer(const std::string& address, int port, StatusHandlers handlers);
+  ~StatusServer();  // stops listening and joins the thread
+  StatusServer(const StatusServer&) = delete;
+  StatusServer& operator=(const StatusServer&) = delete;
+
+  int port() const;              // the port bound
+  std::string address() const;   // "127.0.0.1:8080"
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+// One sample of the Prometheus text format.
+struct Metric {
+  std::string name;   // skylit_..., [a-zA-Z_:][a-zA-Z0-9_:]*
+  std::string help;
+  std::string type;   // "counter" or "gauge"
+  double value = 0;
+  std::string labels; // optional, already formatted: face="3",channel="r"
+};
+
+// Metrics as Prometheus text: one HELP and TYPE line per name (first occurrence), then samples.
+std::string prometheus_text(const std::vector<Metric>& metrics);
+
+// "ADDR:PORT" → address and port; throws InputError naming `what` (e.g. "--status") and the fix.
+std::pair<std::string, int> parse_listen_address(const std::string& text, const std::string& what);
+
+}  // namespace skylit::live

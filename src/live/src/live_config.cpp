@@ -1,0 +1,128 @@
+#include "skylit/live/live_config.hpp"
+
+#include <array>
+#include <string_view>
+
+#include "skylit/base/yaml_reader.hpp"
+
+namespace skylit::live {
+namespace {
+
+constexpr const char* kDocs = "see docs/live.md (Configuration)";
+constexpr std::array<std::string_view, 9> kTopKeys{"site", "bake", "sky", "camera", "pose",
+                                                   "blend", "photometric", "output", "status"};
+constexpr std::array<std::string_view, 7> kSkyKeys{"calibration", "source", "response", "rate",
+                                                   "sun", "smoothing", "stale_after"};
+constexpr std::array<std::string_view, 2> kCameraKeys{"calibration", "source"};
+constexpr std::array<std::string_view, 3> kBlendKeys{"storage", "skip_threshold", "change_threshold"};
+constexpr std::array<std::string_view, 2> kPhotometricKeys{"scale", "estimate"};
+constexpr std::array<std::string_view, 4> kEstimateKeys{"plane", "region", "albedo", "every"};
+constexpr std::array<std::string_view, 2> kOutputKeys{"record", "window"};
+constexpr std::array<std::string_view, 1> kStatusKeys{"listen"};
+
+}  // namespace
+
+LiveConfig load_live_config(const std::filesystem::path& file) {
+  const YamlReader r(file);
+  const YAML::Node root = r.load();
+  r.expect_map(root, "", "a skylit-live config is a map with site, bake, sky, camera and pose; " + std::string(kDocs));
+  r.check_keys(root, "", kTopKeys);
+
+  LiveConfig c;
+  c.file = file;
+  c.site = r.path(r.require(root, "site", "site", "the site file, e.g. site: sample_site.yaml"), "site", kDocs);
+  c.bake = r.path(r.require(root, "bake", "bake", "the bake folder, e.g. bake: ../build/demo/bake"), "bake", kDocs);
+
+  const YAML::Node sky = r.require(root, "sky", "sky", "the sky camera: calibration and source");
+  r.expect_map(sky, "sky", kDocs);
+  r.check_keys(sky, "sky.", kSkyKeys);
+  c.sky.calibration = r.path(r.require(sky, "calibration", "sky.calibration", "the sky camera's calibration YAML"),
+                             "sky.calibration", kDocs);
+  c.sky.source = capture::parse_source_config(r.require(sky, "source", "sky.source", "where sky frames come from"), file);
+  if (auto n = YamlReader::optional(sky, "response")) {
+    const std::string value = r.text(n, "sky.response", "srgb, linear or a response file");
+    c.sky.response = value == "srgb" || value == "linear" ? value : r.path(n, "sky.response", kDocs).string();
+  }
+  if (auto n = YamlReader::optional(sky, "rate")) c.sky.rate = r.non_negative(n, "sky.rate", "estimates per second, 0 for every frame");
+  if (auto n = YamlReader::optional(sky, "sun")) {
+    constexpr std::array<std::string_view, 2> modes{"auto", "off"};
+    c.sky.sun = r.choice(n, "sky.sun", modes) == "auto";
+  }
+  if (auto n = YamlReader::optional(sky, "smoothing")) c.sky.smoothing = r.non_negative(n, "sky.smoothing", "seconds, 0 for none");
+  if (auto n = YamlReader::optional(sky, "stale_after")) c.sky.stale_after = r.positive(n, "sky.stale_after", "seconds, e.g. 30");
+
+  const YAML::Node camera = r.require(root, "camera", "camera", "the HMD camera: calibration and source");
+  r.expect_map(camera, "camera", kDocs);
+  r.check_keys(camera, "camera.", kCameraKeys);
+  c.camera.calibration = r.path(r.require(camera, "calibration", "camera.calibration", "the HMD camera's calibration YAML"),
+                                "camera.calibration", kDocs);
+  c.camera.source = capture::parse_source_config(r.require(camera, "source", "camera.source", "where camera frames come from"), file);
+
+  c.pose = track::parse_pose_config(r.require(root, "pose", "pose", "a fixed pose or a pose track"), file);
+
+  if (auto blend = YamlReader::optional(root, "blend")) {
+    r.expect_map(blend, "blend", kDocs);
+    r.check_keys(blend, "blend.", kBlendKeys);
+    if (auto n = YamlReader::optional(blend, "storage")) {
+      constexpr std::array<std::string_view, 2> storages{"half", "unorm8"};
+      c.blend.unorm8 = r.choice(n, "blend.storage", storages) == "unorm8";
+    }
+    if (auto n = YamlReader::optional(blend, "skip_threshold")) c.blend.skip_threshold = r.non_negative(n, "blend.skip_threshold", "T units, e.g. 0.002");
+    if (auto n = YamlReader::optional(blend, "change_threshold")) c.blend.change_threshold = r.non_negative(n, "blend.change_threshold", "T units, e.g. 0.002");
+  }
+
+  if (auto photometric = YamlReader::optional(root, "photometric")) {
+    r.expect_map(photometric, "photometric", kDocs);
+    r.check_keys(photometric, "photometric.", kPhotometricKeys);
+    const auto scale = YamlReader::optional(photometric, "scale");
+    const auto estimate = YamlReader::optional(photometric, "estimate");
+    if (scale && estimate) r.fail(estimate, "photometric.estimate", "both scale and estimate are given", "keep one of them");
+    if (scale) {
+      const auto k = r.numbers(scale, 3, "photometric.scale", "[r, g, b], positive");
+      for (int ch = 0; ch < 3; ++ch) {
+        if (k[static_cast<std::size_t>(ch)] <= 0) r.fail(scale, "photometric.scale", "must be positive", "[r, g, b], e.g. [1, 1, 1]");
+        c.photometric.scale[ch] = k[static_cast<std::size_t>(ch)];
+      }
+    }
+    if (estimate) {
+      r.expect_map(estimate, "photometric.estimate", kDocs);
+      r.check_keys(estimate, "photometric.estimate.", kEstimateKeys);
+      c.photometric.plane = r.text(r.require(estimate, "plane", "photometric.estimate.plane", "a real plane of the site, e.g. ground"),
+                                   "photometric.estimate.plane", "a plane name");
+      if (auto n = YamlReader::optional(estimate, "region")) {
+        const auto v = r.numbers(n, 4, "photometric.estimate.region", "[s0, s1, t0, t1] in 0..1 along the plane's u and v");
+        if (!(0 <= v[0] && v[0] < v[1] && v[1] <= 1 && 0 <= v[2] && v[2] < v[3] && v[3] <= 1)) {
+          r.fail(n, "photometric.estimate.region", "not a rectangle inside the plane", "0 ≤ s0 < s1 ≤ 1 and 0 ≤ t0 < t1 ≤ 1");
+        }
+        c.photometric.region = {v[0], v[1], v[2], v[3]};
+      }
+      if (auto n = YamlReader::optional(estimate, "albedo")) {
+        const auto v = r.numbers(n, 3, "photometric.estimate.albedo", "[r, g, b] in (0, 1]");
+        for (int ch = 0; ch < 3; ++ch) {
+          const double a = v[static_cast<std::size_t>(ch)];
+          if (!(a > 0 && a <= 1)) r.fail(n, "photometric.estimate.albedo", "must be in (0, 1]", "e.g. [0.2, 0.2, 0.2]");
+          c.photometric.albedo[ch] = a;
+        }
+      }
+      if (auto n = YamlReader::optional(estimate, "every")) {
+        c.photometric.every = static_cast<int>(r.integer(n, "photometric.estimate.every", 1, 1000000, "frames between estimates"));
+      }
+    }
+  }
+
+  if (auto output = YamlReader::optional(root, "output")) {
+    r.expect_map(output, "output", kDocs);
+    r.check_keys(output, "output.", kOutputKeys);
+    if (auto n = YamlReader::optional(output, "record")) c.output.record = r.path(n, "output.record", "a video file or a folder");
+    if (auto n = YamlReader::optional(output, "window")) c.output.window = r.boolean(n, "output.window", "true or false");
+  }
+  if (auto status = YamlReader::optional(root, "status")) {
+    r.expect_map(status, "status", kDocs);
+    r.check_keys(status, "status.", kStatusKeys);
+    c.status_listen = r.text(r.require(status, "listen", "status.listen", "ADDR:PORT, e.g. 127.0.0.1:8080"),
+                             "status.listen", "ADDR:PORT");
+  }
+  return c;
+}
+
+}  // namespace skylit::live

@@ -1,0 +1,169 @@
+#pragma once
+// The composite the HMD shows: the camera image as the background, the virtual building's
+// shadow on the real ground, and the building itself, sky-lit, drawn with depth from the camera
+// pose through the HMD camera's calibrated lens (docs/live.md, "Rendering and compositing").
+//
+// Per output pixel p, with the ray the lens model gives p:
+//   background  B = camera(p), linear (8-bit frames are sRGB-decoded; float frames are linear),
+//               × T_j(x) where the ray meets a real plane j first (x the hit point);
+//   building    radiance L = k ⊙ ρ/π · E (ρ the glTF base colour × texture, k the photometric
+//               match), with
+//                 E = T_j(x) ⊙ (Σ_i S_i A_{j,i} + E_sun max(0, n_j·ω_sun))  where a virtual
+//                     plane j covers the fragment (within cover_distance of its rectangle,
+//                     normals within cover_max_angle_deg): exact, and no double occlusion;
+//                 E = Σ_i S_i t_{v,i} (interpolated) + E_sun max(0, n·ω_sun) V_sun  elsewhere,
+//                     V_sun from the sun's shadow map (SunShadowMap; 1 without one);
+//   output      L over B, except where a real plane is nearer than the building by more than
+//               occlusion_margin (the real surface hides it).
+// The building is rendered with a pinhole camera and distorted to the lens through a per-pixel
+// ray table (lens_remap.hpp); the camera's pixels are never resampled.
+//
+// Everything runs in the OpenGL ES context current when the Compositor is made (it must stay
+// current for every call, and alive until the Compositor is destroyed).
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include <GLES3/gl31.h>
+
+#include <Eigen/Core>
+#include <opencv2/core/mat.hpp>
+
+#include "skylit/bake/format.hpp"
+#include "skylit/gpu/gl.hpp"
+#include "skylit/render/cpu_blend.hpp"
+#include "skylit/render/lens_remap.hpp"
+#include "skylit/render/photometric.hpp"
+#include "skylit/render/sun_shadow_map.hpp"
+#include "skylit/scene/mesh.hpp"
+#include "skylit/scene/site.hpp"
+#include "skylit/sky/calibration.hpp"
+
+namespace skylit::render {
+
+// Shader limits: texture units per pass (the ES 3.1 minimum is 16 per stage).
+inline constexpr int kMaxVirtualPlanes = 8;
+inline constexpr int kMaxRealPlanes = 8;
+
+struct CompositorOptions {
+  std::filesystem::path shader_dir;    // empty: gpu::find_shader_dir's default search
+  double cover_distance = 0.05;        // m: how far a fragment may lie from a virtual plane it takes T from
+  double cover_max_angle_deg = 15.0;   // and how far its normal may turn from the plane's
+  double occlusion_margin = 0.05;      // m: a real plane hides the building when nearer by more than this
+  double near = 0.05;                  // m: the building's clipping range from the camera
+  double far = 5000.0;
+  LensRemapOptions lens;
+  PhotometricMatch photometric;        // k, unless a frame gives its own
+  // Measure each stage's wall time (CompositeTimings) with a glFinish after each: this
+  // serialises the GPU with the CPU, so it is for benchmarks and profiling, not for a display.
+  bool time_stages = false;
+};
+
+// Where the camera is: the HMD camera frame (OpenCV's) in the site frame.
+struct CameraPose {
+  Eigen::Matrix3d R_site_from_camera = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d t_site_from_camera = Eigen::Vector3d::Zero();
+};
+
+struct CompositeInput {
+  // CV_8UC3 (sRGB codes) or CV_32FC3 (linear), BGR, the HMD calibration's size.
+  cv::Mat camera;
+  CameraPose pose;
+  // S_i, RGB, one per basis layer of the bake (per dome face with the faces basis; the layers
+  // blend_weights takes). Non-finite or negative values count as 0 (and are counted in
+  // CompositeStats): one bad sky frame must not blank the display.
+  std::span<const Eigen::Vector3d> sky;
+  std::optional<SunLight> sun;
+  // One per bake plane (manifest order): a texture whose texel (col, row) holds T of plane texel
+  // (col, row) in rgb (RGBA8, RGBA16F or RGBA32F; read with texelFetch and filtered bilinearly in
+  // the shader, so no format needs to be filterable). 0 or an empty span: T = 1.
+  std::span<const GLuint> shadow_ratios;
+  // The sun's shadow map for the building's own sun shadows (penumbra included: the map's
+  // sun_visibility, shaders/sun_shadow.glsl), updated for this sun. Null: the sun term is
+  // unshadowed (CompositeStats says so).
+  const SunShadowMap* sun_shadow = nullptr;
+  std::optional<PhotometricMatch> photometric;   // overrides CompositorOptions::photometric
+};
+
+struct CompositeStats {
+  int sky_values_replaced = 0;            // non-finite or negative S_i or E_sun channels taken as 0
+  std::int64_t camera_values_replaced = 0;  // non-finite or negative float camera values taken as 0
+  bool sun_without_shadow_map = false;    // a sun and no shadow map: the building's sun term is unshadowed
+};
+
+// Time of each stage of the last frame, in milliseconds; all 0 unless
+// CompositorOptions::time_stages is set. wall: elapsed time; cpu: CPU time of the whole process
+// over the stage (all threads: on a software renderer such as llvmpipe this is the work done,
+// and it does not grow when other programs load the machine).
+struct CompositeTimings {
+  struct Stage {
+    double wall_ms = 0;
+    double cpu_ms = 0;
+  };
+  Stage upload;      // the camera frame to the GPU (with its conversion on the CPU)
+  Stage building;    // the building rendered at the pinhole size
+  Stage composite;   // the pass over the camera pixels
+  Stage read_back;   // composite() only: glReadPixels and the cv::Mat
+};
+
+// The unoccluded irradiance of plane `plane` (RGB): D_j = Σ_i S_i A_{j,i} + E_sun max(0, n_j·ω_sun),
+// the denominator of its shadow ratio. Non-finite or negative S_i count as 0.
+Eigen::Vector3d plane_irradiance(const bake::PlaneRecord& plane, std::span<const Eigen::Vector3d> sky,
+                                 const std::optional<SunLight>& sun);
+
+// A shadow-ratio texture from CPU data (blend_cpu's output: width × height × 3 floats, RGB, row-major
+// texels): RGBA32F, T in rgb. For the CPU blend path and for tests.
+gpu::Texture upload_shadow_ratio(std::span<const float> rgb, int width, int height);
+
+class Compositor {
+ public:
+  // transfer: the bake's transfer.npy, vertex_count × layer_count floats (vertex-major). The site
+  // names each bake plane's surface (matched by name); the mesh must be the one the bake was made
+  // from (same vertex order). InputError naming the file and the fix when they do not fit, or when
+  // there are more than kMaxVirtualPlanes virtual or kMaxRealPlanes real planes.
+  Compositor(const scene::Site& site, const scene::Mesh& mesh, const bake::Manifest& manifest,
+             std::span<const float> transfer, const sky::CameraCalibration& hmd,
+             CompositorOptions options = {});
+  ~Compositor();
+  Compositor(Compositor&&) noexcept;
+  Compositor& operator=(Compositor&&) noexcept;
+  Compositor(const Compositor&) = delete;
+  Compositor& operator=(const Compositor&) = delete;
+
+  // Draws one frame into linear_texture() and display_texture() (for a display: no read-back,
+  // no wait for the GPU). InputError as composite.
+  void draw(const CompositeInput& input);
+  // Draws one frame and reads it back: CV_8UC3 sRGB for an 8-bit camera frame, CV_32FC3 linear
+  // for a float one (BGR, the camera's size). InputError for a frame of the wrong size or type,
+  // or a sky with the wrong number of layers.
+  cv::Mat composite(const CompositeInput& input);
+
+  // The last composite, kept on the GPU: linear RGBA32F, and sRGB-encoded RGBA8 for display. Texel
+  // row 0 is the image's top row.
+  GLuint linear_texture() const;
+  GLuint display_texture() const;
+  cv::Mat read_linear() const;      // CV_32FC3 BGR of linear_texture()
+  const CompositeStats& last_stats() const;
+  const CompositeTimings& last_timings() const;
+
+  const LensRemap& lens_remap() const;
+  const sky::Lens& lens() const;
+  // Which bake planes are real (manifest order).
+  const std::vector<scene::PlaneSurface>& plane_surfaces() const;
+
+  // CV_8U mask (255 inside) of the camera pixels whose ray meets bake plane `plane` inside the
+  // rectangle s ∈ [s0, s1], t ∈ [t0, t1] of its coordinates (origin + s·u + t·v): the reference
+  // region for estimate_photometric_match. The building is not tested: choose a region that it
+  // neither hides nor shadows (the estimator's median tolerates a few such pixels).
+  cv::Mat region_mask(int plane, double s0, double s1, double t0, double t1, const CameraPose& pose) const;
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace skylit::render

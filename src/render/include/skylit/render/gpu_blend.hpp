@@ -1,0 +1,154 @@
+#pragma once
+// Shadow ratios on the GPU (OpenGL ES 3.1 compute, shaders/blend.comp): the same sums as
+// blend_cpu (cpu_blend.hpp), over the plane's basis images held in one texture array.
+//
+//   T(x) = Σ_{i active} w_i B_i(x) + w_sun V(x)   per colour channel, fp32, in layer order,
+//   then a channel without light is 1 and T is clamped to [0, 1].
+//
+// Two savings, both settings (docs/live.md, "GPU blend"), both bounded in units of T (T is the
+// fraction of the plane's unoccluded irradiance D = Σ_k S_k A_k + E_sun c, so a bound of 0.01
+// means one per cent of full light):
+//
+//   skip_threshold    layers whose largest possible contribution c_i = max_c |w_{i,c}| · max_x B_i(x)
+//                     is smallest are left out while their c_i add up to at most this: the
+//                     skipped layers change no texel's T by more than skip_threshold (with a
+//                     faces basis, whose weights are >= 0, T only gets darker). 0: only layers
+//                     that add nothing anywhere (c_i = 0). With packed layers a texture slice
+//                     is read when any of its four layers is kept, and then all four are summed.
+//   change_threshold  a blend is skipped, the last T kept, while the weights differ from those
+//                     of the last blend that ran by at most this much in T:
+//                     Σ_i |Δw_{i,c}| max_x B_i(x) + |Δw_sun,c| ≤ change_threshold for every c
+//                     (and the channels without light and the sun visibility are unchanged).
+//                     0: skipped only when nothing changed.
+//
+// Every object here holds GL names: create, use and destroy it with the same GL context current
+// (gpu::HeadlessContext or a window's), on one thread.
+//
+// This file and gpu_blend.cpp use only the C++ library, Eigen, OpenGL ES and header-only
+// declarations (cpu_blend.hpp names nlohmann::json through the bake format), so that the GPU
+// benchmark builds on a machine with nothing else (bench/gpu_standalone.sh).
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <vector>
+
+#include "skylit/gpu/gl.hpp"
+#include "skylit/render/cpu_blend.hpp"
+
+namespace skylit::render {
+
+// How the basis images are stored on the GPU.
+enum class BasisStorage {
+  Half,    // 16-bit float: the baked half floats as they are (exact; 2 bytes per texel and layer)
+  Unorm8,  // 8-bit: each layer scaled by its maximum, B ≈ max_i · q/255 (1 byte; T error ≤ Σ_i c_i / 510)
+};
+
+// The texel format of the shadow-ratio texture.
+enum class ShadowRatioFormat {
+  Half,   // RGBA16F: filterable on every ES 3 driver (what a compositor samples); T rounded to
+          // half (≤ 2^-11 off, one unit in the last place below 1)
+  Float,  // RGBA32F: T exactly as summed (for checks; linear filtering needs OES_texture_float_linear)
+};
+
+struct GpuBlendOptions {
+  BasisStorage storage = BasisStorage::Half;
+  // Four layers per texel of the texture array (RGBA16F / RGBA8: one fetch brings four layers),
+  // or one (R16F / R8). Same values either way; four is faster where fetches, not bytes, are the
+  // limit (bench/RESULTS.md, "GPU blend").
+  bool pack_layers = true;
+  ShadowRatioFormat output = ShadowRatioFormat::Half;
+  double skip_threshold = 0.0;    // T units, see above; >= 0
+  double change_threshold = 0.0;  // T units, see above; >= 0
+  std::filesystem::path shader_dir;  // empty: gpu::find_shader_dir's default search
+};
+
+// The sun's visibility over a plane (SunShadowMap makes these): V in [0, 1] in the red channel of
+// a GL_TEXTURE_2D of the plane's width × height, texel (col, row) as the basis images, read with
+// texelFetch (any format; a float one needs NEAREST filtering to be complete). The blender
+// clamps V to [0, 1] (blend_cpu rejects values outside instead).
+struct SunVisibilityTexture {
+  GLuint texture = 0;
+  int width = 0;
+  int height = 0;
+  std::uint64_t revision = 0;  // changes whenever the texture's content does
+};
+
+// One shadowing plane: its basis images in a texture array, its shadow ratios in a texture.
+class GpuBlender {
+ public:
+  // Uploads the basis (the context must be current). InputError for a malformed basis or a
+  // negative threshold; std::runtime_error when the driver cannot hold it (too many layers for
+  // GL_MAX_ARRAY_TEXTURE_LAYERS, a plane larger than GL_MAX_TEXTURE_SIZE).
+  explicit GpuBlender(const BasisImages& basis, const GpuBlendOptions& options = {});
+
+  // Blends with weights from blend_weights for this basis, unless change_threshold says the
+  // last result still holds; returns whether it ran. `sun` is needed when weights.sun is not
+  // zero (InputError otherwise, as blend_cpu); it may be null otherwise.
+  bool blend(const BlendWeights& weights, const SunVisibilityTexture* sun = nullptr);
+
+  // The next blend runs whatever its weights (e.g. after the caller rewrote its sun visibility
+  // texture without changing the revision).
+  void invalidate() { has_result_ = false; }
+
+  // The shadow ratios: GL_TEXTURE_2D, RGBA, T in rgb, texel (col, row) as the basis. Sampling
+  // it after a blend needs no barrier of the caller's (the blender issues it).
+  GLuint shadow_ratio_texture() const { return output_.get(); }
+  // T of every texel as blend_cpu writes it: width × height × 3 floats, RGB, row-major. Blocks
+  // until the GPU is done (for tests and tools, not for the frame loop). Needs
+  // GL_EXT_color_buffer_float (std::runtime_error without it).
+  std::vector<float> read_back() const;
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  int layers() const { return layers_; }
+  int slices() const { return slices_; }   // of the texture array: layers, or layers / 4 rounded up
+  const GpuBlendOptions& options() const { return options_; }
+  // max_x B_i(x) per layer (0 for a layer that is zero everywhere): the R8 scale and the bound
+  // behind both thresholds.
+  const std::vector<float>& layer_max() const { return layer_max_; }
+  // Bytes of the basis texture array as stored (what one blend reads at most).
+  std::size_t basis_bytes() const;
+
+  // About the last blend that ran.
+  int summed_layers() const { return summed_layers_; }      // layers summed (packed: in the slices read)
+  int summed_slices() const { return summed_slices_; }      // texture slices read
+  int skipped_layers() const { return skipped_layers_; }    // active layers left out by skip_threshold
+  double skipped_bound() const { return skipped_bound_; }   // Σ c_i of those (≤ skip_threshold)
+
+ private:
+  bool unchanged_since_last(const BlendWeights& weights, const SunVisibilityTexture* sun) const;
+
+  GpuBlendOptions options_;
+  std::string name_;
+  int width_ = 0;
+  int height_ = 0;
+  int layers_ = 0;
+  int layers_per_slice_ = 1;
+  int slices_ = 0;
+  int group_size_x_ = 8;
+  int group_size_y_ = 8;
+  std::vector<float> layer_max_;
+  gpu::Program program_;
+  gpu::Texture basis_;
+  gpu::Texture output_;
+  gpu::Buffer weight_buffer_;
+  GLint slice_count_location_ = -1;
+  GLint sun_weight_location_ = -1;
+  GLint use_sun_location_ = -1;
+  GLint no_light_location_ = -1;
+
+  // The weights and inputs of the last blend that ran (for change_threshold).
+  bool has_result_ = false;
+  std::vector<Eigen::Vector3f> last_face_;
+  Eigen::Vector3f last_sun_ = Eigen::Vector3f::Zero();
+  std::array<bool, 3> last_no_light_{false, false, false};
+  GLuint last_sun_texture_ = 0;
+  std::uint64_t last_sun_revision_ = 0;
+
+  int summed_layers_ = 0;
+  int summed_slices_ = 0;
+  int skipped_layers_ = 0;
+  double skipped_bound_ = 0.0;
+};
+
+}  // namespace skylit::render

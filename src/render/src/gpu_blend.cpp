@@ -1,0 +1,354 @@
+// The GPU blend: basis upload, the two savings, the dispatch of shaders/blend.comp (see
+// gpu_blend.hpp). Only the C++ library, Eigen and OpenGL ES here (bench/gpu_standalone.sh).
+#include "skylit/render/gpu_blend.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+
+#include "skylit/base/error.hpp"
+#include "skylit/gpu/shader.hpp"
+
+namespace skylit::render {
+namespace {
+
+constexpr const char* kShaderFile = "blend.comp";
+constexpr int kPackedLayers = 4;  // layers per texel of a packed array: R, G, B, A
+
+[[noreturn]] void bad_input(const std::string& field, const std::string& problem, const std::string& fix) {
+  throw InputError(input_message({}, -1, -1, field, problem, fix));
+}
+
+void check_basis(const BasisImages& basis) {
+  const std::string field = "basis '" + basis.name + "'";
+  if (basis.width <= 0 || basis.height <= 0 || basis.layers < 0) {
+    bad_input(field, "size " + std::to_string(basis.width) + "x" + std::to_string(basis.height) + "x" +
+                         std::to_string(basis.layers) + " has no texels",
+              "load the basis with load_basis");
+  }
+  if (basis.half.size() != basis.texel_count() * static_cast<std::size_t>(basis.layers)) {
+    bad_input(field, "holds " + std::to_string(basis.half.size()) + " values for " + std::to_string(basis.layers) +
+                         " layers of " + std::to_string(basis.width) + "x" + std::to_string(basis.height),
+              "load the basis with load_basis");
+  }
+}
+
+void check_threshold(double value, const std::string& field) {
+  if (!std::isfinite(value) || value < 0.0) {
+    bad_input(field, "value " + std::to_string(value) + " is not finite and >= 0",
+              "use 0 (exact) or a small fraction of full light such as 0.002");
+  }
+}
+
+// The compute program; a float shadow-ratio texture needs the image format changed, which the
+// shader takes from a macro defined here (the #line keeps the driver's line numbers the file's).
+gpu::Program load_blend_program(const GpuBlendOptions& options) {
+  const std::filesystem::path dir = gpu::find_shader_dir(options.shader_dir);
+  const std::filesystem::path path = dir / kShaderFile;
+  std::string text = gpu::read_shader(dir, kShaderFile);
+  if (options.output == ShadowRatioFormat::Float) {
+    const std::size_t version_end = text.find('\n');
+    if (version_end == std::string::npos) {
+      throw InputError(input_message(path, 1, -1, "#version", "the file has a single line",
+                                     "use skylit's shaders/blend.comp"));
+    }
+    text.insert(version_end + 1, "#define SKYLIT_T_FORMAT rgba32f\n#line 2\n");
+  }
+  const gpu::ShaderSource source{GL_COMPUTE_SHADER, path.string(), text};
+  return gpu::link_program(std::span<const gpu::ShaderSource>(&source, 1));
+}
+
+GLint uniform_location(GLuint program, const char* name) {
+  const GLint location = glGetUniformLocation(program, name);
+  if (location < 0) {
+    throw gpu::GlError(std::string("GPU blend: ") + kShaderFile + " has no uniform '" + name +
+                       "' (shader files from another version of skylit?)");
+  }
+  return location;
+}
+
+// std430 layout of blend.comp's Slice.
+struct SliceWeights {
+  std::array<float, 4> red;
+  std::array<float, 4> green;
+  std::array<float, 4> blue;
+  std::array<GLint, 4> index;
+};
+static_assert(sizeof(SliceWeights) == 64);
+
+GLint max_integer(GLenum name) {
+  GLint value = 0;
+  glGetIntegerv(name, &value);
+  return value;
+}
+
+}  // namespace
+
+GpuBlender::GpuBlender(const BasisImages& basis, const GpuBlendOptions& options)
+    : options_(options), name_(basis.name), width_(basis.width), height_(basis.height), layers_(basis.layers) {
+  check_basis(basis);
+  check_threshold(options.skip_threshold, "skip_threshold");
+  check_threshold(options.change_threshold, "change_threshold");
+  layers_per_slice_ = options_.pack_layers ? kPackedLayers : 1;
+  slices_ = std::max((layers_ + layers_per_slice_ - 1) / layers_per_slice_, 1);
+  const GLint max_slices = max_integer(GL_MAX_ARRAY_TEXTURE_LAYERS);
+  const GLint max_size = max_integer(GL_MAX_TEXTURE_SIZE);
+  if (slices_ > max_slices) {
+    throw std::runtime_error("GPU blend: plane '" + name_ + "' needs " + std::to_string(slices_) +
+                             " texture slices; this driver's texture arrays hold " + std::to_string(max_slices) +
+                             " (GL_MAX_ARRAY_TEXTURE_LAYERS): pack the layers, or bake with a smaller dome frequency");
+  }
+  if (width_ > max_size || height_ > max_size) {
+    throw std::runtime_error("GPU blend: plane '" + name_ + "' is " + std::to_string(width_) + "x" +
+                             std::to_string(height_) + " texels; this driver's textures hold " +
+                             std::to_string(max_size) + " per side (GL_MAX_TEXTURE_SIZE)");
+  }
+  program_ = load_blend_program(options_);
+  glUseProgram(program_.get());
+  GLint group_size[3] = {0, 0, 0};
+  glGetProgramiv(program_.get(), GL_COMPUTE_WORK_GROUP_SIZE, group_size);
+  group_size_x_ = std::max(group_size[0], 1);
+  group_size_y_ = std::max(group_size[1], 1);
+  slice_count_location_ = uniform_location(program_.get(), "slice_count");
+  sun_weight_location_ = uniform_location(program_.get(), "sun_weight");
+  use_sun_location_ = uniform_location(program_.get(), "use_sun");
+  no_light_location_ = uniform_location(program_.get(), "no_light");
+
+  // The basis, one slice at a time: a layer, or four in the channels of a texel (the last
+  // slice padded with zeros). 8-bit layers are scaled by their maximum on the way. A plane
+  // without layers still gets a slice, never read, since a texture array cannot be empty.
+  const std::size_t texels = basis.texel_count();
+  const bool unorm8 = options_.storage == BasisStorage::Unorm8;
+  const std::size_t channels = static_cast<std::size_t>(layers_per_slice_);
+  const GLenum internal_format = options_.pack_layers ? (unorm8 ? GL_RGBA8 : GL_RGBA16F) : (unorm8 ? GL_R8 : GL_R16F);
+  const GLenum format = options_.pack_layers ? GL_RGBA : GL_RED;
+  basis_ = gpu::make_texture();
+  glBindTexture(GL_TEXTURE_2D_ARRAY, basis_.get());
+  glTexStorage3D(GL_TEXTURE_2D_ARRAY, 1, internal_format, width_, height_, slices_);
+  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  layer_max_.assign(static_cast<std::size_t>(layers_), 0.0f);
+  std::vector<float> values(texels);
+  std::vector<std::uint16_t> halves(unorm8 ? 0 : channels * texels);
+  std::vector<std::uint8_t> bytes(unorm8 ? channels * texels : 0);
+  for (int slice = 0; slice < slices_ && layers_ > 0; ++slice) {
+    std::fill(halves.begin(), halves.end(), std::uint16_t{0});
+    std::fill(bytes.begin(), bytes.end(), std::uint8_t{0});
+    for (std::size_t c = 0; c < channels; ++c) {
+      const int i = slice * layers_per_slice_ + static_cast<int>(c);
+      if (i >= layers_) break;
+      const std::uint16_t* layer = basis.half.data() + static_cast<std::size_t>(i) * texels;
+      halves_to_floats(std::span<const std::uint16_t>(layer, texels), values);
+      float top = 0.0f;
+      for (const float b : values) top = b > top ? b : top;  // NaN compares false: ignored
+      if (!std::isfinite(top)) {
+        bad_input("basis '" + name_ + "' layer " + std::to_string(i), "holds an infinite value", "re-bake the plane");
+      }
+      layer_max_[static_cast<std::size_t>(i)] = top;
+      if (unorm8) {
+        // B ≈ top · q / 255, q rounded to nearest; negative values (none in a bake) become 0.
+        const float scale = top > 0.0f ? 255.0f / top : 0.0f;
+        for (std::size_t k = 0; k < texels; ++k) {
+          const float q = values[k] * scale;
+          bytes[k * channels + c] = static_cast<std::uint8_t>(q > 0.0f ? std::lround(std::min(q, 255.0f)) : 0);
+        }
+      } else {
+        for (std::size_t k = 0; k < texels; ++k) halves[k * channels + c] = layer[k];
+      }
+    }
+    glTexSubImage3D(GL_TEXTURE_2D_ARRAY, 0, 0, 0, slice, width_, height_, 1, format,
+                    unorm8 ? GL_UNSIGNED_BYTE : GL_HALF_FLOAT,
+                    unorm8 ? static_cast<const void*>(bytes.data()) : static_cast<const void*>(halves.data()));
+  }
+  gpu::check_gl_error("GPU blend: uploading the basis of plane '" + name_ + "'");
+
+  // T starts as 1 (no shadow) so that sampling before the first blend shows the camera image.
+  output_ = gpu::make_texture();
+  glBindTexture(GL_TEXTURE_2D, output_.get());
+  const bool float_output = options_.output == ShadowRatioFormat::Float;
+  glTexStorage2D(GL_TEXTURE_2D, 1, float_output ? GL_RGBA32F : GL_RGBA16F, width_, height_);
+  const GLint filter = float_output ? GL_NEAREST : GL_LINEAR;
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, filter);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, filter);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  const std::vector<float> ones(4 * texels, 1.0f);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, width_, height_, GL_RGBA, GL_FLOAT, ones.data());
+
+  weight_buffer_ = gpu::make_buffer();
+  glBindBuffer(GL_SHADER_STORAGE_BUFFER, weight_buffer_.get());
+  glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(sizeof(SliceWeights) * static_cast<std::size_t>(slices_)),
+               nullptr, GL_DYNAMIC_DRAW);
+  gpu::check_gl_error("GPU blend: setting up plane '" + name_ + "'");
+}
+
+std::size_t GpuBlender::basis_bytes() const {
+  const std::size_t per_layer = options_.storage == BasisStorage::Unorm8 ? 1 : 2;
+  return static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_) * static_cast<std::size_t>(slices_) *
+         static_cast<std::size_t>(layers_per_slice_) * per_layer;
+}
+
+bool GpuBlender::unchanged_since_last(const BlendWeights& weights, const SunVisibilityTexture* sun) const {
+  if (!has_result_ || weights.no_light != last_no_light_) return false;
+  const bool sun_now = !weights.sun.isZero();
+  const bool sun_then = !last_sun_.isZero();
+  const GLuint texture = sun_now ? sun->texture : 0;
+  const std::uint64_t revision = sun_now ? sun->revision : 0;
+  if (sun_now && sun_then && (texture != last_sun_texture_ || revision != last_sun_revision_)) return false;
+  // The largest change of T any texel can see, per channel (B ≤ layer_max, V ≤ 1).
+  Eigen::Vector3d bound = (weights.sun - last_sun_).cwiseAbs().cast<double>();
+  for (std::size_t i = 0; i < weights.face.size(); ++i) {
+    bound += (weights.face[i] - last_face_[i]).cwiseAbs().cast<double>() * static_cast<double>(layer_max_[i]);
+  }
+  return bound.maxCoeff() <= options_.change_threshold;
+}
+
+bool GpuBlender::blend(const BlendWeights& weights, const SunVisibilityTexture* sun) {
+  const std::size_t layers = static_cast<std::size_t>(layers_);
+  if (weights.face.size() != layers) {
+    bad_input("weights.face", std::to_string(weights.face.size()) + " weights for the " + std::to_string(layers) +
+                                  " layers of plane '" + name_ + "'",
+              "compute the weights with blend_weights for this basis");
+  }
+  int previous = -1;
+  for (const int i : weights.active) {
+    if (i <= previous || i >= layers_) {
+      bad_input("weights.active", "layer " + std::to_string(i) + " is out of order or out of range",
+                "compute the weights with blend_weights for this basis");
+    }
+    previous = i;
+  }
+  for (const Eigen::Vector3f& w : weights.face) {
+    if (!w.allFinite()) bad_input("weights.face", "holds a value that is not finite", "compute the weights with blend_weights");
+  }
+  if (!weights.sun.allFinite()) bad_input("weights.sun", "is not finite", "compute the weights with blend_weights");
+  const bool use_sun = !weights.sun.isZero();
+  if (use_sun) {
+    if (sun == nullptr || sun->texture == 0) {
+      bad_input("sun_visibility", "is missing but the sun lights plane '" + name_ + "'",
+                "pass the plane's SunVisibilityTexture (SunShadowMap::visibility), or blend without the sun");
+    }
+    if (sun->width != width_ || sun->height != height_) {
+      bad_input("sun_visibility", "is " + std::to_string(sun->width) + "x" + std::to_string(sun->height) +
+                                      "; plane '" + name_ + "' has " + std::to_string(width_) + "x" +
+                                      std::to_string(height_) + " texels",
+                "pass this plane's visibility texture");
+    }
+  }
+  if (unchanged_since_last(weights, sun)) return false;
+
+  // skip_threshold: leave out the layers of least possible contribution while their bounds add
+  // up to no more than the threshold; the rest are summed in ascending layer (slice) order.
+  const std::size_t active = weights.active.size();
+  std::vector<double> contribution(active);
+  for (std::size_t a = 0; a < active; ++a) {
+    const auto i = static_cast<std::size_t>(weights.active[a]);
+    contribution[a] = static_cast<double>(weights.face[i].cwiseAbs().maxCoeff()) * static_cast<double>(layer_max_[i]);
+  }
+  std::vector<std::size_t> order(active);
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return contribution[a] < contribution[b]; });
+  std::vector<bool> keep(active, true);
+  double candidates = 0.0;
+  for (const std::size_t a : order) {
+    if (candidates + contribution[a] > options_.skip_threshold) break;
+    candidates += contribution[a];
+    keep[a] = false;
+  }
+  // A slice is read when one of its layers is kept; then all its active layers are summed (they
+  // come with the fetch), and only the layers of unread slices count as skipped.
+  const bool unorm8 = options_.storage == BasisStorage::Unorm8;
+  std::vector<SliceWeights> slices;
+  std::vector<bool> slice_read(static_cast<std::size_t>(slices_), false);
+  for (std::size_t a = 0; a < active; ++a) {
+    if (keep[a]) slice_read[static_cast<std::size_t>(weights.active[a] / layers_per_slice_)] = true;
+  }
+  double skipped = 0.0;
+  int skipped_count = 0;
+  int summed = 0;
+  for (std::size_t a = 0; a < active; ++a) {
+    const int i = weights.active[a];
+    const int slice = i / layers_per_slice_;
+    if (!slice_read[static_cast<std::size_t>(slice)]) {
+      skipped += contribution[a];
+      ++skipped_count;
+      continue;
+    }
+    if (slices.empty() || slices.back().index[0] != slice) slices.push_back(SliceWeights{{}, {}, {}, {slice, 0, 0, 0}});
+    const std::size_t c = static_cast<std::size_t>(i % layers_per_slice_);
+    const float scale = unorm8 ? layer_max_[static_cast<std::size_t>(i)] : 1.0f;
+    const Eigen::Vector3f& w = weights.face[static_cast<std::size_t>(i)];
+    slices.back().red[c] = w.x() * scale;
+    slices.back().green[c] = w.y() * scale;
+    slices.back().blue[c] = w.z() * scale;
+    ++summed;
+  }
+
+  glUseProgram(program_.get());
+  glBindBuffer(GL_SHADER_STORAGE_BUFFER, weight_buffer_.get());
+  if (!slices.empty()) {
+    glBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, static_cast<GLsizeiptr>(slices.size() * sizeof(SliceWeights)),
+                    slices.data());
+  }
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, weight_buffer_.get());
+  glUniform1i(slice_count_location_, static_cast<GLint>(slices.size()));
+  glUniform3f(sun_weight_location_, weights.sun.x(), weights.sun.y(), weights.sun.z());
+  glUniform1i(use_sun_location_, use_sun ? 1 : 0);
+  glUniform3i(no_light_location_, weights.no_light[0] ? 1 : 0, weights.no_light[1] ? 1 : 0, weights.no_light[2] ? 1 : 0);
+  glActiveTexture(GL_TEXTURE0);
+  glBindTexture(GL_TEXTURE_2D_ARRAY, basis_.get());
+  glActiveTexture(GL_TEXTURE1);
+  glBindTexture(GL_TEXTURE_2D, use_sun ? sun->texture : 0);
+  glActiveTexture(GL_TEXTURE0);
+  const GLenum format = options_.output == ShadowRatioFormat::Float ? GL_RGBA32F : GL_RGBA16F;
+  glBindImageTexture(0, output_.get(), 0, GL_FALSE, 0, GL_WRITE_ONLY, format);
+  glDispatchCompute(static_cast<GLuint>((width_ + group_size_x_ - 1) / group_size_x_),
+                    static_cast<GLuint>((height_ + group_size_y_ - 1) / group_size_y_), 1);
+  // Whoever reads T next (a sampler, a framebuffer read, another image load) sees this result.
+  glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_FRAMEBUFFER_BARRIER_BIT |
+                  GL_TEXTURE_UPDATE_BARRIER_BIT);
+  gpu::check_gl_error("GPU blend of plane '" + name_ + "'");
+
+  has_result_ = true;
+  last_face_ = weights.face;
+  last_sun_ = weights.sun;
+  last_no_light_ = weights.no_light;
+  last_sun_texture_ = use_sun ? sun->texture : 0;
+  last_sun_revision_ = use_sun ? sun->revision : 0;
+  summed_layers_ = summed;
+  summed_slices_ = static_cast<int>(slices.size());
+  skipped_layers_ = skipped_count;
+  skipped_bound_ = skipped;
+  return true;
+}
+
+std::vector<float> GpuBlender::read_back() const {
+  GLint previous = 0;
+  glGetIntegerv(GL_FRAMEBUFFER_BINDING, &previous);
+  const gpu::Framebuffer framebuffer = gpu::make_framebuffer();
+  glBindFramebuffer(GL_FRAMEBUFFER, framebuffer.get());
+  glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, output_.get(), 0);
+  if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
+    glBindFramebuffer(GL_FRAMEBUFFER, static_cast<GLuint>(previous));
+    throw std::runtime_error("GPU blend: the driver cannot read back a float texture (it lacks "
+                             "GL_EXT_color_buffer_float); sample shadow_ratio_texture() instead");
+  }
+  std::vector<float> rgba(4 * static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_));
+  glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  glReadBuffer(GL_COLOR_ATTACHMENT0);
+  glReadPixels(0, 0, width_, height_, GL_RGBA, GL_FLOAT, rgba.data());
+  glBindFramebuffer(GL_FRAMEBUFFER, static_cast<GLuint>(previous));
+  gpu::check_gl_error("GPU blend: reading back plane '" + name_ + "'");
+  std::vector<float> rgb(3 * static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_));
+  for (std::size_t k = 0; k < rgb.size() / 3; ++k) {
+    for (std::size_t c = 0; c < 3; ++c) rgb[3 * k + c] = rgba[4 * k + c];
+  }
+  return rgb;
+}
+
+}  // namespace skylit::render

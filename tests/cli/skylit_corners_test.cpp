@@ -1,0 +1,80 @@
+// End to end with the corners basis: skylit-bake --basis corners, verify, and skylit-shade on a
+// real sky, as a user would run them.
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "cli_support.hpp"
+#include "skylit/sky/calibration.hpp"
+#include "skylit/sky/radiometry.hpp"
+#include "skylit/sky/simulate.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+using skylit::cli_test::kBin;
+using skylit::cli_test::kSource;
+using skylit::cli_test::Result;
+using skylit::cli_test::TempDir;
+
+Result run(const fs::path& program, const std::string& args) { return skylit::cli_test::run_program(program, args); }
+
+TEST(SkylitCorners, BakeVerifyAndShade) {
+  TempDir dir;
+  const std::string site = (kSource / "config" / "sample_site.yaml").string();
+  // One sample per face cannot resolve three corners: refused, with the fix.
+  const Result refused = run(kBin / "skylit-bake", site + " -o " + (dir / "refused").string() +
+                                                       " --basis corners --resolution 24x16 --method raytrace -q");
+  EXPECT_EQ(refused.status, 2) << refused.output;
+  EXPECT_NE(refused.output.find("--samples 16"), std::string::npos) << refused.output;
+  const Result unknown = run(kBin / "skylit-bake", site + " -o " + (dir / "unknown").string() + " --basis vertices -q");
+  EXPECT_EQ(unknown.status, 2) << unknown.output;
+  EXPECT_NE(unknown.output.find("--basis faces or --basis corners"), std::string::npos) << unknown.output;
+
+  const fs::path bake = dir / "bake";
+  const Result baked = run(kBin / "skylit-bake", site + " -o " + bake.string() +
+                                                     " --basis corners --samples 4 --resolution 24x16 --method raytrace "
+                                                     "--no-previews -q");
+  ASSERT_EQ(baked.status, 0) << baked.output;
+  const Result verified = run(kBin / "skylit-bake", "verify " + bake.string());
+  EXPECT_EQ(verified.status, 0) << verified.output;
+  EXPECT_NE(verified.output.find("corners basis, 120 layers"), std::string::npos) << verified.output;
+
+  // The park sky (a low sun) in the sample sky camera.
+  const fs::path calib = kSource / "config" / "sky_camera.yaml";
+  const skylit::sky::Lens lens(skylit::sky::load_calibration(calib));
+  cv::Mat equirect = skylit::sky::read_sky_image(kSource / "data" / "hdri" / "park.exr");
+  const fs::path frame = dir / "park_fisheye.exr";
+  skylit::sky::write_sky_exr(frame, skylit::sky::render_fisheye(lens, equirect, {.supersample = 1}));
+
+  const fs::path out = dir / "out";
+  const Result shaded = run(kBin / "skylit-shade", "--bake " + bake.string() + " --sky-calib " + calib.string() +
+                                                       " --sky " + frame.string() + " -o " + out.string() + " -q");
+  ASSERT_EQ(shaded.status, 0) << shaded.output;
+  const nlohmann::json sky = nlohmann::json::parse(std::ifstream(out / "sky.json"));
+  EXPECT_EQ(sky["basis"], "corners");
+  ASSERT_EQ(sky["faces"].size(), 40u);
+  for (const auto& face : sky["faces"]) {
+    ASSERT_EQ(face["corners"].size(), 3u);
+    for (const auto& corner : face["corners"]) {
+      EXPECT_EQ(corner["S"].size(), 3u);
+      EXPECT_EQ(corner["direction"].size(), 3u);
+    }
+  }
+  for (const char* plane : {"ground", "wall", "roof"}) {
+    const cv::Mat T = skylit::sky::read_sky_image(out / (std::string(plane) + ".exr"));
+    ASSERT_EQ(T.cols, 24);
+    double lo = 0, hi = 0;
+    cv::minMaxLoc(T.reshape(1), &lo, &hi);
+    EXPECT_GE(lo, 0.0) << plane;
+    EXPECT_LE(hi, 1.0) << plane;
+  }
+}
+
+}  // namespace

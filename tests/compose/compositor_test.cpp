@@ -1,0 +1,569 @@
+// The compositor against its CPU reference and against geometry: recorded sky and camera frames
+// in, composites out; the shadow of the buildings on the real ground where the sun puts it; the
+// real camera pixels untouched where nothing virtual is; the virtual planes' exact shading; no
+// NaN from any input. Measured figures are printed ("measured:" lines).
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numbers>
+#include <random>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "compose_fixture.hpp"
+#include "skylit/base/error.hpp"
+#include "skylit/geom/dome.hpp"
+#include "skylit/render/sun_shadow_map.hpp"
+#include "skylit/sky/radiometry.hpp"
+#include "skylit/sky/simulate.hpp"
+#include "skylit/sky/sky_estimate.hpp"
+
+namespace skylit::compose_test {
+namespace {
+
+class CompositorTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { context_ = new gpu::HeadlessContext(); }
+  static void TearDownTestSuite() {
+    delete context_;
+    context_ = nullptr;
+  }
+
+  static render::Compositor make(const render::CompositorOptions& options = {}) {
+    const BakedSite& baked = BakedSite::get();
+    return render::Compositor(baked.site, baked.mesh, baked.manifest, baked.transfer, hmd_camera(), options);
+  }
+
+  // Shadow-ratio textures for the compositor, and their names in plane order.
+  struct RatioTextures {
+    std::vector<gpu::Texture> textures;
+    std::vector<GLuint> names;
+  };
+  static RatioTextures upload(const std::vector<PlaneRatios>& ratios) {
+    RatioTextures out;
+    for (const PlaneRatios& r : ratios) {
+      out.textures.push_back(render::upload_shadow_ratio(r.rgb, r.width, r.height));
+      out.names.push_back(out.textures.back().get());
+    }
+    return out;
+  }
+
+  static ReferenceInputs reference_inputs(const std::vector<PlaneRatios>& ratios, const std::vector<Vector3d>& sky,
+                                          const std::optional<render::SunLight>& sun,
+                                          const Vector3d& photometric = Vector3d::Ones()) {
+    const BakedSite& baked = BakedSite::get();
+    ReferenceInputs in;
+    in.site = &baked.site;
+    in.mesh = &baked.mesh;
+    in.manifest = &baked.manifest;
+    in.transfer = baked.transfer;
+    in.ratios = ratios;
+    in.sky = sky;
+    in.sun = sun;
+    in.photometric = photometric;
+    return in;
+  }
+
+  static gpu::HeadlessContext* context_;
+};
+gpu::HeadlessContext* CompositorTest::context_ = nullptr;
+
+// A uniform sky of radiance `level` on every face.
+std::vector<Vector3d> uniform_sky(double level) {
+  return std::vector<Vector3d>(BakedSite::get().manifest.faces.size(), Vector3d::Constant(level));
+}
+
+bool finite_image(const cv::Mat& image) {
+  const cv::Mat flat = image.reshape(1);
+  for (int y = 0; y < flat.rows; ++y) {
+    for (int x = 0; x < flat.cols; ++x) {
+      const double v = flat.depth() == CV_32F ? static_cast<double>(flat.at<float>(y, x)) : flat.at<std::uint8_t>(y, x);
+      if (!std::isfinite(v)) return false;
+    }
+  }
+  return true;
+}
+
+TEST_F(CompositorTest, RecordedFramesMatchTheCpuReference) {
+  const BakedSite& baked = BakedSite::get();
+  // The recorded sky (a real HDR capture), turned so that its sun stands in the west-south-west,
+  // seen by the sample sky camera; the HMD frame is the same capture seen by the HMD camera.
+  const cv::Mat equirect = sky::read_sky_image(fs::path(SKYLIT_SOURCE_DIR) / "data/hdri/park.exr");
+  const sky::CameraCalibration sky_camera = sky::load_calibration(fs::path(SKYLIT_SOURCE_DIR) / "config/sky_camera.yaml");
+  sky::RenderOptions render_options;
+  render_options.supersample = 2;
+  const geom::Dome dome(2);
+  const sky::SkyEstimator estimator(sky_camera, dome);
+  sky::SkyEstimate estimate = estimator.estimate({sky::render_fisheye(estimator.lens(), equirect, render_options), cv::Mat()});
+  ASSERT_TRUE(estimate.sun) << estimate.sun_reason;
+  // Turn the capture about the zenith so that its sun lies at azimuth 250° (the tower then shades
+  // the annex's roof and the ground east of it).
+  const double sun_azimuth = std::atan2(estimate.sun->direction.x(), estimate.sun->direction.y());
+  render_options.azimuth_offset = 250.0 * std::numbers::pi / 180.0 - sun_azimuth;
+  estimate = estimator.estimate({sky::render_fisheye(estimator.lens(), equirect, render_options), cv::Mat()});
+  ASSERT_TRUE(estimate.sun) << estimate.sun_reason;
+  const sky::Sun& detected = *estimate.sun;
+  std::vector<Vector3d> S;
+  for (const sky::FaceLuminance& face : estimate.luminance.faces) S.push_back(face.rgb);
+  const render::SunLight sun{detected.direction, detected.energy};
+  std::printf("measured: sun at azimuth %.1f°, elevation %.1f°, E_sun %.3g, Σ S_i Ω_i %.3g\n",
+              std::atan2(sun.direction.x(), sun.direction.y()) * 180 / std::numbers::pi,
+              std::asin(sun.direction.z()) * 180 / std::numbers::pi, sun.energy.mean(),
+              [&] {
+                double sum = 0;
+                for (std::size_t i = 0; i < S.size(); ++i) sum += S[i].mean() * baked.manifest.faces[i].solid_angle;
+                return sum;
+              }());
+
+  const std::vector<PlaneRatios> ratios = baked.shadow_ratios(S, sun, detected.disc_directions, detected.disc_weights);
+  const RatioTextures textures = upload(ratios);
+  render::SunShadowMap shadow_map(baked.mesh, baked.site.planes);
+  shadow_map.update(detected.direction, detected.angular_radius);
+
+  sky::CameraCalibration hmd = hmd_camera();
+  const render::CameraPose pose = hmd_pose();
+  hmd.R_site_from_camera = pose.R_site_from_camera;
+  const cv::Mat camera = sky::render_fisheye(sky::Lens(hmd), equirect, render_options);
+
+  render::Compositor compositor = make();
+  // The photometric match from the grass south-west of the buildings (albedo taken as known),
+  // which nothing shades with the sun in the west.
+  const cv::Mat region = compositor.region_mask(0, 0.15, 0.45, 0.2, 0.4, pose);
+  const Vector3d ground_irradiance = render::plane_irradiance(baked.manifest.planes[0], S, sun);
+  const render::PhotometricEstimate match =
+      render::estimate_photometric_match(camera, region, ground_irradiance, Vector3d(0.12, 0.14, 0.05));
+  ASSERT_TRUE(match.ok) << match.problem;
+  std::printf("measured: photometric scale k = (%.4g, %.4g, %.4g) from %lld pixels, spread %.3f\n",
+              match.match.scale.x(), match.match.scale.y(), match.match.scale.z(),
+              static_cast<long long>(match.pixels_used), match.spread.maxCoeff());
+
+  render::CompositeInput input;
+  input.camera = camera;
+  input.pose = pose;
+  input.sky = S;
+  input.sun = sun;
+  input.shadow_ratios = textures.names;
+  input.sun_shadow = &shadow_map;
+  input.photometric = match.match;
+  const cv::Mat gpu = compositor.composite(input);
+  EXPECT_FALSE(compositor.last_stats().sun_without_shadow_map);
+
+  const RayCaster caster(baked.mesh);
+  const ReferenceResult reference = reference_composite(reference_inputs(ratios, S, sun, match.match.scale),
+                                                        sky::Lens(hmd_camera()), caster, camera, pose);
+  ASSERT_TRUE(finite_image(gpu));
+  // A pixel is off when a channel differs by more than 1% of the image's mean value plus 2% of
+  // its own. Edges rasterise differently (the building's outline through the pinhole render,
+  // the sun's penumbra on the building through the shadow map against the reference's one ray to
+  // the disc's centre): the building is judged inside its outline (eroded by 2 px), where the
+  // remaining differences lie on the kinks of the bilinearly magnified checker texture, smoothed
+  // by the render's resampling (a render_scale of 2 halves them).
+  const double scale = cv::mean(reference.linear)[1];
+  const Difference all = compare(gpu, reference.linear, cv::Mat(), 0.01 * scale, 0.02);
+  const cv::Mat building = reference.what == 2, ground = reference.what == 1;
+  cv::Mat interior;
+  cv::erode(building, interior, cv::Mat::ones(5, 5, CV_8U));
+  const Difference on_building = compare(gpu, reference.linear, interior, 0.01 * scale, 0.02);
+  const Difference on_ground = compare(gpu, reference.linear, ground, 0.01 * scale, 0.02);
+  std::printf("measured: GPU vs CPU composite (mean value %.4g): all %lld px, mean |d| %.3g, max %.3g, off %.2f%%; "
+              "building interior %lld px, mean %.3g, max %.3g, off %.2f%%; real ground %lld px, mean %.3g, max %.3g, "
+              "off %.2f%%\n",
+              scale, static_cast<long long>(all.pixels), all.mean, all.max, 100 * all.fraction_off,
+              static_cast<long long>(on_building.pixels), on_building.mean, on_building.max,
+              100 * on_building.fraction_off, static_cast<long long>(on_ground.pixels), on_ground.mean, on_ground.max,
+              100 * on_ground.fraction_off);
+  EXPECT_GT(on_building.pixels, 3000);
+  EXPECT_GT(on_ground.pixels, 10000);
+  EXPECT_LT(all.mean, 0.005 * scale);
+  EXPECT_LT(all.fraction_off, 0.02);
+  EXPECT_LT(on_ground.fraction_off, 0.001);
+  EXPECT_LT(on_ground.mean, 1e-4 * scale);
+  EXPECT_LT(on_building.mean, 0.01 * cv::mean(reference.linear, interior)[1]);
+  EXPECT_LT(on_building.fraction_off, 0.05);
+
+  // The building rendered smaller (CompositorOptions::lens.render_scale, a speed setting): what
+  // it costs against the same reference. The real pixels do not depend on it.
+  for (const double render_scale : {0.75, 0.5}) {
+    render::CompositorOptions options;
+    options.lens.render_scale = render_scale;
+    render::Compositor smaller = make(options);
+    const cv::Mat out = smaller.composite(input);
+    const Difference scaled_all = compare(out, reference.linear, cv::Mat(), 0.01 * scale, 0.02);
+    const Difference scaled_building = compare(out, reference.linear, interior, 0.01 * scale, 0.02);
+    const Difference scaled_ground = compare(out, reference.linear, ground, 0.01 * scale, 0.02);
+    std::printf("measured: render scale %.2f (pinhole %d×%d): all mean |d| %.3g, off %.2f%%; building interior mean %.3g, "
+                "off %.2f%%; real ground off %.2f%%\n",
+                render_scale, smaller.lens_remap().pinhole.width, smaller.lens_remap().pinhole.height, scaled_all.mean,
+                100 * scaled_all.fraction_off, scaled_building.mean, 100 * scaled_building.fraction_off,
+                100 * scaled_ground.fraction_off);
+  }
+
+  save_picture("recorded_camera", camera);
+  save_picture("recorded_composite_gpu", gpu);
+  save_picture("recorded_composite_cpu", reference.linear);
+  cv::Mat difference;
+  cv::absdiff(gpu, reference.linear, difference);
+  save_picture("recorded_difference_x10", difference * 10.0);
+}
+
+// Ground points in the shadow the buildings cast with the sun towards `sun`: the convex hull of
+// each box's corners projected along the sun onto the ground plane; signed distance to the
+// nearest hull edge (positive inside).
+double shadow_depth(const Vector3d& sun, const Eigen::Vector2d& ground_point, double plane_height) {
+  const std::array<Box, 2> boxes{Box{{-1, -1, 0}, {1, 1, 4}}, Box{{1, -1, 0}, {4, 1, 1.5}}};
+  double best = -std::numeric_limits<double>::infinity();
+  for (const Box& box : boxes) {
+    std::vector<cv::Point2f> corners;
+    for (int k = 0; k < 8; ++k) {
+      const Vector3d p((k & 1) ? box.high.x() : box.low.x(), (k & 2) ? box.high.y() : box.low.y(),
+                       (k & 4) ? box.high.z() : box.low.z());
+      const Vector3d q = p - (p.z() - plane_height) / sun.z() * sun;
+      corners.emplace_back(static_cast<float>(q.x()), static_cast<float>(q.y()));
+    }
+    std::vector<cv::Point2f> hull;
+    cv::convexHull(corners, hull);
+    best = std::max(best, cv::pointPolygonTest(hull, cv::Point2f(static_cast<float>(ground_point.x()),
+                                                                 static_cast<float>(ground_point.y())),
+                                               true));
+  }
+  return best;
+}
+
+TEST_F(CompositorTest, ShadowOnTheGroundLandsWhereGeometryPutsIt) {
+  const BakedSite& baked = BakedSite::get();
+  for (const double azimuth : {250.0, 120.0}) {
+    SCOPED_TRACE(azimuth);
+    const Vector3d towards_sun = from_angles(azimuth, 35.0);
+    const std::vector<Vector3d> S = uniform_sky(0.05);
+    const render::SunLight sun{towards_sun, Vector3d::Ones()};
+    const std::vector<PlaneRatios> ratios = baked.shadow_ratios(S, sun);
+    const RatioTextures textures = upload(ratios);
+    render::SunShadowMap shadow_map(baked.mesh, baked.site.planes);
+    shadow_map.update(towards_sun, 0.0047);
+
+    // A grey real world: every camera pixel 0.5 (linear), so a ground pixel reads 0.5 T.
+    const cv::Mat camera(240, 320, CV_32FC3, cv::Scalar::all(0.5));
+    const render::CameraPose pose = hmd_pose(4.0, -8.0, 8.0, 40.0);
+    render::Compositor compositor = make();
+    render::CompositeInput input;
+    input.camera = camera;
+    input.pose = pose;
+    input.sky = S;
+    input.sun = sun;
+    input.shadow_ratios = textures.names;
+    input.sun_shadow = &shadow_map;
+    const cv::Mat out = compositor.composite(input);
+
+    // Every ground pixel clear of the building and more than 0.3 m from a shadow's edge: dark
+    // (T < 0.6) exactly where the geometry puts the shadow.
+    const sky::Lens lens(hmd_camera());
+    const RayCaster caster(baked.mesh);
+    const geom::Plane& ground = baked.manifest.planes[0].plane;
+    int shadowed = 0, lit = 0, agree = 0;
+    for (int y = 0; y < out.rows; ++y) {
+      for (int x = 0; x < out.cols; ++x) {
+        const auto ray = lens.unproject(Eigen::Vector2d(x, y));
+        if (!ray) continue;
+        const Vector3d d = pose.R_site_from_camera * ray->normalized();
+        if (d.z() >= -1e-6) continue;
+        const double t = (ground.origin.z() - pose.t_site_from_camera.z()) / d.z();
+        const Vector3d g = pose.t_site_from_camera + t * d;
+        const Eigen::Vector2d st = plane_st(ground, g);
+        if (st.minCoeff() < 0.02 || st.maxCoeff() > 0.98) continue;
+        // Clear of the building in a 2-pixel neighbourhood.
+        bool clear = true;
+        for (int dy = -2; dy <= 2 && clear; ++dy) {
+          for (int dx = -2; dx <= 2 && clear; ++dx) {
+            const auto r = lens.unproject(Eigen::Vector2d(x + dx, y + dy));
+            if (r && caster.intersect(pose.t_site_from_camera, pose.R_site_from_camera * r->normalized())) clear = false;
+          }
+        }
+        if (!clear) continue;
+        const double depth = shadow_depth(towards_sun, g.head<2>(), ground.origin.z());
+        if (std::abs(depth) < 0.3) continue;
+        const bool geometry_says_shadow = depth > 0;
+        const bool image_says_shadow = out.at<cv::Vec3f>(y, x)[1] / 0.5f < 0.6f;
+        (geometry_says_shadow ? shadowed : lit) += 1;
+        agree += geometry_says_shadow == image_says_shadow ? 1 : 0;
+      }
+    }
+    // On the building, away from its outline: the sun's shadows through the shadow map agree
+    // with rays to the sun (the tower shades the annex's roof).
+    ReferenceInputs reference_in = reference_inputs(ratios, S, sun);
+    const ReferenceResult reference = reference_composite(reference_in, lens, caster, camera, pose);
+    reference_in.sun_shadows = false;
+    const ReferenceResult unshadowed = reference_composite(reference_in, lens, caster, camera, pose);
+    cv::Mat interior;
+    cv::erode(reference.what == 2, interior, cv::Mat::ones(5, 5, CV_8U));
+    cv::Mat in_sun_shadow(interior.size(), CV_8U, cv::Scalar(0));
+    for (int y = 0; y < out.rows; ++y) {
+      for (int x = 0; x < out.cols; ++x) {
+        if (interior.at<std::uint8_t>(y, x) != 0 &&
+            reference.linear.at<cv::Vec3f>(y, x)[1] < 0.7f * unshadowed.linear.at<cv::Vec3f>(y, x)[1]) {
+          in_sun_shadow.at<std::uint8_t>(y, x) = 255;
+        }
+      }
+    }
+    // Pixels at the shadow's edge (2 px) are left out on both sides: a pixel there is part lit.
+    cv::Mat edge, shadow_core;
+    cv::morphologyEx(in_sun_shadow, edge, cv::MORPH_GRADIENT, cv::Mat::ones(5, 5, CV_8U));
+    cv::erode(in_sun_shadow, shadow_core, cv::Mat::ones(5, 5, CV_8U));
+    interior.setTo(0, edge);
+    const Difference building = compare(out, reference.linear, interior, 0.005, 0.02);
+    const Difference shadowed_building = compare(out, reference.linear, shadow_core, 0.005, 0.02);
+    std::printf("measured: sun azimuth %.0f°: building interior %lld px, mean |d| %.3g, off %.2f%%; of them in the "
+                "sun's shadow %lld px, off %.2f%%\n",
+                azimuth, static_cast<long long>(building.pixels), building.mean, 100 * building.fraction_off,
+                static_cast<long long>(shadowed_building.pixels), 100 * shadowed_building.fraction_off);
+    EXPECT_LT(building.fraction_off, 0.05);  // the checker's kinks, as in RecordedFramesMatchTheCpuReference
+    EXPECT_LT(shadowed_building.fraction_off, 0.03);
+
+    const double agreement = static_cast<double>(agree) / std::max(1, shadowed + lit);
+    std::printf("measured: sun azimuth %.0f°: %d shadowed and %d lit ground pixels, %.2f%% agree with the geometry\n",
+                azimuth, shadowed, lit, 100 * agreement);
+    EXPECT_GT(shadowed, 300);
+    EXPECT_GT(lit, 3000);
+    EXPECT_GE(agreement, 0.995);
+    if (azimuth == 250.0) {
+      EXPECT_GT(shadowed_building.pixels, 100);  // the tower's shadow on the annex's roof
+    }
+    save_picture("box_shadow_azimuth_" + std::to_string(static_cast<int>(azimuth)), out);
+    save_picture("box_shadow_reference_azimuth_" + std::to_string(static_cast<int>(azimuth)), reference.linear);
+    cv::Mat difference;
+    cv::absdiff(out, reference.linear, difference);
+    save_picture("box_shadow_difference_x10_azimuth_" + std::to_string(static_cast<int>(azimuth)), difference * 10.0);
+  }
+}
+
+TEST_F(CompositorTest, RealPixelsPassUntouchedWhereNothingVirtualIs) {
+  // A random 8-bit frame, T = 1 on the ground: wherever the building is not drawn the display
+  // shows exactly the camera's codes (sRGB decoded, composited in linear, encoded again).
+  cv::Mat camera(240, 320, CV_8UC3);
+  cv::randu(camera, cv::Scalar::all(0), cv::Scalar::all(256));
+  const render::CameraPose pose = hmd_pose();
+  render::Compositor compositor = make();
+  render::CompositeInput input;
+  input.camera = camera;
+  input.pose = pose;
+  const std::vector<Vector3d> S = uniform_sky(1.0);
+  input.sky = S;
+  const cv::Mat out = compositor.composite(input);
+  ASSERT_EQ(out.type(), CV_8UC3);
+
+  const sky::Lens lens(hmd_camera());
+  const RayCaster caster(BakedSite::get().mesh);
+  cv::Mat building(camera.size(), CV_8U, cv::Scalar(0));
+  for (int y = 0; y < camera.rows; ++y) {
+    for (int x = 0; x < camera.cols; ++x) {
+      const auto ray = lens.unproject(Eigen::Vector2d(x, y));
+      if (ray && caster.intersect(pose.t_site_from_camera, pose.R_site_from_camera * ray->normalized())) {
+        building.at<std::uint8_t>(y, x) = 255;
+      }
+    }
+  }
+  cv::dilate(building, building, cv::Mat::ones(5, 5, CV_8U));
+  std::int64_t compared = 0, equal = 0;
+  for (int y = 0; y < camera.rows; ++y) {
+    for (int x = 0; x < camera.cols; ++x) {
+      if (building.at<std::uint8_t>(y, x) != 0) continue;
+      ++compared;
+      equal += out.at<cv::Vec3b>(y, x) == camera.at<cv::Vec3b>(y, x) ? 1 : 0;
+    }
+  }
+  std::printf("measured: %lld of %lld real pixels identical to the camera's\n", static_cast<long long>(equal),
+              static_cast<long long>(compared));
+  EXPECT_GT(compared, 40000);
+  EXPECT_EQ(equal, compared);
+  EXPECT_GT(cv::countNonZero(building), 3000);  // the building is in view
+}
+
+TEST_F(CompositorTest, VirtualPlaneShadesExactlyWithItsRatioInsteadOfTheTransfer) {
+  const BakedSite& baked = BakedSite::get();
+  const std::vector<Vector3d> S = uniform_sky(1.0);
+  const cv::Mat camera(240, 320, CV_32FC3, cv::Scalar::all(0.2));
+  // The wall plane (bake plane 2) with T = 1, then T = 0.5 everywhere: where it covers the
+  // tower's south face the radiance halves exactly; with planes never covering (cover distance
+  // 0) the wall's T does not matter.
+  auto constant = [&](float value) {
+    const render::BasisImages& wall = baked.basis[2];
+    return render::upload_shadow_ratio(std::vector<float>(wall.texel_count() * 3, value), wall.width, wall.height);
+  };
+  const gpu::Texture full = constant(1.0f);
+  const gpu::Texture half = constant(0.5f);
+  auto run = [&](GLuint wall_ratio, double cover_distance) {
+    render::CompositorOptions options;
+    options.cover_distance = cover_distance;
+    render::Compositor compositor = make(options);
+    render::CompositeInput input;
+    input.camera = camera;
+    input.pose = hmd_pose();
+    input.sky = S;
+    const std::array<GLuint, 3> names{0, 0, wall_ratio};
+    input.shadow_ratios = names;
+    return compositor.composite(input);
+  };
+  const cv::Mat lit = run(full.get(), 0.05);
+  const cv::Mat shaded = run(half.get(), 0.05);
+  const cv::Mat uncovered_full = run(full.get(), 0.0);
+  const cv::Mat uncovered_half = run(half.get(), 0.0);
+
+  // Pixels well inside the tower's south face (x in [−0.8, 0.8], z in [0.2, 3.8]).
+  const sky::Lens lens(hmd_camera());
+  const render::CameraPose pose = hmd_pose();
+  int pixels = 0;
+  double worst_ratio = 0, worst_uncovered = 0, transfer_vs_plane = 0;
+  for (int y = 0; y < camera.rows; ++y) {
+    for (int x = 0; x < camera.cols; ++x) {
+      const auto ray = lens.unproject(Eigen::Vector2d(x, y));
+      if (!ray) continue;
+      const Vector3d d = pose.R_site_from_camera * ray->normalized();
+      const double t = (-1.0 - pose.t_site_from_camera.y()) / d.y();
+      const Vector3d p = pose.t_site_from_camera + t * d;
+      if (std::abs(p.x()) > 0.8 || p.z() < 0.2 || p.z() > 3.8) continue;
+      ++pixels;
+      for (int c = 0; c < 3; ++c) {
+        const double l = lit.at<cv::Vec3f>(y, x)[c];
+        worst_ratio = std::max(worst_ratio, std::abs(shaded.at<cv::Vec3f>(y, x)[c] / l - 0.5));
+        worst_uncovered = std::max(worst_uncovered, std::abs(static_cast<double>(uncovered_half.at<cv::Vec3f>(y, x)[c]) -
+                                                             uncovered_full.at<cv::Vec3f>(y, x)[c]));
+        // T = 1 on an unshadowed face: plane shading (D_j) and transfer shading agree within the
+        // bake's sampling.
+        transfer_vs_plane = std::max(transfer_vs_plane, std::abs(uncovered_full.at<cv::Vec3f>(y, x)[c] / l - 1.0));
+      }
+    }
+  }
+  std::printf("measured: %d south-face pixels: |ratio − 0.5| ≤ %.2g; uncovered change %.2g; transfer vs plane %.3f\n",
+              pixels, worst_ratio, worst_uncovered, transfer_vs_plane);
+  EXPECT_GT(pixels, 1000);
+  EXPECT_LT(worst_ratio, 1e-5);
+  EXPECT_EQ(worst_uncovered, 0.0);
+  EXPECT_LT(transfer_vs_plane, 0.1);
+}
+
+TEST_F(CompositorTest, NoNanFromNanOrBlackInputs) {
+  const BakedSite& baked = BakedSite::get();
+  const render::CameraPose pose = hmd_pose();
+  // Float camera with NaN, ±Inf and negative pixels; a sky with NaN, Inf and negative faces; a
+  // NaN sun; a shadow-ratio texture full of NaN; a NaN photometric scale.
+  cv::Mat camera(240, 320, CV_32FC3, cv::Scalar::all(0.3));
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  camera(cv::Rect(0, 0, 100, 240)).setTo(cv::Scalar(nan, nan, nan));
+  camera(cv::Rect(100, 0, 50, 240)).setTo(cv::Scalar(inf, -inf, -1.0));
+  std::vector<Vector3d> S = uniform_sky(1.0);
+  S[0] = Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  S[1] = Vector3d(std::numeric_limits<double>::infinity(), -1.0, 0.5);
+  const render::BasisImages& ground = baked.basis[0];
+  const gpu::Texture nan_ratio =
+      render::upload_shadow_ratio(std::vector<float>(ground.texel_count() * 3, nan), ground.width, ground.height);
+  const std::array<GLuint, 3> names{nan_ratio.get(), nan_ratio.get(), 0};
+
+  render::Compositor compositor = make();
+  render::CompositeInput input;
+  input.camera = camera;
+  input.pose = pose;
+  input.sky = S;
+  input.sun = render::SunLight{from_angles(200, 40), Vector3d(std::nan(""), 1.0, 1.0)};
+  input.shadow_ratios = names;
+  input.photometric = render::PhotometricMatch{Vector3d(1.0, std::nan(""), 1.0)};
+  const cv::Mat out = compositor.composite(input);
+  EXPECT_TRUE(finite_image(out));
+  EXPECT_TRUE(finite_image(compositor.read_linear()));
+  EXPECT_EQ(compositor.last_stats().camera_values_replaced, 100 * 240 * 3 + 50 * 240 * 3);
+  EXPECT_EQ(compositor.last_stats().sky_values_replaced, 3 + 2 + 1);
+  EXPECT_TRUE(compositor.last_stats().sun_without_shadow_map);
+  double low = 0, high = 0;
+  cv::minMaxLoc(out.reshape(1), &low, &high);
+  EXPECT_GE(low, 0.0);
+
+  // A black sky and a black 8-bit frame: black everywhere, not NaN (0/0 nowhere).
+  const std::vector<Vector3d> black = uniform_sky(0.0);
+  std::vector<PlaneRatios> ratios = baked.shadow_ratios(black, std::nullopt);
+  const RatioTextures textures = upload(ratios);
+  render::CompositeInput dark;
+  dark.camera = cv::Mat(240, 320, CV_8UC3, cv::Scalar::all(0));
+  dark.pose = pose;
+  dark.sky = black;
+  dark.shadow_ratios = textures.names;
+  const cv::Mat night = compositor.composite(dark);
+  EXPECT_EQ(cv::countNonZero(night.reshape(1)), 0);
+  EXPECT_TRUE(finite_image(compositor.read_linear()));
+}
+
+TEST_F(CompositorTest, RegionMaskAndPhotometricEstimateRecoverTheScale) {
+  // A synthetic real ground of albedo 0.3 filmed with k = (2, 1.5, 1): the estimate from a
+  // region of it recovers k, and the composite's building then has that scale too.
+  const BakedSite& baked = BakedSite::get();
+  const std::vector<Vector3d> S = uniform_sky(0.8);
+  const render::CameraPose pose = hmd_pose();
+  render::Compositor compositor = make();
+  const cv::Mat region = compositor.region_mask(0, 0.3, 0.5, 0.1, 0.25, pose);
+  ASSERT_GT(cv::countNonZero(region), 500);
+  // Every pixel of the mask sees the rectangle.
+  const sky::Lens lens(hmd_camera());
+  const geom::Plane& ground = baked.manifest.planes[0].plane;
+  for (int y = 0; y < region.rows; ++y) {
+    for (int x = 0; x < region.cols; ++x) {
+      if (region.at<std::uint8_t>(y, x) == 0) continue;
+      const Vector3d d = pose.R_site_from_camera * lens.unproject(Eigen::Vector2d(x, y))->normalized();
+      const Vector3d g = pose.t_site_from_camera + (ground.origin.z() - pose.t_site_from_camera.z()) / d.z() * d;
+      const Eigen::Vector2d st = plane_st(ground, g);
+      ASSERT_GE(st.x(), 0.3 - 1e-9);
+      ASSERT_LE(st.x(), 0.5 + 1e-9);
+      ASSERT_GE(st.y(), 0.1 - 1e-9);
+      ASSERT_LE(st.y(), 0.25 + 1e-9);
+    }
+  }
+  const Vector3d k(2.0, 1.5, 1.0);
+  const Vector3d D = render::plane_irradiance(baked.manifest.planes[0], S, std::nullopt);
+  const Vector3d value = k.cwiseProduct(0.3 / std::numbers::pi * D);
+  cv::Mat camera(240, 320, CV_32FC3, cv::Scalar(value.z(), value.y(), value.x()));
+  const render::PhotometricEstimate estimate = render::estimate_photometric_match(camera, region, D, Vector3d::Constant(0.3));
+  ASSERT_TRUE(estimate.ok) << estimate.problem;
+  EXPECT_LT((estimate.match.scale - k).cwiseAbs().maxCoeff(), 1e-5);
+}
+
+TEST_F(CompositorTest, MismatchedInputsAreInputErrors) {
+  const BakedSite& baked = BakedSite::get();
+  render::Compositor compositor = make();
+  const std::vector<Vector3d> S = uniform_sky(1.0);
+  render::CompositeInput input;
+  input.camera = cv::Mat(200, 320, CV_8UC3, cv::Scalar::all(0));
+  input.sky = S;
+  EXPECT_THROW(compositor.composite(input), InputError);
+  input.camera = cv::Mat(240, 320, CV_8UC4, cv::Scalar::all(0));
+  EXPECT_THROW(compositor.composite(input), InputError);
+  input.camera = cv::Mat(240, 320, CV_8UC3, cv::Scalar::all(0));
+  const std::vector<Vector3d> short_sky(S.begin(), S.end() - 1);
+  input.sky = short_sky;
+  try {
+    compositor.composite(input);
+    ADD_FAILURE() << "no error for a sky of the wrong size";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("39 values"), std::string::npos) << e.what();
+  }
+
+  // A site without the bake's 'roof' plane, a model with other vertices.
+  scene::Site other = baked.site;
+  other.planes[1].name = "attic";
+  try {
+    render::Compositor bad(other, baked.mesh, baked.manifest, baked.transfer, hmd_camera());
+    ADD_FAILURE() << "no error for a site without the bake's plane";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("'roof'"), std::string::npos) << e.what();
+  }
+  render::CompositorOptions bad_options;
+  bad_options.far = bad_options.near;
+  EXPECT_THROW(make(bad_options), InputError);
+
+  scene::Mesh fewer = baked.mesh;
+  fewer.positions.pop_back();
+  fewer.normals.pop_back();
+  fewer.texcoords.pop_back();
+  EXPECT_THROW(render::Compositor(baked.site, fewer, baked.manifest, baked.transfer, hmd_camera()), InputError);
+}
+
+}  // namespace
+}  // namespace skylit::compose_test

@@ -1,0 +1,230 @@
+// The service under faults: a sky or camera folder that disappears mid-run, malformed frames, a
+// bake made for another site, a bad config field; and its status over HTTP while it runs.
+#include <chrono>
+#include <string>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "live_fixture.hpp"
+#include "skylit/base/error.hpp"
+// After Eigen: httplib brings <resolv.h>, whose `_res` macro breaks Eigen's headers.
+#include <httplib.h>
+
+namespace skylit::live_test {
+namespace {
+
+using namespace std::chrono_literals;
+using nlohmann::json;
+
+std::int64_t frames_of(const json& status) { return status["frames"].get<std::int64_t>(); }
+
+bool has_flag(const json& status, const std::string& flag) {
+  for (const auto& f : status["flags"]) {
+    if (f.get<std::string>() == flag) return true;
+  }
+  return false;
+}
+
+TEST(ServiceFaults, ASkyFolderThatDisappearsLeavesTheLastSkyFlaggedStale) {
+  RigOptions rig_options;
+  rig_options.sky_frames = 2;
+  rig_options.sky_loop = true;
+  rig_options.sky_realtime = "1";  // a sky frame every 0.5 s
+  rig_options.stale_after = 1.0;
+  const Rig rig(rig_options);
+  RunningService running(rig.config(), quiet_options());
+  ASSERT_TRUE(running.wait_for([](const json& s) { return s["sky"]["estimates"].get<int>() >= 2 && frames_of(s) >= 3; }))
+      << running.error() << running.status().dump(2);
+  EXPECT_FALSE(has_flag(running.status(), "sky_stale"));
+
+  fs::remove_all(rig.dir() / "sky");
+  const auto gone = std::chrono::steady_clock::now();
+  // The frame read ahead and held for its time (realtime pacing) still comes, 0.5 s later.
+  std::this_thread::sleep_for(800ms);
+  const json before = running.status();
+  ASSERT_TRUE(running.wait_for([](const json& s) { return has_flag(s, "sky_stale"); }, 20)) << running.status().dump(2);
+  const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - gone).count();
+  std::this_thread::sleep_for(300ms);
+  const json after = running.status();
+  std::printf("measured: sky_stale %.2f s after the folder went (stale_after 1 s); %lld sky files unreadable\n",
+              waited, static_cast<long long>(after["sky"]["malformed"].get<std::int64_t>()));
+
+  // The service runs on with the last sky: frames keep coming, S is the one from before.
+  EXPECT_FALSE(running.done()) << running.error();
+  EXPECT_GT(frames_of(after), frames_of(before));
+  ASSERT_TRUE(after["sky"].contains("S"));
+  EXPECT_EQ(after["sky"]["S"], before["sky"]["S"]);
+  EXPECT_EQ(after["sky"]["estimates"], before["sky"]["estimates"]);
+  EXPECT_GE(after["sky"]["age_s"].get<double>(), 1.0);
+  // The files it then tries are counted as unreadable, unless the source was caught between
+  // reading an image and its metadata: then it is down and reopened with backoff (the folder is
+  // gone, so it stays down). Either way the service runs on.
+  EXPECT_NE(running.service().metrics_text().find("skylit_flag{flag=\"sky_stale\"} 1"), std::string::npos);
+  running.finish();
+  EXPECT_TRUE(running.error().empty()) << running.error();
+}
+
+TEST(ServiceFaults, ACameraFolderThatDisappearsAndComesBackResumes) {
+  const Rig rig;
+  RunningService running(rig.config(), quiet_options());
+  ASSERT_TRUE(running.wait_for([](const json& s) { return frames_of(s) >= 5; })) << running.error();
+
+  fs::remove_all(rig.dir() / "camera");
+  std::this_thread::sleep_for(300ms);
+  const std::int64_t frames_gone = frames_of(running.status());
+  std::this_thread::sleep_for(500ms);
+  const json without = running.status();
+  EXPECT_LE(frames_of(without), frames_gone + 1);  // nothing new to composite
+  // (The files it tries meanwhile count as unreadable, or the source is down and reopened.)
+  EXPECT_FALSE(running.done()) << running.error();
+
+  // The files come back (a remounted disk): frames flow again.
+  write_frames(rig.dir() / "camera", rig.camera_frames(), 30, "png");
+  ASSERT_TRUE(running.wait_for([&](const json& s) { return frames_of(s) >= frames_of(without) + 5; }, 20))
+      << running.status().dump(2);
+  const auto stop_asked = std::chrono::steady_clock::now();
+  running.finish();
+  EXPECT_LT(std::chrono::steady_clock::now() - stop_asked, 5s);
+  EXPECT_TRUE(running.error().empty()) << running.error();
+}
+
+TEST(ServiceFaults, MalformedFramesAreDroppedAndCountedInTheStatus) {
+  RigOptions rig_options;
+  rig_options.camera_frames = 6;
+  rig_options.camera_loop = false;
+  rig_options.status = "127.0.0.1:0";
+  const Rig rig(rig_options);
+  // Frame 2 has the wrong size, frame 4 is not an image at all (a file cut short).
+  cv::imwrite((rig.dir() / "camera" / "frame_0002.png").string(), camera_frame(80, 60, 2));
+  std::ofstream(rig.dir() / "camera" / "frame_0004.png") << "\x89PNG cut short";
+
+  RunningService running(rig.config(), quiet_options());
+  const std::int64_t frames = running.join();  // the recording ends
+  ASSERT_TRUE(running.error().empty()) << running.error();
+  EXPECT_GE(frames, 1);
+
+  // /status answers after the run, too (the server lives as long as the service).
+  const std::string address = running.service().status_address();
+  httplib::Client client("127.0.0.1", std::stoi(address.substr(address.rfind(':') + 1)));
+  const auto response = client.Get("/status");
+  ASSERT_TRUE(response);
+  const json status = json::parse(response->body);
+  EXPECT_EQ(status["camera"]["malformed"].get<int>(), 2) << status.dump(2);
+  EXPECT_EQ(status["camera"]["frames"].get<int>(), 4) << status.dump(2);
+  EXPECT_EQ(status["frames"].get<std::int64_t>(), frames);
+}
+
+TEST(ServiceFaults, ABakeMadeForAnotherSiteRefusesToStartNamingTheDifferences) {
+  const Rig rig;
+  const BakedSite& baked = BakedSite::get();
+  // The baked site, but on a finer dome, with a coarser ground and a renamed wall.
+  std::ofstream(rig.dir() / "other_site.yaml")
+      << "scene:\n  model: " << quoted(baked.dir / "tower.glb") << "\n  up: y\n  scale: 1\n"
+      << "dome:\n  frequency: 4\n"
+      << "planes:\n"
+      << "  - name: ground\n    origin: [-8, -8, 0.01]\n    u: [16, 0, 0]\n    v: [0, 16, 0]\n"
+      << "    resolution: [64, 64]\n    surface: real\n"
+      << "  - name: roof\n    origin: [-1, -1, 4.01]\n    u: [2, 0, 0]\n    v: [0, 2, 0]\n    resolution: [16, 16]\n"
+      << "  - name: facade\n    origin: [-1, -1.01, 0]\n    u: [2, 0, 0]\n    v: [0, 0, 4]\n    resolution: [16, 32]\n";
+  live::LiveConfig config = rig.config();
+  config.site = rig.dir() / "other_site.yaml";
+  try {
+    const live::Service service(config, quiet_options());
+    FAIL() << "the service started on a bake made for another site";
+  } catch (const InputError& e) {
+    const std::string message = e.what();
+    std::printf("measured: %s\n", message.c_str());
+    EXPECT_NE(message.find("dome frequency: bake 2, site 4"), std::string::npos) << message;
+    EXPECT_NE(message.find("plane 0 'ground': resolution 128×128 in the bake, 64×64 in the site"), std::string::npos) << message;
+    EXPECT_NE(message.find("plane 2 'facade': the bake's is named 'wall'"), std::string::npos) << message;
+    EXPECT_EQ(message.find("'roof'"), std::string::npos) << message;  // the roof agrees
+    EXPECT_NE(message.find("Fix: bake again (skylit-bake " + config.site.string()), std::string::npos) << message;
+  }
+}
+
+TEST(ServiceFaults, ABadConfigFieldNamesTheFileLineAndField) {
+  const Rig rig;
+  struct Case {
+    std::string yaml;     // appended to the rig's config
+    std::string field;    // what the message must name
+    std::string detail;   // and this
+  };
+  const std::vector<Case> cases{
+      {"blend:\n  storage: float16\n", "blend.storage", "half"},
+      {"output:\n  window: maybe\n", "output.window", "true or false"},
+      {"status:\n  lisen: 127.0.0.1:0\n", "lisen", "did you mean 'listen'"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.field);
+    const std::string text = rig.config_text();
+    const fs::path file = rig.dir() / "bad.yaml";
+    std::ofstream(file) << text << c.yaml;
+    // The offending line: the last line of the appended text holds the bad value.
+    const int line = static_cast<int>(std::count(text.begin(), text.end(), '\n') +
+                                      std::count(c.yaml.begin(), c.yaml.end(), '\n'));
+    try {
+      (void)live::load_live_config(file);
+      FAIL() << "a bad field was accepted";
+    } catch (const InputError& e) {
+      const std::string message = e.what();
+      EXPECT_NE(message.find(file.string() + ":" + std::to_string(line) + ":"), std::string::npos) << message;
+      EXPECT_NE(message.find(c.field), std::string::npos) << message;
+      EXPECT_NE(message.find(c.detail), std::string::npos) << message;
+    }
+  }
+}
+
+TEST(ServiceStatus, StatusAndMetricsOverHttpWhileRunning) {
+  RigOptions rig_options;
+  rig_options.status = "127.0.0.1:0";  // any free port
+  const Rig rig(rig_options);
+  RunningService running(rig.config(), quiet_options());
+  ASSERT_TRUE(running.wait_for([](const json& s) { return frames_of(s) >= 3 && s["sky"]["estimates"].get<int>() >= 1; }))
+      << running.error();
+  const std::string address = running.service().status_address();
+  const int port = std::stoi(address.substr(address.rfind(':') + 1));
+  ASSERT_GT(port, 0) << address;
+  httplib::Client client("127.0.0.1", port);
+
+  const auto first = client.Get("/status");
+  ASSERT_TRUE(first);
+  EXPECT_EQ(first->status, 200);
+  EXPECT_EQ(first->get_header_value("Content-Type"), "application/json");
+  const json status = json::parse(first->body);
+  EXPECT_GE(status["frames"].get<int>(), 3);
+  EXPECT_EQ(status["sky"]["S"].size(), BakedSite::get().manifest.layer_count());
+  EXPECT_FALSE(status["sky"]["sun"].is_null());
+  EXPECT_NEAR(status["sky"]["sun"]["elevation_deg"].get<double>(), kSunElevationDeg, 1.0);
+  EXPECT_TRUE(status["flags"].empty()) << status.dump(2);
+  EXPECT_NE(status["camera"]["source"].get<std::string>().find("images"), std::string::npos);
+
+  const auto metrics = client.Get("/metrics");
+  ASSERT_TRUE(metrics);
+  EXPECT_EQ(metrics->status, 200);
+  for (const std::string expected :
+       {"# TYPE skylit_frames_total counter\nskylit_frames_total ", "# TYPE skylit_frame_time_seconds gauge\n",
+        "skylit_frame_time_seconds{quantile=\"0.99\"} ", "skylit_sky_luminance{layer=\"0\",channel=\"r\"} ",
+        "skylit_sun_detected 1\n", "skylit_sky_age_seconds "}) {
+    EXPECT_NE(metrics->body.find(expected), std::string::npos) << expected << "\n" << metrics->body;
+  }
+
+  const auto frame = client.Get("/frame.jpg");
+  ASSERT_TRUE(frame);
+  EXPECT_EQ(frame->status, 200);
+  const cv::Mat decoded = cv::imdecode(std::vector<std::uint8_t>(frame->body.begin(), frame->body.end()), cv::IMREAD_COLOR);
+  EXPECT_EQ(decoded.size(), cv::Size(96, 72));
+  ASSERT_TRUE(running.wait_for([&](const json&) {
+    const auto sky = client.Get("/sky.jpg");
+    return sky && sky->status == 200;
+  }, 10));
+
+  // A second look: the counters move while it runs.
+  ASSERT_TRUE(running.wait_for([&](const json& s) { return frames_of(s) > status["frames"].get<std::int64_t>() + 3; }, 20));
+  const auto second = client.Get("/status");
+  ASSERT_TRUE(second);
+  EXPECT_GT(json::parse(second->body)["frames"].get<int>(), status["frames"].get<int>());
+}
+
+}  // namespace
+}  // namespace skylit::live_test
