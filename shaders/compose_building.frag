@@ -22,7 +22,7 @@ precision highp int;
 #ifndef SUN_SHADOWS
 #define SUN_SHADOWS 1
 #endif
-// The library's minimum/maximum map, bound by SunShadowMap::bind with two units.
+// The library reads the shadow map's minimum/maximum pyramid (SunShadowMap::bind with two units).
 #define SUN_SHADOW_MINMAX 1
 
 const int kMaxVirtualPlanes = 8;

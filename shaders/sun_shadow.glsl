@@ -26,7 +26,9 @@
 // loop as long as its longest lane. The taps therefore run in loops whose trip count is 1 where
 // the answer is known without them (not needed, outside the map, or decided by the pyramid:
 // nothing nearer the sun in reach, lit; everything nearer, umbra; exactly what the taps would
-// find), so that groups of such pixels skip them.
+// find), so that groups of such pixels skip them. The pyramid's levels lie side by side in one
+// texture read at its level 0: a texelFetch level that differs between the pixels of a group is
+// not honoured per pixel by llvmpipe (Mesa 22.3: wrong pyramid texels, tested), an atlas is.
 
 uniform highp sampler2D sun_shadow_depth;    // DEPTH_COMPONENT32F, raw depth (compare mode NONE)
 uniform highp mat4 sun_shadow_from_world;    // world → (s, t, depth), each in [0, 1] in the map

@@ -18,6 +18,12 @@
 // The building is rendered with a pinhole camera and distorted to the lens through a per-pixel
 // ray table (lens_remap.hpp); the camera's pixels are never resampled.
 //
+// Speed (a software renderer, llvmpipe, runs every branch of a shader for a group of pixels):
+// the shaders are compiled for the site (its numbers of real and virtual planes; with and
+// without the sun's shadow map), the building gets a depth pre-pass so that each render texel
+// is shaded once, and the sun's soft shadow is sampled through SunShadowMap's minimum/maximum
+// pyramid (bench/RESULTS.md, "Compositor").
+//
 // Everything runs in the OpenGL ES context current when the Compositor is made (it must stay
 // current for every call, and alive until the Compositor is destroyed).
 #include <array>
@@ -58,8 +64,8 @@ struct CompositorOptions {
   double far = 5000.0;
   LensRemapOptions lens;
   PhotometricMatch photometric;        // k, unless a frame gives its own
-  // Measure each stage's wall time (CompositeTimings) with a glFinish after each: this
-  // serialises the GPU with the CPU, so it is for benchmarks and profiling, not for a display.
+  // Measure each stage's time (CompositeTimings) with a glFinish after each: this serialises
+  // the GPU with the CPU, so it is for benchmarks and profiling, not for a display.
   bool time_stages = false;
 };
 
@@ -79,8 +85,10 @@ struct CompositeInput {
   std::span<const Eigen::Vector3d> sky;
   std::optional<SunLight> sun;
   // One per bake plane (manifest order): a texture whose texel (col, row) holds T of plane texel
-  // (col, row) in rgb (RGBA8, RGBA16F or RGBA32F; read with texelFetch and filtered bilinearly in
-  // the shader, so no format needs to be filterable). 0 or an empty span: T = 1.
+  // (col, row) in rgb (RGBA8, RGBA16F or RGBA32F), filtered bilinearly: through the compositor's
+  // own sampler where float textures are filterable (OES_texture_float_linear), else in the
+  // shader with texelFetch, so no format needs to be filterable and the texture's own filter
+  // settings do not matter. 0 or an empty span: T = 1.
   std::span<const GLuint> shadow_ratios;
   // The sun's shadow map for the building's own sun shadows (penumbra included: the map's
   // sun_visibility, shaders/sun_shadow.glsl), updated for this sun. Null: the sun term is
@@ -97,8 +105,8 @@ struct CompositeStats {
 
 // Time of each stage of the last frame, in milliseconds; all 0 unless
 // CompositorOptions::time_stages is set. wall: elapsed time; cpu: CPU time of the whole process
-// over the stage (all threads: on a software renderer such as llvmpipe this is the work done,
-// and it does not grow when other programs load the machine).
+// over the stage (all threads: on a software renderer such as llvmpipe, the work done, which
+// depends far less than wall time on what else loads the machine).
 struct CompositeTimings {
   struct Stage {
     double wall_ms = 0;

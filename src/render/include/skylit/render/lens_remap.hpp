@@ -25,7 +25,9 @@ struct PinholeCamera {
 };
 
 struct LensRemapOptions {
-  double render_scale = 1.0;     // the pinhole's focal length over the HMD camera's fx, fy
+  double render_scale = 1.0;     // the pinhole's focal length over the HMD camera's fx, fy: the
+                                 // building's texels go as its square (0.75: 44% fewer, its pass
+                                 // about a third cheaper, a little softer; bench/RESULTS.md)
   double max_angle_deg = 75.0;   // rays farther than this from the optical axis get no building
                                  // (a pinhole image grows as tan θ; fisheye corners beyond this
                                  // show the camera image alone)

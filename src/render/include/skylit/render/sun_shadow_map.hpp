@@ -7,9 +7,10 @@
 // closer soft shadows, shaders/sun_shadow.glsl). The same map shades anything else: a shader
 // that appends shaders/sun_shadow.glsl ("// library: sun_shadow.glsl") gets
 // sun_visibility(world_position), and bind() sets its uniforms. With each update the map also
-// gets a pyramid of its minimum and maximum depths, from which the library decides most points
-// (lit, or in umbra) with four texel reads instead of its search and filter taps, for the same
-// answer; a shader opts in by defining SUN_SHADOW_MINMAX and is bound with two units.
+// gets a pyramid of its minimum and maximum depths, from which the library decides the points
+// plainly lit or in umbra with four texel reads instead of its search and filter taps, for the
+// same answer, and narrows the search elsewhere; a shader opts in by defining SUN_SHADOW_MINMAX
+// and is bound with two units.
 //
 // Holds GL names: create, use and destroy it with the same GL context current, on one thread.
 #include <cstdint>
