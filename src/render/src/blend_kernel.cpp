@@ -1,8 +1,10 @@
 // The two blend kernels. Per texel both compute acc = Σ_active w_i·B_i (+ w_sun·V) in float, in
 // layer order, then clamp to [0, 1]; they differ only in how (the AVX2 one fuses each multiply
 // and add, so the two agree to float rounding, not bit for bit). The AVX2 kernel is bound by its
-// three FMAs per texel and layer about as much as by memory; an AVX-512 variant of its inner
-// loop was ~10% faster in cache and no faster from memory on Zen 4, so it was not kept.
+// three FMAs per texel and layer about as much as by memory (1.2 cycles per 8 texel-layers with
+// the layers in L2 on the Zen 5 of RESULTS.md). An AVX-512 variant of its inner loop (16 texels
+// per vector, same bits) was twice as fast in L2 but 7% (1 thread) and 13% (2 threads) slower
+// from memory on that Zen 5, and no faster from memory on Zen 4, so it was not kept.
 #include "blend_kernel.hpp"
 
 #include <algorithm>
@@ -132,8 +134,8 @@ namespace {
 // start with a full memory latency (measured: 1.3× the time on a 640-face plane). Every 32 texels
 // the kernel fetches the line at the same offset of each next strip, so that the next group
 // arrives at the pace it is read. Fetching the next strips one after another instead (all of
-// strip 0 in the first quarter of a pass, and so on) left two threads 1.2× slower on a 40-face
-// plane; fetching two groups ahead, or into L2 only, was no better.
+// strip 0 in the first quarter of a pass, and so on) left two threads 1.09× slower on 40-face
+// planes; fetching two groups ahead, or into L2 only, was no better.
 struct NextStrips {
   const std::uint16_t* strip[4] = {nullptr, nullptr, nullptr, nullptr};
 };

@@ -45,6 +45,15 @@ bool poll(const Done& done, std::chrono::microseconds limit) {
 }  // namespace
 
 BlendWorkers::BlendWorkers(int threads) {
+#if defined(__linux__)
+  cpu_set_t allowed;
+  CPU_ZERO(&allowed);
+  if (pthread_getaffinity_np(pthread_self(), sizeof allowed, &allowed) == 0) {
+    for (int cpu = 0; cpu < CPU_SETSIZE; ++cpu) {
+      if (CPU_ISSET(cpu, &allowed)) allowed_cpus_.push_back(cpu);
+    }
+  }
+#endif
   const int total = threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   threads_.reserve(static_cast<std::size_t>(total - 1));
   for (int w = 1; w < total; ++w) threads_.emplace_back([this, w] { serve(w); });
@@ -86,17 +95,17 @@ void BlendWorkers::serve(int worker) {
 
 void BlendWorkers::keep_off_caller_cpu() {
 #if defined(__linux__)
-  if (threads_.empty()) return;
+  if (threads_.empty() || allowed_cpus_.size() < 2) return;
   const int cpu = sched_getcpu();
-  if (cpu < 0 || cpu >= CPU_SETSIZE || cpu == steered_from_) return;
+  if (cpu < 0 || cpu == steered_from_) return;
+  steered_from_ = cpu;
   cpu_set_t allowed;
   CPU_ZERO(&allowed);
-  if (pthread_getaffinity_np(pthread_self(), sizeof allowed, &allowed) != 0) return;
-  steered_from_ = cpu;
-  CPU_CLR(cpu, &allowed);
-  // A caller bound to one CPU: the threads share it (the blend is still correct, only slower).
-  if (CPU_COUNT(&allowed) == 0) CPU_SET(cpu, &allowed);
-  // A failure (a thread bound elsewhere by its owner's policy) leaves that thread where it was.
+  for (const int c : allowed_cpus_) {
+    if (c != cpu) CPU_SET(c, &allowed);
+  }
+  // A failure (a thread bound elsewhere by a policy of the process's owner) leaves that thread
+  // where it was: the blend is still correct.
   for (std::jthread& t : threads_) pthread_setaffinity_np(t.native_handle(), sizeof allowed, &allowed);
 #endif
 }

@@ -9,8 +9,9 @@
 // where a 2-thread blend ran no faster than 1 thread before them):
 // - Where a woken thread runs. Linux may wake a sleeping thread on the CPU of the thread that
 //   woke it (a guest kernel that sees no shared cache between its CPUs does so every time); the
-//   two then take turns on one CPU. On Linux the pool threads are kept off the caller's CPU
-//   (their affinity is the caller's minus the CPU it runs on, updated when the caller moves).
+//   two then take turns on one CPU. On Linux the pool threads are kept off the caller's CPU:
+//   their affinity is the CPUs the pool was created with (its creator's affinity) minus the one
+//   the caller runs on, updated when a call comes from another CPU.
 // - How long a wake takes. Waking a thread on an idle CPU took 0.05–0.15 ms (median) and up to
 //   several ms on that machine, against ~1 ms for a 40-face plane. So the threads poll for the
 //   next call for a short while after each one, and the caller polls for the threads' last
@@ -57,6 +58,7 @@ class BlendWorkers {
   std::atomic<int> busy_{0};            // pool threads inside the current call (changed under mutex_)
   bool stop_ = false;
   std::atomic<std::size_t> next_{0};
+  std::vector<int> allowed_cpus_;       // the creator's affinity (Linux; empty elsewhere)
   int steered_from_ = -1;               // the CPU the threads were last kept off (guarded by turn_)
   std::vector<std::jthread> threads_;
 };
