@@ -9,6 +9,10 @@
 //
 //   accuracy_study [--skies DIR] [--site SITE.yaml] [--calib CALIB.yaml] [--texel-scale 8]
 //                  [--out DIR] [--configs paper,area,area+sun,area64+sun,nu4,nu8,corners,corners-nosun,corners64,area+oracle,corners+oracle,corners64+oracle]
+//                  [--sky NAME] [--pictures] [--sun-disc-factor F] [--sun-halo DEG] [--sun-min-contrast C]
+//                  [--sun-max-core DEG] [--reference-supersample N] [--sources N]
+// Diagnoses of the separated sun (bench/RESULTS.md "Separated sources"): the configurations
+// corners64+oracle-light, -dome, -energy, -point, -corepoint, corners64+fill, corners64+sources.
 // Prints a Markdown table (RMS, 99th percentile and max of |T − T_ref| over every texel of every
 // plane and every channel) and writes the same as JSON to DIR/accuracy.json.
 #include <algorithm>
@@ -54,9 +58,22 @@ struct Config {
   // are the area light, exactly where the reference has them; the fisheye shows the background
   // in their place.
   bool oracle_sun = false;
+  // Diagnoses that take one part from the oracle and the rest from the live path:
+  //   OracleLight: the oracle's area light, the dome from the live frame less the detected disc;
+  //   OracleDome: the detected sun, the dome from the oracle's frame (sun replaced by background);
+  //   OracleEnergy: the detected disc's shape, scaled to the oracle's energy, the live dome.
+  //   OraclePoint: the oracle with its whole light at its centroid (a point sun);
+  //   OracleCorePoint: the oracle with the pixels within 1° of its peak merged into one direction;
+  //   Sources: up to --sources compact sources detected one after the other in the fisheye (each
+  //   found source's disc replaced by its background before looking for the next), each its own
+  //   separated term: what several separated terms would give (the live path has one);
+  //   FillDome: the detected sun, the dome from the frame with the disc's pixels set to the
+  //   sun's background instead of left out.
+  enum class Mix { None, OracleLight, OracleDome, OracleEnergy, OraclePoint, OracleCorePoint, Sources, FillDome } mix = Mix::None;
 };
 
 constexpr double kOracleRadiusDeg = 4.0;
+constexpr double kBrightOverMedian = 20.0;  // --reference-supersample: which pixels are bright
 
 const std::vector<Config> kConfigs{
     {"paper", 2, 1, false},     // ν=2, face centre, no sun separation (paper 003)
@@ -72,6 +89,13 @@ const std::vector<Config> kConfigs{
     {"area+oracle", 2, 16, true, skylit::geom::DomeBasis::Faces, true},
     {"corners+oracle", 2, 16, true, skylit::geom::DomeBasis::Corners, true},
     {"corners64+oracle", 2, 64, true, skylit::geom::DomeBasis::Corners, true},
+    {"corners64+oracle-light", 2, 64, true, skylit::geom::DomeBasis::Corners, false, Config::Mix::OracleLight},
+    {"corners64+oracle-dome", 2, 64, true, skylit::geom::DomeBasis::Corners, false, Config::Mix::OracleDome},
+    {"corners64+oracle-energy", 2, 64, true, skylit::geom::DomeBasis::Corners, false, Config::Mix::OracleEnergy},
+    {"corners64+oracle-point", 2, 64, true, skylit::geom::DomeBasis::Corners, true, Config::Mix::OraclePoint},
+    {"corners64+oracle-corepoint", 2, 64, true, skylit::geom::DomeBasis::Corners, true, Config::Mix::OracleCorePoint},
+    {"corners64+fill", 2, 64, true, skylit::geom::DomeBasis::Corners, false, Config::Mix::FillDome},
+    {"corners64+sources", 2, 64, true, skylit::geom::DomeBasis::Corners, false, Config::Mix::Sources},
 };
 
 // One bake per (ν, K, basis).
@@ -211,9 +235,30 @@ int main(int argc, char** argv) {
   app.add_option("--supersample", supersample, "fisheye rendering: sub-pixels per axis")->capture_default_str();
   app.add_option("--out", out_dir, "bakes and results")->capture_default_str();
   app.add_option("--configs", config_list,
-                 "comma-separated subset of paper,area,area+sun,area64+sun,nu4,nu8,corners,corners-nosun,corners64,area+oracle,corners+oracle,corners64+oracle");
+                 "comma-separated subset of paper,area,area+sun,area64+sun,nu4,nu8,corners,corners-nosun,corners64,"
+                 "area+oracle,corners+oracle,corners64+oracle and the diagnoses corners64+oracle-light,"
+                 "corners64+oracle-dome,corners64+oracle-energy,corners64+oracle-point,corners64+oracle-corepoint,"
+                 "corners64+fill,corners64+sources");
   std::string only_sky;
   bool dump = false;
+  int reference_supersample = 1;
+  app.add_option("--reference-supersample", reference_supersample,
+                 "reference: bright pixels and their neighbours as N×N bilinear sub-directions (1: one point per pixel)")
+      ->check(CLI::Range(1, 16))
+      ->capture_default_str();
+  int source_count = 3;
+  app.add_option("--sources", source_count, "corners64+sources: how many compact sources to separate")
+      ->check(CLI::Range(1, 64))
+      ->capture_default_str();
+  skylit::sky::SunOptions sun_options;
+  app.add_option("--sun-disc-factor", sun_options.disc_factor, "sun detector: disc pixels above background × this")
+      ->capture_default_str();
+  app.add_option("--sun-halo", sun_options.halo_radius_deg, "sun detector: disc radius limit, degrees")
+      ->capture_default_str();
+  app.add_option("--sun-min-contrast", sun_options.min_contrast, "sun detector: peak / background for a sun")
+      ->capture_default_str();
+  app.add_option("--sun-max-core", sun_options.max_angular_radius_deg, "sun detector: widest core, degrees")
+      ->capture_default_str();
   app.add_flag("--pictures", dump, "write T | reference | 5×|difference| per sky, setting and plane as PNG");
   app.add_option("--sky", only_sky, "only this sky (file stem, e.g. park)");
   CLI11_PARSE(app, argc, argv);
@@ -275,17 +320,83 @@ int main(int argc, char** argv) {
       }
     }
     // Reference weights: every pixel above the horizon, radiance × solid angle (bad pixels as 0).
+    // With --reference-supersample N, the pixels near a bright one (over
+    // kBrightOverMedian × the median, or next to one) become N×N sub-directions with the
+    // bilinearly interpolated radiance: the continuous sky the fisheye is rendered from, instead
+    // of one point light per 0.7° pixel.
     std::vector<Vec3> directions;
     std::vector<Eigen::Vector3d> weights;
+    cv::Mat near_bright(equirect.size(), CV_8UC1, cv::Scalar(0));
+    if (reference_supersample > 1) {
+      std::vector<double> all;
+      for (int row = 0; row < equirect.rows / 2; ++row) {
+        for (int col = 0; col < equirect.cols; ++col) {
+          const cv::Vec3f& l = equirect.at<cv::Vec3f>(row, col);
+          all.push_back(luminance(Eigen::Vector3d(l[2], l[1], l[0])));
+        }
+      }
+      std::nth_element(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(all.size() / 2), all.end());
+      const double median_y = all[all.size() / 2];
+      for (int row = 0; row < equirect.rows; ++row) {
+        for (int col = 0; col < equirect.cols; ++col) {
+          const cv::Vec3f& l = equirect.at<cv::Vec3f>(row, col);
+          if (luminance(Eigen::Vector3d(l[2], l[1], l[0])) <= kBrightOverMedian * median_y) continue;
+          for (int dy = -2; dy <= 2; ++dy) {
+            for (int dx = -2; dx <= 2; ++dx) {
+              near_bright.at<std::uint8_t>(std::clamp(row + dy, 0, equirect.rows - 1),
+                                           (col + dx + equirect.cols) % equirect.cols) = 255;
+            }
+          }
+        }
+      }
+    }
+    const auto bilinear = [&](double x, double y) {
+      const int w = equirect.cols, h = equirect.rows;
+      const double fx = std::floor(x), fy = std::floor(y);
+      const double tx = x - fx, ty = y - fy;
+      const int x0 = (static_cast<int>(fx) % w + w) % w, x1 = (x0 + 1) % w;
+      const int y0 = std::clamp(static_cast<int>(fy), 0, h - 1), y1 = std::clamp(static_cast<int>(fy) + 1, 0, h - 1);
+      Eigen::Vector3d rgb;
+      for (int ch = 0; ch < 3; ++ch) {
+        const double top = (1 - tx) * equirect.at<cv::Vec3f>(y0, x0)[ch] + tx * equirect.at<cv::Vec3f>(y0, x1)[ch];
+        const double bottom = (1 - tx) * equirect.at<cv::Vec3f>(y1, x0)[ch] + tx * equirect.at<cv::Vec3f>(y1, x1)[ch];
+        rgb[2 - ch] = (1 - ty) * top + ty * bottom;
+      }
+      return rgb;
+    };
+    std::size_t supersampled = 0;
     for (int row = 0; row < equirect.rows; ++row) {
       const double solid_angle = skylit::sky::equirect_pixel_solid_angle(equirect.cols, equirect.rows, row);
       for (int col = 0; col < equirect.cols; ++col) {
+        if (near_bright.at<std::uint8_t>(row, col)) {
+          ++supersampled;
+          const int n = reference_supersample;
+          for (int j = 0; j < n; ++j) {
+            const double y = row - 0.5 + (j + 0.5) / n;
+            // Solid angle of the sub-row: the band between its edges, split over n columns.
+            const double top = M_PI / 2 - M_PI * (y + 0.5 - 0.5 / n) / equirect.rows;
+            const double bottom = M_PI / 2 - M_PI * (y + 0.5 + 0.5 / n) / equirect.rows;
+            const double sub_angle = 2.0 * M_PI / equirect.cols / n * (std::sin(top) - std::sin(bottom));
+            for (int i = 0; i < n; ++i) {
+              const double x = col - 0.5 + (i + 0.5) / n;
+              const Vec3 d = skylit::sky::equirect_direction(equirect.cols, equirect.rows, x, y);
+              if (d.z() <= 0.0) continue;
+              directions.push_back(d);
+              weights.push_back(bilinear(x, y) * sub_angle);
+            }
+          }
+          continue;
+        }
         const Vec3 d = skylit::sky::equirect_direction(equirect.cols, equirect.rows, col, row);
         if (d.z() <= 0.0) continue;
         const cv::Vec3f& l = equirect.at<cv::Vec3f>(row, col);
         directions.push_back(d);
         weights.emplace_back(l[2] * solid_angle, l[1] * solid_angle, l[0] * solid_angle);
       }
+    }
+    if (supersampled > 0) {
+      std::fprintf(stderr, "%s: reference: %zu pixels near bright ones as %d² sub-directions\n",
+                   sky_file.stem().c_str(), supersampled, reference_supersample);
     }
     auto t = Clock::now();
     std::vector<std::vector<Eigen::Vector3d>> reference;
@@ -324,8 +435,43 @@ int main(int argc, char** argv) {
       skylit::sky::SkyEstimateOptions sky_options;
       sky_options.sun_mode = c.sun && !use_oracle ? skylit::sky::SunMode::Auto : skylit::sky::SunMode::Off;
       sky_options.table.basis = c.basis;
+      sky_options.sun = sun_options;
       const skylit::sky::SkyEstimator estimator(calibration, dome, sky_options);
-      const skylit::sky::SkyEstimate estimate = estimator.estimate(use_oracle ? oracle_frame : frame);
+      skylit::sky::SkyEstimate estimate = estimator.estimate(use_oracle ? oracle_frame : frame);
+      const bool mixed = c.mix != Config::Mix::None && oracle.found && estimate.sun;
+      if (mixed && c.mix == Config::Mix::OracleDome) {
+        estimate.luminance = skylit::sky::compute_luminance(estimator.table(), dome, oracle_frame.radiance,
+                                                            oracle_frame.clipped, cv::Mat(), sky_options.luminance);
+      }
+      if (c.mix == Config::Mix::FillDome && estimate.sun) {
+        cv::Mat filled = frame.radiance.clone();
+        const Eigen::Vector3d& bg = estimate.sun->background;
+        filled.setTo(cv::Vec3f(static_cast<float>(bg.z()), static_cast<float>(bg.y()), static_cast<float>(bg.x())),
+                     skylit::sky::SunDetector(lens, cv::Mat(), sun_options).detect(frame.radiance, frame.clipped).mask);
+        estimate.luminance = skylit::sky::compute_luminance(estimator.table(), dome, filled, frame.clipped, cv::Mat(),
+                                                            sky_options.luminance);
+      }
+      // Several separated sources (a diagnosis): found one after the other, all taken out of the dome.
+      std::vector<skylit::sky::Sun> sources;
+      if (c.mix == Config::Mix::Sources) {
+        const skylit::sky::SunDetector detector(lens, cv::Mat(), sun_options);
+        cv::Mat working = frame.radiance.clone();
+        cv::Mat exclude(working.size(), CV_8UC1, cv::Scalar(0));
+        for (int k = 0; k < source_count; ++k) {
+          const skylit::sky::SunDetection found = detector.detect(working, cv::Mat());
+          if (!found.sun) break;
+          sources.push_back(*found.sun);
+          const cv::Vec3f background(static_cast<float>(found.sun->background.z()),
+                                     static_cast<float>(found.sun->background.y()),
+                                     static_cast<float>(found.sun->background.x()));
+          working.setTo(background, found.mask);
+          exclude.setTo(255, found.mask);
+        }
+        estimate.luminance = skylit::sky::compute_luminance(estimator.table(), dome, frame.radiance, frame.clipped,
+                                                            exclude, sky_options.luminance);
+        estimate.sun.reset();
+        estimate.sun_reason = std::to_string(sources.size()) + " source(s)";
+      }
       const std::vector<Eigen::Vector3d> S = skylit::sky::layer_radiances(estimate.luminance);
       std::optional<skylit::render::SunLight> sun;
       std::vector<Vec3> disc_directions;
@@ -334,8 +480,33 @@ int main(int argc, char** argv) {
         sun = skylit::render::SunLight{oracle.centroid, oracle.energy};
         disc_directions = oracle.directions;
         disc_weights = oracle.weights;
+        if (c.mix == Config::Mix::OraclePoint) {
+          disc_directions = {oracle.centroid};
+          disc_weights = {1.0};
+        } else if (c.mix == Config::Mix::OracleCorePoint) {
+          disc_directions.clear();
+          disc_weights.clear();
+          Vec3 core = Vec3::Zero();
+          double core_weight = 0;
+          for (std::size_t k = 0; k < oracle.directions.size(); ++k) {
+            if (degrees_between(oracle.directions[k], oracle.peak) <= 1.0) {
+              core += oracle.weights[k] * oracle.directions[k];
+              core_weight += oracle.weights[k];
+            } else {
+              disc_directions.push_back(oracle.directions[k]);
+              disc_weights.push_back(oracle.weights[k]);
+            }
+          }
+          disc_directions.push_back(core.normalized());
+          disc_weights.push_back(core_weight);
+        }
+      } else if (mixed && c.mix == Config::Mix::OracleLight) {
+        sun = skylit::render::SunLight{oracle.centroid, oracle.energy};
+        disc_directions = oracle.directions;
+        disc_weights = oracle.weights;
       } else if (estimate.sun) {
-        sun = skylit::render::SunLight{estimate.sun->direction, estimate.sun->energy};
+        sun = skylit::render::SunLight{estimate.sun->direction,
+                                       mixed && c.mix == Config::Mix::OracleEnergy ? oracle.energy : estimate.sun->energy};
         disc_directions = estimate.sun->disc_directions;
         disc_weights = estimate.sun->disc_weights;
       }
@@ -359,6 +530,26 @@ int main(int argc, char** argv) {
                       oracle.energy_within(2.0, equirect), oracle.energy_within(4.0, equirect),
                       oracle.energy_within(6.0, equirect), 360.0 / equirect.cols);
         sun_notes.emplace_back(line);
+        // Energy by distance from the oracle's centroid, detected against oracle: where they differ.
+        const std::vector<double> edges{0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 180.0};
+        std::vector<double> detected_bins(edges.size(), 0.0), oracle_bins(edges.size(), 0.0);
+        const auto bin_of = [&](const Vec3& dir) {
+          const double a = degrees_between(dir, oracle.centroid);
+          return static_cast<std::size_t>(std::lower_bound(edges.begin(), edges.end(), a) - edges.begin());
+        };
+        for (std::size_t k = 0; k < d.disc_directions.size(); ++k) {
+          detected_bins[bin_of(d.disc_directions[k])] += d.disc_weights[k] * luminance(d.energy);
+        }
+        for (std::size_t k = 0; k < oracle.directions.size(); ++k) {
+          oracle_bins[bin_of(oracle.directions[k])] += oracle.weights[k] * luminance(oracle.energy);
+        }
+        std::string bins = sky_file.stem().string() + ": sun energy by distance from the oracle's centroid (up to °: detected / oracle):";
+        for (std::size_t b = 0; b < edges.size(); ++b) {
+          char cell[96];
+          std::snprintf(cell, sizeof cell, " %.2f: %.4f / %.4f;", edges[b], detected_bins[b], oracle_bins[b]);
+          bins += cell;
+        }
+        sun_notes.push_back(bins);
       }
 
       std::vector<double> diffs;
@@ -374,6 +565,32 @@ int main(int argc, char** argv) {
         const auto w = skylit::render::blend_weights(basis, S, sun);
         std::vector<float> T(basis.texel_count() * 3);
         skylit::render::blend_cpu(basis, w, w.sun.isZero() ? std::span<const float>() : std::span<const float>(visibility), T);
+        if (!sources.empty()) {
+          // T = (T_dome D_dome + Σ_k E_k c_k V_k) / (D_dome + Σ_k E_k c_k), c_k = max(0, n·ω_k).
+          const Vec3 normal = manifest.planes[j].plane.normal();
+          std::vector<Eigen::Vector3d> numerator(basis.texel_count());
+          for (std::size_t x = 0; x < basis.texel_count(); ++x) {
+            for (int ch = 0; ch < 3; ++ch) numerator[x][ch] = T[x * 3 + static_cast<std::size_t>(ch)] * w.denominator[ch];
+          }
+          Eigen::Vector3d denominator = w.denominator;
+          std::vector<float> source_visibility(basis.texel_count());
+          for (const skylit::sky::Sun& source : sources) {
+            const double facing = std::max(0.0, normal.dot(source.direction));
+            if (facing <= 0.0) continue;
+            skylit::baker::area_light_visibility(mesh, manifest.planes[j].plane, source.disc_directions,
+                                                 source.disc_weights, source_visibility);
+            for (std::size_t x = 0; x < basis.texel_count(); ++x) {
+              numerator[x] += facing * source_visibility[x] * source.energy;
+            }
+            denominator += facing * source.energy;
+          }
+          for (std::size_t x = 0; x < basis.texel_count(); ++x) {
+            for (int ch = 0; ch < 3; ++ch) {
+              T[x * 3 + static_cast<std::size_t>(ch)] =
+                  denominator[ch] > 0.0 ? static_cast<float>(std::clamp(numerator[x][ch] / denominator[ch], 0.0, 1.0)) : 1.0f;
+            }
+          }
+        }
         std::vector<double> plane_diffs;
         for (std::size_t x = 0; x < basis.texel_count(); ++x) {
           for (int ch = 0; ch < 3; ++ch) {
@@ -406,11 +623,16 @@ int main(int argc, char** argv) {
         per_plane[basis.name] = {{"rms", pe.rms}, {"p99", pe.p99}, {"max", pe.max}};
       }
       const Errors e = errors_of(std::move(diffs));
+      const std::string found = !c.sun                                         ? "-"
+                                : c.mix == Config::Mix::Sources                ? std::to_string(sources.size()) + " sources"
+                                : use_oracle                                   ? "oracle"
+                                : estimate.sun                                 ? "yes"
+                                                                               : "no";
       const std::string basis_name(skylit::geom::basis_name(c.basis));
       std::printf("| %s | %s | %d | %d | %s | %s | %.4f | %.4f | %.4f | %s |\n", sky_file.stem().c_str(),
                   c.name.c_str(), c.frequency, c.samples, basis_name.c_str(), c.sun ? "separated" : "off", e.rms, e.p99,
                   e.max,
-                  c.sun ? (use_oracle ? "oracle" : estimate.sun ? "yes" : "no") : "-");
+                  found.c_str());
       std::fflush(stdout);
       results.push_back({{"sky", sky_file.stem().string()}, {"config", c.name}, {"frequency", c.frequency},
                          {"samples", c.samples}, {"basis", basis_name}, {"sun_separation", c.sun},

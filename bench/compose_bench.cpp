@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdio>
+#include <ctime>
 #include <cstdlib>
 #include <filesystem>
 #include <memory>
@@ -25,6 +26,7 @@
 #include "skylit/gpu/egl_context.hpp"
 #include "skylit/render/compositor.hpp"
 #include "skylit/render/cpu_blend.hpp"
+#include "skylit/render/hmd_distortion.hpp"
 #include "skylit/render/sun_shadow_map.hpp"
 #include "skylit/scene/site.hpp"
 #include "skylit/sky/calibration.hpp"
@@ -247,6 +249,38 @@ void BM_SunShadowUpdate(benchmark::State& state) {
 }
 
 BENCHMARK(BM_SunShadowUpdate)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// An HMD frame on the generic profile (config/hmd/generic.yaml: 2 × 1920×1080, lens distortion
+// per channel through a 40×40 mesh per eye) from a 1920×1080 camera, glFinish included.
+// arg 0: the distortion pass alone (both eyes, one texture); 1: mono (one composite, shown to both
+// eyes); 2: stereo (a composite per eye).
+void BM_HmdFrame(benchmark::State& state) {
+  Scene& scene = Scene::get();
+  const sky::CameraCalibration calibration = camera(1920, 1080);
+  render::Compositor compositor(scene.site, scene.mesh, scene.manifest, scene.transfer, calibration);
+  render::HmdDistortion hmd(render::load_hmd_profile(fs::path(SKYLIT_SOURCE_DIR) / "config/hmd/generic.yaml"));
+  cv::Mat image;
+  const render::CompositeInput input = frame_input(scene, calibration, image);
+  compositor.composite(input);
+  const GLuint eye_image = compositor.display_texture();
+  const auto mode = state.range(0) == 2 ? render::StereoMode::stereo : render::StereoMode::mono;
+  glFinish();
+  const std::clock_t cpu_start = std::clock();  // process CPU time: llvmpipe's threads included
+  for (auto _ : state) {
+    if (state.range(0) == 0) {
+      hmd.draw(std::span<const GLuint>(&eye_image, 1), 1920, 1080);
+    } else {
+      render::draw_hmd_frame(compositor, hmd, input, mode);
+    }
+    glFinish();
+  }
+  state.counters["process_cpu_ms"] = 1000.0 * static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC /
+                                     static_cast<double>(state.iterations());
+  std::array<double, 1> load{};
+  if (getloadavg(load.data(), 1) == 1) state.counters["load_1min"] = load[0];
+}
+
+BENCHMARK(BM_HmdFrame)->ArgNames({"distortion_mono_stereo"})->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 

@@ -52,8 +52,9 @@ void BM_Luminance(benchmark::State& state) {
 }
 BENCHMARK(BM_Luminance)->ArgsProduct({{2, 8}, {1, 2, 4}})->Unit(benchmark::kMillisecond)->UseRealTime();
 
-// The corners basis: three weighted sums per sample, and per face the 3×3 fit (with the sun's
-// exclusion mask, which recomputes the mass of the faces it touches).
+// The corners basis: three weighted sums per sample, and per face the 3×3 fit. Arguments: ν,
+// step, the sun's exclusion mask (which recomputes the mass of the faces it touches), and the
+// AVX2 pass (1, where the CPU has it) or the portable one (0).
 void BM_LuminanceCorners(benchmark::State& state) {
   const geom::Dome dome(static_cast<int>(state.range(0)));
   const sky::Lens lens(hd_fisheye());
@@ -67,15 +68,21 @@ void BM_LuminanceCorners(benchmark::State& state) {
       for (int x = 1288; x <= 1312; ++x) exclude.at<std::uint8_t>(y, x) = (x - 1300) * (x - 1300) + (y - 300) * (y - 300) <= 144 ? 255 : 0;
     }
   }
+  sky::LuminanceOptions options;
+  options.use_simd = state.range(3) != 0;
   for (auto _ : state) {
-    sky::Luminance l = sky::compute_luminance(table, dome, frame, cv::Mat(), exclude);
+    sky::Luminance l = sky::compute_luminance(table, dome, frame, cv::Mat(), exclude, options);
     benchmark::DoNotOptimize(l.faces.data());
   }
   state.counters["samples"] = static_cast<double>(table.sample_count());
+  state.counters["runs"] = static_cast<double>(table.runs.size());
 }
 BENCHMARK(BM_LuminanceCorners)
-    ->ArgsProduct({{2, 8}, {1, 2, 4}, {0}})
-    ->Args({2, 1, 1})
+    ->ArgsProduct({{2, 8}, {1, 2, 4}, {0}, {1}})
+    ->Args({2, 1, 1, 1})
+    ->Args({8, 1, 1, 1})
+    ->Args({2, 1, 0, 0})
+    ->Args({8, 1, 0, 0})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 

@@ -78,7 +78,7 @@ int main(int argc, char** argv) {
   try {
     const skylit::live::LiveConfig config = skylit::live::load_live_config(config_file);
     skylit::live::ServiceOptions options;
-    options.headless = headless || !config.output.window;
+    options.headless = headless || !(config.output.window || config.display);  // a display section opens the window
     if (frames > 0) options.frames = frames;
     if (!record.empty()) options.record = record;
     if (!status.empty()) options.status_listen = status;

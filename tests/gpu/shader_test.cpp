@@ -31,6 +31,7 @@ const std::vector<std::vector<std::string>> kPipelines = {
     {"compose_building.vert", "compose_building.frag"},
     {"compose_fullscreen.vert", "compose_final.frag"},
     {"compose_depth.vert", "compose_depth.frag"},
+    {"hmd_distortion.vert", "hmd_distortion.frag"},
 };
 
 std::vector<fs::path> shader_files() {

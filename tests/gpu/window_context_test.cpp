@@ -1,92 +1,26 @@
 // The window context: an OpenGL ES 3.1 context through EGL in a GLFW window, on a virtual X
 // display (Xvfb, started by the test) so that it runs on machines without a screen. A texture is
-// shown upright and scaled to fit with its aspect ratio kept; no display is a clear error.
-#include <fcntl.h>
-#include <signal.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
+// shown upright and scaled to fit with its aspect ratio kept; no display is a clear error. A monitor is chosen by name; an
+// unknown name is an error that lists the monitors present.
 #include <gtest/gtest.h>
 
 #include <array>
+#include <cstdio>
 #include <cstdlib>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "skylit/base/error.hpp"
 #include "skylit/gpu/gl.hpp"
 #include "skylit/gpu/window_context.hpp"
+#include "virtual_display.hpp"
 
 namespace skylit::gpu {
 namespace {
 
-// An environment variable set (or unset) for a scope, restored after.
-class ScopedEnv {
- public:
-  ScopedEnv(const char* name, const char* value) : name_(name) {
-    if (const char* old = std::getenv(name)) old_ = old;
-    if (value) {
-      ::setenv(name, value, 1);
-    } else {
-      ::unsetenv(name);
-    }
-  }
-  ~ScopedEnv() {
-    if (old_) {
-      ::setenv(name_.c_str(), old_->c_str(), 1);
-    } else {
-      ::unsetenv(name_.c_str());
-    }
-  }
-  ScopedEnv(const ScopedEnv&) = delete;
-  ScopedEnv& operator=(const ScopedEnv&) = delete;
-
- private:
-  std::string name_;
-  std::optional<std::string> old_;
-};
-
-// Xvfb on a free display number (it writes the number to a pipe: -displayfd); stopped on
-// destruction. display() is empty when Xvfb is not installed or does not start.
-class VirtualDisplay {
- public:
-  VirtualDisplay() {
-    int fds[2];
-    if (::pipe(fds) != 0) return;
-    pid_ = ::fork();
-    if (pid_ == 0) {
-      ::close(fds[0]);
-      const int null = ::open("/dev/null", O_WRONLY);
-      if (null >= 0) {
-        ::dup2(null, 1);
-        ::dup2(null, 2);
-      }
-      const std::string fd = std::to_string(fds[1]);
-      ::execlp("Xvfb", "Xvfb", "-displayfd", fd.c_str(), "-screen", "0", "640x480x24", "-nolisten", "tcp",
-               static_cast<char*>(nullptr));
-      ::_exit(127);
-    }
-    ::close(fds[1]);
-    std::string number;
-    char c = 0;
-    while (::read(fds[0], &c, 1) == 1 && c != '\n') number += c;
-    ::close(fds[0]);
-    if (!number.empty()) display_ = ":" + number;
-  }
-  ~VirtualDisplay() {
-    if (pid_ > 0) {
-      ::kill(pid_, SIGTERM);
-      ::waitpid(pid_, nullptr, 0);
-    }
-  }
-  VirtualDisplay(const VirtualDisplay&) = delete;
-  VirtualDisplay& operator=(const VirtualDisplay&) = delete;
-  const std::string& display() const { return display_; }
-
- private:
-  pid_t pid_ = -1;
-  std::string display_;
-};
+using test::ScopedEnv;
+using test::VirtualDisplay;
 
 // A width × height RGBA8 texture: the top half (texel rows 0 .. height/2 − 1) red, the rest blue.
 Texture red_over_blue(int width, int height) {
@@ -147,6 +81,54 @@ TEST(WindowContext, ShowsATextureUprightScaledToFit) {
   EXPECT_EQ(at(40, 10), (std::array<int, 3>{255, 0, 0}));    // just inside the image's left edge (x0 = 36)
   window.swap_buffers();
   EXPECT_FALSE(window.close_requested());
+}
+
+TEST(WindowContext, FullScreenOnAMonitorChosenByName) {
+  const VirtualDisplay xvfb;
+  if (xvfb.display().empty()) GTEST_SKIP() << "Xvfb is not installed (apt install xvfb)";
+  const ScopedEnv display("DISPLAY", xvfb.display().c_str());
+  const ScopedEnv wayland("WAYLAND_DISPLAY", nullptr);
+  const std::vector<std::string> names = monitor_names();
+  ASSERT_FALSE(names.empty());
+  std::printf("measured: Xvfb's monitors: '%s'%s\n", names.front().c_str(), names.size() > 1 ? " and more" : "");
+
+  WindowOptions options;
+  options.width = 200;
+  options.height = 96;
+  options.vsync = false;
+  options.monitor = names.front();
+  const WindowContext window(options);
+  // Full screen at the monitor's mode: the screen Xvfb was started with.
+  EXPECT_EQ(window.framebuffer_width(), 640);
+  EXPECT_EQ(window.framebuffer_height(), 480);
+}
+
+TEST(WindowContext, AnUnknownMonitorIsAnErrorListingTheMonitorsPresent) {
+  const VirtualDisplay xvfb;
+  if (xvfb.display().empty()) GTEST_SKIP() << "Xvfb is not installed (apt install xvfb)";
+  const ScopedEnv display("DISPLAY", xvfb.display().c_str());
+  const ScopedEnv wayland("WAYLAND_DISPLAY", nullptr);
+  const std::vector<std::string> names = monitor_names();
+  ASSERT_FALSE(names.empty());
+  WindowOptions options;
+  options.monitor = "No Such HMD";
+  try {
+    const WindowContext window(options);
+    FAIL() << "a window opened on a monitor that does not exist";
+  } catch (const InputError& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("'No Such HMD'"), std::string::npos) << message;
+    EXPECT_NE(message.find("monitors present: '" + names.front() + "'"), std::string::npos) << message;
+    EXPECT_NE(message.find("display.monitor"), std::string::npos) << message;
+    EXPECT_NE(message.find("Fix:"), std::string::npos) << message;
+  }
+  // GLFW was left terminated: a window opens after the error.
+  options.monitor.clear();
+  options.width = 64;
+  options.height = 48;
+  options.vsync = false;
+  const WindowContext window(options);
+  EXPECT_EQ(window.framebuffer_width(), 64);
 }
 
 TEST(WindowContext, NoDisplayIsAClearError) {

@@ -66,9 +66,17 @@ TEST(ServiceFaults, ASkyFolderThatDisappearsLeavesTheLastSkyFlaggedStale) {
 }
 
 TEST(ServiceFaults, ACameraFolderThatDisappearsAndComesBackResumes) {
-  const Rig rig;
+  RigOptions rig_options;
+  // Silent for 0.5 s: taken as failed and reopened, after 0.1 s, then every 0.2 s.
+  rig_options.camera_source_extra = "    reconnect: {initial: 0.1, max: 0.2, silence: 0.5}\n";
+  const Rig rig(rig_options);
   RunningService running(rig.config(), quiet_options());
   ASSERT_TRUE(running.wait_for([](const json& s) { return frames_of(s) >= 5; })) << running.error();
+  const json before = running.status();
+  EXPECT_EQ(before["camera"]["state"], "running") << before["camera"].dump(2);
+  EXPECT_EQ(before["camera"]["reconnect_attempts"], 0);
+  EXPECT_EQ(before["camera"]["last_error"], "");
+  EXPECT_LT(before["camera"]["seconds_since_frame"].get<double>(), 0.5);
 
   fs::remove_all(rig.dir() / "camera");
   std::this_thread::sleep_for(300ms);
@@ -76,13 +84,31 @@ TEST(ServiceFaults, ACameraFolderThatDisappearsAndComesBackResumes) {
   std::this_thread::sleep_for(500ms);
   const json without = running.status();
   EXPECT_LE(frames_of(without), frames_gone + 1);  // nothing new to composite
-  // (The files it tries meanwhile count as unreadable, or the source is down and reopened.)
   EXPECT_FALSE(running.done()) << running.error();
+
+  // The source is reported down, reopened with backoff, each attempt failing on the missing folder.
+  ASSERT_TRUE(running.wait_for([](const json& s) {
+    return s["camera"]["state"] == "reconnecting" && s["camera"]["reconnect_attempts"].get<int>() >= 2;
+  }, 10)) << running.status().dump(2);
+  const json down = running.status();
+  std::printf("measured: camera down: %s\n", down["camera"].dump().c_str());
+  EXPECT_NE(down["camera"]["last_error"].get<std::string>().find("camera"), std::string::npos) << down["camera"].dump(2);
+  EXPECT_GE(down["camera"]["seconds_since_frame"].get<double>(), 0.5);
+  EXPECT_TRUE(has_flag(down, "camera_reconnecting")) << down.dump(2);
+  const std::string metrics = running.service().metrics_text();
+  EXPECT_NE(metrics.find("skylit_source_state{source=\"camera\",state=\"reconnecting\"} 1"), std::string::npos) << metrics;
+  EXPECT_NE(metrics.find("skylit_source_state{source=\"camera\",state=\"running\"} 0"), std::string::npos) << metrics;
+  EXPECT_NE(metrics.find("skylit_source_reconnect_attempts_total{source=\"camera\"} "), std::string::npos) << metrics;
 
   // The files come back (a remounted disk): frames flow again.
   write_frames(rig.dir() / "camera", rig.camera_frames(), 30, "png");
   ASSERT_TRUE(running.wait_for([&](const json& s) { return frames_of(s) >= frames_of(without) + 5; }, 20))
       << running.status().dump(2);
+  const json back = running.status();
+  EXPECT_EQ(back["camera"]["state"], "running") << back["camera"].dump(2);
+  EXPECT_GE(back["camera"]["reconnects"].get<int>(), 1);
+  EXPECT_GT(back["camera"]["reconnect_attempts"].get<int>(), back["camera"]["reconnects"].get<int>());
+  EXPECT_FALSE(has_flag(back, "camera_reconnecting"));
   const auto stop_asked = std::chrono::steady_clock::now();
   running.finish();
   EXPECT_LT(std::chrono::steady_clock::now() - stop_asked, 5s);
@@ -154,6 +180,9 @@ TEST(ServiceFaults, ABadConfigFieldNamesTheFileLineAndField) {
       {"blend:\n  storage: float16\n", "blend.storage", "half"},
       {"output:\n  window: maybe\n", "output.window", "true or false"},
       {"status:\n  lisen: 127.0.0.1:0\n", "lisen", "did you mean 'listen'"},
+      {"blend:\n  device: fpga\n", "blend.device", "cpu"},
+      {"blend: vulkan\n", "blend", "gpu"},
+      {"output:\n  record: {path: out.mp4, fps: 0}\n", "output.record.fps", "frames per second"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.field);
@@ -180,7 +209,7 @@ TEST(ServiceStatus, StatusAndMetricsOverHttpWhileRunning) {
   rig_options.status = "127.0.0.1:0";  // any free port
   const Rig rig(rig_options);
   RunningService running(rig.config(), quiet_options());
-  ASSERT_TRUE(running.wait_for([](const json& s) { return frames_of(s) >= 3 && s["sky"]["estimates"].get<int>() >= 1; }))
+  ASSERT_TRUE(running.wait_for([](const json& s) { return frames_of(s) >= 3 && s["state"] == "running"; }))
       << running.error();
   const std::string address = running.service().status_address();
   const int port = std::stoi(address.substr(address.rfind(':') + 1));
@@ -198,6 +227,15 @@ TEST(ServiceStatus, StatusAndMetricsOverHttpWhileRunning) {
   EXPECT_NEAR(status["sky"]["sun"]["elevation_deg"].get<double>(), kSunElevationDeg, 1.0);
   EXPECT_TRUE(status["flags"].empty()) << status.dump(2);
   EXPECT_NE(status["camera"]["source"].get<std::string>().find("images"), std::string::npos);
+  EXPECT_EQ(status["camera"]["state"], "running");
+  EXPECT_NEAR(status["camera"]["frame_rate_hz"].get<double>(), 30.0, 0.01);  // the rig films at 30 frames/s
+  EXPECT_EQ(status["state"], "running");
+  // blend.device auto: the CPU on a software GL renderer (llvmpipe), the GPU on a real one.
+  EXPECT_EQ(status["blend"]["setting"], "auto");
+  EXPECT_EQ(status["blend"]["device"], status["blend"]["software_renderer"].get<bool>() ? "cpu" : "gpu")
+      << status["blend"].dump();
+  // The rig's sky is one frame, read once: that source has ended (its S stays).
+  ASSERT_TRUE(running.wait_for([](const json& s) { return s["sky"]["state"] == "ended"; }, 10)) << running.status().dump(2);
 
   const auto metrics = client.Get("/metrics");
   ASSERT_TRUE(metrics);
@@ -205,7 +243,8 @@ TEST(ServiceStatus, StatusAndMetricsOverHttpWhileRunning) {
   for (const std::string expected :
        {"# TYPE skylit_frames_total counter\nskylit_frames_total ", "# TYPE skylit_frame_time_seconds gauge\n",
         "skylit_frame_time_seconds{quantile=\"0.99\"} ", "skylit_sky_luminance{layer=\"0\",channel=\"r\"} ",
-        "skylit_sun_detected 1\n", "skylit_sky_age_seconds "}) {
+        "skylit_sun_detected 1\n", "skylit_sky_age_seconds ", "skylit_waiting_for_sky 0\n",
+        "skylit_source_state{source=\"sky\",state=\"ended\"} 1\n", "skylit_source_seconds_since_frame{source=\"camera\"} "}) {
     EXPECT_NE(metrics->body.find(expected), std::string::npos) << expected << "\n" << metrics->body;
   }
 

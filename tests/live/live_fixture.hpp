@@ -48,7 +48,7 @@ inline constexpr double kSunElevationDeg = 35.0;
 inline const Vector3d kEye(11.0, -3.0, 8.0);
 inline const Vector3d kTarget(2.0, 1.0, 0.5);
 
-inline std::string quoted(const fs::path& path) { return "'" + path.string() + "'"; }
+inline std::string quoted(const fs::path& path) { return std::string("'").append(path.string()).append("'"); }
 
 // A pinhole HMD camera of width × height, 75° wide, mild barrel distortion (docs/sky.md schema).
 inline void write_hmd_calibration(const fs::path& file, int width, int height) {
@@ -125,6 +125,7 @@ struct RigOptions {
   std::string sun = "auto";
   double stale_after = 30;
   std::string status;                  // status.listen, "" for none
+  std::string camera_source_extra;     // more YAML in camera.source (lines indented by 4)
   std::string extra;                   // more top-level YAML
 };
 
@@ -175,6 +176,7 @@ class Rig {
         << "  calibration: hmd.yaml\n"
         << "  source:\n    kind: images\n    path: camera\n    loop: " << (options_.camera_loop ? "true" : "false") << "\n"
         << (options_.camera_realtime.empty() ? "" : "    realtime: " + options_.camera_realtime + "\n")
+        << options_.camera_source_extra
         << "pose:\n  kind: fixed\n"
         << "  position: [" << kEye.x() << ", " << kEye.y() << ", " << kEye.z() << "]\n"
         << "  look_at: [" << kTarget.x() << ", " << kTarget.y() << ", " << kTarget.z() << "]\n";

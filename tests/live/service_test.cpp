@@ -1,7 +1,8 @@
 // The service end to end: recorded sky and camera frames in, composited frames out, against the
 // compositor driven directly with the same inputs (the sky estimate of the same sky frame, the CPU
-// blend of T with the same sun visibility); the box's shadow on the ground where geometry puts
-// it. Measured figures are printed ("measured:" lines).
+// blend of T with the same sun visibility), with the service's blend on the CPU and on the GPU;
+// the box's shadow on the ground where geometry puts it. Measured figures are printed
+// ("measured:" lines).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -24,6 +25,7 @@ namespace {
 struct Outputs {
   std::vector<cv::Mat> recorded;       // the service's frames, in order
   std::int64_t frames_without_sky = 0; // the first frames, composited before the sky came
+  nlohmann::json status;               // the service's, after the run
   std::vector<cv::Mat> direct;         // per camera frame of the rig
   std::vector<cv::Mat> inputs;         // the rig's camera frames
   render::CameraPose pose;
@@ -31,15 +33,22 @@ struct Outputs {
   Vector3d sun_direction = Vector3d::Zero();
   std::string error;
 
-  static const Outputs& get() {
-    static const Outputs outputs = make();
-    return outputs;
+  // device: the service's blend.device, "cpu" or "gpu".
+  static const Outputs& get(const std::string& device) {
+    if (device == "gpu") {
+      static const Outputs gpu = make("gpu");
+      return gpu;
+    }
+    static const Outputs cpu = make("cpu");
+    return cpu;
   }
 
  private:
-  static Outputs make() {
+  static Outputs make(const std::string& device) {
     Outputs out;
-    const Rig rig;
+    RigOptions rig_options;
+    rig_options.extra = "blend:\n  device: " + device + "\n";
+    const Rig rig(rig_options);
     const live::LiveConfig config = rig.config();
     live::ServiceOptions options = quiet_options();
     options.frames = 30;
@@ -51,7 +60,8 @@ struct Outputs {
         out.error = running.error();
         return out;
       }
-      out.frames_without_sky = running.status()["frames_without_sky"].get<std::int64_t>();
+      out.status = running.status();
+      out.frames_without_sky = out.status["frames_without_sky"].get<std::int64_t>();
     }
     for (int k = 0;; ++k) {
       char name[32];
@@ -139,11 +149,15 @@ Match nearest(const cv::Mat& recorded, const std::vector<cv::Mat>& direct) {
   return m;
 }
 
-TEST(Service, RecordedFramesMatchTheCompositorDrivenDirectly) {
-  const Outputs& out = Outputs::get();
+class ServiceBlend : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(ServiceBlend, RecordedFramesMatchTheCompositorDrivenDirectly) {
+  const Outputs& out = Outputs::get(GetParam());
   ASSERT_TRUE(out.error.empty()) << out.error;
   ASSERT_EQ(out.recorded.size(), 30u);
   ASSERT_LT(out.frames_without_sky, 25) << "the sky came too late to compare frames";
+  EXPECT_EQ(out.status["blend"]["device"], GetParam()) << out.status["blend"].dump();
+  EXPECT_EQ(out.status["blend"]["setting"], GetParam());
   int worst = 0, nearest_other = 255;
   for (std::size_t k = static_cast<std::size_t>(out.frames_without_sky); k < out.recorded.size(); ++k) {
     const cv::Mat& frame = out.recorded[k];
@@ -153,15 +167,55 @@ TEST(Service, RecordedFramesMatchTheCompositorDrivenDirectly) {
     worst = std::max(worst, m.max_difference);
     nearest_other = std::min(nearest_other, m.runner_up);
   }
-  std::printf("measured: %zu frames with the sky (%lld before it came): max |service − direct| %d codes of 255; "
-              "to the other camera frames' composites ≥ %d codes\n",
-              out.recorded.size() - static_cast<std::size_t>(out.frames_without_sky),
+  // Before the sky came, the camera image alone (the building is not drawn unlit).
+  for (std::size_t k = 0; k < static_cast<std::size_t>(out.frames_without_sky); ++k) {
+    int to_input = 255;
+    for (const cv::Mat& input : out.inputs) to_input = std::min(to_input, max_difference(out.recorded[k], input));
+    EXPECT_EQ(to_input, 0) << "frame " << k << ", composited before the sky came";
+  }
+  std::printf("measured: blend on the %s: %zu frames with the sky (%lld before it came): max |service − direct| %d "
+              "codes of 255; to the other camera frames' composites ≥ %d codes\n",
+              GetParam().c_str(), out.recorded.size() - static_cast<std::size_t>(out.frames_without_sky),
               static_cast<long long>(out.frames_without_sky), worst, nearest_other);
-  // The GPU blend stores the basis as half floats, the CPU blend reads the same halves: T agrees
-  // to ~1e-3, a code at most after sRGB encoding.
+  // The direct composite blends on the CPU into a float texture. The service's CPU blend is the
+  // same sum over the same halves with the same sun visibility; its GPU blend sums in fp32 and
+  // stores T as half (≤ 2^-11): a code at most after sRGB encoding.
   EXPECT_LE(worst, 2);
   // And each output is told apart from the composites of the other camera frames.
   EXPECT_GE(nearest_other, 10);
+}
+
+INSTANTIATE_TEST_SUITE_P(Device, ServiceBlend, ::testing::Values("cpu", "gpu"),
+                         [](const auto& param_info) { return param_info.param; });
+
+// The two blends give the same composited frames: per camera frame of the rig, the service's
+// output with T blended on the CPU against its output with T blended on the GPU.
+TEST(Service, BlendOnTheCpuAndOnTheGpuGiveTheSameFrames) {
+  const Outputs& cpu = Outputs::get("cpu");
+  const Outputs& gpu = Outputs::get("gpu");
+  ASSERT_TRUE(cpu.error.empty()) << cpu.error;
+  ASSERT_TRUE(gpu.error.empty()) << gpu.error;
+  int worst = 0, compared = 0;
+  double sum = 0;
+  for (std::size_t k = static_cast<std::size_t>(cpu.frames_without_sky); k < cpu.recorded.size(); ++k) {
+    const std::size_t index = nearest(cpu.recorded[k], cpu.direct).index;
+    for (std::size_t g = static_cast<std::size_t>(gpu.frames_without_sky); g < gpu.recorded.size(); ++g) {
+      if (nearest(gpu.recorded[g], gpu.direct).index != index) continue;
+      cv::Mat difference;
+      cv::absdiff(cpu.recorded[k], gpu.recorded[g], difference);
+      worst = std::max(worst, max_difference(cpu.recorded[k], gpu.recorded[g]));
+      sum += cv::mean(difference.reshape(1))[0];
+      ++compared;
+      break;
+    }
+  }
+  std::printf("measured: %d frame pairs (same camera frame, blend on the CPU / on the GPU): max difference %d codes "
+              "of 255, mean %.4f codes\n",
+              compared, worst, compared > 0 ? sum / compared : 0.0);
+  ASSERT_GE(compared, 3);
+  // T half-float rounding on the GPU (≤ 2^-11): a code at most after sRGB encoding, rarely.
+  EXPECT_LE(worst, 2);
+  EXPECT_LT(sum / compared, 0.05);
 }
 
 // Ground points in the shadow the buildings cast with the sun towards `sun`: the convex hull of
@@ -187,7 +241,7 @@ double shadow_depth(const Vector3d& sun, const Eigen::Vector2d& ground_point, do
 }
 
 TEST(Service, TheBoxShadowLandsOnTheGroundWhereGeometryPutsIt) {
-  const Outputs& out = Outputs::get();
+  const Outputs& out = Outputs::get("cpu");
   ASSERT_TRUE(out.error.empty()) << out.error;
   ASSERT_FALSE(out.recorded.empty());
   const cv::Mat& frame = out.recorded.back();

@@ -112,6 +112,41 @@ TEST(SunDetector, FindsADiscWithItsDirectionAndEnergy) {
   EXPECT_EQ(d.mask.at<std::uint8_t>(static_cast<int>(std::lround(centre->y())), static_cast<int>(std::lround(centre->x()))), 255);
 }
 
+// A glow around the disc (1°–3°, 5× the sky) fainter than disc_factor × the background stays
+// in the dome (sharp sun shadows); a lower disc_factor takes it into the sun term.
+TEST(SunDetector, GlowFainterThanTheDiscFactorStaysInTheDome) {
+  const Lens lens(zenith_camera(1024));
+  const DiscSky disc_sky{from_angles(135.0, 40.0), 1.0 * kDeg, Eigen::Vector3d(8000, 7000, 6000)};
+  const auto sky = [&](const Vec3& d) -> Eigen::Vector3d {
+    const double a = angle(d, disc_sky.sun);
+    if (d.z() >= 0 && a > disc_sky.radius && a <= 3.0 * kDeg) return 5.0 * disc_sky(d);
+    return disc_sky(d);
+  };
+  const cv::Mat frame = paint(lens, sky);
+  const double disc_solid_angle = 2.0 * std::numbers::pi * (1.0 - std::cos(disc_sky.radius));
+  const double glow_solid_angle = 2.0 * std::numbers::pi * (std::cos(disc_sky.radius) - std::cos(3.0 * kDeg));
+
+  const SunDetection tight = SunDetector(lens, cv::Mat()).detect(frame, cv::Mat());
+  ASSERT_TRUE(tight.sun) << tight.reason;
+  ASSERT_EQ(SunOptions{}.disc_factor, 10.0);
+  for (int c = 0; c < 3; ++c) {
+    const double expected = (disc_sky.disc[c] - tight.sun->background[c]) * disc_solid_angle;
+    EXPECT_NEAR(tight.sun->energy[c], expected, 0.03 * expected) << "channel " << c;
+  }
+  for (const Vec3& d : tight.sun->disc_directions) EXPECT_LT(angle(d, disc_sky.sun), disc_sky.radius + 0.3 * kDeg);
+
+  SunOptions wide_options;
+  wide_options.disc_factor = 3.0;
+  const SunDetection wide = SunDetector(lens, cv::Mat(), wide_options).detect(frame, cv::Mat());
+  ASSERT_TRUE(wide.sun) << wide.reason;
+  EXPECT_GT(wide.sun->pixel_count, 4 * tight.sun->pixel_count);
+  for (int c = 0; c < 3; ++c) {
+    // The glow's excess over the background joins the sun: 4 × the sky over the glow's area.
+    const double glow = (5.0 - 1.0) * wide.sun->background[c] * glow_solid_angle;
+    EXPECT_NEAR(wide.sun->energy[c] - tight.sun->energy[c], glow, 0.15 * glow) << "channel " << c;
+  }
+}
+
 TEST(SunDetector, ARealSizedSunOfAFewPixels) {
   const Lens lens(zenith_camera(1024));
   const SunDetector detector(lens, cv::Mat());

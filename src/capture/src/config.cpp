@@ -300,6 +300,10 @@ SourceConfig load_source_config(const fs::path& file) {
 }
 
 std::unique_ptr<FrameSource> open_source(const SourceConfig& config, Clock clock) {
+  return open_source_with_status(config, std::move(clock)).source;
+}
+
+OpenedSource open_source_with_status(const SourceConfig& config, Clock clock) {
   const FrameChecks checks = config.checks;
   ReconnectingSource::Opener open = [settings = config.settings, checks]() -> std::unique_ptr<FrameSource> {
     return std::visit(
@@ -313,15 +317,18 @@ std::unique_ptr<FrameSource> open_source(const SourceConfig& config, Clock clock
         },
         settings);
   };
-  std::unique_ptr<FrameSource> source;
+  OpenedSource opened;
+  std::unique_ptr<FrameSource>& source = opened.source;
   if (config.reconnect) {
-    source = std::make_unique<ReconnectingSource>(std::move(open), *config.reconnect, clock);
+    auto reconnecting = std::make_unique<ReconnectingSource>(std::move(open), *config.reconnect, clock);
+    opened.reconnecting = reconnecting.get();
+    source = std::move(reconnecting);
   } else {
     source = open();
   }
   if (config.realtime_speed) source = std::make_unique<RealtimeSource>(std::move(source), *config.realtime_speed, clock);
   if (!config.name.empty()) source->set_name(config.name);
-  return source;
+  return opened;
 }
 
 }  // namespace skylit::capture

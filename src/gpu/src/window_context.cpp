@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <string>
 
+#include "skylit/base/error.hpp"
 #include "skylit/gpu/gl.hpp"
 
 namespace skylit::gpu {
@@ -30,16 +31,8 @@ std::string gl_text(GLenum name) {
   return text != nullptr ? std::string(text) : std::string();
 }
 
-}  // namespace
-
-struct WindowContext::State {
-  GLFWwindow* window = nullptr;
-  Framebuffer read_framebuffer;
-  GLuint attached = 0;  // the texture attached to read_framebuffer
-  std::string system;
-};
-
-WindowContext::WindowContext(const WindowOptions& options) : state_(std::make_unique<State>()) {
+// Starts GLFW on the display; ContextError (with the fix) when there is none.
+std::string init_glfw() {
   const char* x11 = std::getenv("DISPLAY");
   const char* wayland = std::getenv("WAYLAND_DISPLAY");
   if ((x11 == nullptr || *x11 == '\0') && (wayland == nullptr || *wayland == '\0')) {
@@ -50,13 +43,69 @@ WindowContext::WindowContext(const WindowOptions& options) : state_(std::make_un
     throw ContextError("window: GLFW cannot start: " + glfw_error() +
                        ". Fix: check $DISPLAY and that the X server accepts this user (xauth), or use --headless");
   }
-  state_->system = wayland != nullptr && *wayland != '\0' ? "Wayland" : std::string("X11 ") + (x11 ? x11 : "");
+  return wayland != nullptr && *wayland != '\0' ? "Wayland" : std::string("X11 ") + (x11 ? x11 : "");
+}
+
+// GLFW's monitors (glfwInit done), primary first.
+std::vector<std::string> glfw_monitor_names() {
+  int count = 0;
+  GLFWmonitor** monitors = glfwGetMonitors(&count);
+  std::vector<std::string> names;
+  for (int i = 0; i < count; ++i) {
+    const char* name = glfwGetMonitorName(monitors[i]);
+    names.emplace_back(name != nullptr ? name : "");
+  }
+  return names;
+}
+
+// The monitor called `name`; InputError listing the monitors present when none is.
+GLFWmonitor* find_monitor(const std::string& name) {
+  int count = 0;
+  GLFWmonitor** monitors = glfwGetMonitors(&count);
+  for (int i = 0; i < count; ++i) {
+    const char* candidate = glfwGetMonitorName(monitors[i]);
+    if (candidate != nullptr && name == candidate) return monitors[i];
+  }
+  std::string present;
+  for (const std::string& n : glfw_monitor_names()) present += (present.empty() ? "'" : ", '") + n + "'";
+  throw InputError(std::string("display.monitor: no monitor named '").append(name).append("'; monitors present: ")
+                       .append(present.empty() ? std::string("none") : present)
+                       .append(". Fix: give one of the monitors present (the HMD must be connected and switched on), "
+                               "or leave monitor out for a window"));
+}
+
+}  // namespace
+
+std::vector<std::string> monitor_names() {
+  init_glfw();
+  std::vector<std::string> names = glfw_monitor_names();
+  glfwTerminate();
+  return names;
+}
+
+struct WindowContext::State {
+  GLFWwindow* window = nullptr;
+  Framebuffer read_framebuffer;
+  GLuint attached = 0;  // the texture attached to read_framebuffer
+  std::string system;
+};
+
+WindowContext::WindowContext(const WindowOptions& options) : state_(std::make_unique<State>()) {
+  state_->system = init_glfw();
   glfwDefaultWindowHints();
   glfwWindowHint(GLFW_CLIENT_API, GLFW_OPENGL_ES_API);
   glfwWindowHint(GLFW_CONTEXT_CREATION_API, GLFW_EGL_CONTEXT_API);
   glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
   glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 1);
   GLFWmonitor* monitor = options.fullscreen ? glfwGetPrimaryMonitor() : nullptr;
+  if (!options.monitor.empty()) {
+    try {
+      monitor = find_monitor(options.monitor);
+    } catch (...) {
+      glfwTerminate();
+      throw;
+    }
+  }
   int width = options.width, height = options.height;
   if (monitor != nullptr) {
     if (const GLFWvidmode* mode = glfwGetVideoMode(monitor)) {

@@ -9,18 +9,36 @@ namespace skylit::live {
 namespace {
 
 constexpr const char* kDocs = "see docs/live.md (Configuration)";
-constexpr std::array<std::string_view, 9> kTopKeys{"site", "bake", "sky", "camera", "pose",
-                                                   "blend", "photometric", "output", "status"};
+constexpr std::array<std::string_view, 10> kTopKeys{"site", "bake", "sky", "camera", "pose",
+                                                    "blend", "photometric", "output", "status", "display"};
 constexpr std::array<std::string_view, 7> kSkyKeys{"calibration", "source", "response", "rate",
                                                    "sun", "smoothing", "stale_after"};
 constexpr std::array<std::string_view, 2> kCameraKeys{"calibration", "source"};
-constexpr std::array<std::string_view, 3> kBlendKeys{"storage", "skip_threshold", "change_threshold"};
+constexpr std::array<std::string_view, 5> kBlendKeys{"device", "threads", "storage", "skip_threshold", "change_threshold"};
+constexpr std::array<std::string_view, 3> kBlendDevices{"auto", "cpu", "gpu"};
+constexpr std::array<std::string_view, 2> kRecordKeys{"path", "fps"};
+
+BlendDevice parse_blend_device(const YamlReader& r, const YAML::Node& node, const std::string& field) {
+  const std::string device = r.choice(node, field, kBlendDevices);
+  return device == "cpu" ? BlendDevice::Cpu : device == "gpu" ? BlendDevice::Gpu : BlendDevice::Auto;
+}
 constexpr std::array<std::string_view, 2> kPhotometricKeys{"scale", "estimate"};
 constexpr std::array<std::string_view, 4> kEstimateKeys{"plane", "region", "albedo", "every"};
 constexpr std::array<std::string_view, 2> kOutputKeys{"record", "window"};
 constexpr std::array<std::string_view, 1> kStatusKeys{"listen"};
+constexpr std::array<std::string_view, 3> kDisplayKeys{"profile", "monitor", "mode"};
+constexpr std::array<std::string_view, 2> kDisplayModes{"mono", "stereo"};
 
 }  // namespace
+
+std::string blend_device_name(BlendDevice device) {
+  switch (device) {
+    case BlendDevice::Cpu: return "cpu";
+    case BlendDevice::Gpu: return "gpu";
+    case BlendDevice::Auto: break;
+  }
+  return "auto";
+}
 
 LiveConfig load_live_config(const std::filesystem::path& file) {
   const YamlReader r(file);
@@ -60,9 +78,15 @@ LiveConfig load_live_config(const std::filesystem::path& file) {
 
   c.pose = track::parse_pose_config(r.require(root, "pose", "pose", "a fixed pose or a pose track"), file);
 
-  if (auto blend = YamlReader::optional(root, "blend")) {
+  if (auto blend = YamlReader::optional(root, "blend"); blend && blend.IsScalar()) {
+    c.blend.device = parse_blend_device(r, blend, "blend");  // the short form: `blend: cpu`
+  } else if (blend) {
     r.expect_map(blend, "blend", kDocs);
     r.check_keys(blend, "blend.", kBlendKeys);
+    if (auto n = YamlReader::optional(blend, "device")) c.blend.device = parse_blend_device(r, n, "blend.device");
+    if (auto n = YamlReader::optional(blend, "threads")) {
+      c.blend.threads = static_cast<int>(r.integer(n, "blend.threads", 0, 256, "CPU blend threads, 0 for all hardware threads"));
+    }
     if (auto n = YamlReader::optional(blend, "storage")) {
       constexpr std::array<std::string_view, 2> storages{"half", "unorm8"};
       c.blend.unorm8 = r.choice(n, "blend.storage", storages) == "unorm8";
@@ -113,7 +137,13 @@ LiveConfig load_live_config(const std::filesystem::path& file) {
   if (auto output = YamlReader::optional(root, "output")) {
     r.expect_map(output, "output", kDocs);
     r.check_keys(output, "output.", kOutputKeys);
-    if (auto n = YamlReader::optional(output, "record")) c.output.record = r.path(n, "output.record", "a video file or a folder");
+    if (auto n = YamlReader::optional(output, "record"); n && n.IsMap()) {
+      r.check_keys(n, "output.record.", kRecordKeys);
+      if (auto p = YamlReader::optional(n, "path")) c.output.record = r.path(p, "output.record.path", "a video file or a folder");
+      if (auto f = YamlReader::optional(n, "fps")) c.output.record_fps = r.positive(f, "output.record.fps", "frames per second, e.g. 30");
+    } else if (n) {
+      c.output.record = r.path(n, "output.record", "a video file or a folder, or {path: ..., fps: ...}");
+    }
     if (auto n = YamlReader::optional(output, "window")) c.output.window = r.boolean(n, "output.window", "true or false");
   }
   if (auto status = YamlReader::optional(root, "status")) {
@@ -121,6 +151,16 @@ LiveConfig load_live_config(const std::filesystem::path& file) {
     r.check_keys(status, "status.", kStatusKeys);
     c.status_listen = r.text(r.require(status, "listen", "status.listen", "ADDR:PORT, e.g. 127.0.0.1:8080"),
                              "status.listen", "ADDR:PORT");
+  }
+  if (auto display = YamlReader::optional(root, "display")) {
+    r.expect_map(display, "display", "display: {profile: hmd/generic.yaml, monitor: NAME, mode: mono | stereo}; see docs/hmd.md");
+    r.check_keys(display, "display.", kDisplayKeys);
+    DisplaySettings d;
+    d.profile = r.path(r.require(display, "profile", "display.profile", "an HMD profile, e.g. profile: hmd/generic.yaml"),
+                       "display.profile", "an HMD profile (config/hmd/)");
+    if (auto n = YamlReader::optional(display, "monitor")) d.monitor = r.text(n, "display.monitor", "the monitor's name, e.g. HDMI-1");
+    if (auto n = YamlReader::optional(display, "mode")) d.stereo = r.choice(n, "display.mode", kDisplayModes) == "stereo";
+    c.display = d;
   }
   return c;
 }

@@ -2,17 +2,23 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <future>
+#include <memory>
 #include <mutex>
 #include <thread>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
+
+#include "cpu_shadow_ratios.hpp"
 
 #include "skylit/bake/format.hpp"
 #include "skylit/base/error.hpp"
@@ -24,9 +30,11 @@
 #include "skylit/live/frame_stats.hpp"
 #include "skylit/live/mailbox.hpp"
 #include "skylit/live/status_server.hpp"
+#include "skylit/render/blend_workers.hpp"
 #include "skylit/render/compositor.hpp"
 #include "skylit/render/cpu_blend.hpp"
 #include "skylit/render/gpu_blend.hpp"
+#include "skylit/render/hmd_distortion.hpp"
 #include "skylit/render/sun_shadow_map.hpp"
 #include "skylit/scene/site.hpp"
 #include "skylit/sky/calibration.hpp"
@@ -59,7 +67,68 @@ struct SkyState {
   std::int64_t clipped_pixels = 0;
   bool sun_clipped = false;
   double estimate_ms = 0;
+  // With the blend on the CPU: T of every plane (RGBA floats, CpuShadowRatios::rgba), blended on
+  // the sky thread for this S and sun. A plane's pointer changes only when its blend ran, so the
+  // render thread uploads what changed, even when it missed the skies in between.
+  std::vector<std::shared_ptr<const std::vector<float>>> shadow_ratios;
+  double cpu_blend_ms = 0;        // the CPU blend of every plane
+  double sun_visibility_ms = 0;   // the sky thread's sun shadow map and V (when the sun moved)
 };
+
+// A source's health for /status: when its last frame came, whether it has ended.
+struct SourceActivity {
+  std::atomic<double> last_frame{-1};   // steady seconds; < 0: none yet
+  std::atomic<bool> ended{false};       // a finite source has no more frames
+  void frame() {
+    last_frame = now_seconds();
+    ended = false;
+  }
+};
+
+// A frame rate from frame timestamps: the median interval between consecutive frames of the
+// first kRateIntervals (a frame dropped or late moves a median little).
+struct FrameRate {
+  std::optional<double> hz;
+  bool settled = false;   // measured over kRateIntervals intervals (or the source has ended)
+};
+constexpr std::size_t kRateIntervals = 8;
+
+class FrameRateMeter {
+ public:
+  void add(double timestamp) {
+    std::lock_guard lock(mutex_);
+    if (intervals_.size() >= kRateIntervals) return;
+    if (last_ && timestamp > *last_) intervals_.push_back(timestamp - *last_);
+    last_ = timestamp;
+  }
+  void end() {
+    std::lock_guard lock(mutex_);
+    ended_ = true;
+  }
+  FrameRate rate() const {
+    std::lock_guard lock(mutex_);
+    FrameRate rate;
+    rate.settled = ended_ || intervals_.size() >= kRateIntervals;
+    if (intervals_.empty()) return rate;
+    std::vector<double> sorted = intervals_;
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+    rate.hz = 1.0 / sorted[sorted.size() / 2];
+    return rate;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::optional<double> last_;
+  std::vector<double> intervals_;
+  bool ended_ = false;
+};
+
+// The rate a camera source is configured for, where its config gives one.
+std::optional<double> configured_rate(const capture::SourceConfig& config) {
+  if (const auto* images = std::get_if<capture::ImagesSettings>(&config.settings); images && images->fps) return images->fps;
+  if (const auto* v4l2 = std::get_if<capture::V4l2Settings>(&config.settings); v4l2 && v4l2->fps > 0) return v4l2->fps;
+  return std::nullopt;
+}
 
 struct Counters {
   std::atomic<std::int64_t> frames{0};
@@ -91,36 +160,86 @@ struct RecordedFrame {
 // Composited frames to a video file or a folder of PNGs, with a frame log beside them (CSV, one
 // line per frame, flushed as it goes: `live.mp4` → `live.csv`, a folder → its `frames.csv`, which
 // the images source reads back).
+//
+// A video's frame rate: `fps` when given (record.fps), else the HMD camera's (FrameRate, from its
+// frames' timestamps, or `fallback_fps` from its config when too few frames came to measure it).
+// The rate must be known when the file is opened, so the first frames wait here (a few seconds at
+// most) until the camera's rate is settled.
 class Recorder {
  public:
-  explicit Recorder(fs::path path) : path_(std::move(path)) {}
-  void write(const cv::Mat& frame, double fps, const RecordedFrame& info) {
-    const bool video = recorder_kind(path_) == "video";
-    std::string file;
-    if (video) {
-      if (!writer_.isOpened()) {
-        if (!path_.parent_path().empty()) fs::create_directories(path_.parent_path());
-        const int fourcc = path_.extension() == ".avi" ? cv::VideoWriter::fourcc('M', 'J', 'P', 'G')
-                                                       : cv::VideoWriter::fourcc('m', 'p', '4', 'v');
-        if (!writer_.open(path_.string(), fourcc, fps, frame.size())) {
-          throw InputError("--record " + path_.string() +
-                           ": cannot open a video writer (no codec for this extension?); fix: use .avi, or a folder");
-        }
-      }
-      writer_.write(frame);
-      file = path_.filename().string();
-    } else {
-      if (count_ == 0) fs::create_directories(path_);
-      char name[32];
-      std::snprintf(name, sizeof name, "frame_%06lld.png", static_cast<long long>(count_));
-      if (!cv::imwrite((path_ / name).string(), frame)) throw InputError("--record: cannot write " + (path_ / name).string());
-      file = name;
+  Recorder(fs::path path, std::optional<double> fps, std::optional<double> fallback_fps)
+      : path_(std::move(path)), fps_(fps), fallback_fps_(fallback_fps) {}
+  ~Recorder() {
+    try {
+      finish({});
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "skylit-live: the recording's last frames were lost: %s\n", e.what());
     }
-    log(file, info);
+  }
+  Recorder(const Recorder&) = delete;
+  Recorder& operator=(const Recorder&) = delete;
+
+  void write(const cv::Mat& frame, const RecordedFrame& info, const FrameRate& camera_rate) {
+    if (recorder_kind(path_) != "video") {
+      write_image(frame, info);
+      return;
+    }
+    if (writer_.isOpened()) {
+      write_video(frame, info);
+      return;
+    }
+    pending_.push_back({frame.clone(), info});
+    if (!fps_ && !camera_rate.settled && pending_.size() < kMaxPendingFrames) return;
+    open(pending_.front().first.size(), camera_rate);
+    flush_pending();
+  }
+
+  // Writes the frames that wait for the rate (at the end of a run).
+  void finish(const FrameRate& camera_rate) {
+    if (pending_.empty()) return;
+    if (!writer_.isOpened()) open(pending_.front().first.size(), camera_rate);
+    flush_pending();
+  }
+
+  // The video's frame rate (0 before the file is opened, and for a folder of images).
+  double fps() const { return opened_fps_; }
+
+ private:
+  static constexpr std::size_t kMaxPendingFrames = 2 * kRateIntervals;
+
+  void open(cv::Size size, const FrameRate& camera_rate) {
+    double fps = fps_ ? *fps_ : camera_rate.hz ? *camera_rate.hz : fallback_fps_ ? *fallback_fps_ : 30.0;
+    fps = std::clamp(fps, 0.1, 1000.0);
+    if (!path_.parent_path().empty()) fs::create_directories(path_.parent_path());
+    const int fourcc = path_.extension() == ".avi" ? cv::VideoWriter::fourcc('M', 'J', 'P', 'G')
+                                                   : cv::VideoWriter::fourcc('m', 'p', '4', 'v');
+    if (!writer_.open(path_.string(), fourcc, fps, size)) {
+      throw InputError("--record " + path_.string() +
+                       ": cannot open a video writer (no codec for this extension?); fix: use .avi, or a folder");
+    }
+    opened_fps_ = fps;
+  }
+
+  void flush_pending() {
+    for (auto& [image, info] : pending_) write_video(image, info);
+    pending_.clear();
+  }
+
+  void write_video(const cv::Mat& frame, const RecordedFrame& info) {
+    writer_.write(frame);
+    log(path_.filename().string(), info);
     ++count_;
   }
 
- private:
+  void write_image(const cv::Mat& frame, const RecordedFrame& info) {
+    if (count_ == 0) fs::create_directories(path_);
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%06lld.png", static_cast<long long>(count_));
+    if (!cv::imwrite((path_ / name).string(), frame)) throw InputError("--record: cannot write " + (path_ / name).string());
+    log(name, info);
+    ++count_;
+  }
+
   void log(const std::string& file, const RecordedFrame& info) {
     if (!log_.is_open()) {
       log_.open(frame_log_path(path_));
@@ -147,10 +266,96 @@ class Recorder {
   }
 
   fs::path path_;
+  std::optional<double> fps_, fallback_fps_;
+  double opened_fps_ = 0;
+  std::vector<std::pair<cv::Mat, RecordedFrame>> pending_;
   cv::VideoWriter writer_;
   std::ofstream log_;
   std::int64_t count_ = 0;
 };
+
+// The camera frame as it is (the display before the sky is known): an sRGB RGBA8 texture, row 0
+// the image's top, for WindowContext::present. 8-bit frames are sRGB codes; float ones linear.
+class CameraTexture {
+ public:
+  GLuint upload(const cv::Mat& image) {
+    cv::Mat codes = image;
+    if (image.depth() == CV_32F) {
+      cv::Mat linear;
+      cv::max(image, 0.0, linear);
+      cv::Mat srgb(linear.size(), linear.type());
+      linear.forEach<cv::Vec3f>([&srgb](const cv::Vec3f& v, const int* at) {
+        cv::Vec3f& out = srgb.at<cv::Vec3f>(at[0], at[1]);
+        for (int c = 0; c < 3; ++c) {
+          const float x = std::min(v[c], 1.0f);
+          out[c] = 255.0f * (x <= 0.0031308f ? 12.92f * x : 1.055f * std::pow(x, 1.0f / 2.4f) - 0.055f);
+        }
+      });
+      srgb.convertTo(codes, CV_8U);
+    }
+    cv::Mat rgba;
+    cv::cvtColor(codes, rgba, codes.channels() == 1 ? cv::COLOR_GRAY2RGBA : cv::COLOR_BGR2RGBA);
+    if (!texture_ || size_ != rgba.size()) {
+      texture_ = gpu::make_texture();
+      glBindTexture(GL_TEXTURE_2D, texture_.get());
+      glTexStorage2D(GL_TEXTURE_2D, 1, GL_RGBA8, rgba.cols, rgba.rows);
+      glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+      glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+      size_ = rgba.size();
+    }
+    glBindTexture(GL_TEXTURE_2D, texture_.get());
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, rgba.cols, rgba.rows, GL_RGBA, GL_UNSIGNED_BYTE, rgba.ptr());
+    gpu::check_gl_error("uploading the camera frame for the display");
+    return texture_.get();
+  }
+
+ private:
+  gpu::Texture texture_;
+  cv::Size size_;
+};
+
+// The CPU blend's T of one plane on the GPU, for the compositor: RGBA32F, rewritten in place.
+class ShadowRatioTexture {
+ public:
+  ShadowRatioTexture(int width, int height) : width_(width), height_(height) {
+    texture_ = gpu::make_texture();
+    glBindTexture(GL_TEXTURE_2D, texture_.get());
+    glTexStorage2D(GL_TEXTURE_2D, 1, GL_RGBA32F, width_, height_);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    const std::vector<float> ones(4 * static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_), 1.0f);
+    upload(ones);
+  }
+  void upload(const std::vector<float>& rgba) {
+    glBindTexture(GL_TEXTURE_2D, texture_.get());
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, width_, height_, GL_RGBA, GL_FLOAT, rgba.data());
+    gpu::check_gl_error("uploading a shadow ratio blended on the CPU");
+  }
+  GLuint get() const { return texture_.get(); }
+
+ private:
+  int width_, height_;
+  gpu::Texture texture_;
+};
+
+// A software GL renderer draws on the CPU: there the CPU blend is the faster one by far.
+bool software_renderer(const std::string& renderer) {
+  std::string lower = renderer;
+  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  for (const char* name : {"llvmpipe", "softpipe", "swrast", "software rasterizer"}) {
+    if (lower.find(name) != std::string::npos) return true;
+  }
+  return false;
+}
+
+std::string gl_renderer() {
+  const auto* text = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
+  return text != nullptr ? std::string(text) : std::string("unknown");
+}
 
 std::vector<std::uint8_t> encode_jpeg(const cv::Mat& image) {
   std::vector<std::uint8_t> bytes;
@@ -170,6 +375,19 @@ void pause_after_quick_not_yet(const capture::FrameResult& result, Clock::time_p
   if (result.status == capture::FrameStatus::NotYet && Clock::now() - asked < std::chrono::milliseconds(10)) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
+}
+
+// The sun's shadow map is drawn again when the sun has moved by more than a tenth of its radius
+// (both threads that draw one follow this rule, so their maps agree).
+bool sun_moved(const Eigen::Vector3d& drawn_for, const Eigen::Vector3d& sun, double angular_radius) {
+  return drawn_for.dot(sun) < std::cos(std::max(1e-4, 0.1 * angular_radius));
+}
+double shadow_angular_radius(double estimated) { return std::max(estimated, 0.0047); }  // the real sun's at least
+
+std::vector<geom::Plane> bake_planes(const bake::Manifest& manifest) {
+  std::vector<geom::Plane> planes;
+  for (const auto& record : manifest.planes) planes.push_back(record.plane);
+  return planes;
 }
 
 capture::SourceConfig with_reconnect(capture::SourceConfig config) {
@@ -236,7 +454,19 @@ struct Service::State {
   std::unique_ptr<geom::Dome> dome;
   std::unique_ptr<sky::SkyEstimator> estimator;
   std::unique_ptr<capture::FrameSource> sky_source, camera_source;
+  // The ReconnectingSource inside each (the service always reopens what fails).
+  const capture::ReconnectingSource* sky_reconnecting = nullptr;
+  const capture::ReconnectingSource* camera_reconnecting = nullptr;
   std::unique_ptr<track::PoseSource> pose_source;
+  SourceActivity sky_activity, camera_activity;
+  FrameRateMeter camera_rate;
+
+  // Where T is blended, decided in run() once the GL renderer is known (before the sky thread starts).
+  std::atomic<bool> blend_decided{false};
+  std::atomic<bool> blend_on_cpu{false};
+  std::string renderer;             // GL_RENDERER; written before blend_decided is set
+  // The render thread has a sky: the building and its shadows are drawn (before: the camera image).
+  std::atomic<bool> sky_drawn{false};
 
   // Hand-over.
   Mailbox<SkyState> sky_box;
@@ -247,16 +477,21 @@ struct Service::State {
 
   // Statistics (render thread writes, status reads).
   mutable std::mutex stats_mutex;
-  FrameTimes frame_times{600}, blend_times{600}, composite_times{600}, record_times{600};
+  FrameTimes frame_times{600}, blend_times{600}, upload_times{600}, composite_times{600}, record_times{600};
+  FrameTimes sun_shadow_times{600}, sky_sun_visibility_times{600};
+  FrameTimes sky_change_frame_times{600};  // frames that took a new sky (its shadow map and T)
+  double record_fps = 0;
   std::optional<render::PhotometricMatch> photometric;
   std::int64_t blend_skipped_layers = 0;
 
   std::unique_ptr<StatusServer> status;
   std::thread sky_thread, camera_thread;
 
-  void sky_loop();
+  void sky_loop(std::promise<void>& ready);
   void camera_loop();
   nlohmann::json status_report() const;
+  nlohmann::json source_report(const capture::FrameSource& source, const capture::ReconnectingSource* reconnecting,
+                               const SourceActivity& activity, double now) const;
 };
 
 Service::Service(const LiveConfig& config, const ServiceOptions& options) : state_(std::make_unique<State>()) {
@@ -279,8 +514,12 @@ Service::Service(const LiveConfig& config, const ServiceOptions& options) : stat
   estimate_options.sun_mode = config.sky.sun ? sky::SunMode::Auto : sky::SunMode::Off;
   estimate_options.table.basis = s.manifest.plan.basis;
   s.estimator = std::make_unique<sky::SkyEstimator>(s.sky_calibration, *s.dome, estimate_options);
-  s.sky_source = capture::open_source(with_reconnect(config.sky.source));
-  s.camera_source = capture::open_source(with_reconnect(config.camera.source));
+  capture::OpenedSource sky_opened = capture::open_source_with_status(with_reconnect(config.sky.source));
+  s.sky_source = std::move(sky_opened.source);
+  s.sky_reconnecting = sky_opened.reconnecting;
+  capture::OpenedSource camera_opened = capture::open_source_with_status(with_reconnect(config.camera.source));
+  s.camera_source = std::move(camera_opened.source);
+  s.camera_reconnecting = camera_opened.reconnecting;
   s.pose_source = track::open_pose_source(config.pose);
   const auto listen = options.status_listen ? options.status_listen : config.status_listen;
   if (listen) {
@@ -308,7 +547,36 @@ void Service::stop() {
 
 std::string Service::status_address() const { return state_->status ? state_->status->address() : std::string(); }
 
-void Service::State::sky_loop() {
+void Service::State::sky_loop(std::promise<void>& ready) {
+  // With the blend on the CPU, its objects live on this thread: the blend threads, each plane's T
+  // and, when the sky may have a sun, a GL context of this thread's own with a sun shadow map for
+  // the sun's visibility over the planes (the render thread's map, drawn for the same suns, gives
+  // the building's own sun shadow; both give the same V).
+  const bool cpu = blend_on_cpu;
+  std::unique_ptr<render::BlendWorkers> workers;
+  std::vector<CpuShadowRatios> ratios;
+  std::optional<gpu::HeadlessContext> context;
+  std::unique_ptr<render::SunShadowMap> shadow_map;
+  std::vector<std::vector<float>> visibility;
+  std::uint64_t sun_revision = 0;
+  Eigen::Vector3d shadow_direction = Eigen::Vector3d::Zero();
+  try {
+    if (cpu) {
+      workers = std::make_unique<render::BlendWorkers>(config.blend.threads);
+      ratios.reserve(bases.size());
+      for (const auto& basis : bases) ratios.emplace_back(basis, config.blend.skip_threshold, config.blend.change_threshold);
+      if (config.sky.sun) {
+        context.emplace();
+        shadow_map = std::make_unique<render::SunShadowMap>(mesh, bake_planes(manifest));
+        visibility.resize(bases.size());
+      }
+    }
+    ready.set_value();
+  } catch (...) {
+    ready.set_exception(std::current_exception());
+    return;
+  }
+
   sky::SkySmoother smoother(config.sky.smoothing);
   double last_estimate = -1e300, last_overlay = -1e300;
   std::uint64_t sequence = 0;
@@ -323,6 +591,7 @@ void Service::State::sky_loop() {
       continue;
     }
     if (result.status == capture::FrameStatus::EndOfStream) {
+      sky_activity.ended = true;
       std::this_thread::sleep_for(std::chrono::milliseconds(100));  // the last S stays (and goes stale)
       continue;
     }
@@ -331,6 +600,7 @@ void Service::State::sky_loop() {
       continue;
     }
     ++counters.sky_frames;
+    sky_activity.frame();
     const capture::Frame& frame = result.frame;
     if (config.sky.rate > 0 && frame.timestamp - last_estimate < 1.0 / config.sky.rate) continue;
     last_estimate = frame.timestamp;
@@ -360,6 +630,29 @@ void Service::State::sky_loop() {
       state.bad_pixels = estimate.luminance.nan_pixels + estimate.luminance.inf_pixels + estimate.luminance.negative_pixels;
       state.clipped_pixels = estimate.luminance.clipped_pixels;
       state.estimate_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+      if (cpu) {
+        // T of every plane for this S and sun, now, so that the render thread only uploads it.
+        const auto sun_start = Clock::now();
+        if (state.sun && shadow_map && sun_moved(shadow_direction, state.sun->direction, state.sun_angular_radius)) {
+          shadow_map->update(state.sun->direction, shadow_angular_radius(state.sun_angular_radius));
+          shadow_direction = state.sun->direction;
+          ++sun_revision;
+          for (std::size_t j = 0; j < visibility.size(); ++j) visibility[j] = shadow_map->read_visibility(static_cast<int>(j));
+          state.sun_visibility_ms = std::chrono::duration<double, std::milli>(Clock::now() - sun_start).count();
+        }
+        const auto blend_start = Clock::now();
+        for (std::size_t j = 0; j < ratios.size(); ++j) {
+          const render::BlendWeights weights = render::blend_weights(bases[j], state.S, state.sun);
+          const std::span<const float> sun_visibility = shadow_map ? std::span<const float>(visibility[j]) : std::span<const float>();
+          const bool ran = ratios[j].blend(weights, sun_visibility, sun_revision, workers.get());
+          ++(ran ? counters.blends_run : counters.blends_skipped);
+          state.shadow_ratios.push_back(ratios[j].rgba());
+        }
+        state.cpu_blend_ms = std::chrono::duration<double, std::milli>(Clock::now() - blend_start).count();
+        std::lock_guard lock(stats_mutex);
+        blend_times.add(state.cpu_blend_ms / 1e3, now_seconds());
+        if (state.sun_visibility_ms > 0) sky_sun_visibility_times.add(state.sun_visibility_ms / 1e3, now_seconds());
+      }
       ++counters.sky_estimates;
       if (status && state.received - last_overlay >= 1.0) {
         last_overlay = state.received;
@@ -381,8 +674,12 @@ void Service::State::camera_loop() {
       pause_after_quick_not_yet(result, asked);
       if (result.status == capture::FrameStatus::Ready) {
         ++counters.camera_frames;
+        camera_activity.frame();
+        camera_rate.add(result.frame.timestamp);
         camera_box.put(std::move(result.frame));
       } else if (result.status == capture::FrameStatus::EndOfStream) {
+        camera_activity.ended = true;
+        camera_rate.end();
         camera_box.close();  // a finite recording has ended: the render thread finishes
         return;
       }
@@ -399,6 +696,7 @@ std::int64_t Service::run() {
   // GL object below is destroyed while it is still current.
   std::optional<gpu::HeadlessContext> headless;
   std::unique_ptr<gpu::WindowContext> window;
+  std::optional<render::HmdProfile> hmd_profile;
   if (s.options.headless) {
     headless.emplace();
   } else {
@@ -406,28 +704,82 @@ std::int64_t Service::run() {
     window_options.width = s.hmd_calibration.image_width;
     window_options.height = s.hmd_calibration.image_height;
     window_options.title = "skylit-live: " + s.config.file.filename().string();
+    if (s.config.display) {
+      // The HMD display (docs/hmd.md): a window of the panel's size, or full screen on the monitor.
+      hmd_profile = render::load_hmd_profile(s.config.display->profile);
+      window_options.width = hmd_profile->panel_width;
+      window_options.height = hmd_profile->panel_height;
+      window_options.monitor = s.config.display->monitor;
+    }
     window = std::make_unique<gpu::WindowContext>(window_options);
   }
   if (!s.options.quiet) {
     std::fprintf(stderr, "skylit-live: GPU %s\n", (window ? window->description() : headless->description()).c_str());
   }
 
-  std::vector<geom::Plane> planes;
-  for (const auto& record : s.manifest.planes) planes.push_back(record.plane);
+  // Where T is blended: a software renderer (no GPU) blends far slower than the CPU blend does.
+  s.renderer = gl_renderer();
+  const BlendDevice setting = s.config.blend.device;
+  const bool cpu = setting == BlendDevice::Cpu || (setting == BlendDevice::Auto && software_renderer(s.renderer));
+  s.blend_on_cpu = cpu;
+  s.blend_decided = true;
+  if (!s.options.quiet) {
+    std::fprintf(stderr, "skylit-live: blend on the %s (blend.device %s; GL renderer %s%s)\n", cpu ? "CPU" : "GPU",
+                 blend_device_name(setting).c_str(), s.renderer.c_str(),
+                 software_renderer(s.renderer) ? ", a software one" : "");
+  }
+
+  // The sun's shadow map: the building's own sun shadow, and (GPU blend) the planes' visibility.
+  // With the CPU blend the sky thread's map gives the planes' V, so this one keeps the planes'
+  // extent (the map's fit, hence the same depth map) at one texel each: its visibility pass costs
+  // nothing (on a software renderer it was half the map's time).
+  std::vector<geom::Plane> planes = bake_planes(s.manifest);
+  if (cpu) {
+    for (geom::Plane& plane : planes) plane.width = plane.height = 1;
+  }
   render::SunShadowMap shadow_map(s.mesh, planes);
-  render::GpuBlendOptions blend_options;
-  blend_options.storage = s.config.blend.unorm8 ? render::BasisStorage::Unorm8 : render::BasisStorage::Half;
-  blend_options.skip_threshold = s.config.blend.skip_threshold;
-  blend_options.change_threshold = s.config.blend.change_threshold;
-  std::vector<std::unique_ptr<render::GpuBlender>> blenders;
+  std::vector<std::unique_ptr<render::GpuBlender>> blenders;     // blend.device gpu
+  std::vector<ShadowRatioTexture> cpu_ratios;                     // blend.device cpu
+  std::vector<const std::vector<float>*> uploaded(s.bases.size(), nullptr);
   std::vector<GLuint> ratios;
-  for (const auto& basis : s.bases) {
-    blenders.push_back(std::make_unique<render::GpuBlender>(basis, blend_options));
-    ratios.push_back(0);  // T = 1 until the first sky
+  if (cpu) {
+    for (const auto& basis : s.bases) {
+      cpu_ratios.emplace_back(basis.width, basis.height);
+      ratios.push_back(cpu_ratios.back().get());
+    }
+  } else {
+    render::GpuBlendOptions blend_options;
+    blend_options.storage = s.config.blend.unorm8 ? render::BasisStorage::Unorm8 : render::BasisStorage::Half;
+    blend_options.skip_threshold = s.config.blend.skip_threshold;
+    blend_options.change_threshold = s.config.blend.change_threshold;
+    for (const auto& basis : s.bases) {
+      blenders.push_back(std::make_unique<render::GpuBlender>(basis, blend_options));
+      ratios.push_back(blenders.back()->shadow_ratio_texture());
+    }
   }
   render::CompositorOptions compositor_options;
   compositor_options.photometric.scale = s.config.photometric.scale;
   render::Compositor compositor(s.site, s.mesh, s.manifest, s.transfer, s.hmd_calibration, compositor_options);
+  std::optional<CameraTexture> camera_texture;
+  if (window) camera_texture.emplace();
+  std::optional<render::HmdDistortion> hmd;
+  if (window && hmd_profile) hmd.emplace(*hmd_profile);
+  const bool stereo = hmd && s.config.display->stereo;
+  if (hmd && !s.options.quiet) {
+    std::fprintf(stderr, "skylit-live: HMD display '%s': %s, %d×%d panel%s%s\n", hmd_profile->name.c_str(),
+                 stereo ? "stereo (a render per eye)" : "mono", hmd_profile->panel_width, hmd_profile->panel_height,
+                 s.config.display->monitor.empty() ? ", in a window" : ", full screen on ",
+                 s.config.display->monitor.c_str());
+  }
+  // Shows a texture of the camera's size (row 0 the top): through the HMD's lenses, or as it is.
+  auto present = [&](GLuint texture, int width, int height) {
+    if (hmd) {
+      hmd->draw(std::span<const GLuint>(&texture, 1), width, height);
+      window->present(hmd->panel_texture(), hmd_profile->panel_width, hmd_profile->panel_height);
+    } else {
+      window->present(texture, width, height);
+    }
+  };
   std::optional<int> reference_plane;
   if (s.config.photometric.plane) {
     for (std::size_t j = 0; j < s.manifest.planes.size(); ++j) {
@@ -442,17 +794,23 @@ std::int64_t Service::run() {
 
   std::optional<Recorder> recorder;
   const fs::path record = s.options.record ? *s.options.record : s.config.output.record;
-  if (!record.empty()) recorder.emplace(record);
+  if (!record.empty()) recorder.emplace(record, s.config.output.record_fps, configured_rate(s.config.camera.source));
 
-  s.sky_thread = std::thread([&s] { s.sky_loop(); });
+  // The sky thread sets up (with the CPU blend: its threads and GL context) before the first frame.
+  std::promise<void> sky_ready;
+  s.sky_thread = std::thread([&s, &sky_ready] { s.sky_loop(sky_ready); });
+  sky_ready.get_future().get();
   s.camera_thread = std::thread([&s] { s.camera_loop(); });
 
   std::optional<SkyState> sky;
   std::optional<render::CameraPose> last_pose;
-  double last_sun_update_direction_dot = -2;
   Eigen::Vector3d shadow_direction = Eigen::Vector3d::Zero();
   std::int64_t frames = 0;
-  double last_progress = 0, first_frame_timestamp = -1, last_frame_timestamp = 0;
+  // The photometric scale is first estimated on the first frame with a sky (until then the
+  // configured scale would show the building far too bright or dark), then every `every` frames.
+  std::optional<std::int64_t> last_photometric_estimate;
+  double last_progress = 0;
+  bool said_waiting = false;
   while (s.running) {
     std::optional<capture::Frame> frame = s.camera_box.take(std::chrono::milliseconds(200));
     if (window) {
@@ -464,32 +822,48 @@ std::int64_t Service::run() {
       continue;
     }
     const auto frame_start = Clock::now();
-    if (first_frame_timestamp < 0) first_frame_timestamp = frame->timestamp;
-    last_frame_timestamp = frame->timestamp;
 
-    // The newest sky, when one came: new weights, the sun's shadow map, the blends.
-    double blend_ms = 0;
+    // The newest sky, when one came: the sun's shadow map, then T (blended on the GPU here, or
+    // on the CPU by the sky thread and uploaded here).
+    double sun_shadow_ms = 0, blend_ms = 0, upload_ms = 0;
+    bool sky_changed = false;
     if (auto fresh = s.sky_box.try_take()) {
-      const auto t0 = Clock::now();
+      sky_changed = true;
       sky = std::move(fresh);
-      if (sky->sun) {
-        // The map is redrawn when the sun has moved by more than a tenth of its radius.
-        last_sun_update_direction_dot = shadow_direction.dot(sky->sun->direction);
-        if (last_sun_update_direction_dot < std::cos(std::max(1e-4, 0.1 * sky->sun_angular_radius))) {
-          shadow_map.update(sky->sun->direction, std::max(sky->sun_angular_radius, 0.0047));
-          shadow_direction = sky->sun->direction;
+      if (sky->sun && sun_moved(shadow_direction, sky->sun->direction, sky->sun_angular_radius)) {
+        const auto sun_start = Clock::now();
+        shadow_map.update(sky->sun->direction, shadow_angular_radius(sky->sun_angular_radius));
+        shadow_direction = sky->sun->direction;
+        if (s.options.profile) glFinish();
+        sun_shadow_ms = std::chrono::duration<double, std::milli>(Clock::now() - sun_start).count();
+      }
+      const auto t0 = Clock::now();
+      if (cpu) {
+        for (std::size_t j = 0; j < cpu_ratios.size() && j < sky->shadow_ratios.size(); ++j) {
+          const std::vector<float>* rgba = sky->shadow_ratios[j].get();
+          if (rgba == nullptr || rgba == uploaded[j]) continue;
+          cpu_ratios[j].upload(*rgba);
+          uploaded[j] = rgba;
+        }
+      } else {
+        for (std::size_t j = 0; j < blenders.size(); ++j) {
+          const render::BlendWeights weights = render::blend_weights(s.bases[j], sky->S, sky->sun);
+          const bool ran = blenders[j]->blend(weights, weights.sun.isZero() ? nullptr : &shadow_map.visibility(static_cast<int>(j)));
+          ++(ran ? s.counters.blends_run : s.counters.blends_skipped);
         }
       }
-      for (std::size_t j = 0; j < blenders.size(); ++j) {
-        const render::BlendWeights weights = render::blend_weights(s.bases[j], sky->S, sky->sun);
-        const bool ran = blenders[j]->blend(weights, weights.sun.isZero() ? nullptr : &shadow_map.visibility(static_cast<int>(j)));
-        ++(ran ? s.counters.blends_run : s.counters.blends_skipped);
-        ratios[j] = blenders[j]->shadow_ratio_texture();
-      }
       if (s.options.profile) glFinish();
-      blend_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+      (cpu ? upload_ms : blend_ms) = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+      if (!s.sky_drawn && !s.options.quiet) std::fprintf(stderr, "\rskylit-live: the sky is known: drawing the building\n");
+      s.sky_drawn = true;
     }
-    if (!sky) ++s.counters.frames_without_sky;
+    if (!sky) {
+      ++s.counters.frames_without_sky;
+      if (!said_waiting && !s.options.quiet) {
+        std::fprintf(stderr, "skylit-live: waiting for sky: showing the camera image only\n");
+      }
+      said_waiting = true;
+    }
 
     std::optional<track::Pose> pose = s.pose_source->pose_at(frame->timestamp);
     if (pose) {
@@ -500,48 +874,60 @@ std::int64_t Service::run() {
     } else {
       ++s.counters.pose_missing;
     }
-    if (!last_pose) continue;  // nothing to draw from yet
+    // Before the sky is known the building would be drawn unlit (black): the camera image alone.
+    if (sky && !last_pose) continue;  // nothing to draw from yet
 
-    const std::vector<Eigen::Vector3d> no_sky(s.manifest.layer_count(), Eigen::Vector3d::Zero());
-    render::CompositeInput input;
-    input.camera = frame->image;
-    input.pose = *last_pose;
-    input.sky = sky ? std::span<const Eigen::Vector3d>(sky->S) : std::span<const Eigen::Vector3d>(no_sky);
-    input.sun = sky ? sky->sun : std::nullopt;
-    input.shadow_ratios = sky ? std::span<const GLuint>(ratios) : std::span<const GLuint>();
-    input.sun_shadow = sky && sky->sun ? &shadow_map : nullptr;
-    if (reference_plane && sky && frames % s.config.photometric.every == 0) {
-      const cv::Mat region = compositor.region_mask(*reference_plane, s.config.photometric.region[0],
-                                                    s.config.photometric.region[1], s.config.photometric.region[2],
-                                                    s.config.photometric.region[3], *last_pose);
-      const sky::RadianceFrame linear = sky::linearise(frame->image, sky::ResponseCurve::srgb(8), {});
-      const render::PhotometricEstimate found = render::estimate_photometric_match(
-          linear.radiance, region,
-          render::plane_irradiance(s.manifest.planes[static_cast<std::size_t>(*reference_plane)], sky->S, sky->sun),
-          s.config.photometric.albedo);
-      if (found.ok) {
+    const auto t1 = Clock::now();
+    cv::Mat composite;
+    if (!sky) {
+      composite = frame->image;
+      if (window) present(camera_texture->upload(composite), composite.cols, composite.rows);
+    } else {
+      render::CompositeInput input;
+      input.camera = frame->image;
+      input.pose = *last_pose;
+      input.sky = sky->S;
+      input.sun = sky->sun;
+      input.shadow_ratios = ratios;
+      input.sun_shadow = sky->sun ? &shadow_map : nullptr;
+      if (reference_plane &&
+          (!last_photometric_estimate || frames - *last_photometric_estimate >= s.config.photometric.every)) {
+        last_photometric_estimate = frames;
+        const cv::Mat region = compositor.region_mask(*reference_plane, s.config.photometric.region[0],
+                                                      s.config.photometric.region[1], s.config.photometric.region[2],
+                                                      s.config.photometric.region[3], *last_pose);
+        const sky::RadianceFrame linear = sky::linearise(frame->image, sky::ResponseCurve::srgb(8), {});
+        const render::PhotometricEstimate found = render::estimate_photometric_match(
+            linear.radiance, region,
+            render::plane_irradiance(s.manifest.planes[static_cast<std::size_t>(*reference_plane)], sky->S, sky->sun),
+            s.config.photometric.albedo);
+        if (found.ok) {
+          std::lock_guard lock(s.stats_mutex);
+          s.photometric = found.match;
+        }
+      }
+      {
         std::lock_guard lock(s.stats_mutex);
-        s.photometric = found.match;
+        input.photometric = s.photometric;
+      }
+      // Read back only what someone takes: the recorder, /frame.jpg. A window shows the GPU's copy.
+      // The recorder and /frame.jpg take the undistorted composite from the camera's own pose;
+      // in stereo the HMD gets one composite per eye besides.
+      if (recorder || s.status || !window) {
+        composite = compositor.composite(input);
+      } else if (!stereo) {
+        compositor.draw(input);
+      }
+      if (stereo) {
+        render::draw_hmd_frame(compositor, *hmd, input, render::StereoMode::stereo);
+        window->present(hmd->panel_texture(), hmd_profile->panel_width, hmd_profile->panel_height);
+      } else if (window) {
+        present(compositor.display_texture(), s.hmd_calibration.image_width, s.hmd_calibration.image_height);
       }
     }
-    {
-      std::lock_guard lock(s.stats_mutex);
-      input.photometric = s.photometric;
-    }
-    const auto t1 = Clock::now();
-    // Read back only what someone takes: the recorder, /frame.jpg. A window shows the GPU's copy.
-    cv::Mat composite;
-    if (recorder || s.status || !window) {
-      composite = compositor.composite(input);
-    } else {
-      compositor.draw(input);
-    }
-    if (window) window->present(compositor.display_texture(), s.hmd_calibration.image_width, s.hmd_calibration.image_height);
     const double composite_ms = std::chrono::duration<double, std::milli>(Clock::now() - t1).count();
     const auto t2 = Clock::now();
     if (recorder) {
-      const double span = last_frame_timestamp - first_frame_timestamp;
-      const double fps = frames > 0 && span > 0 ? std::clamp(frames / span, 1.0, 120.0) : 30.0;
       RecordedFrame info;
       info.timestamp = frame->timestamp;
       if (sky) {
@@ -549,7 +935,7 @@ std::int64_t Service::run() {
         info.sky_utc = sky->utc;
         if (sky->sun) info.sun_direction = sky->sun->direction;
       }
-      recorder->write(composite, fps, info);
+      recorder->write(composite, info, s.camera_rate.rate());
     }
     if (s.status) s.latest_frame.set(composite);
     const double record_ms = std::chrono::duration<double, std::milli>(Clock::now() - t2).count();
@@ -559,15 +945,19 @@ std::int64_t Service::run() {
     {
       std::lock_guard lock(s.stats_mutex);
       s.frame_times.add(std::chrono::duration<double>(Clock::now() - frame_start).count(), end);
+      if (sky_changed) s.sky_change_frame_times.add(std::chrono::duration<double>(Clock::now() - frame_start).count(), end);
+      if (sun_shadow_ms > 0) s.sun_shadow_times.add(sun_shadow_ms / 1e3, end);
       if (blend_ms > 0) s.blend_times.add(blend_ms / 1e3, end);
+      if (upload_ms > 0) s.upload_times.add(upload_ms / 1e3, end);
       s.composite_times.add(composite_ms / 1e3, end);
       s.record_times.add(record_ms / 1e3, end);
+      if (recorder) s.record_fps = recorder->fps();
     }
     if (!s.options.quiet && end - last_progress > 1.0) {
       last_progress = end;
       std::lock_guard lock(s.stats_mutex);
       std::fprintf(stderr, "\rskylit-live: %lld frames, %.1f frames/s, p50 %.1f ms%s   ", static_cast<long long>(frames),
-                   s.frame_times.rate(), 1e3 * s.frame_times.percentile(0.5), sky ? "" : " (no sky yet)");
+                   s.frame_times.rate(), 1e3 * s.frame_times.percentile(0.5), sky ? "" : " (waiting for sky)");
     }
     if (s.options.frames && frames >= *s.options.frames) break;
   }
@@ -575,38 +965,75 @@ std::int64_t Service::run() {
   s.camera_box.close();
   if (s.sky_thread.joinable()) s.sky_thread.join();
   if (s.camera_thread.joinable()) s.camera_thread.join();
+  if (recorder) {
+    recorder->finish(s.camera_rate.rate());
+    std::lock_guard lock(s.stats_mutex);
+    s.record_fps = recorder->fps();
+  }
   if (!s.options.quiet) std::fprintf(stderr, "\n");
   return frames;
+}
+
+// A source's connection: running, reconnecting (down, reopened with backoff) or ended (a finite
+// source has no more frames); reopening attempts (successful or not), the last failure's message
+// and the time since its last frame.
+nlohmann::json Service::State::source_report(const capture::FrameSource& source,
+                                             const capture::ReconnectingSource* reconnecting,
+                                             const SourceActivity& activity, double now) const {
+  nlohmann::json j;
+  j["source"] = source.describe();
+  const std::optional<capture::ReconnectStatus> link =
+      reconnecting ? std::optional(reconnecting->status()) : std::nullopt;
+  j["state"] = link && !link->connected ? "reconnecting" : activity.ended ? "ended" : "running";
+  j["reconnect_attempts"] = link ? link->reconnects + link->failed_attempts : 0;
+  j["reconnects"] = link ? link->reconnects : 0;
+  j["last_error"] = link ? link->last_error : std::string();
+  if (link && !link->connected) j["next_attempt_in_s"] = link->next_attempt_in_s;
+  const double last = activity.last_frame;
+  j["seconds_since_frame"] = last < 0 ? nlohmann::json(nullptr) : nlohmann::json(now - last);
+  return j;
 }
 
 nlohmann::json Service::State::status_report() const {
   nlohmann::json j;
   const double now = now_seconds();
   j["uptime_s"] = now - started;
+  // Before the first sky the building is not drawn: its shading and shadows need S.
+  j["state"] = sky_drawn ? "running" : "waiting for sky";
   {
     std::lock_guard lock(stats_mutex);
     j["frame_rate"] = frame_times.rate();
     j["frame_time_ms"] = {{"p50", 1e3 * frame_times.percentile(0.5)}, {"p99", 1e3 * frame_times.percentile(0.99)}};
-    j["stage_ms_p50"] = {{"blend", 1e3 * blend_times.percentile(0.5)},
+    j["sky_change_frame_ms"] = {{"p50", 1e3 * sky_change_frame_times.percentile(0.5)},
+                                {"p99", 1e3 * sky_change_frame_times.percentile(0.99)}};
+    j["stage_ms_p50"] = {{"sun_shadow", 1e3 * sun_shadow_times.percentile(0.5)},
+                         {"blend", 1e3 * blend_times.percentile(0.5)},
+                         {"upload", 1e3 * upload_times.percentile(0.5)},
+                         {"sky_sun_visibility", 1e3 * sky_sun_visibility_times.percentile(0.5)},
                          {"composite", 1e3 * composite_times.percentile(0.5)},
                          {"record", 1e3 * record_times.percentile(0.5)}};
     if (photometric) j["photometric_scale"] = {photometric->scale.x(), photometric->scale.y(), photometric->scale.z()};
+    if (record_fps > 0) j["record_fps"] = record_fps;
   }
   j["frames"] = counters.frames.load();
   j["frames_without_sky"] = counters.frames_without_sky.load();
   j["dropped_frames"] = camera_box.overwritten();
-  j["camera"] = {{"source", camera_source->describe()},
-                 {"frames", counters.camera_frames.load()},
-                 {"malformed", camera_source->counts().dropped()},
-                 {"errors", counters.camera_errors.load()}};
+  nlohmann::json camera_json = source_report(*camera_source, camera_reconnecting, camera_activity, now);
+  camera_json["frames"] = counters.camera_frames.load();
+  camera_json["malformed"] = camera_source->counts().dropped();
+  camera_json["errors"] = counters.camera_errors.load();
+  const FrameRate rate = camera_rate.rate();
+  camera_json["frame_rate_hz"] = rate.hz ? nlohmann::json(*rate.hz) : nlohmann::json(nullptr);
+  j["camera"] = camera_json;
   j["pose"] = {{"source", pose_source->describe()}, {"missing", counters.pose_missing.load()}};
-  nlohmann::json sky_json;
-  sky_json["source"] = sky_source->describe();
+  nlohmann::json sky_json = source_report(*sky_source, sky_reconnecting, sky_activity, now);
   sky_json["frames"] = counters.sky_frames.load();
   sky_json["estimates"] = counters.sky_estimates.load();
   sky_json["malformed"] = sky_source->counts().dropped();
   sky_json["errors"] = counters.sky_errors.load();
   std::vector<std::string> flags;
+  if (camera_json["state"] == "reconnecting") flags.push_back("camera_reconnecting");
+  if (sky_json["state"] == "reconnecting") flags.push_back("sky_reconnecting");
   if (const auto latest = latest_sky.get()) {
     const double age = now - latest->received;
     sky_json["age_s"] = age;
@@ -640,6 +1067,16 @@ nlohmann::json Service::State::status_report() const {
   }
   j["sky"] = sky_json;
   j["blends"] = {{"run", counters.blends_run.load()}, {"skipped", counters.blends_skipped.load()}};
+  nlohmann::json blend_json;
+  blend_json["setting"] = blend_device_name(config.blend.device);
+  if (blend_decided) {
+    blend_json["device"] = blend_on_cpu ? "cpu" : "gpu";
+    blend_json["renderer"] = renderer;
+    blend_json["software_renderer"] = software_renderer(renderer);
+  } else {
+    blend_json["device"] = nullptr;  // decided when run() has its GL context
+  }
+  j["blend"] = blend_json;
   j["flags"] = flags;
   return j;
 }
@@ -682,6 +1119,26 @@ std::string Service::metrics_text() const {
                      "layer=\"" + std::to_string(i) + "\",channel=\"" + channels[c] + "\""});
       }
     }
+  }
+  for (const char* name : {"camera", "sky"}) {
+    const auto& source = j[name];
+    const std::string label = std::string("source=\"") + name + "\"";
+    for (const char* state : {"running", "reconnecting", "ended"}) {
+      m.push_back({"skylit_source_state", "1 for the state each source is in (running, reconnecting, ended).", "gauge",
+                   source["state"] == state ? 1.0 : 0.0, label + ",state=\"" + state + "\""});
+    }
+    m.push_back({"skylit_source_reconnect_attempts_total", "Attempts at reopening a source that failed.", "counter",
+                 source["reconnect_attempts"].get<double>(), label});
+    m.push_back({"skylit_source_seconds_since_frame", "Seconds since the source's last frame (+Inf before the first).", "gauge",
+                 source["seconds_since_frame"].is_null() ? std::numeric_limits<double>::infinity()
+                                                         : source["seconds_since_frame"].get<double>(),
+                 label});
+  }
+  m.push_back({"skylit_waiting_for_sky", "1 while no sky is known (the camera image is shown alone).", "gauge",
+               j["state"] == "waiting for sky" ? 1.0 : 0.0, ""});
+  if (!j["blend"]["device"].is_null()) {
+    m.push_back({"skylit_blend_on_cpu", "1 when the shadow ratios are blended on the CPU, 0 on the GPU.", "gauge",
+                 j["blend"]["device"] == "cpu" ? 1.0 : 0.0, ""});
   }
   for (const auto& flag : j["flags"]) {
     m.push_back({"skylit_flag", "1 for each condition the status reports.", "gauge", 1.0, "flag=\"" + flag.get<std::string>() + "\""});

@@ -10,6 +10,12 @@
 
 #include "skylit/base/error.hpp"
 
+#if defined(__x86_64__) || defined(__i386__)
+#define SKYLIT_SKY_X86 1
+#else
+#define SKYLIT_SKY_X86 0
+#endif
+
 namespace skylit::sky {
 namespace {
 
@@ -34,6 +40,27 @@ void check_mask(const cv::Mat& mask, const SkyTable& table, const std::string& f
                  "give an 8-bit, one-channel mask of the frame's size (or an empty one)");
   }
 }
+
+// What a run must keep to (a table from elsewhere must not read outside the frame, the dome or
+// the weights), read from the table once per pass.
+struct RunLimits {
+  std::int64_t width, height, step;
+  std::uint64_t faces, weights;
+
+  RunLimits(const SkyTable& table, std::size_t face_count)
+      : width(table.image_width), height(table.image_height), step(table.step), faces(face_count),
+        weights(table.weights.size()) {}
+
+  [[gnu::always_inline]] void check(const PixelRun& run) const {
+    const std::int64_t last = std::int64_t{run.col_begin} + (run.count - std::int64_t{1}) * step;
+    if (run.row < 0 || run.row >= height || run.col_begin < 0 || run.count < 0 || (run.count > 0 && last >= width) ||
+        run.face < 0 || static_cast<std::uint64_t>(run.face) >= faces ||
+        std::uint64_t{run.weight_offset} + static_cast<std::uint64_t>(run.count) > weights) [[unlikely]] {
+      reject_input("table", "a run lies outside the frame, the dome or the weights",
+                   "rebuild the sky table with build_sky_table for this calibration and dome");
+    }
+  }
+};
 
 // Sums of one face over the frame.
 struct Sums {
@@ -159,50 +186,199 @@ void accumulate_run(const float* pixel, std::ptrdiff_t stride, const std::uint8_
 
 // ---- the corners basis ----
 //
-// Per sample three products w·L, w·λ0·L, w·λ1·L and Σ w, on four-float vectors (GCC's vector
-// extension: SSE on x86, NEON on ARM): sample by sample (B G R w in the lanes) where masks are
-// read or the step skips pixels, four samples at a time otherwise. Float sums along a run (a
-// few hundred samples), double across runs.
-
-using Lanes = float __attribute__((vector_size(16)));
-using LaneIndex = int __attribute__((vector_size(16)));
-using LaneBits = unsigned __attribute__((vector_size(16)));
+// Per sample the products w·L, w·λ0·L and w·λ1·L (R G B), in float vectors of kWidth lanes
+// (GCC's vector extension: four lanes on SSE2 or NEON, eight where the CPU has AVX2 and FMA),
+// kWidth samples per vector in structure-of-arrays form: one vector per channel, no lane wasted.
+// The pass runs in the table's row-major order (the frame streams through the cache); a face's
+// vector sums stay in memory between its runs (FaceLanes) and go to the face's double sums after
+// about kFlushAdditions · kWidth samples. A run thus costs its samples and a load and a store of
+// its face's sums, not a reduction of every vector (at ν = 8 a run is 26 samples on average, and
+// that reduction cost as much as the samples). The λ stay in units of kCornerWeightUnit until
+// the flush. Σ w takes no lane: for the samples that no mask touches it is the table's
+// face_solid_angle less the weight of the runs that a mask touches.
 
 static_assert(std::endian::native == std::endian::little, "λ0 is the low half of each 32-bit pair");
-constexpr float kUnit = static_cast<float>(kCornerWeightUnit);
 
-inline Lanes load_lanes(const float* p) {
-  Lanes v;
+// Float sums of at most this many additions per lane (plus one run) before they go to double,
+// as short as the longest runs' sums were when each run was summed alone.
+constexpr std::int32_t kFlushAdditions = 128;
+constexpr int kMaxWidth = 8;
+
+template <int kWidth>
+struct Vec;
+template <>
+struct Vec<4> {
+  using Float = float __attribute__((vector_size(16)));
+  using Int = std::int32_t __attribute__((vector_size(16)));
+  using Bits = std::uint32_t __attribute__((vector_size(16)));
+  static constexpr Int kLane{0, 1, 2, 3};
+  // Within each group of four lanes: blends (index ≥ kWidth picks from the second operand), then
+  // a permutation; see load_group.
+  static constexpr Int kBlue0{0, 1, 6, 3}, kBlue1{0, 5, 2, 3}, kBlue2{0, 3, 2, 1};
+  static constexpr Int kGreen0{4, 1, 2, 7}, kGreen1{0, 1, 6, 3}, kGreen2{1, 0, 3, 2};
+  static constexpr Int kRed0{0, 5, 2, 3}, kRed1{4, 1, 2, 7}, kRed2{2, 1, 0, 3};
+};
+template <>
+struct Vec<8> {
+  using Float = float __attribute__((vector_size(32)));
+  using Int = std::int32_t __attribute__((vector_size(32)));
+  using Bits = std::uint32_t __attribute__((vector_size(32)));
+  static constexpr Int kLane{0, 1, 2, 3, 4, 5, 6, 7};
+  static constexpr Int kBlue0{0, 1, 10, 3, 4, 5, 14, 7}, kBlue1{0, 9, 2, 3, 4, 13, 6, 7},
+      kBlue2{0, 3, 2, 1, 4, 7, 6, 5};
+  static constexpr Int kGreen0{8, 1, 2, 11, 12, 5, 6, 15}, kGreen1{0, 1, 10, 3, 4, 5, 14, 7},
+      kGreen2{1, 0, 3, 2, 5, 4, 7, 6};
+  static constexpr Int kRed0{0, 9, 2, 3, 4, 13, 6, 7}, kRed1{8, 1, 2, 11, 12, 5, 6, 15},
+      kRed2{2, 1, 0, 3, 6, 5, 4, 7};
+};
+
+// A face's float sums between flushes, lane by lane (the portable pass fills the first four).
+struct FaceLanes {
+  // w·L, w·λ0·L, w·λ1·L, each B G R; λ in units of kCornerWeightUnit.
+  alignas(32) float sum[9][kMaxWidth] = {};
+  alignas(32) float lowest[kMaxWidth] = {};  // the smallest value seen: the test for negatives
+  std::int32_t samples = 0;
+
+  // Into the double sums; false (and nothing added) when a value was NaN, infinite or negative
+  // or a float sum overflowed: the face is then summed again value by value.
+  bool flush_into(Sums& sums) const {
+    double total[9];
+    for (int k = 0; k < 9; ++k) {
+      double t = 0;
+      for (const float v : sum[k]) t += v;
+      total[k] = t;
+    }
+    double all = 0;
+    for (const double t : total) all += t;
+    if (!std::isfinite(all) || *std::min_element(std::begin(lowest), std::end(lowest)) < 0.0f) return false;
+    sums.b += total[0];
+    sums.g += total[1];
+    sums.r += total[2];
+    sums.corner0 += kCornerWeightUnit * Eigen::Vector3d(total[5], total[4], total[3]);
+    sums.corner1 += kCornerWeightUnit * Eigen::Vector3d(total[8], total[7], total[6]);
+    return true;
+  }
+};
+
+// Where a run's samples lie, and where the arrays end (how far a vector load past the run's last
+// sample may reach).
+struct RunData {
+  const float* pixel;
+  const float* weights;
+  const std::uint16_t* lambda;
+  std::int32_t count;
+};
+struct DataEnds {
+  const float* frame;
+  const float* weights;
+  const std::uint16_t* lambda;
+};
+
+// (By reference: an AVX vector returned by value from a function compiled without AVX would
+// change the ABI.)
+template <class Vector>
+[[gnu::always_inline]] inline void load_vector(Vector& v, const void* p) {
   std::memcpy(&v, p, sizeof v);
-  return v;
+}
+template <class Vector>
+[[gnu::always_inline]] inline void store_vector(float* p, const Vector& v) {
+  std::memcpy(p, &v, sizeof v);
 }
 
-// Four consecutive samples of a run at step 1 (12 contiguous floats B G R B G R ...) as one
-// vector per channel, the structure-of-arrays form: no lane is wasted, and the whole corners
-// pass takes fewer instructions than the faces pass (measured with cachegrind).
-struct FourSamples {
-  Lanes sum_b{0, 0, 0, 0}, sum_g{0, 0, 0, 0}, sum_r{0, 0, 0, 0}, weight{0, 0, 0, 0};
-  Lanes c0_b{0, 0, 0, 0}, c0_g{0, 0, 0, 0}, c0_r{0, 0, 0, 0};
-  Lanes c1_b{0, 0, 0, 0}, c1_g{0, 0, 0, 0}, c1_r{0, 0, 0, 0};
-  Lanes lowest{0, 0, 0, 0};
+// One face's sums in registers while a run is added.
+template <int kWidth>
+struct CornerLanes {
+  using V = Vec<kWidth>;
+  using Float = typename V::Float;
+  using Int = typename V::Int;
+  using Bits = typename V::Bits;
+  // Named, not an array: the compiler keeps them in registers (an array of vectors it kept on
+  // the stack, with copies in and out for every run).
+  Float sum_b, sum_g, sum_r;  // w·L
+  Float c0_b, c0_g, c0_r;     // w·λ0·L
+  Float c1_b, c1_g, c1_r;     // w·λ1·L
+  Float lowest;
 
-  void add(const float* pixel, const float* weights, const std::uint16_t* lambda) {
-    const Lanes x = load_lanes(pixel), y = load_lanes(pixel + 4), z = load_lanes(pixel + 8);
-    // x = B0 G0 R0 B1, y = G1 R1 B2 G2, z = R2 B3 G3 R3 (indices 4..7 pick from the second).
-    const Lanes b = __builtin_shuffle(__builtin_shuffle(x, y, LaneIndex{0, 3, 6, 0}), z, LaneIndex{0, 1, 2, 5});
-    const Lanes g = __builtin_shuffle(__builtin_shuffle(x, y, LaneIndex{1, 4, 7, 0}), z, LaneIndex{0, 1, 2, 6});
-    const Lanes r = __builtin_shuffle(__builtin_shuffle(x, y, LaneIndex{2, 5, 0, 0}), z, LaneIndex{0, 1, 4, 7});
-    LaneBits pairs;  // per sample λ1 << 16 | λ0
-    std::memcpy(&pairs, lambda, sizeof pairs);
-    const Lanes l0 = __builtin_convertvector(LaneIndex(pairs & 0xffffu), Lanes) * kUnit;
-    const Lanes l1 = __builtin_convertvector(LaneIndex(pairs >> 16), Lanes) * kUnit;
-    const Lanes w = load_lanes(weights);
-    const Lanes w0 = w * l0;
-    const Lanes w1 = w * l1;
+  [[gnu::always_inline]] explicit CornerLanes(const FaceLanes& f) {
+    load_vector(sum_b, f.sum[0]);
+    load_vector(sum_g, f.sum[1]);
+    load_vector(sum_r, f.sum[2]);
+    load_vector(c0_b, f.sum[3]);
+    load_vector(c0_g, f.sum[4]);
+    load_vector(c0_r, f.sum[5]);
+    load_vector(c1_b, f.sum[6]);
+    load_vector(c1_g, f.sum[7]);
+    load_vector(c1_r, f.sum[8]);
+    load_vector(lowest, f.lowest);
+  }
+  [[gnu::always_inline]] void store(FaceLanes& f) const {
+    store_vector(f.sum[0], sum_b);
+    store_vector(f.sum[1], sum_g);
+    store_vector(f.sum[2], sum_r);
+    store_vector(f.sum[3], c0_b);
+    store_vector(f.sum[4], c0_g);
+    store_vector(f.sum[5], c0_r);
+    store_vector(f.sum[6], c1_b);
+    store_vector(f.sum[7], c1_g);
+    store_vector(f.sum[8], c1_r);
+    store_vector(f.lowest, lowest);
+  }
+
+  // kWidth consecutive samples at step 1 (B G R B G R ...) as one vector per channel. Per group
+  // of four samples x = B0 G0 R0 B1, y = G1 R1 B2 G2, z = R2 B3 G3 R3 (with eight lanes the
+  // second group, samples 4..7, in the upper half); two blends and a permutation within each
+  // group make each channel.
+  [[gnu::always_inline]] static void load_group(const float* p, Float& b, Float& g, Float& r) {
+    Float x, y, z;
+    if constexpr (kWidth == 4) {
+      load_vector(x, p);
+      load_vector(y, p + 4);
+      load_vector(z, p + 8);
+    } else {
+      typename Vec<4>::Float half[6];
+      for (int k = 0; k < 6; ++k) load_vector(half[k], p + 4 * k);
+      x = __builtin_shufflevector(half[0], half[3], 0, 1, 2, 3, 4, 5, 6, 7);
+      y = __builtin_shufflevector(half[1], half[4], 0, 1, 2, 3, 4, 5, 6, 7);
+      z = __builtin_shufflevector(half[2], half[5], 0, 1, 2, 3, 4, 5, 6, 7);
+    }
+    b = __builtin_shuffle(__builtin_shuffle(__builtin_shuffle(x, y, V::kBlue0), z, V::kBlue1), V::kBlue2);
+    g = __builtin_shuffle(__builtin_shuffle(__builtin_shuffle(x, y, V::kGreen0), z, V::kGreen1), V::kGreen2);
+    r = __builtin_shuffle(__builtin_shuffle(__builtin_shuffle(x, y, V::kRed0), z, V::kRed1), V::kRed2);
+  }
+
+  // kWidth samples `stride` floats apart, of which the first `live` count (the other lanes are
+  // zero, whatever lies there: a NaN beyond the run never reaches a sum).
+  template <bool kContiguous>
+  [[gnu::always_inline]] void add(const float* pixel, std::ptrdiff_t stride, const float* weights,
+                                  const std::uint16_t* lambda, std::int32_t live) {
+    Float b, g, r, w;
+    Bits pairs;  // per sample λ1 << 16 | λ0
+    if constexpr (kContiguous) {
+      load_group(pixel, b, g, r);
+      load_vector(w, weights);
+      load_vector(pairs, lambda);
+      if (live < kWidth) {
+        const Int on = V::kLane < live;
+        const Float zero{};
+        b = on ? b : zero;
+        g = on ? g : zero;
+        r = on ? r : zero;
+        w = on ? w : zero;
+      }
+    } else {
+      for (int k = 0; k < kWidth; ++k) {
+        b[k] = pixel[k * stride];
+        g[k] = pixel[k * stride + 1];
+        r[k] = pixel[k * stride + 2];
+      }
+      load_vector(w, weights);
+      load_vector(pairs, lambda);
+    }
+    const Float w0 = w * __builtin_convertvector(Int(pairs & 0xffffu), Float);
+    const Float w1 = w * __builtin_convertvector(Int(pairs >> 16), Float);
     lowest = b < lowest ? b : lowest;
     lowest = g < lowest ? g : lowest;
     lowest = r < lowest ? r : lowest;
-    weight += w;
     sum_b += w * b;
     sum_g += w * g;
     sum_r += w * r;
@@ -214,12 +390,49 @@ struct FourSamples {
     c1_r += w1 * r;
   }
 
-  static float total(const Lanes& v) { return (v[0] + v[1]) + (v[2] + v[3]); }
+  // A run without masks: whole groups of kWidth samples, then the rest in a group whose other
+  // lanes are zero. At step 1 that last group reads past the run where the arrays go on (and
+  // zeroes those lanes); else it takes a copy of the rest.
+  template <bool kContiguous>
+  [[gnu::always_inline]] void add_run(const RunData& run, std::ptrdiff_t stride, const DataEnds& ends) {
+    std::int32_t k = 0;
+    for (; k + kWidth <= run.count; k += kWidth) {
+      add<kContiguous>(run.pixel + k * stride, stride, run.weights + k, run.lambda + 2 * k, kWidth);
+    }
+    const std::int32_t left = run.count - k;
+    if (left == 0) return;
+    const float* pixel = run.pixel + k * stride;
+    const float* weights = run.weights + k;
+    const std::uint16_t* lambda = run.lambda + 2 * k;
+    if (kContiguous && pixel + 3 * kWidth <= ends.frame && weights + kWidth <= ends.weights &&
+        lambda + 2 * kWidth <= ends.lambda) {
+      add<true>(pixel, 3, weights, lambda, left);
+      return;
+    }
+    float value[3 * kWidth] = {}, weight[kWidth] = {};
+    std::uint16_t pair[2 * kWidth] = {};
+    for (std::int32_t j = 0; j < left; ++j) {
+      std::memcpy(value + 3 * j, pixel + j * stride, 3 * sizeof(float));
+      weight[j] = weights[j];
+      pair[2 * j] = lambda[2 * j];
+      pair[2 * j + 1] = lambda[2 * j + 1];
+    }
+    add<true>(value, 3, weight, pair, left);
+  }
 };
 
 // Whether any of `count` mask bytes `step` apart is set.
-inline bool any_set(const std::uint8_t* mask, std::int32_t count, std::ptrdiff_t step) {
-  if (step == 1) return std::any_of(mask, mask + count, [](std::uint8_t m) { return m != 0; });
+[[gnu::always_inline]] inline bool any_set(const std::uint8_t* mask, std::int32_t count, std::ptrdiff_t step) {
+  if (step == 1) {  // eight bytes at a time; the last eight overlap the ones before
+    if (count < 8) return std::any_of(mask, mask + count, [](std::uint8_t m) { return m != 0; });
+    std::uint64_t any = 0, word;
+    for (std::int32_t k = 0; k + 8 <= count; k += 8) {
+      std::memcpy(&word, mask + k, sizeof word);
+      any |= word;
+    }
+    std::memcpy(&word, mask + count - 8, sizeof word);
+    return (any | word) != 0;
+  }
   for (std::int32_t k = 0; k < count; ++k) {
     if (mask[k * step] != 0) return true;
   }
@@ -229,50 +442,6 @@ inline bool any_set(const std::uint8_t* mask, std::int32_t count, std::ptrdiff_t
 inline void add_excluded_mass(Eigen::Matrix3d& m, double w, double l0, double l1) {
   const Eigen::Vector3d l(l0, l1, 1.0 - l0 - l1);
   m.noalias() += w * l * l.transpose();
-}
-
-struct CornerRun {
-  Lanes sum{0, 0, 0, 0}, sum0{0, 0, 0, 0}, sum1{0, 0, 0, 0};  // lanes B, G, R, weight
-  Lanes lowest{0, 0, 0, 0};
-  double clipped = 0;
-  std::int64_t clipped_pixels = 0;
-  bool excluded = false;
-  Eigen::Matrix3d excluded_mass = Eigen::Matrix3d::Zero();
-
-  void add(const CornerRun& o) {
-    sum += o.sum;
-    sum0 += o.sum0;
-    sum1 += o.sum1;
-    lowest = o.lowest < lowest ? o.lowest : lowest;
-    clipped += o.clipped;
-    clipped_pixels += o.clipped_pixels;
-    excluded = excluded || o.excluded;
-    excluded_mass += o.excluded_mass;
-  }
-};
-
-template <bool kClipped, bool kExclude>
-inline void add_corner_sample(const float* pixel, const std::uint8_t* clipped, const std::uint8_t* exclude,
-                              std::ptrdiff_t mask_offset, float weight, const std::uint16_t* lambda, CornerRun& a) {
-  if constexpr (kExclude) {
-    if (exclude[mask_offset] != 0) {
-      a.excluded = true;
-      add_excluded_mass(a.excluded_mass, weight, lambda[0] * kCornerWeightUnit, lambda[1] * kCornerWeightUnit);
-      return;
-    }
-  }
-  const Lanes value{pixel[0], pixel[1], pixel[2], 1.0f};
-  a.lowest = value < a.lowest ? value : a.lowest;
-  const Lanes wv = value * weight;
-  a.sum += wv;
-  a.sum0 += wv * (static_cast<float>(lambda[0]) * kUnit);
-  a.sum1 += wv * (static_cast<float>(lambda[1]) * kUnit);
-  if constexpr (kClipped) {
-    if (clipped[mask_offset] != 0) {
-      a.clipped += weight;
-      ++a.clipped_pixels;
-    }
-  }
 }
 
 // The careful pass of one run: every value sanitised, double sums straight into `sums`.
@@ -303,55 +472,184 @@ void corner_run_careful(const float* pixel, std::ptrdiff_t stride, const std::ui
   }
 }
 
-template <bool kClipped, bool kExclude>
-void accumulate_corner_run(const float* pixel, std::ptrdiff_t stride, const std::uint8_t* clipped,
-                           const std::uint8_t* exclude, std::ptrdiff_t mask_stride, const float* weights,
-                           const std::uint16_t* lambda, std::int32_t count, Sums& sums) {
-  CornerRun even, odd;
-  std::int32_t k = 0;
-  if constexpr (!kClipped && !kExclude) {
-    // The common case (no masks, every pixel): four samples at a time, the rest one by one.
-    if (stride == 3 && count >= 4) {
-      FourSamples four;
-      for (; k + 3 < count; k += 4) four.add(pixel + 3 * k, weights + k, lambda + 2 * k);
-      even.sum += Lanes{FourSamples::total(four.sum_b), FourSamples::total(four.sum_g),
-                        FourSamples::total(four.sum_r), FourSamples::total(four.weight)};
-      even.sum0 += Lanes{FourSamples::total(four.c0_b), FourSamples::total(four.c0_g), FourSamples::total(four.c0_r), 0};
-      even.sum1 += Lanes{FourSamples::total(four.c1_b), FourSamples::total(four.c1_g), FourSamples::total(four.c1_r), 0};
-      const float lowest = std::min(std::min(four.lowest[0], four.lowest[1]), std::min(four.lowest[2], four.lowest[3]));
-      even.lowest = Lanes{lowest, lowest, lowest, 0};
+// A run that a mask touches (few: the sun's disc, clipped pixels): sample by sample, double sums
+// straight into `sums`, Σ w included. False, with nothing added, at a NaN, infinite or negative
+// value. `clipped` and `exclude` are null where the run has none. `run_weight`: Σ w of all its
+// samples (the part of face_solid_angle that the fast sums do not cover).
+bool add_masked_corner_run(const RunData& d, std::ptrdiff_t stride, const std::uint8_t* clipped,
+                           const std::uint8_t* exclude, std::ptrdiff_t mask_stride, Sums& sums,
+                           double& run_weight) {
+  Sums run;
+  double all = 0;
+  for (std::int32_t k = 0; k < d.count; ++k) {
+    const double w = d.weights[k];
+    const double l0 = d.lambda[2 * k] * kCornerWeightUnit, l1 = d.lambda[2 * k + 1] * kCornerWeightUnit;
+    all += w;
+    if (exclude && exclude[k * mask_stride] != 0) {
+      run.excluded = true;
+      add_excluded_mass(run.excluded_mass, w, l0, l1);
+      continue;
+    }
+    const float* value = d.pixel + k * stride;
+    if (!(std::min(value[0], std::min(value[1], value[2])) >= 0.0f) ||
+        !std::isfinite(value[0] + value[1] + value[2])) {
+      return false;
+    }
+    const Eigen::Vector3d rgb(value[2], value[1], value[0]);
+    run.b += w * value[0];
+    run.g += w * value[1];
+    run.r += w * value[2];
+    run.weight += w;
+    run.corner0 += (w * l0) * rgb;
+    run.corner1 += (w * l1) * rgb;
+    if (clipped && clipped[k * mask_stride] != 0) {
+      run.clipped += w;
+      ++run.clipped_pixels;
     }
   }
-  for (; k + 1 < count; k += 2) {
-    add_corner_sample<kClipped, kExclude>(pixel + k * stride, clipped, exclude, k * mask_stride, weights[k],
-                                          lambda + 2 * k, even);
-    add_corner_sample<kClipped, kExclude>(pixel + (k + 1) * stride, clipped, exclude, (k + 1) * mask_stride,
-                                          weights[k + 1], lambda + 2 * (k + 1), odd);
-  }
-  if (k < count) {
-    add_corner_sample<kClipped, kExclude>(pixel + k * stride, clipped, exclude, k * mask_stride, weights[k],
-                                          lambda + 2 * k, even);
-  }
-  even.add(odd);
-  const Lanes& s0 = even.sum;
-  const bool finite = std::isfinite(s0[0] + s0[1] + s0[2] + s0[3] + even.sum0[0] + even.sum0[1] + even.sum0[2] +
-                                    even.sum1[0] + even.sum1[1] + even.sum1[2]);
-  if (!finite || even.lowest[0] < 0.0f || even.lowest[1] < 0.0f || even.lowest[2] < 0.0f) [[unlikely]] {
-    corner_run_careful(pixel, stride, kClipped ? clipped : nullptr, kExclude ? exclude : nullptr, mask_stride,
-                       weights, lambda, count, sums);
-    return;
-  }
-  sums.b += even.sum[0];
-  sums.g += even.sum[1];
-  sums.r += even.sum[2];
-  sums.weight += even.sum[3];
-  sums.corner0 += Eigen::Vector3d(even.sum0[2], even.sum0[1], even.sum0[0]);
-  sums.corner1 += Eigen::Vector3d(even.sum1[2], even.sum1[1], even.sum1[0]);
-  sums.clipped += even.clipped;
-  sums.clipped_pixels += even.clipped_pixels;
-  if (even.excluded) {
+  sums.b += run.b;
+  sums.g += run.g;
+  sums.r += run.r;
+  sums.weight += run.weight;
+  sums.corner0 += run.corner0;
+  sums.corner1 += run.corner1;
+  sums.clipped += run.clipped;
+  sums.clipped_pixels += run.clipped_pixels;
+  if (run.excluded) {
     sums.excluded = true;
-    sums.excluded_mass += even.excluded_mass;
+    sums.excluded_mass += run.excluded_mass;
+  }
+  run_weight = all;
+  return true;
+}
+
+// What the corners pass works on. Per face: the double sums, the float lane sums, the weight of
+// its runs that a mask touched, and whether it must be summed again value by value.
+struct CornersPass {
+  const SkyTable& table;
+  const cv::Mat& radiance;
+  const cv::Mat& clipped;  // may be empty
+  const cv::Mat& exclude;  // may be empty
+  std::vector<Sums>& sums;
+  std::vector<FaceLanes>& lanes;
+  std::vector<double>& masked_weight;
+  std::vector<std::uint8_t>& careful;
+};
+
+// The fast pass, always inlined: it takes the instruction set of its caller
+// (fast_corner_pass_avx2 or fast_corner_pass_portable). Returns the samples visited.
+template <int kWidth>
+[[gnu::always_inline]] inline std::int64_t fast_corner_pass(const CornersPass& p) {
+  // Everything the loop reads from the table and the frames in locals: the lane sums' stores
+  // (memcpy) may alias anything, and would make the compiler read them again for every run.
+  const SkyTable& table = p.table;
+  const RunLimits limits(table, p.sums.size());
+  const std::ptrdiff_t step = table.step;
+  const std::ptrdiff_t stride = 3 * step;
+  const std::uint8_t* const frame = p.radiance.data;
+  const std::size_t frame_row = p.radiance.step[0];
+  const std::uint8_t* const clipped = p.clipped.empty() ? nullptr : p.clipped.data;
+  const std::size_t clipped_row = p.clipped.empty() ? 0 : p.clipped.step[0];
+  const std::uint8_t* const exclude = p.exclude.empty() ? nullptr : p.exclude.data;
+  const std::size_t exclude_row = p.exclude.empty() ? 0 : p.exclude.step[0];
+  const float* const weights = table.weights.data();
+  const std::uint16_t* const lambda = table.corner_weights.data();
+  const DataEnds ends{reinterpret_cast<const float*>(p.radiance.dataend), weights + table.weights.size(),
+                      lambda + table.corner_weights.size()};
+  Sums* const sums = p.sums.data();
+  FaceLanes* const face_lanes = p.lanes.data();
+  double* const masked_weight = p.masked_weight.data();
+  std::uint8_t* const careful = p.careful.data();
+  const PixelRun* const runs_end = table.runs.data() + table.runs.size();
+  std::int64_t samples = 0;
+  for (const PixelRun* run = table.runs.data(); run != runs_end; ++run) {
+    limits.check(*run);
+    samples += run->count;
+    const auto face = static_cast<std::size_t>(run->face);
+    if (careful[face]) continue;
+    const RunData d{reinterpret_cast<const float*>(frame + std::size_t(run->row) * frame_row) +
+                        3 * std::ptrdiff_t{run->col_begin},
+                    weights + run->weight_offset, lambda + 2 * std::size_t{run->weight_offset}, run->count};
+    // A mask with nothing set along the run (the sun's disc and clipped pixels are small) costs
+    // the run nothing: it takes the mask-free path.
+    const std::uint8_t* c = clipped ? clipped + std::size_t(run->row) * clipped_row + run->col_begin : nullptr;
+    const std::uint8_t* e = exclude ? exclude + std::size_t(run->row) * exclude_row + run->col_begin : nullptr;
+    if (c && !any_set(c, run->count, step)) c = nullptr;
+    if (e && !any_set(e, run->count, step)) e = nullptr;
+    if (c || e) [[unlikely]] {
+      double run_weight = 0;
+      if (add_masked_corner_run(d, stride, c, e, step, sums[face], run_weight)) {
+        masked_weight[face] += run_weight;
+      } else {
+        careful[face] = 1;
+      }
+      continue;
+    }
+    FaceLanes& stored = face_lanes[face];
+    CornerLanes<kWidth> lanes(stored);
+    if (step == 1) {
+      lanes.template add_run<true>(d, stride, ends);
+    } else {
+      lanes.template add_run<false>(d, stride, ends);
+    }
+    lanes.store(stored);
+    stored.samples += run->count;
+    if (stored.samples >= kFlushAdditions * kWidth) {
+      if (!stored.flush_into(sums[face])) careful[face] = 1;
+      stored = FaceLanes{};
+    }
+  }
+  return samples;
+}
+
+std::int64_t fast_corner_pass_portable(const CornersPass& p) { return fast_corner_pass<4>(p); }
+
+#if SKYLIT_SKY_X86
+// Three-operand instructions, single-instruction blends and fused multiply-adds (so the sums
+// agree with the portable pass to float rounding, not bit for bit); eight lanes at step 1, four
+// where the step skips pixels (the lanes are then filled one by one and the runs are short).
+__attribute__((target("avx2,fma"))) std::int64_t fast_corner_pass_avx2(const CornersPass& p) {
+  return p.table.step == 1 ? fast_corner_pass<8>(p) : fast_corner_pass<4>(p);
+}
+bool cpu_has_avx2_fma() { return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"); }
+#endif
+
+// The corners pass: the fast pass, then the faces it could not take value by value. A face whose
+// fast sums show a NaN, an infinity or a negative value (or overflow) is summed again, all of
+// it, in a second pass that visits its runs only.
+void accumulate_corners(const SkyTable& table, const cv::Mat& radiance, const cv::Mat& clipped,
+                        const cv::Mat& exclude, bool use_simd, std::vector<Sums>& sums, std::int64_t& samples) {
+  const std::size_t n = sums.size();
+  std::vector<FaceLanes> lanes(n);
+  std::vector<double> masked_weight(n, 0.0);
+  std::vector<std::uint8_t> careful(n, 0);
+  const CornersPass pass{table, radiance, clipped, exclude, sums, lanes, masked_weight, careful};
+#if SKYLIT_SKY_X86
+  samples += use_simd && cpu_has_avx2_fma() ? fast_corner_pass_avx2(pass) : fast_corner_pass_portable(pass);
+#else
+  (void)use_simd;
+  samples += fast_corner_pass_portable(pass);
+#endif
+  bool any_careful = false;
+  for (std::size_t face = 0; face < n; ++face) {
+    if (!careful[face] && !lanes[face].flush_into(sums[face])) careful[face] = 1;
+    if (careful[face]) {
+      sums[face] = Sums{};
+      any_careful = true;
+    } else {
+      sums[face].weight += table.face_solid_angle[face] - masked_weight[face];
+    }
+  }
+  if (!any_careful) return;
+  const std::ptrdiff_t step = table.step;
+  for (const PixelRun& run : table.runs) {
+    const auto face = static_cast<std::size_t>(run.face);
+    if (!careful[face]) continue;
+    corner_run_careful(radiance.ptr<float>(run.row) + 3 * std::ptrdiff_t{run.col_begin}, 3 * step,
+                       clipped.empty() ? nullptr : clipped.ptr<std::uint8_t>(run.row) + run.col_begin,
+                       exclude.empty() ? nullptr : exclude.ptr<std::uint8_t>(run.row) + run.col_begin, step,
+                       table.weights.data() + run.weight_offset,
+                       table.corner_weights.data() + 2 * std::size_t{run.weight_offset}, run.count, sums[face]);
   }
 }
 
@@ -484,51 +782,29 @@ Luminance compute_luminance(const SkyTable& table, const geom::Dome& dome, const
   const std::ptrdiff_t stride = 3 * step;
   const bool has_clipped = !clipped.empty();
   const bool has_exclude = !exclude.empty();
-  const std::size_t weight_count = table.weights.size();
-  for (const PixelRun& run : table.runs) {
-    // A table from elsewhere must not read outside the frame or the weights.
-    const long long last = static_cast<long long>(run.col_begin) + (run.count - 1LL) * step;
-    if (run.row < 0 || run.row >= table.image_height || run.col_begin < 0 || run.count < 0 ||
-        (run.count > 0 && last >= table.image_width) || run.face < 0 ||
-        static_cast<std::size_t>(run.face) >= n ||
-        static_cast<std::size_t>(run.weight_offset) + static_cast<std::size_t>(run.count) >
-            weight_count) {
-      reject_input("table", "a run lies outside the frame, the dome or the weights",
-                   "rebuild the sky table with build_sky_table for this calibration and dome");
-    }
-    const float* pixel = radiance.ptr<float>(run.row) + 3 * std::ptrdiff_t{run.col_begin};
-    const float* weights = table.weights.data() + run.weight_offset;
-    // Absent masks stay null: the templates below never touch them.
-    const std::uint8_t* c =
-        has_clipped ? clipped.ptr<std::uint8_t>(run.row) + run.col_begin : nullptr;
-    const std::uint8_t* e =
-        has_exclude ? exclude.ptr<std::uint8_t>(run.row) + run.col_begin : nullptr;
-    Sums& s = sums[static_cast<std::size_t>(run.face)];
-    if (corners) {
-      const std::uint16_t* lambda = table.corner_weights.data() + 2 * std::size_t{run.weight_offset};
-      // A mask with nothing set along the run (the sun's disc and clipped pixels are small) costs
-      // the run nothing: it takes the mask-free path, four samples at a time.
-      const bool run_clipped = has_clipped && any_set(c, run.count, step);
-      const bool run_exclude = has_exclude && any_set(e, run.count, step);
-      if (run_clipped && run_exclude) {
-        accumulate_corner_run<true, true>(pixel, stride, c, e, step, weights, lambda, run.count, s);
-      } else if (run_clipped) {
-        accumulate_corner_run<true, false>(pixel, stride, c, e, step, weights, lambda, run.count, s);
-      } else if (run_exclude) {
-        accumulate_corner_run<false, true>(pixel, stride, c, e, step, weights, lambda, run.count, s);
+  if (corners) {
+    accumulate_corners(table, radiance, clipped, exclude, options.use_simd, sums, result.samples);
+  } else {
+    const RunLimits limits(table, n);
+    for (const PixelRun& run : table.runs) {
+      limits.check(run);
+      const float* pixel = radiance.ptr<float>(run.row) + 3 * std::ptrdiff_t{run.col_begin};
+      const float* weights = table.weights.data() + run.weight_offset;
+      // Absent masks stay null: the templates below never touch them.
+      const std::uint8_t* c = has_clipped ? clipped.ptr<std::uint8_t>(run.row) + run.col_begin : nullptr;
+      const std::uint8_t* e = has_exclude ? exclude.ptr<std::uint8_t>(run.row) + run.col_begin : nullptr;
+      Sums& s = sums[static_cast<std::size_t>(run.face)];
+      if (has_clipped && has_exclude) {
+        accumulate_run<true, true>(pixel, stride, c, e, step, weights, run.count, s);
+      } else if (has_clipped) {
+        accumulate_run<true, false>(pixel, stride, c, e, step, weights, run.count, s);
+      } else if (has_exclude) {
+        accumulate_run<false, true>(pixel, stride, c, e, step, weights, run.count, s);
       } else {
-        accumulate_corner_run<false, false>(pixel, stride, c, e, step, weights, lambda, run.count, s);
+        accumulate_run<false, false>(pixel, stride, c, e, step, weights, run.count, s);
       }
-    } else if (has_clipped && has_exclude) {
-      accumulate_run<true, true>(pixel, stride, c, e, step, weights, run.count, s);
-    } else if (has_clipped) {
-      accumulate_run<true, false>(pixel, stride, c, e, step, weights, run.count, s);
-    } else if (has_exclude) {
-      accumulate_run<false, true>(pixel, stride, c, e, step, weights, run.count, s);
-    } else {
-      accumulate_run<false, false>(pixel, stride, c, e, step, weights, run.count, s);
+      result.samples += run.count;
     }
-    result.samples += run.count;
   }
 
   std::vector<bool> known(n, false);

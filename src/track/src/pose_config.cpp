@@ -20,8 +20,23 @@ namespace fs = std::filesystem;
 
 constexpr std::array<std::string_view, 5> kFixedKeys{"kind", "position", "orientation", "look_at", "up"};
 constexpr std::array<std::string_view, 2> kTrackKeys{"kind", "csv"};
-constexpr std::array<std::string_view, 2> kKinds{"fixed", "track"};
+constexpr std::array<std::string_view, 19> kMarkerKeys{
+    "kind",          "map",          "calibration",      "decimation",            "blur",
+    "refine_edges",  "sharpening",   "min_contrast",     "threads",               "max_hamming",
+    "min_margin",    "outlier_px",   "max_error_px",     "max_ambiguity",         "distinct_deg",
+    "distant_tag_px", "max_age",     "accept_ambiguous", "accept_single_distant"};
+constexpr std::array<std::string_view, 3> kKinds{"fixed", "track", "markers"};
 const char* const kDocs = "see docs/live.md (Pose)";
+
+std::string format_range(double lo, double hi) {
+  const auto text = [](double v) {
+    std::string s = std::to_string(v);
+    s.erase(s.find_last_not_of('0') + 1);
+    if (!s.empty() && s.back() == '.') s.pop_back();
+    return s;
+  };
+  return text(lo) + ".." + text(hi);
+}
 
 // The shared YAML reader, with the `pose.` prefix on field names.
 class Reader : public YamlReader {
@@ -44,17 +59,64 @@ class Reader : public YamlReader {
   }
 };
 
+// The marker tracker's fields (docs/tracking.md): the map, an optional calibration, the knobs.
+void parse_markers(const Reader& r, const YAML::Node& node, PoseConfig& config) {
+  const std::string map_fix = "write the marker map's path, e.g. 'map: site_tags.yaml' (docs/tracking.md)";
+  config.marker_map = r.path(r.require(node, "map", map_fix), "pose.map", map_fix);
+  if (const YAML::Node calibration = Reader::optional(node, "calibration")) {
+    config.marker_calibration =
+        r.path(calibration, "pose.calibration", "write the HMD camera's calibration YAML, or leave it out to use camera.calibration");
+  }
+  MarkerTrackerOptions& o = config.markers;
+  const auto number_or = [&](const char* key, double fallback, double lo, double hi, const std::string& fix) {
+    const YAML::Node value = Reader::optional(node, key);
+    if (!value.IsDefined()) return fallback;
+    const std::string field = std::string("pose.") + key;
+    const double v = r.number(value, field, fix);
+    if (v < lo || v > hi) r.fail(value, field, value.Scalar() + " is outside " + format_range(lo, hi), fix);
+    return v;
+  };
+  const auto integer_or = [&](const char* key, int fallback, int lo, int hi, const std::string& fix) {
+    const YAML::Node value = Reader::optional(node, key);
+    return value.IsDefined() ? static_cast<int>(r.integer(value, std::string("pose.") + key, lo, hi, fix)) : fallback;
+  };
+  const auto boolean_or = [&](const char* key, bool fallback) {
+    const YAML::Node value = Reader::optional(node, key);
+    return value.IsDefined() ? r.boolean(value, std::string("pose.") + key, "write true or false") : fallback;
+  };
+  o.detector.decimation = number_or("decimation", o.detector.decimation, 1, 16,
+                                    "1 (full resolution) to 16; 2 is the default, see docs/tracking.md for the cost");
+  o.detector.blur_sigma = number_or("blur", o.detector.blur_sigma, -10, 10, "a Gaussian σ in pixels; 0 = none, negative sharpens");
+  o.detector.refine_edges = boolean_or("refine_edges", o.detector.refine_edges);
+  o.detector.decode_sharpening = number_or("sharpening", o.detector.decode_sharpening, 0, 10, "0 to 10; 0.25 is the default");
+  o.detector.min_contrast = integer_or("min_contrast", o.detector.min_contrast, 0, 255,
+                                      "0 to 255 grey levels; tiles flatter than this are skipped (default 10)");
+  o.detector.threads = integer_or("threads", o.detector.threads, 1, 64, "1 to 64 detector threads");
+  o.detector.max_hamming = integer_or("max_hamming", o.detector.max_hamming, 0, 3, "0 to 3 corrected bit errors");
+  o.detector.min_decision_margin = number_or("min_margin", o.detector.min_decision_margin, 0, 255, "0 to 255 grey levels");
+  o.pose.outlier_px = number_or("outlier_px", o.pose.outlier_px, 1e-3, 1e4, "a positive error in pixels, e.g. 4");
+  o.pose.max_error_px = number_or("max_error_px", o.pose.max_error_px, 1e-3, 1e4, "a positive error in pixels, e.g. 2");
+  o.pose.max_ambiguity = number_or("max_ambiguity", o.pose.max_ambiguity, 0, 1, "a ratio from 0 to 1, e.g. 0.5");
+  o.pose.distinct_deg = number_or("distinct_deg", o.pose.distinct_deg, 1e-3, 90, "a positive angle in degrees, e.g. 1");
+  o.pose.distant_tag_px = number_or("distant_tag_px", o.pose.distant_tag_px, 0, 1e4, "an edge length in pixels, e.g. 40");
+  o.max_age = number_or("max_age", o.max_age, 0, 3600, "seconds a pose stays valid without a new solve, e.g. 0.5");
+  o.accept_ambiguous = boolean_or("accept_ambiguous", o.accept_ambiguous);
+  o.accept_single_distant = boolean_or("accept_single_distant", o.accept_single_distant);
+}
+
 }  // namespace
 
 PoseConfig parse_pose_config(const YAML::Node& node, const fs::path& file) {
   const Reader r(file);
   if (!node.IsDefined() || node.IsNull()) r.fail(node, "pose", "missing", std::string("add a 'pose:' map with a kind; ") + kDocs);
   if (!node.IsMap()) r.fail(node, "pose", "expected a map of fields", std::string("write 'kind: fixed' or 'kind: track' and its fields; ") + kDocs);
-  const std::string kind_fix = "write 'kind: fixed' (position and orientation or look_at) or 'kind: track' (csv)";
+  const std::string kind_fix =
+      "write 'kind: fixed' (position and orientation or look_at), 'kind: track' (csv) or 'kind: markers' (map)";
   const YAML::Node kind_node = r.require(node, "kind", kind_fix);
   const std::string kind = kind_node.IsScalar() ? kind_node.Scalar() : std::string();
 
   PoseConfig config;
+  config.file = file;
   if (kind == "fixed") {
     r.check_keys(node, kFixedKeys);
     config.kind = PoseConfig::Kind::Fixed;
@@ -101,6 +163,10 @@ PoseConfig parse_pose_config(const YAML::Node& node, const fs::path& file) {
     if (!csv.IsScalar() || csv.Scalar().empty()) r.fail(csv, "pose.csv", "expected a file name", csv_fix);
     const fs::path path(csv.Scalar());
     config.csv = path.is_absolute() ? path : (file.parent_path() / path).lexically_normal();
+  } else if (kind == "markers") {
+    r.check_keys(node, kMarkerKeys);
+    config.kind = PoseConfig::Kind::Markers;
+    parse_markers(r, node, config);
   } else {
     r.fail(kind_node, "pose.kind", "unknown kind '" + kind + "'", unknown_key_fix(kind, std::span<const std::string_view>(kKinds)));
   }
@@ -124,6 +190,11 @@ PoseConfig load_pose_config(const fs::path& file) {
 }
 
 std::unique_ptr<PoseSource> open_pose_source(const PoseConfig& config) {
+  if (config.kind == PoseConfig::Kind::Markers) {
+    throw InputError(input_message(config.file, -1, -1, "pose.kind",
+                                   "the marker tracker needs the HMD camera's frames, which this program does not feed it yet",
+                                   "use 'kind: fixed' or 'kind: track' here (docs/tracking.md)"));
+  }
   if (config.kind == PoseConfig::Kind::Track) return std::make_unique<PoseTrack>(PoseTrack::load(config.csv));
   return std::make_unique<FixedPose>(config.fixed);
 }

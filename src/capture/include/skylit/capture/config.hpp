@@ -48,4 +48,13 @@ SourceConfig load_source_config(const std::filesystem::path& file);
 // configured. Errors of the first opening propagate (InputError for what a user can fix).
 std::unique_ptr<FrameSource> open_source(const SourceConfig& config, Clock clock = steady_clock());
 
+// open_source's source, with the ReconnectingSource inside it kept in view so that a service can
+// report its connection state (ReconnectingSource::status()). `reconnecting` is null when the
+// config turns reconnection off; it lives as long as `source`.
+struct OpenedSource {
+  std::unique_ptr<FrameSource> source;
+  const ReconnectingSource* reconnecting = nullptr;
+};
+OpenedSource open_source_with_status(const SourceConfig& config, Clock clock = steady_clock());
+
 }  // namespace skylit::capture

@@ -4,6 +4,7 @@
 // GLFW allows windows on the process's main thread only: make, present and destroy it there.
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <GLES3/gl31.h>
 
@@ -16,8 +17,16 @@ struct WindowOptions {
   int height = 720;
   std::string title = "skylit";
   bool fullscreen = false;   // on the primary monitor, at its current mode (an HMD shown as a monitor)
+  // Full screen on the monitor of this name (glfwGetMonitorName: e.g. "HDMI-1", or an HMD's
+  // name), at its current mode; empty: as `fullscreen` says. InputError listing the monitors
+  // present when none has the name.
+  std::string monitor;
   bool vsync = true;         // present() waits for the display's refresh
 };
+
+// The names of the monitors of the display ($DISPLAY or $WAYLAND_DISPLAY), primary first.
+// ContextError when there is no display.
+std::vector<std::string> monitor_names();
 
 class WindowContext {
  public:

@@ -15,18 +15,25 @@
 //     calibration: hmd_camera.yaml
 //     source: {kind: images, ...}
 //   pose: {kind: fixed | track, ...}    # track::PoseConfig
-//   blend:
-//     storage: half | unorm8
-//     skip_threshold: 0                 # T units (docs/live.md, "GPU blend")
+//   blend:                              # or just `blend: auto | cpu | gpu`
+//     device: auto | cpu | gpu          # where T is blended (auto: cpu on a software GL renderer)
+//     threads: 2                        # cpu: blend threads (0: all hardware threads)
+//     storage: half | unorm8            # gpu: how the basis is stored
+//     skip_threshold: 0                 # T units (docs/live.md, "Blend"); both devices
 //     change_threshold: 0.002
 //   photometric:
 //     scale: [1, 1, 1]                  # camera linear value per unit radiance; or
 //     estimate: {plane: ground, region: [s0, s1, t0, t1], albedo: [0.2, 0.2, 0.2], every: 30}
 //   output:
-//     record: out.mp4                   # .mp4/.avi: a video; otherwise a folder of PNG frames
+//     record: out.mp4                   # .mp4/.avi: a video; otherwise a folder of PNG frames; or
+//     record: {path: out.mp4, fps: 15}  # a video's rate (default: the HMD camera's frame rate)
 //     window: false                     # a window on the display (overridden by --headless)
 //   status:
 //     listen: 127.0.0.1:8080            # omit for no HTTP status
+//   display:                            # the HMD display (docs/hmd.md); opens the window
+//     profile: hmd/generic.yaml         # an HMD profile (config/hmd/)
+//     monitor: HDMI-1                   # full screen on this monitor; omit for a window
+//     mode: stereo                      # stereo (a render per eye) or mono (default)
 #include <array>
 #include <filesystem>
 #include <optional>
@@ -54,7 +61,14 @@ struct CameraSettings {
   capture::SourceConfig source;
 };
 
+// Where the shadow ratios are blended: on the CPU (on the sky thread, right after S) or on the GPU
+// (on the render thread); auto picks the CPU when the GL renderer is a software one.
+enum class BlendDevice { Auto, Cpu, Gpu };
+std::string blend_device_name(BlendDevice device);  // "auto", "cpu", "gpu"
+
 struct BlendSettings {
+  BlendDevice device = BlendDevice::Auto;
+  int threads = 2;                    // CPU blend threads, the sky thread included (0: all hardware threads)
   bool unorm8 = false;
   double skip_threshold = 0.0;
   double change_threshold = 0.002;
@@ -71,7 +85,15 @@ struct PhotometricSettings {
 
 struct OutputSettings {
   std::filesystem::path record;   // empty: none
+  std::optional<double> record_fps;  // a recorded video's frame rate; none: the HMD camera's
   bool window = false;
+};
+
+// The HMD display (docs/hmd.md): a profile, the monitor to fill, one render or one per eye.
+struct DisplaySettings {
+  std::filesystem::path profile;
+  std::string monitor;   // empty: a window
+  bool stereo = false;
 };
 
 struct LiveConfig {
@@ -85,6 +107,7 @@ struct LiveConfig {
   PhotometricSettings photometric;
   OutputSettings output;
   std::optional<std::string> status_listen;  // "ADDR:PORT"
+  std::optional<DisplaySettings> display;    // set: the window shows the HMD display
 };
 
 // InputError naming the file, line, column and field, with the fix, for anything wrong.

@@ -68,6 +68,9 @@ struct LuminanceOptions {
   // of a fully seen face's smallest eigenvalue (SkyTable::corner_conditioning); below it the
   // fit would extrapolate into what the camera does not see, and the face's mean is used.
   double min_corner_conditioning = 0.25;
+  // Corners basis: the eight-lane AVX2/FMA pass where the CPU has it (false: the portable
+  // four-lane pass everywhere, e.g. to compare the two). Both agree to float rounding.
+  bool use_simd = true;
 };
 
 // What the blend takes: one RGB value per layer of a bake with luminance.basis, S_i (faces) or

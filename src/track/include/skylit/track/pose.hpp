@@ -1,6 +1,6 @@
 #pragma once
 // Where a camera is: one interface for a fixed pose from the config, a recorded pose track
-// (CSV) and, later, the marker tracker.
+// (CSV) and the marker tracker (marker_tracker.hpp).
 //
 // Frames: the site frame is x east, y north, z up, metres; the camera frame is OpenCV's (x right,
 // y down, z forward). A camera point p maps to the site as R_site_from_camera · p +
@@ -13,6 +13,8 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+
+#include "skylit/track/marker_options.hpp"
 
 namespace YAML {
 class Node;
@@ -88,17 +90,30 @@ class PoseTrack final : public PoseSource {
 //   pose:
 //     kind: track
 //     csv: head_track.csv            # relative to the config file's folder
+//
+//   pose:
+//     kind: markers                  # AprilTags on the site (docs/tracking.md)
+//     map: site_tags.yaml            # the marker map, relative to the config file's folder
+//     calibration: hmd_camera.yaml   # optional: the camera's; default the HMD camera's
+//     decimation: 2                  # optional knobs (MarkerTrackerOptions), e.g. blur, threads
 struct PoseConfig {
-  enum class Kind { Fixed, Track };
+  enum class Kind { Fixed, Track, Markers };
   Kind kind = Kind::Fixed;
   Pose fixed;                  // Kind::Fixed
   std::filesystem::path csv;   // Kind::Track
+  std::filesystem::path marker_map;          // Kind::Markers
+  std::filesystem::path marker_calibration;  // Kind::Markers; empty: the HMD camera's
+  MarkerTrackerOptions markers;              // Kind::Markers
+  std::filesystem::path file;                // the config it was read from (messages)
 };
 
 // InputError naming the file, line, column and field for anything missing, unknown or wrong.
 PoseConfig parse_pose_config(const YAML::Node& node, const std::filesystem::path& file);
 // A YAML file whose top level has a `pose:` node.
 PoseConfig load_pose_config(const std::filesystem::path& file);
+// The source of a fixed or track config. Kind::Markers needs the camera's frames: use
+// open_marker_tracker (marker_tracker.hpp) and feed it; here it is an InputError naming the
+// config's pose.kind (the live service does not feed a tracker yet).
 std::unique_ptr<PoseSource> open_pose_source(const PoseConfig& config);
 
 }  // namespace skylit::track

@@ -1,0 +1,198 @@
+// The service before its first sky (the camera image alone, "waiting for sky" in the status), and
+// the frame rate of its recordings (the HMD camera's, or record.fps).
+#include <chrono>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+
+#include <gtest/gtest.h>
+#include <opencv2/videoio.hpp>
+
+#include "live_fixture.hpp"
+
+namespace skylit::live_test {
+namespace {
+
+using namespace std::chrono_literals;
+using nlohmann::json;
+
+std::int64_t frames_of(const json& status) { return status["frames"].get<std::int64_t>(); }
+
+std::string read_bytes(const fs::path& file) {
+  std::ostringstream out;
+  out << std::ifstream(file, std::ios::binary).rdbuf();
+  return out.str();
+}
+
+// The frame log beside a recording: per line, whether the frame had a sky.
+std::vector<bool> frames_with_sky(const fs::path& csv) {
+  std::ifstream in(csv);
+  std::string line;
+  std::getline(in, line);  // header: frame,file,timestamp,sky_timestamp,...
+  std::vector<bool> with_sky;
+  while (std::getline(in, line)) {
+    std::vector<std::string> fields;
+    std::stringstream row(line);
+    for (std::string field; std::getline(row, field, ',');) fields.push_back(field);
+    with_sky.push_back(fields.size() > 3 && !fields[3].empty());
+  }
+  return with_sky;
+}
+
+TEST(ServiceStartup, BeforeTheFirstSkyTheCameraImageIsShownAlone) {
+  RigOptions rig_options;
+  rig_options.sky_loop = true;  // the sky folder is read again and again until its frame can be read
+  rig_options.sky_realtime = "1";  // (once a second once it can)
+  const Rig rig(rig_options);
+  // The sky frame is not readable yet (a file still being copied): no sky for a while.
+  const fs::path sky_file = rig.dir() / "sky" / "frame_0000.exr";
+  const std::string sky_bytes = read_bytes(sky_file);
+  std::ofstream(sky_file, std::ios::binary | std::ios::trunc) << sky_bytes.substr(0, 64);
+
+  live::ServiceOptions options = quiet_options();
+  options.record = rig.dir() / "recorded";
+  RunningService running(rig.config(), options);
+  ASSERT_TRUE(running.wait_for([](const json& s) { return frames_of(s) >= 6; })) << running.error();
+  const json waiting = running.status();
+  EXPECT_EQ(waiting["state"], "waiting for sky") << waiting.dump(2);
+  EXPECT_EQ(waiting["sky"]["estimates"], 0);
+  EXPECT_GT(waiting["sky"]["malformed"].get<int>(), 0);  // the cut file, tried on every pass
+  EXPECT_NE(running.service().metrics_text().find("skylit_waiting_for_sky 1\n"), std::string::npos);
+
+  // The file is complete: the sky comes, and with it the building and its shadows.
+  {
+    const fs::path part = rig.dir() / "frame_0000.exr.part";
+    std::ofstream(part, std::ios::binary) << sky_bytes;
+    fs::rename(part, sky_file);
+  }
+  ASSERT_TRUE(running.wait_for([](const json& s) { return s["sky"]["estimates"].get<int>() >= 1; }, 30))
+      << running.status().dump(2);
+  const std::int64_t frames_at_sky = frames_of(running.status());
+  ASSERT_TRUE(running.wait_for([&](const json& s) { return frames_of(s) >= frames_at_sky + 6; }, 30));
+  EXPECT_EQ(running.status()["state"], "running");
+  EXPECT_NE(running.service().metrics_text().find("skylit_waiting_for_sky 0\n"), std::string::npos);
+  running.finish();
+  ASSERT_TRUE(running.error().empty()) << running.error();
+
+  // Each recorded frame: without a sky, exactly one of the camera's frames; with one, the building
+  // changes a large part of the image.
+  const std::vector<bool> with_sky = frames_with_sky(rig.dir() / "recorded" / "frames.csv");
+  int before = 0, after = 0, smallest_change = 255 * 3;
+  for (std::size_t k = 0; k < with_sky.size(); ++k) {
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%06zu.png", k);
+    const cv::Mat frame = cv::imread((rig.dir() / "recorded" / name).string(), cv::IMREAD_UNCHANGED);
+    ASSERT_FALSE(frame.empty()) << name;
+    int nearest = 255;
+    int changed_pixels = frame.rows * frame.cols;
+    for (const cv::Mat& input : rig.camera_frames()) {
+      nearest = std::min(nearest, max_difference(frame, input));
+      cv::Mat difference, grey;
+      cv::absdiff(frame, input, difference);
+      cv::cvtColor(difference, grey, cv::COLOR_BGR2GRAY);
+      changed_pixels = std::min(changed_pixels, cv::countNonZero(grey > 10));
+    }
+    if (!with_sky[k]) {
+      ++before;
+      EXPECT_EQ(nearest, 0) << name << " was composited before the sky: the camera image alone";
+      EXPECT_EQ(after, 0) << name << ": a frame without a sky after one with it";
+    } else {
+      ++after;
+      smallest_change = std::min(smallest_change, changed_pixels);
+    }
+  }
+  std::printf("measured: %d frames before the sky (the camera image, exactly), %d after it (building and shadows: "
+              "≥ %d of %d pixels changed by more than 10 codes)\n",
+              before, after, smallest_change, rig.camera_frames()[0].rows * rig.camera_frames()[0].cols);
+  EXPECT_GE(before, 6);
+  EXPECT_GE(after, 6);
+  EXPECT_GT(smallest_change, rig.camera_frames()[0].rows * rig.camera_frames()[0].cols / 20);
+}
+
+// Runs the rig's camera (frames at `camera_fps`, each once) into a video; the video's rate as
+// OpenCV reads it back, and the service's status.
+struct RecordedVideo {
+  double fps = 0;
+  int frames = 0;         // read back from the video
+  int logged_frames = 0;  // lines of its frame log
+  json status;
+  std::string error;
+};
+RecordedVideo record_video(double camera_fps, const std::string& extra) {
+  RigOptions rig_options;
+  rig_options.camera_fps = camera_fps;
+  rig_options.camera_frames = 12;
+  rig_options.camera_loop = false;
+  rig_options.camera_realtime = "4";  // 4× the filmed pace: the rate comes from the timestamps
+  rig_options.extra = extra;
+  const Rig rig(rig_options);
+  live::ServiceOptions options = quiet_options();
+  options.record = rig.dir() / "live.mp4";
+  RecordedVideo out;
+  {
+    RunningService running(rig.config(), options);
+    running.join();  // the camera's frames end
+    out.error = running.error();
+    out.status = running.status();
+  }
+  cv::VideoCapture video((rig.dir() / "live.mp4").string());
+  if (!video.isOpened()) {
+    out.error += " cannot read the recording back";
+    return out;
+  }
+  out.fps = video.get(cv::CAP_PROP_FPS);
+  for (cv::Mat frame; video.read(frame);) ++out.frames;
+  out.logged_frames = static_cast<int>(frames_with_sky(rig.dir() / "live.csv").size());
+  return out;
+}
+
+TEST(ServiceRecording, AVideoIsWrittenAtTheCameraFrameRate) {
+  for (const double camera_fps : {12.0, 25.0}) {
+    SCOPED_TRACE(camera_fps);
+    const RecordedVideo video = record_video(camera_fps, "");
+    ASSERT_TRUE(video.error.empty()) << video.error;
+    std::printf("measured: camera at %.0f frames/s (played 4× faster): the video at %.3f frames/s, %d frames "
+                "(%d composited, %d logged)\n",
+                camera_fps, video.fps, video.frames, video.status["frames"].get<int>(), video.logged_frames);
+    EXPECT_NEAR(video.fps, camera_fps, 0.01 * camera_fps);
+    // The frames.csv timestamps have 6 decimals: the measured rate is that close.
+    EXPECT_NEAR(video.status["record_fps"].get<double>(), camera_fps, 1e-4 * camera_fps);
+    EXPECT_NEAR(video.status["camera"]["frame_rate_hz"].get<double>(), camera_fps, 1e-4 * camera_fps);
+    EXPECT_EQ(video.logged_frames, video.status["frames"].get<int>());
+    EXPECT_EQ(video.frames, video.logged_frames);
+  }
+}
+
+TEST(ServiceRecording, RecordFpsSetsTheVideoRate) {
+  const RecordedVideo video = record_video(12.0, "output:\n  record: {fps: 5}\n");
+  ASSERT_TRUE(video.error.empty()) << video.error;
+  EXPECT_NEAR(video.fps, 5.0, 0.05);
+  EXPECT_DOUBLE_EQ(video.status["record_fps"].get<double>(), 5.0);
+  EXPECT_EQ(video.frames, video.logged_frames);
+}
+
+TEST(ServiceConfig, BlendDeviceAndRecordSettings) {
+  const Rig rig;
+  const fs::path file = rig.dir() / "settings.yaml";
+  std::ofstream(file) << rig.config_text() << "blend: cpu\noutput:\n  record: {path: out/live.mp4, fps: 12.5}\n";
+  live::LiveConfig config = live::load_live_config(file);
+  EXPECT_EQ(config.blend.device, live::BlendDevice::Cpu);
+  EXPECT_EQ(config.output.record, rig.dir() / "out" / "live.mp4");
+  ASSERT_TRUE(config.output.record_fps.has_value());
+  EXPECT_DOUBLE_EQ(*config.output.record_fps, 12.5);
+
+  std::ofstream(file) << rig.config_text() << "blend:\n  device: gpu\n  threads: 3\n  storage: unorm8\noutput:\n  record: a.avi\n";
+  config = live::load_live_config(file);
+  EXPECT_EQ(config.blend.device, live::BlendDevice::Gpu);
+  EXPECT_EQ(config.blend.threads, 3);
+  EXPECT_TRUE(config.blend.unorm8);
+  EXPECT_EQ(config.output.record, rig.dir() / "a.avi");
+  EXPECT_FALSE(config.output.record_fps.has_value());
+
+  std::ofstream(file) << rig.config_text();
+  EXPECT_EQ(live::load_live_config(file).blend.device, live::BlendDevice::Auto);
+}
+
+}  // namespace
+}  // namespace skylit::live_test
