@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
+#include "../support/temp_dir.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/track/hid_imu.hpp"
 
@@ -21,43 +22,12 @@ namespace {
 
 using namespace skylit::track;
 namespace fs = std::filesystem;
+using skylit::test::TempDir;
+using skylit::test::error_of;
 using Bytes = std::vector<std::uint8_t>;
 
 const fs::path kProfiles = fs::path(SKYLIT_SOURCE_DIR) / "config" / "imu";
 
-class TempDir {
- public:
-  TempDir() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = fs::temp_directory_path() /
-            (std::string("skylit_imu_") + info->test_suite_name() + "_" + info->name() + "_" + std::to_string(::getpid()));
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ignored;
-    fs::remove_all(path_, ignored);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  fs::path write(const std::string& name, const std::string& text) const {
-    std::ofstream(path_ / name, std::ios::binary) << text;
-    return path_ / name;
-  }
-
- private:
-  fs::path path_;
-};
-
-template <typename Action>
-std::string error_of(Action action) {
-  try {
-    action();
-  } catch (const skylit::InputError& e) {
-    return e.what();
-  }
-  return "(no InputError)";
-}
 
 double raw(const Bytes& bytes, std::size_t offset, HidFieldType type, Endian endian) {
   HidField field;

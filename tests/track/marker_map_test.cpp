@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "marker_scene.hpp"
+#include "../support/temp_dir.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/track/marker_map.hpp"
 
@@ -15,32 +16,7 @@ namespace {
 
 using namespace skylit::track;
 namespace fs = std::filesystem;
-
-class MapDir {
- public:
-  MapDir() {
-    const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    std::string name = std::string(info->test_suite_name()) + "_" + info->name();
-    std::replace(name.begin(), name.end(), '/', '_');  // parameterised tests: Suite/Case
-    path_ = fs::temp_directory_path() / ("skylit_markers_" + name + "_" + std::to_string(::getpid()));
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~MapDir() {
-    std::error_code ignored;
-    fs::remove_all(path_, ignored);
-  }
-  MapDir(const MapDir&) = delete;
-  MapDir& operator=(const MapDir&) = delete;
-  fs::path write(const std::string& name, const std::string& content) const {
-    std::ofstream(path_ / name, std::ios::binary) << content;
-    return path_ / name;
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
+using skylit::test::TempDir;
 
 std::string error_of(const fs::path& file) {
   try {
@@ -52,7 +28,7 @@ std::string error_of(const fs::path& file) {
 }
 
 TEST(MarkerMap, ReadsQuaternionsMatricesAndTheDefaultSize) {
-  MapDir dir;
+  TempDir dir("skylit_markers_");
   const fs::path file = dir.write("tags.yaml",
                                   "family: tag36h11\n"
                                   "size: 0.2\n"
@@ -82,7 +58,7 @@ TEST(MarkerMap, ReadsQuaternionsMatricesAndTheDefaultSize) {
 }
 
 TEST(MarkerMap, WritesWhatItReadsBack) {
-  MapDir dir;
+  TempDir dir("skylit_markers_");
   MarkerMap map = marker_scene::wall_of_four();
   map.tags[2].R_site_from_tag = Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Vec3(1, 2, 3).normalized())) * map.tags[2].R_site_from_tag;
   map.tags[3].size = 0.123456789;
@@ -112,7 +88,7 @@ struct BadMap {
 class MarkerMapErrors : public ::testing::TestWithParam<BadMap> {};
 
 TEST_P(MarkerMapErrors, NameTheFileLineFieldAndFix) {
-  MapDir dir;
+  TempDir dir("skylit_markers_");
   const fs::path file = dir.write("tags.yaml", GetParam().yaml);
   const std::string message = error_of(file);
   EXPECT_NE(message.find(file.string()), std::string::npos) << message;

@@ -9,6 +9,8 @@
 #include <unistd.h>
 
 #include <gtest/gtest.h>
+
+#include "../support/temp_dir.hpp"
 #include <opencv2/imgproc.hpp>
 
 #include "marker_scene.hpp"
@@ -335,30 +337,8 @@ TEST(MarkerTracker, TagsOfAnotherFamilyAreNotSeen) {
 // ---------------------------------------------------------------------------------------------
 // The `pose: {kind: markers}` config.
 
-class ConfigDir {
- public:
-  ConfigDir() : path_(fs::temp_directory_path() / ("skylit_marker_config_" + std::to_string(::getpid()))) {
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~ConfigDir() {
-    std::error_code ignored;
-    fs::remove_all(path_, ignored);
-  }
-  ConfigDir(const ConfigDir&) = delete;
-  ConfigDir& operator=(const ConfigDir&) = delete;
-  fs::path write(const std::string& name, const std::string& content) const {
-    std::ofstream(path_ / name, std::ios::binary) << content;
-    return path_ / name;
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
-
 TEST(MarkerConfig, ReadsTheMapTheCalibrationAndTheKnobs) {
-  ConfigDir dir;
+  skylit::test::TempDir dir("skylit_marker_config_");
   save_marker_map(wall_of_four(), dir.path() / "tags.yaml");
   skylit::sky::save_calibration(hmd_camera(), dir.path() / "hmd.yaml");
   const fs::path file = dir.write("live.yaml",

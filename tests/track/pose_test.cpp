@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include "../support/temp_dir.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/track/pose.hpp"
 
@@ -16,42 +17,10 @@ namespace {
 
 using namespace skylit::track;
 namespace fs = std::filesystem;
+using skylit::test::TempDir;
+using skylit::test::error_of;
 constexpr double kPi = std::numbers::pi;
 
-class TempDir {
- public:
-  TempDir() {
-    const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = fs::temp_directory_path() /
-            (std::string("skylit_track_") + info->test_suite_name() + "_" + info->name() + "_" + std::to_string(::getpid()));
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ignored;
-    fs::remove_all(path_, ignored);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  fs::path write(const std::string& name, const std::string& content) const {
-    std::ofstream(path_ / name, std::ios::binary) << content;
-    return path_ / name;
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
-
-template <typename Action>
-std::string error_of(Action action) {
-  try {
-    action();
-  } catch (const skylit::InputError& e) {
-    return e.what();
-  }
-  return "(no InputError)";
-}
 
 // The angle between two rotations, radians.
 double angle_between(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b) { return a.angularDistance(b); }
