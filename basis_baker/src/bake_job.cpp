@@ -224,9 +224,48 @@ bake::Manifest manifest_for(const bake::Plan& plan, const geom::Dome& dome) {
   return m;
 }
 
+// Options checked before any work, so that a typo does not cost a bake.
+void check_pca_input(const std::optional<bake::PcaOptions>& options) {
+  if (!options) return;
+  try {
+    bake::check_pca_options(*options);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(std::string(e.what()) + ". Fix: give --pca-components K (>= 1), --pca-variance F (0 < F <= 1) "
+                     "or --pca-max-error E (> 0)");
+  }
+}
+
+// Writes the PCA form of one plane beside its full image (planes/<name>.pca.exr, .pca.npy) and
+// records it; the files still need listing in the manifest.
+void write_pca_form(const fs::path& out_dir, bake::PlaneRecord& record, const bake::ImageStack& stack,
+                    const bake::PcaOptions& options, std::FILE* log) {
+  const auto start = std::chrono::steady_clock::now();
+  const bake::PcaBasis pca = bake::compress_pca(stack, record.unoccluded, options);
+  bake::PcaRecord r;
+  const fs::path stem = fs::path(record.file).replace_extension();
+  r.file = stem.string() + ".pca.exr";
+  r.coefficients = stem.string() + ".pca.npy";
+  r.components = pca.components;
+  r.max_error = pca.max_error;
+  r.rms_error = pca.rms_error;
+  r.variance_kept = pca.variance_kept;
+  bake::write_exr_stack(out_dir / r.file, pca.images, bake::pca_layer_names(pca.components));
+  const std::size_t shape[] = {static_cast<std::size_t>(pca.source_layers), static_cast<std::size_t>(pca.components)};
+  bake::write_npy(out_dir / r.coefficients, pca.coefficients, shape);
+  if (log) {
+    std::fprintf(log,
+                 "skylit-bake: plane '%s': PCA keeps K = %d component(s) of %d layers (%.2f%% of the variance), "
+                 "so the blend reads %d layers instead of %d; |T - T_full| <= %.4f (RMS %.5f of the fractions), in %.1f s\n",
+                 record.plane.name.c_str(), pca.components, pca.source_layers, 100.0 * pca.variance_kept,
+                 pca.components + 1, pca.source_layers, pca.max_error, pca.rms_error, seconds_since(start));
+  }
+  record.pca = std::move(r);
+}
+
 // Assembles the final files from the parts, writes the manifest last, then removes the parts.
 std::uint64_t finalize(const fs::path& out_dir, bake::Manifest manifest, const scene::Mesh& mesh,
-                       const geom::Dome& dome, bool previews, std::FILE* log) {
+                       const geom::Dome& dome, bool previews, const std::optional<bake::PcaOptions>& pca,
+                       std::FILE* log) {
   const auto start = std::chrono::steady_clock::now();
   const bake::PartStore parts(out_dir / "parts");
   const bake::Plan& plan = manifest.plan;
@@ -283,6 +322,11 @@ std::uint64_t finalize(const fs::path& out_dir, bake::Manifest manifest, const s
     bake::write_exr_stack(file, stack, layer_names);
     if (previews) write_plane_previews(out_dir / "preview", manifest, static_cast<int>(j), stack);
     manifest.files.push_back({manifest.planes[j].file, 0, ""});
+    if (pca) {
+      write_pca_form(out_dir, manifest.planes[j], stack, *pca, log);
+      manifest.files.push_back({manifest.planes[j].pca->file, 0, ""});
+      manifest.files.push_back({manifest.planes[j].pca->coefficients, 0, ""});
+    }
   }
   if (plan.planes.empty()) {
     // Transfer vectors still need every face's vertex fractions.
@@ -422,6 +466,7 @@ std::optional<Shard> shard_from_environment() {
 BakeSummary run_bake(const BakeOptions& options, std::FILE* log) {
   const auto start = std::chrono::steady_clock::now();
   validate_options(options);
+  check_pca_input(options.pca);
   const LoadedSite loaded = load(options.site_file);
   const bake::Plan plan = make_plan(options, loaded.site, loaded.mesh);
   check_basis_samples(options, plan);
@@ -481,7 +526,7 @@ BakeSummary run_bake(const BakeOptions& options, std::FILE* log) {
   if (whole) {
     bake::Manifest manifest = manifest_for(plan, dome);
     manifest.bake_seconds = seconds_since(start);
-    summary.bytes_written = finalize(options.out_dir, manifest, loaded.mesh, dome, options.previews, log);
+    summary.bytes_written = finalize(options.out_dir, manifest, loaded.mesh, dome, options.previews, options.pca, log);
     summary.complete = true;
   }
   summary.seconds = seconds_since(start);
@@ -493,8 +538,9 @@ BakeSummary run_bake(const BakeOptions& options, std::FILE* log) {
 }
 
 BakeSummary merge_bakes(const std::vector<fs::path>& shard_dirs, const fs::path& out_dir, bool previews,
-                        std::FILE* log) {
+                        std::FILE* log, const std::optional<bake::PcaOptions>& pca) {
   const auto start = std::chrono::steady_clock::now();
+  check_pca_input(pca);
   if (shard_dirs.empty()) {
     throw InputError("merge needs at least one shard directory. Fix: skylit-bake merge DIR... -o OUT_DIR");
   }
@@ -565,11 +611,33 @@ BakeSummary merge_bakes(const std::vector<fs::path>& shard_dirs, const fs::path&
   BakeSummary summary;
   summary.faces_total = dome.face_count();
   summary.faces_skipped = dome.face_count();
-  summary.bytes_written = finalize(out_dir, manifest, mesh, dome, previews, log);
+  summary.bytes_written = finalize(out_dir, manifest, mesh, dome, previews, pca, log);
   summary.complete = true;
   summary.seconds = seconds_since(start);
   log_summary(log, *plan, summary, out_dir);
   return summary;
+}
+
+void compress_bake(const fs::path& bake_dir, const bake::PcaOptions& options, std::FILE* log) {
+  check_pca_input(options);
+  const bake::VerifyReport report = bake::verify(bake_dir);
+  if (!report.ok) {
+    std::string problems;
+    for (const std::string& p : report.problems) problems += "\n  " + p;
+    throw InputError(bake_dir.string() + " is not a verified bake:" + problems);
+  }
+  bake::Manifest manifest = report.manifest;
+  for (bake::PlaneRecord& record : manifest.planes) {
+    if (record.pca) {
+      const std::set<std::string> old{record.pca->file, record.pca->coefficients};
+      std::erase_if(manifest.files, [&](const bake::FileRecord& f) { return old.count(f.path) > 0; });
+    }
+    const bake::ImageStack stack = bake::read_exr_stack(bake_dir / record.file);
+    write_pca_form(bake_dir, record, stack, options, log);
+    manifest.files.push_back({record.pca->file, 0, ""});
+    manifest.files.push_back({record.pca->coefficients, 0, ""});
+  }
+  bake::write_manifest(bake_dir, manifest);
 }
 
 }  // namespace skylit::baker

@@ -69,6 +69,14 @@ int main(int argc, char** argv) {
   bool no_previews = false;
   app.add_flag("--no-previews", no_previews, "skip the preview contact sheets");
   app.add_flag("-q,--quiet", quiet, "only warnings and errors");
+  // The PCA form (docs/bake-format.md): K is the smallest count meeting every option given.
+  skylit::bake::PcaOptions pca;
+  const auto add_pca_options = [&pca](CLI::App* to) {
+    to->add_option("--pca-components", pca.components, "also store the basis compressed to at least K principal components");
+    to->add_option("--pca-variance", pca.variance, "... keeping at least this fraction of the variance (0 < F <= 1)");
+    to->add_option("--pca-max-error", pca.max_error, "... with |T - T_full| at most E for every sky (E > 0)");
+  };
+  add_pca_options(&app);
 
   auto* verify = app.add_subcommand("verify", "check a bake directory: version, files, checksums, shapes");
   std::string verify_dir;
@@ -81,25 +89,43 @@ int main(int argc, char** argv) {
   merge->add_option("shard_dirs", merge_dirs, "shard directories")->required();
   merge->add_option("-o,--output", merge_out, "finished bake directory")->required();
   merge->add_flag("--no-previews", merge_no_previews, "skip the preview contact sheets");
+  add_pca_options(merge);
+
+  auto* compress = app.add_subcommand("compress", "add (or replace) the PCA form of every plane of a finished bake");
+  std::string compress_dir;
+  compress->add_option("bake_dir", compress_dir, "bake directory")->required();
+  add_pca_options(compress);
 
   CLI11_PARSE(app, argc, argv);
   spdlog::set_level(quiet ? spdlog::level::warn : spdlog::level::info);
   spdlog::set_pattern("skylit-bake: %^%l%$: %v");
 
+  const auto want_pca = [&pca]() -> std::optional<skylit::bake::PcaOptions> {
+    if (!pca.components && !pca.variance && !pca.max_error) return std::nullopt;
+    return pca;
+  };
   try {
     if (*verify) return run_verify(verify_dir);
     if (*merge) {
       std::vector<std::filesystem::path> dirs(merge_dirs.begin(), merge_dirs.end());
-      skylit::baker::merge_bakes(dirs, merge_out, !merge_no_previews);
+      skylit::baker::merge_bakes(dirs, merge_out, !merge_no_previews, stderr, want_pca());
+      return 0;
+    }
+    if (*compress) {
+      if (!want_pca()) {
+        throw skylit::InputError("compress needs --pca-components K, --pca-variance F or --pca-max-error E");
+      }
+      skylit::baker::compress_bake(compress_dir, pca);
       return 0;
     }
     if (site.empty() || out.empty()) {
-      std::fprintf(stderr, "%s\nerror: a bake needs SITE and -o BAKE_DIR (or a subcommand: verify, merge)\n",
+      std::fprintf(stderr, "%s\nerror: a bake needs SITE and -o BAKE_DIR (or a subcommand: verify, merge, compress)\n",
                    app.help().c_str());
       return 2;
     }
     options.site_file = site;
     options.out_dir = out;
+    options.pca = want_pca();
     if (frequency != 0 || app.count("--frequency")) options.frequency = frequency;
     if (app.count("--basis")) {
       options.basis = skylit::geom::parse_basis(basis);

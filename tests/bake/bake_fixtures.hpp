@@ -11,10 +11,28 @@
 #include <unistd.h>
 
 #include "skylit/bake/format.hpp"
+#include "skylit/bake/pca.hpp"
 
 namespace skylit::bake::test {
 
 namespace fs = std::filesystem;
+
+// PcaOptions with one criterion (designated initializers would leave the others to a warning).
+inline PcaOptions pca_components(int k) {
+  PcaOptions o;
+  o.components = k;
+  return o;
+}
+inline PcaOptions pca_variance(double fraction) {
+  PcaOptions o;
+  o.variance = fraction;
+  return o;
+}
+inline PcaOptions pca_max_error(double bound) {
+  PcaOptions o;
+  o.max_error = bound;
+  return o;
+}
 
 // A fresh directory under the system temp directory, removed with everything in it.
 class TempDir {

@@ -71,6 +71,11 @@ class ExtremesTest : public ::testing::TestWithParam<geom::DomeBasis> {
       options.method = "raytrace";
       options.previews = false;
       baker::run_bake(options, quiet);
+      // The PCA form beside the full one, compressed hard (4 components) so that the clamp and
+      // the bound are exercised: every case checks it too.
+      bake::PcaOptions pca;
+      pca.components = 4;
+      baker::compress_bake(bake_dir(basis), pca, quiet);
       manifests_[static_cast<std::size_t>(basis)] = bake::read_manifest(bake_dir(basis));
     }
     std::fclose(quiet);
@@ -102,6 +107,7 @@ class ExtremesTest : public ::testing::TestWithParam<geom::DomeBasis> {
     sky::SkyEstimate estimate;
     std::vector<render::BlendWeights> weights;
     std::vector<std::vector<float>> T;
+    std::vector<std::vector<float>> T_pca;  // the same from the bake's PCA form
   };
 
   // Sky frame → S (and sun) → T for every plane, as skylit-shade does it, on the bake of the
@@ -131,7 +137,26 @@ class ExtremesTest : public ::testing::TestWithParam<geom::DomeBasis> {
       std::vector<float> T(basis.texel_count() * 3);
       render::blend_cpu(basis, o.weights.back(),
                         o.weights.back().sun.isZero() ? std::span<const float>() : std::span<const float>(visibility), T);
+      // The PCA form: within its bound of the full blend, max |F − F̂| times Σ_l |α_l|
+      // (α_l = S_l A_l / D: at most 1 for faces, more where corner coefficients are negative).
+      const render::BasisImages pca =
+          render::load_basis(bake_dir(GetParam()), m, static_cast<int>(j), render::BasisForm::Pca);
+      const render::BlendWeights pca_weights = render::blend_weights(pca, S, sun);
+      std::vector<float> T_pca(T.size());
+      render::blend_cpu(pca, pca_weights,
+                        pca_weights.sun.isZero() ? std::span<const float>() : std::span<const float>(visibility), T_pca);
+      for (int c = 0; c < 3; ++c) {
+        if (o.weights.back().no_light[static_cast<std::size_t>(c)]) continue;
+        double alpha = 0.0;
+        for (std::size_t l = 0; l < S.size(); ++l) alpha += std::abs(S[l][c] * m.planes[j].unoccluded[l]);
+        const double bound = m.planes[j].pca->max_error * alpha / o.weights.back().denominator[c] + 1e-4;
+        for (std::size_t k = 0; k < basis.texel_count(); ++k) {
+          EXPECT_LE(std::abs(T_pca[3 * k + static_cast<std::size_t>(c)] - T[3 * k + static_cast<std::size_t>(c)]), bound)
+              << "plane " << j << " texel " << k << " channel " << c;
+        }
+      }
       o.T.push_back(std::move(T));
+      o.T_pca.push_back(std::move(T_pca));
     }
     return o;
   }
@@ -152,6 +177,13 @@ class ExtremesTest : public ::testing::TestWithParam<geom::DomeBasis> {
   }
 
   static void expect_finite_unit(const Outcome& o) {
+    for (const auto& T : o.T_pca) {
+      for (float t : T) {
+        ASSERT_TRUE(std::isfinite(t));
+        ASSERT_GE(t, 0.0f);
+        ASSERT_LE(t, 1.0f);
+      }
+    }
     for (const auto& T : o.T) {
       for (float t : T) {
         ASSERT_TRUE(std::isfinite(t));

@@ -302,6 +302,14 @@ json to_json(const Manifest& m) {
     // NaN/inf have no JSON form (nlohmann writes null); verify reports them either way.
     p["unoccluded"] = r.unoccluded;
     p["file"] = r.file;
+    if (r.pca) {
+      p["pca"] = {{"file", r.pca->file},
+                  {"coefficients", r.pca->coefficients},
+                  {"components", r.pca->components},
+                  {"max_error", r.pca->max_error},
+                  {"rms_error", r.pca->rms_error},
+                  {"variance_kept", r.pca->variance_kept}};
+    }
     planes.push_back(std::move(p));
   }
   json files = json::array();
@@ -389,6 +397,18 @@ Manifest manifest_from_json(const json& j, const fs::path& source) {
                                                       : to_double(src, unoccluded[k], index(ufield, k)));
     }
     r.file = to_string(src, get(planes[i], field, "file"), join(field, "file"));
+    if (planes[i].contains("pca")) {
+      const std::string pfield = join(field, "pca");
+      const json& pca = get(planes[i], field, "pca");
+      PcaRecord record;
+      record.file = to_string(src, get(pca, pfield, "file"), join(pfield, "file"));
+      record.coefficients = to_string(src, get(pca, pfield, "coefficients"), join(pfield, "coefficients"));
+      record.components = to_int(src, get(pca, pfield, "components"), join(pfield, "components"), 0);
+      record.max_error = to_double(src, get(pca, pfield, "max_error"), join(pfield, "max_error"));
+      record.rms_error = to_double(src, get(pca, pfield, "rms_error"), join(pfield, "rms_error"));
+      record.variance_kept = to_double(src, get(pca, pfield, "variance_kept"), join(pfield, "variance_kept"));
+      r.pca = std::move(record);
+    }
     m.planes.push_back(std::move(r));
   }
 

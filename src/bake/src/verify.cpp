@@ -1,9 +1,11 @@
 // skylit-bake verify: every check a reader relies on, reported as a list instead of thrown.
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <set>
 
 #include "skylit/bake/format.hpp"
+#include "skylit/bake/pca.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/base/files.hpp"
 
@@ -152,7 +154,13 @@ class Checker {
         problem("manifest.json: the " + what + " '" + path + "' is not in the list of hashed files. " + kRebake);
       }
     };
-    for (const PlaneRecord& r : m.planes) require_listed(r.file, "image of plane '" + r.plane.name + "'");
+    for (const PlaneRecord& r : m.planes) {
+      require_listed(r.file, "image of plane '" + r.plane.name + "'");
+      if (r.pca) {
+        require_listed(r.pca->file, "PCA image of plane '" + r.plane.name + "'");
+        require_listed(r.pca->coefficients, "PCA coefficients of plane '" + r.plane.name + "'");
+      }
+    }
     require_listed(m.transfer_file, "transfer array");
     require_listed(m.vertices_file, "vertex array");
     return present;
@@ -190,6 +198,35 @@ class Checker {
       } catch (const InputError& e) {
         problem(e.what());
       }
+    }
+  }
+
+  // The PCA form beside a plane: K + 1 layers named as pca_layer_names, coefficients [n, K].
+  void check_pca(const Manifest& m, const std::set<std::string>& present) {
+    for (const PlaneRecord& r : m.planes) {
+      if (!r.pca) continue;
+      const std::string label = "manifest.json: plane '" + r.plane.name + "' pca";
+      if (!safe_relative(r.pca->file) || !safe_relative(r.pca->coefficients)) {
+        problem(label + " names a file outside the bake directory. " + kRebake);
+        continue;
+      }
+      if (r.pca->components < 0) problem(label + ".components is negative. " + kRebake);
+      const std::vector<std::string> names = pca_layer_names(std::max(r.pca->components, 0));
+      if (present.count(r.pca->file)) {
+        try {
+          const ExrInfo info = read_exr_info(dir_ / r.pca->file);
+          if (info.width != r.plane.width || info.height != r.plane.height || info.layer_names != names) {
+            problem(r.pca->file + ": " + std::to_string(info.width) + "x" + std::to_string(info.height) + " with " +
+                    std::to_string(info.layer_names.size()) + " layers, the manifest says " +
+                    std::to_string(r.plane.width) + "x" + std::to_string(r.plane.height) + " with " +
+                    std::to_string(names.size()) + " (mean, pc_001 … ). " + kRestore);
+          }
+        } catch (const InputError& e) {
+          problem(e.what());
+        }
+      }
+      check_array(r.pca->coefficients, {m.layer_count(), static_cast<std::size_t>(std::max(r.pca->components, 0))},
+                  "(layers × components)", present);
     }
   }
 
@@ -263,6 +300,7 @@ VerifyReport verify(const fs::path& bake_dir) {
   check.check_planes(m);
   const std::set<std::string> present = check.check_files(m);
   check.check_images(m, present);
+  check.check_pca(m, present);
   const std::size_t vertices = static_cast<std::size_t>(m.plan.vertex_count);
   check.check_array(m.transfer_file, {vertices, m.layer_count()},
                     m.plan.layers_per_face() == 1 ? "(vertex_count, face_count)" : "(vertex_count, 3 × face_count)",

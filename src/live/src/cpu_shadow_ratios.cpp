@@ -23,8 +23,9 @@ CpuShadowRatios::CpuShadowRatios(const render::BasisImages& basis, double skip_t
   std::vector<float> values(texels);
   for (std::size_t i = 0; i < layer_max_.size(); ++i) {
     render::halves_to_floats(std::span<const std::uint16_t>(basis.half.data() + i * texels, texels), values);
+    // max |B|: a PCA basis has eigen-images of either sign.
     float top = 0.0f;
-    for (const float b : values) top = b > top ? b : top;  // NaN compares false: ignored
+    for (const float b : values) top = std::abs(b) > top ? std::abs(b) : top;  // NaN compares false: ignored
     layer_max_[i] = top;
   }
   rgb_.resize(3 * texels);

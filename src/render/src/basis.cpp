@@ -1,10 +1,12 @@
 // load_basis: one plane of a bake, as half floats in face order, checked against its manifest.
+#include <algorithm>
 #include <cmath>
 #include <string>
 
 // Plane::normal() uses cross(), which Eigen defines in <Eigen/Geometry>.
 #include <Eigen/Geometry>
 
+#include "skylit/bake/pca.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/render/cpu_blend.hpp"
 
@@ -44,9 +46,71 @@ void check_values(const fs::path& file, const BasisImages& basis) {
   }
 }
 
+BasisImages load_pca_form(const fs::path& bake_dir, const bake::Manifest& manifest, int plane) {
+  const fs::path manifest_file = bake_dir / "manifest.json";
+  const bake::PlaneRecord& record = manifest.planes[static_cast<std::size_t>(plane)];
+  if (!record.pca) {
+    throw InputError(input_message(manifest_file, -1, -1, plane_field(plane, "pca"),
+                                   "plane '" + record.plane.name + "' has no PCA form",
+                                   "compress the bake: skylit-bake compress " + bake_dir.string() +
+                                       " --pca-variance 0.999 (or --pca-components K, --pca-max-error E); or "
+                                       "read the full form"));
+  }
+  const bake::PcaRecord& pca = *record.pca;
+  const std::size_t n = manifest.layer_count();
+  const int k = pca.components;
+  const fs::path file = bake_dir / pca.file;
+  std::vector<std::string> names;
+  bake::ImageStackHalf stack = bake::read_exr_stack_half(file, &names);
+  const std::vector<std::string> expected = bake::pca_layer_names(std::max(k, 0));
+  if (stack.width != record.plane.width || stack.height != record.plane.height || names != expected) {
+    throw InputError(input_message(file, -1, -1, "layers",
+                                   std::to_string(stack.width) + "x" + std::to_string(stack.height) + " with " +
+                                       std::to_string(names.size()) + " layers; manifest.json says plane '" +
+                                       record.plane.name + "' is " + std::to_string(record.plane.width) + "x" +
+                                       std::to_string(record.plane.height) + " with " + std::to_string(expected.size()) +
+                                       " (mean, pc_001 …)",
+                                   "compress the bake again: skylit-bake compress " + bake_dir.string() + " --pca-…"));
+  }
+  std::vector<std::size_t> shape;
+  const std::vector<float> coefficients = bake::read_npy(bake_dir / pca.coefficients, &shape);
+  if (shape.size() != 2 || shape[0] != n || shape[1] != static_cast<std::size_t>(k)) {
+    throw InputError(input_message(bake_dir / pca.coefficients, -1, -1, "shape",
+                                   "is not [" + std::to_string(n) + ", " + std::to_string(k) + "] (layers × components)",
+                                   "compress the bake again: skylit-bake compress " + bake_dir.string() + " --pca-…"));
+  }
+  BasisImages basis;
+  basis.name = record.plane.name;
+  basis.width = stack.width;
+  basis.height = stack.height;
+  basis.layers = stack.layers;
+  basis.half = std::move(stack.data);
+  basis.unoccluded = record.unoccluded;
+  basis.normal = record.plane.normal();
+  basis.layers_per_face = manifest.plan.layers_per_face();
+  basis.projection.resize(static_cast<Eigen::Index>(n), k + 1);
+  for (std::size_t l = 0; l < n; ++l) {
+    const auto a = static_cast<float>(record.unoccluded[l]);
+    const auto row = static_cast<Eigen::Index>(l);
+    basis.projection(row, 0) = a;
+    for (int c = 0; c < k; ++c) basis.projection(row, c + 1) = a * coefficients[l * static_cast<std::size_t>(k) + static_cast<std::size_t>(c)];
+  }
+  for (std::size_t i = 0; i < basis.half.size(); ++i) {
+    if ((basis.half[i] & 0x7c00u) == 0x7c00u) {
+      throw InputError(input_message(file, -1, -1, expected[i / basis.texel_count()] + ".Y",
+                                     "holds a value that is not finite", "compress the bake again"));
+    }
+  }
+  if (!basis.projection.allFinite()) {
+    throw InputError(input_message(bake_dir / pca.coefficients, -1, -1, "data", "holds a value that is not finite",
+                                   "compress the bake again"));
+  }
+  return basis;
+}
+
 }  // namespace
 
-BasisImages load_basis(const fs::path& bake_dir, const bake::Manifest& manifest, int plane) {
+BasisImages load_basis(const fs::path& bake_dir, const bake::Manifest& manifest, int plane, BasisForm form) {
   const fs::path manifest_file = bake_dir / "manifest.json";
   const int plane_count = static_cast<int>(manifest.planes.size());
   if (plane < 0 || plane >= plane_count) {
@@ -83,6 +147,8 @@ BasisImages load_basis(const fs::path& bake_dir, const bake::Manifest& manifest,
                                      "value " + std::to_string(a) + " is not a finite solid angle >= 0", kRebake));
     }
   }
+
+  if (form == BasisForm::Pca) return load_pca_form(bake_dir, manifest, plane);
 
   const fs::path file = bake_dir / record.file;
   std::vector<std::string> names;

@@ -39,9 +39,18 @@ void check_basis(const BasisImages& basis) {
                          " layers of " + std::to_string(basis.width) + "x" + std::to_string(basis.height),
               "load the basis with load_basis");
   }
-  if (basis.unoccluded.size() != static_cast<std::size_t>(basis.layers)) {
+  if (basis.compressed() && basis.projection.cols() != basis.layers) {
+    bad_input(field + ".projection",
+              std::to_string(basis.projection.cols()) + " columns for " + std::to_string(basis.layers) + " stored layers",
+              "load the basis with load_basis");
+  }
+  if (basis.compressed() && !basis.projection.allFinite()) {
+    bad_input(field + ".projection", "holds a value that is not finite", "re-compress the bake (skylit-bake compress)");
+  }
+  if (basis.unoccluded.size() != static_cast<std::size_t>(basis.source_layers())) {
     bad_input(field + ".unoccluded",
-              std::to_string(basis.unoccluded.size()) + " values for " + std::to_string(basis.layers) + " layers",
+              std::to_string(basis.unoccluded.size()) + " values for " + std::to_string(basis.source_layers()) +
+                  " layers",
               "give one A per layer (load_basis copies them from the manifest)");
   }
   for (std::size_t i = 0; i < basis.unoccluded.size(); ++i) {
@@ -123,7 +132,7 @@ BlendWeights blend_weights(const BasisImages& basis, std::span<const Eigen::Vect
                            const std::optional<SunLight>& sun, const BlendOptions& options) {
   check_basis(basis);
   check_options(options);
-  const std::size_t layers = static_cast<std::size_t>(basis.layers);
+  const std::size_t layers = static_cast<std::size_t>(basis.source_layers());
   if (S.size() != layers) {
     bad_input("S", std::to_string(S.size()) + " luminance values for the " + std::to_string(layers) +
                        " layers of plane '" + basis.name + "'",
@@ -151,6 +160,24 @@ BlendWeights blend_weights(const BasisImages& basis, std::span<const Eigen::Vect
   for (int c = 0; c < 3; ++c) {
     w.no_light[static_cast<std::size_t>(c)] = !(w.denominator[c] > options.min_denominator);
     if (!w.no_light[static_cast<std::size_t>(c)]) inverse[c] = 1.0 / w.denominator[c];
+  }
+  if (basis.compressed()) {
+    // u_k = Σ_l w_l projection(l, k), in double: the weights of the mean and eigen-images.
+    std::vector<Eigen::Vector3d> u(static_cast<std::size_t>(basis.layers), Eigen::Vector3d::Zero());
+    for (std::size_t i = 0; i < layers; ++i) {
+      if (basis.unoccluded[i] == 0.0) continue;
+      const Eigen::Vector3d wi = S[i].cwiseProduct(inverse);
+      for (int k = 0; k < basis.layers; ++k) {
+        u[static_cast<std::size_t>(k)] += wi * static_cast<double>(basis.projection(static_cast<Eigen::Index>(i), k));
+      }
+    }
+    w.face.assign(u.size(), Eigen::Vector3f::Zero());
+    for (std::size_t k = 0; k < u.size(); ++k) {
+      w.face[k] = u[k].cast<float>();
+      if (!w.face[k].isZero()) w.active.push_back(static_cast<int>(k));
+    }
+    w.sun = sun_term.cwiseProduct(inverse).cast<float>();
+    return w;
   }
   w.face.assign(layers, Eigen::Vector3f::Zero());
   for (std::size_t i = 0; i < layers; ++i) {
@@ -252,12 +279,23 @@ void blend_reference(const BasisImages& basis, std::span<const Eigen::Vector3d> 
     if (!(v >= 0.0f && v <= 1.0f)) bad_visibility();
   }
   const std::size_t texels = basis.texel_count();
+  // The coefficient of each stored layer: S itself, or for a PCA basis Σ_l S_l projection(l, k).
+  std::vector<Eigen::Vector3d> coefficient(static_cast<std::size_t>(basis.layers), Eigen::Vector3d::Zero());
+  for (std::size_t i = 0; i < coefficient.size(); ++i) {
+    if (!basis.compressed()) {
+      coefficient[i] = S[i];
+      continue;
+    }
+    for (std::size_t l = 0; l < S.size(); ++l) {
+      coefficient[i] += S[l] * static_cast<double>(basis.projection(static_cast<Eigen::Index>(l), static_cast<Eigen::Index>(i)));
+    }
+  }
   std::vector<double> sum(3 * texels, 0.0);
   for (std::size_t i = 0; i < static_cast<std::size_t>(basis.layers); ++i) {
     const std::uint16_t* layer = basis.half.data() + i * texels;
     for (std::size_t k = 0; k < texels; ++k) {
       const double b = half_to_float(layer[k]);
-      for (int c = 0; c < 3; ++c) sum[3 * k + static_cast<std::size_t>(c)] += S[i][c] * b;
+      for (int c = 0; c < 3; ++c) sum[3 * k + static_cast<std::size_t>(c)] += coefficient[i][c] * b;
     }
   }
   for (std::size_t k = 0; k < texels; ++k) {

@@ -143,8 +143,18 @@ GpuBlender::GpuBlender(const BasisImages& basis, const GpuBlendOptions& options)
       if (i >= layers_) break;
       const std::uint16_t* layer = basis.half.data() + static_cast<std::size_t>(i) * texels;
       halves_to_floats(std::span<const std::uint16_t>(layer, texels), values);
+      // max |B|: a PCA basis has eigen-images of either sign, which 8-bit layers cannot hold.
       float top = 0.0f;
-      for (const float b : values) top = b > top ? b : top;  // NaN compares false: ignored
+      bool negative = false;
+      for (const float b : values) {
+        top = std::abs(b) > top ? std::abs(b) : top;  // NaN compares false: ignored
+        negative |= b < 0.0f;
+      }
+      if (unorm8 && negative) {
+        bad_input("basis '" + name_ + "' layer " + std::to_string(i),
+                  "holds negative values (a PCA basis), which 8-bit layers cannot store",
+                  "store the basis as half floats (blend.storage: half) or read the full form");
+      }
       if (!std::isfinite(top)) {
         bad_input("basis '" + name_ + "' layer " + std::to_string(i), "holds an infinite value", "re-bake the plane");
       }

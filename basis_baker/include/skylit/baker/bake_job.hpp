@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "skylit/bake/format.hpp"
+#include "skylit/bake/pca.hpp"
 #include "skylit/geom/dome.hpp"
 #include "skylit/geom/dome_basis.hpp"
 
@@ -34,6 +35,8 @@ struct BakeOptions {
   int threads = 0;                         // raytrace; 0 = all cores
   bool previews = true;
   std::filesystem::path shader_dir;        // empty = default search
+  // Also store each plane's basis compressed by principal components (bake/pca.hpp).
+  std::optional<bake::PcaOptions> pca;
 };
 
 struct BakeSummary {
@@ -58,7 +61,11 @@ BakeSummary run_bake(const BakeOptions& options, std::FILE* log = stderr);
 // the bake there. InputError when plans differ or faces are missing (listing them).
 BakeSummary merge_bakes(const std::vector<std::filesystem::path>& shard_dirs,
                         const std::filesystem::path& out_dir, bool previews,
-                        std::FILE* log = stderr);
+                        std::FILE* log = stderr, const std::optional<bake::PcaOptions>& pca = std::nullopt);
+
+// Adds (or replaces) the PCA form of every plane of a finished bake (bake/pca.hpp) and rewrites
+// its manifest. InputError for a directory that is not a verified bake. One line per plane on `log`.
+void compress_bake(const std::filesystem::path& bake_dir, const bake::PcaOptions& options, std::FILE* log = stderr);
 
 // The sample directions of dome face `face`: its centre for samples == 1, else stratified.
 std::vector<geom::Vec3> face_sample_directions(const geom::Dome& dome, int face, int samples);

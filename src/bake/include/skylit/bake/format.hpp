@@ -9,6 +9,8 @@
 //                                 per face and corner k ("face_NNN_k.Y", layer 3i+k) with the
 //                                 corners basis; B_{j,l} in steradians; scanline y = texel row
 //                                 (along v), x = column (along u)
+//   BAKE_DIR/planes/<name>.pca.exr, .pca.npy  optional: the plane's basis compressed by
+//                                 principal components (pca.hpp), K + 1 layers and P_{l,k}
 //   BAKE_DIR/transfer.npy         float32 [vertex_count, layer_count]: t_{v,l}, steradians
 //   BAKE_DIR/vertices.npy         float32 [vertex_count, 6]: position xyz, normal xyz (site frame)
 //   BAKE_DIR/preview/*.png        contact sheets (not part of the verified data)
@@ -44,10 +46,21 @@ struct FaceRecord {
   std::array<int, 3> neighbours{-1, -1, -1};
 };
 
+// The PCA form of a plane's basis (pca.hpp), when the bake stores one beside the full form.
+struct PcaRecord {
+  std::string file;                       // half-float EXR: layers "mean.Y", "pc_001.Y", …
+  std::string coefficients;               // float32 .npy [layer_count, components]: P_{l,k}
+  int components = 0;                     // K
+  double max_error = 0.0;                 // max |F − F̂| (pca.hpp): bounds |T − T_full|
+  double rms_error = 0.0;
+  double variance_kept = 1.0;
+};
+
 struct PlaneRecord {
   geom::Plane plane;
   std::vector<double> unoccluded;         // A_{j,l}, one per layer, steradians
   std::string file;                       // relative to the bake directory
+  std::optional<PcaRecord> pca;           // manifests without "pca" have none
 };
 
 struct FileRecord {

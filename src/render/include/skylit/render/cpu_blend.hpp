@@ -41,11 +41,24 @@ struct BasisImages {
   // 1: one layer per dome face (faces basis); 3: layer 3i+k per face i and corner k (corners
   // basis), whose S may be negative (a linear fit across the face).
   int layers_per_face = 1;
+  // The PCA form (bake/pca.hpp): the stored layers are the mean visible fraction and K
+  // eigen-images (values of either sign), and `projection` (n source layers × `layers`) maps the
+  // weights of the full basis onto them: u = projectionᵀ w, with row l = A_l · (1, P_{l,1..K}).
+  // Empty for the full form, whose layers are the basis itself. `unoccluded` has n values either way.
+  Eigen::MatrixXf projection;
+  bool compressed() const { return projection.size() > 0; }
+  // n: the layers S and A are given for (the dome's), whichever form is stored.
+  int source_layers() const { return compressed() ? static_cast<int>(projection.rows()) : layers; }
   std::size_t texel_count() const { return static_cast<std::size_t>(width) * height; }
 };
 
-// Reads plane `plane` (an index into manifest.planes) of a verified bake.
-BasisImages load_basis(const std::filesystem::path& bake_dir, const bake::Manifest& manifest, int plane);
+// Which form of a plane's basis to read: the full one, or its principal components (stored when
+// the bake was made or compressed with --pca-*; InputError from load_basis otherwise).
+enum class BasisForm { Full, Pca };
+
+// Reads plane `plane` (an index into manifest.planes) of a verified bake, in the form asked for.
+BasisImages load_basis(const std::filesystem::path& bake_dir, const bake::Manifest& manifest, int plane,
+                       BasisForm form = BasisForm::Full);
 
 struct SunLight {
   Vec3 direction = Vec3::UnitZ();                    // unit, site frame, towards the sun
@@ -65,14 +78,16 @@ struct BlendOptions {
 };
 
 struct BlendWeights {
-  std::vector<Eigen::Vector3f> face;   // w_i per layer (RGB); zero for skipped faces
+  // w_i per stored layer (RGB); zero for skipped faces. For a PCA basis these are the weights of
+  // its mean and eigen-images (either sign).
+  std::vector<Eigen::Vector3f> face;
   std::vector<int> active;             // layers with a non-zero weight, ascending
   Eigen::Vector3f sun = Eigen::Vector3f::Zero();   // w_sun (RGB), zero without a sun term
   Eigen::Vector3d denominator = Eigen::Vector3d::Zero();
   std::array<bool, 3> no_light{false, false, false};  // per channel: T = 1
 };
 
-// S: one RGB value per layer (faces without light may be zero). InputError when S has the
+// S: one RGB value per source layer (faces without light may be zero). InputError when S has the
 // wrong size or holds a non-finite value, or a negative one in a faces basis (corner
 // coefficients may be negative: T stays in [0, 1] by the clamp, and a channel whose
 // denominator is not above min_denominator is no light).

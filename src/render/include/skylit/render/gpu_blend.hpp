@@ -103,7 +103,7 @@ class GpuBlender {
   int layers() const { return layers_; }
   int slices() const { return slices_; }   // of the texture array: layers, or layers / 4 rounded up
   const GpuBlendOptions& options() const { return options_; }
-  // max_x B_i(x) per layer (0 for a layer that is zero everywhere): the R8 scale and the bound
+  // max_x |B_i(x)| per layer (0 for a layer that is zero everywhere): the R8 scale and the bound
   // behind both thresholds.
   const std::vector<float>& layer_max() const { return layer_max_; }
   // Bytes of the basis texture array as stored (what one blend reads at most).

@@ -1,0 +1,60 @@
+#pragma once
+// A plane's basis images compressed by principal components (docs/bake-format.md, "PCA form").
+//
+// Every basis image is B_l = A_l · F_l, F_l the visible fraction of layer l's light at each
+// texel, in [0, 1]. The blend (render/cpu_blend.hpp) sums T = Σ_l w_l B_l = Σ_l α_l F_l with
+// α_l = w_l A_l, and Σ_l α_l ≤ 1 for a faces basis (the denominator holds Σ_l S_l A_l). So the
+// components are taken of the fractions F_l, each with equal standing:
+//
+//   F_l ≈ μ + Σ_k P_{l,k} E_k        μ the mean fraction image, E_k the eigen-images
+//   T   ≈ (Σ_l α_l) μ + Σ_k (Σ_l α_l P_{l,k}) E_k
+//
+// and the blend reads K + 1 layers instead of n. The error of T is then at most
+// max_{l,x} |F_l(x) − F̂_l(x)| (`max_error`) for every faces-basis sky, with or without a sun, and
+// at most that times Σ_l |α_l| for corners. Layers with A_l = 0 (faces the plane cannot see)
+// carry no light and are left out of the components.
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "skylit/bake/format.hpp"
+
+namespace skylit::bake {
+
+// K is the smallest count that meets every criterion given (at least one is required), and at
+// most the number of layers with light.
+struct PcaOptions {
+  std::optional<int> components;      // at least this many, ≥ 1
+  std::optional<double> variance;     // fraction of the fractions' variance kept, in (0, 1]
+  std::optional<double> max_error;    // bound on |T − T_full|, > 0 (see above)
+};
+
+// std::invalid_argument naming the field for an option out of range or none given.
+void check_pca_options(const PcaOptions& options);
+
+struct PcaBasis {
+  int width = 0;
+  int height = 0;
+  int source_layers = 0;              // n: the layers of the full basis
+  int components = 0;                 // K
+  // K + 1 images, layer-major as ImageStack: the mean fraction μ, then E_1 … E_K, each scaled
+  // so that its largest |value| is 1 (half floats keep their precision).
+  ImageStack images;
+  // P_{l,k}: source_layers × components, row-major; zero rows for layers without light.
+  std::vector<float> coefficients;
+  // Measured on the stored form (images rounded to half floats, as the blend reads them) against
+  // the full basis rounded the same way: |F_l(x) − F̂_l(x)| over layers with light and texels.
+  double max_error = 0.0;
+  double rms_error = 0.0;
+  double variance_kept = 1.0;         // fraction of the total variance of the F_l
+  std::vector<double> eigenvalues;    // of the fractions' covariance, descending (for reports)
+};
+
+// The components of `stack` (the full basis, B in steradians) with A per layer `unoccluded`.
+// std::invalid_argument for sizes that disagree or bad options.
+PcaBasis compress_pca(const ImageStack& stack, std::span<const double> unoccluded, const PcaOptions& options);
+
+// Names of the PCA form's layers: "mean", "pc_001", …
+std::vector<std::string> pca_layer_names(int components);
+
+}  // namespace skylit::bake
