@@ -127,6 +127,7 @@ struct RigOptions {
   std::string status;                  // status.listen, "" for none
   std::string camera_source_extra;     // more YAML in camera.source (lines indented by 4)
   std::string extra;                   // more top-level YAML
+  std::string pose;                    // the `pose:` node's YAML in place of the fixed pose ("" for it)
 };
 
 // A temporary folder with the rig's calibrations, frames and config.yaml.
@@ -176,10 +177,14 @@ class Rig {
         << "  calibration: hmd.yaml\n"
         << "  source:\n    kind: images\n    path: camera\n    loop: " << (options_.camera_loop ? "true" : "false") << "\n"
         << (options_.camera_realtime.empty() ? "" : "    realtime: " + options_.camera_realtime + "\n")
-        << options_.camera_source_extra
-        << "pose:\n  kind: fixed\n"
-        << "  position: [" << kEye.x() << ", " << kEye.y() << ", " << kEye.z() << "]\n"
-        << "  look_at: [" << kTarget.x() << ", " << kTarget.y() << ", " << kTarget.z() << "]\n";
+        << options_.camera_source_extra;
+    if (options_.pose.empty()) {
+      out << "pose:\n  kind: fixed\n"
+          << "  position: [" << kEye.x() << ", " << kEye.y() << ", " << kEye.z() << "]\n"
+          << "  look_at: [" << kTarget.x() << ", " << kTarget.y() << ", " << kTarget.z() << "]\n";
+    } else {
+      out << options_.pose;
+    }
     if (!options_.status.empty()) out << "status:\n  listen: " << options_.status << "\n";
     out << options_.extra;
     return out.str();

@@ -1,6 +1,7 @@
 #include "skylit/live/live_config.hpp"
 
 #include <array>
+#include <filesystem>
 #include <string_view>
 
 #include "skylit/base/yaml_reader.hpp"
@@ -9,8 +10,8 @@ namespace skylit::live {
 namespace {
 
 constexpr const char* kDocs = "see docs/live.md (Configuration)";
-constexpr std::array<std::string_view, 10> kTopKeys{"site", "bake", "sky", "camera", "pose",
-                                                    "blend", "photometric", "output", "status", "display"};
+constexpr std::array<std::string_view, 12> kTopKeys{"site",  "bake",        "sky",    "camera", "pose",   "imu",
+                                                    "fusion", "blend", "photometric", "output", "status", "display"};
 constexpr std::array<std::string_view, 7> kSkyKeys{"calibration", "source", "response", "rate",
                                                    "sun", "smoothing", "stale_after"};
 constexpr std::array<std::string_view, 2> kCameraKeys{"calibration", "source"};
@@ -76,7 +77,35 @@ LiveConfig load_live_config(const std::filesystem::path& file) {
                                 "camera.calibration", kDocs);
   c.camera.source = capture::parse_source_config(r.require(camera, "source", "camera.source", "where camera frames come from"), file);
 
-  c.pose = track::parse_pose_config(r.require(root, "pose", "pose", "a fixed pose or a pose track"), file);
+  const YAML::Node pose = r.require(root, "pose", "pose", "a fixed pose, a pose track or the marker tracker");
+  c.pose = track::parse_pose_config(pose, file);
+  if (c.pose.kind == track::PoseConfig::Kind::Markers) {
+    // Checked here rather than when the service opens it, so that the message points at the field.
+    if (!std::filesystem::is_regular_file(c.pose.marker_map)) {
+      r.fail(pose["map"], "pose.map", "no marker map at " + c.pose.marker_map.string(),
+             "write the path of the site's marker map (relative to this file's folder); docs/tracking.md");
+    }
+    if (!c.pose.marker_calibration.empty() && !std::filesystem::is_regular_file(c.pose.marker_calibration)) {
+      r.fail(pose["calibration"], "pose.calibration", "no calibration at " + c.pose.marker_calibration.string(),
+             "write the HMD camera's calibration file, or leave the field out to use camera.calibration");
+    }
+  }
+  // The IMU and the fusion correct the marker tracker's poses: a fixed pose or a pose track has
+  // nothing for them to correct.
+  for (const char* key : {"imu", "fusion"}) {
+    if (auto n = YamlReader::optional(root, key); n && c.pose.kind != track::PoseConfig::Kind::Markers) {
+      r.fail(n, key, "it fuses the marker tracker's poses, and pose.kind is not markers",
+             "set 'pose: {kind: markers, map: ...}', or remove '" + std::string(key) + "'; docs/live.md (Pose)");
+    }
+  }
+  if (auto n = YamlReader::optional(root, "imu")) {
+    c.imu = track::parse_imu_config(n, file);
+    if (c.imu->kind == track::ImuConfig::Kind::Replay && !std::filesystem::is_regular_file(c.imu->csv)) {
+      r.fail(n["csv"], "imu.csv", "no IMU recording at " + c.imu->csv.string(),
+             "write the path of a CSV with the header timestamp,gx,gy,gz,ax,ay,az; docs/imu.md");
+    }
+  }
+  if (auto n = YamlReader::optional(root, "fusion")) c.fusion = track::parse_fusion_settings(n, file);
 
   if (auto blend = YamlReader::optional(root, "blend"); blend && blend.IsScalar()) {
     c.blend.device = parse_blend_device(r, blend, "blend");  // the short form: `blend: cpu`

@@ -1,6 +1,7 @@
 #include "skylit/live/service.hpp"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cctype>
 #include <chrono>
@@ -19,6 +20,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "cpu_shadow_ratios.hpp"
+#include "live_tracking.hpp"
 
 #include "skylit/bake/format.hpp"
 #include "skylit/base/error.hpp"
@@ -129,6 +131,34 @@ std::optional<double> configured_rate(const capture::SourceConfig& config) {
   if (const auto* v4l2 = std::get_if<capture::V4l2Settings>(&config.settings); v4l2 && v4l2->fps > 0) return v4l2->fps;
   return std::nullopt;
 }
+
+// When the camera thread received each of the last frames (steady seconds), by frame timestamp:
+// the render thread's frame has waited in the mailbox since then.
+class ArrivalTimes {
+ public:
+  void put(double frame_timestamp, double arrived) {
+    std::lock_guard lock(mutex_);
+    entries_[next_] = {frame_timestamp, arrived};
+    next_ = (next_ + 1) % entries_.size();
+  }
+  std::optional<double> find(double frame_timestamp) const {
+    std::lock_guard lock(mutex_);
+    for (const auto& [timestamp, arrived] : entries_) {
+      if (arrived >= 0 && timestamp == frame_timestamp) return arrived;
+    }
+    return std::nullopt;
+  }
+
+ private:
+  static std::array<std::pair<double, double>, 8> empty_entries() {
+    std::array<std::pair<double, double>, 8> entries;
+    entries.fill({0.0, -1.0});
+    return entries;
+  }
+  mutable std::mutex mutex_;
+  std::array<std::pair<double, double>, 8> entries_ = empty_entries();  // (frame timestamp, arrival); arrival < 0: unused
+  std::size_t next_ = 0;
+};
 
 struct Counters {
   std::atomic<std::int64_t> frames{0};
@@ -457,9 +487,10 @@ struct Service::State {
   // The ReconnectingSource inside each (the service always reopens what fails).
   const capture::ReconnectingSource* sky_reconnecting = nullptr;
   const capture::ReconnectingSource* camera_reconnecting = nullptr;
-  std::unique_ptr<track::PoseSource> pose_source;
+  std::unique_ptr<LiveTracking> tracking;  // the pose: fixed, a track, or the marker tracker (and IMU)
   SourceActivity sky_activity, camera_activity;
   FrameRateMeter camera_rate;
+  ArrivalTimes camera_arrivals;
 
   // Where T is blended, decided in run() once the GL renderer is known (before the sky thread starts).
   std::atomic<bool> blend_decided{false};
@@ -520,7 +551,7 @@ Service::Service(const LiveConfig& config, const ServiceOptions& options) : stat
   capture::OpenedSource camera_opened = capture::open_source_with_status(with_reconnect(config.camera.source));
   s.camera_source = std::move(camera_opened.source);
   s.camera_reconnecting = camera_opened.reconnecting;
-  s.pose_source = track::open_pose_source(config.pose);
+  s.tracking = std::make_unique<LiveTracking>(config, s.hmd_calibration);
   const auto listen = options.status_listen ? options.status_listen : config.status_listen;
   if (listen) {
     const auto [host, port] = parse_listen_address(*listen, "status.listen");
@@ -676,6 +707,13 @@ void Service::State::camera_loop() {
         ++counters.camera_frames;
         camera_activity.frame();
         camera_rate.add(result.frame.timestamp);
+        // The marker tracker runs here, before the frame is handed over, rather than on a thread
+        // of its own: it costs about 3 ms a 1280×720 frame on one core (bench/RESULTS.md,
+        // Tracking), a tenth of a 30 Hz frame's interval, and so the render thread always finds
+        // the pose of the very frame it draws (a tracking thread would give it the previous
+        // frame's pose, or make it wait). Every frame is tracked, even those the renderer drops.
+        tracking->on_camera_frame(result.frame.image, result.frame.timestamp);
+        camera_arrivals.put(result.frame.timestamp, now_seconds());
         camera_box.put(std::move(result.frame));
       } else if (result.status == capture::FrameStatus::EndOfStream) {
         camera_activity.ended = true;
@@ -865,7 +903,14 @@ std::int64_t Service::run() {
       said_waiting = true;
     }
 
-    std::optional<track::Pose> pose = s.pose_source->pose_at(frame->timestamp);
+    // The frame is shown after the time it has waited since it came and the time a frame takes
+    // to draw (the median of the last ones): the latency the pipeline adds, for status.
+    double display_delay = 0;
+    if (const auto arrived = s.camera_arrivals.find(frame->timestamp)) {
+      std::lock_guard lock(s.stats_mutex);
+      display_delay = now_seconds() - *arrived + s.frame_times.percentile(0.5);
+    }
+    std::optional<track::Pose> pose = s.tracking->pose_for_frame(frame->timestamp, display_delay);
     if (pose) {
       render::CameraPose camera_pose;
       camera_pose.R_site_from_camera = pose->R_site_from_camera.toRotationMatrix();
@@ -1025,7 +1070,9 @@ nlohmann::json Service::State::status_report() const {
   const FrameRate rate = camera_rate.rate();
   camera_json["frame_rate_hz"] = rate.hz ? nlohmann::json(*rate.hz) : nlohmann::json(nullptr);
   j["camera"] = camera_json;
-  j["pose"] = {{"source", pose_source->describe()}, {"missing", counters.pose_missing.load()}};
+  nlohmann::json pose_json = tracking->report();
+  pose_json["missing"] = counters.pose_missing.load();
+  j["pose"] = pose_json;
   nlohmann::json sky_json = source_report(*sky_source, sky_reconnecting, sky_activity, now);
   sky_json["frames"] = counters.sky_frames.load();
   sky_json["estimates"] = counters.sky_estimates.load();
@@ -1065,6 +1112,7 @@ nlohmann::json Service::State::status_report() const {
     sky_json["age_s"] = nullptr;
     flags.push_back("no_sky_yet");
   }
+  tracking->add_flags(flags);
   j["sky"] = sky_json;
   j["blends"] = {{"run", counters.blends_run.load()}, {"skipped", counters.blends_skipped.load()}};
   nlohmann::json blend_json;
@@ -1140,6 +1188,7 @@ std::string Service::metrics_text() const {
     m.push_back({"skylit_blend_on_cpu", "1 when the shadow ratios are blended on the CPU, 0 on the GPU.", "gauge",
                  j["blend"]["device"] == "cpu" ? 1.0 : 0.0, ""});
   }
+  s.tracking->add_metrics(m);
   for (const auto& flag : j["flags"]) {
     m.push_back({"skylit_flag", "1 for each condition the status reports.", "gauge", 1.0, "flag=\"" + flag.get<std::string>() + "\""});
   }

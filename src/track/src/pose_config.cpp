@@ -192,8 +192,9 @@ PoseConfig load_pose_config(const fs::path& file) {
 std::unique_ptr<PoseSource> open_pose_source(const PoseConfig& config) {
   if (config.kind == PoseConfig::Kind::Markers) {
     throw InputError(input_message(config.file, -1, -1, "pose.kind",
-                                   "the marker tracker needs the HMD camera's frames, which this program does not feed it yet",
-                                   "use 'kind: fixed' or 'kind: track' here (docs/tracking.md)"));
+                                   "the marker tracker needs the HMD camera's frames, which this program does not take",
+                                   "run skylit-live with this config, or use 'kind: fixed' or 'kind: track' here "
+                                   "(docs/tracking.md)"));
   }
   if (config.kind == PoseConfig::Kind::Track) return std::make_unique<PoseTrack>(PoseTrack::load(config.csv));
   return std::make_unique<FixedPose>(config.fixed);

@@ -14,7 +14,11 @@
 //   camera:
 //     calibration: hmd_camera.yaml
 //     source: {kind: images, ...}
-//   pose: {kind: fixed | track, ...}    # track::PoseConfig
+//   pose: {kind: fixed | track | markers, ...}  # track::PoseConfig; markers: the tracker is fed
+//                                       # every HMD camera frame (docs/tracking.md)
+//   imu: {kind: hid | replay, ...}      # optional, with pose.kind markers: track::ImuConfig, fused
+//                                       # with the tracker's poses (docs/imu.md)
+//   fusion: {camera_timeout: 0.2, ...}  # optional, with pose.kind markers: track::FusionSettings
 //   blend:                              # or just `blend: auto | cpu | gpu`
 //     device: auto | cpu | gpu          # where T is blended (auto: cpu on a software GL renderer)
 //     threads: 2                        # cpu: blend threads (0: all hardware threads)
@@ -42,6 +46,8 @@
 #include <Eigen/Core>
 
 #include "skylit/capture/config.hpp"
+#include "skylit/track/fusion.hpp"
+#include "skylit/track/imu.hpp"
 #include "skylit/track/pose.hpp"
 
 namespace skylit::live {
@@ -103,6 +109,10 @@ struct LiveConfig {
   SkySettings sky;
   CameraSettings camera;
   track::PoseConfig pose;
+  // With pose.kind markers: the tracker's poses are fused (track::PoseFusion) when either is set;
+  // the IMU's gyro joins them when `imu` is. Without both the tracker's poses are used as they are.
+  std::optional<track::ImuConfig> imu;
+  std::optional<track::FusionSettings> fusion;
   BlendSettings blend;
   PhotometricSettings photometric;
   OutputSettings output;

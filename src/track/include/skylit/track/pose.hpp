@@ -112,8 +112,8 @@ PoseConfig parse_pose_config(const YAML::Node& node, const std::filesystem::path
 // A YAML file whose top level has a `pose:` node.
 PoseConfig load_pose_config(const std::filesystem::path& file);
 // The source of a fixed or track config. Kind::Markers needs the camera's frames: use
-// open_marker_tracker (marker_tracker.hpp) and feed it; here it is an InputError naming the
-// config's pose.kind (the live service does not feed a tracker yet).
+// open_marker_tracker (marker_tracker.hpp) and feed it, as skylit-live does; here it is an
+// InputError naming the config's pose.kind (for tools that take no camera frames).
 std::unique_ptr<PoseSource> open_pose_source(const PoseConfig& config);
 
 }  // namespace skylit::track

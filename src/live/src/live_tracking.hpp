@@ -1,0 +1,81 @@
+#pragma once
+// Where the HMD camera is, for the service: the config's fixed pose or pose track as they are, or
+// the marker tracker fed with every HMD camera frame, its poses used as they are or fused with
+// the IMU's gyro (track::PoseFusion) and predicted to the time the frame is shown.
+//
+// Threads: on_camera_frame belongs to the camera thread, pose_for_frame to the render thread;
+// report and metrics may be called from any thread (the status server's).
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core/mat.hpp>
+
+#include "skylit/live/live_config.hpp"
+#include "skylit/live/status_server.hpp"
+#include "skylit/sky/calibration.hpp"
+#include "skylit/track/fusion.hpp"
+#include "skylit/track/imu.hpp"
+#include "skylit/track/marker_tracker.hpp"
+#include "skylit/track/pose.hpp"
+
+namespace skylit::live {
+
+class LiveTracking {
+ public:
+  // Opens the pose source the config names; with pose.kind markers the tracker (its map, its
+  // calibration or `hmd`), and the IMU when the config has one (InputError when it is absent at
+  // start: a HID device not plugged in, a recording that is not there).
+  LiveTracking(const LiveConfig& config, const sky::CameraCalibration& hmd);
+  ~LiveTracking();
+  LiveTracking(const LiveTracking&) = delete;
+  LiveTracking& operator=(const LiveTracking&) = delete;
+
+  bool uses_markers() const { return tracker_ != nullptr; }
+
+  // Camera thread, for each frame before it is handed to the renderer: detects the tags and
+  // solves the pose (markers), and gives an accepted pose to the fusion. A frame the tracker
+  // refuses (a size the calibration is not for) is counted and reported, never thrown: the frame
+  // is still shown.
+  void on_camera_frame(const cv::Mat& image, double timestamp);
+
+  // Render thread: the pose to draw the frame stamped `frame_timestamp` from, at its capture
+  // time (video see-through). `display_delay` (seconds), how long after its capture the frame
+  // will be on the display, is kept for status. Nullopt when there is none (tracking lost, no
+  // accepted solve recently).
+  std::optional<track::Pose> pose_for_frame(double frame_timestamp, double display_delay);
+
+  // The "pose" object of /status (without the service's own counters), and the flags it raises.
+  nlohmann::json report() const;
+  void add_flags(std::vector<std::string>& flags) const;
+  void add_metrics(std::vector<Metric>& metrics) const;
+
+ private:
+  std::size_t feed_imu(double until);
+  std::optional<track::ImuState> imu_state() const;
+
+  const track::MarkerTrackerOptions marker_options_;
+  std::unique_ptr<track::PoseSource> configured_;      // pose.kind fixed or track
+  std::unique_ptr<track::MarkerTracker> tracker_;      // pose.kind markers
+  std::unique_ptr<track::PoseFusion> fusion_;          // markers with imu or fusion
+  std::unique_ptr<track::ImuSource> imu_;
+  mutable std::mutex imu_mutex_;  // the IMU is read by the camera and render threads, its state by the status
+
+  std::atomic<std::int64_t> solves_accepted_{0}, solves_rejected_{0}, tracker_errors_{0};
+  mutable std::mutex mutex_;  // guards the members below
+  std::string last_tracker_error_;
+  std::optional<track::Pose> last_pose_;          // the last pose handed to the renderer
+  std::optional<track::FusedPose> last_estimate_;  // the fusion's estimate for it
+  double last_display_delay_ = 0;
+};
+
+// An 8-bit grey or BGR image for the tag detector: 8-bit frames as they are, 16-bit ones scaled,
+// float (linear) ones clipped to [0, 1] and scaled.
+cv::Mat tracker_image(const cv::Mat& image);
+
+}  // namespace skylit::live
