@@ -10,7 +10,10 @@
 //   accuracy_study [--skies DIR] [--site SITE.yaml] [--calib CALIB.yaml] [--texel-scale 8]
 //                  [--out DIR] [--configs paper,area,area+sun,area64+sun,nu4,nu8,corners,corners-nosun,corners64,area+oracle,corners+oracle,corners64+oracle]
 //                  [--sky NAME] [--pictures] [--sun-disc-factor F] [--sun-halo DEG] [--sun-min-contrast C]
-//                  [--sun-max-core DEG] [--reference-supersample N] [--sources N]
+//                  [--sun-max-core DEG] [--reference-supersample N] [--sources N] [--pca K,K,...]
+// With --pca, each configuration's bake is also compressed to K principal components (a copy per
+// K, skylit-bake compress) and blended with the same sky: its error against the reference and
+// against the uncompressed blend are printed in a second table (and JSON, "pca").
 // Diagnoses of the separated sun (bench/RESULTS.md "Separated sources"): the configurations
 // corners64+oracle-light, -dome, -energy, -point, -corepoint, corners64+fill, corners64+sources.
 // Prints a Markdown table (RMS, 99th percentile and max of |T − T_ref| over every texel of every
@@ -259,6 +262,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--sun-max-core", sun_options.max_angular_radius_deg, "sun detector: widest core, degrees")
       ->capture_default_str();
+  std::vector<int> pca_components;
+  app.add_option("--pca", pca_components, "also blend each bake compressed to these numbers of principal components")
+      ->delimiter(',');
+  double pca_correlation = 0.0;
+  app.add_option("--pca-sky-correlation", pca_correlation, "--pca: the sky prior's correlation angle, degrees (0: none)");
   app.add_flag("--pictures", dump, "write T | reference | 5×|difference| per sky, setting and plane as PNG");
   app.add_option("--sky", only_sky, "only this sky (file stem, e.g. park)");
   CLI11_PARSE(app, argc, argv);
@@ -296,6 +304,22 @@ int main(int argc, char** argv) {
     bake_seconds[key] = seconds_since(t);
     bakes[key] = dir;
   }
+  // The PCA forms: a copy of each bake per K, compressed as skylit-bake compress does it.
+  std::map<std::pair<BakeKey, int>, fs::path> pca_bakes;
+  for (const auto& [key, dir] : bakes) {
+    for (const int k : pca_components) {
+      const fs::path copy = dir.string() + "_pca" + std::to_string(k);
+      fs::remove_all(copy);
+      fs::copy(dir, copy, fs::copy_options::recursive);
+      skylit::bake::PcaOptions pca;
+      pca.components = k;
+      pca.sky_correlation_deg = pca_correlation;
+      skylit::baker::compress_bake(copy, pca, stderr);
+      pca_bakes[{key, k}] = copy;
+    }
+  }
+  nlohmann::json pca_results = nlohmann::json::array();
+  std::vector<std::string> pca_rows;
 
   std::vector<fs::path> skies;
   for (const auto& entry : fs::directory_iterator(skies_dir)) {
@@ -554,6 +578,8 @@ int main(int argc, char** argv) {
 
       std::vector<double> diffs;
       nlohmann::json per_plane;
+      // Per K: |T_pca − T_full| and |T_pca − T_ref| over every texel and channel.
+      std::map<int, std::vector<double>> pca_vs_full, pca_vs_reference;
       for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
         const skylit::render::BasisImages basis = skylit::render::load_basis(bake_dir, manifest, static_cast<int>(j));
         std::vector<float> visibility;
@@ -588,6 +614,24 @@ int main(int argc, char** argv) {
             for (int ch = 0; ch < 3; ++ch) {
               T[x * 3 + static_cast<std::size_t>(ch)] =
                   denominator[ch] > 0.0 ? static_cast<float>(std::clamp(numerator[x][ch] / denominator[ch], 0.0, 1.0)) : 1.0f;
+            }
+          }
+        }
+        if (sources.empty()) {
+          for (const int k : pca_components) {
+            const fs::path pca_dir = pca_bakes.at({key_of(c), k});
+            const skylit::render::BasisImages pca = skylit::render::load_basis(
+                pca_dir, skylit::bake::read_manifest(pca_dir), static_cast<int>(j), skylit::render::BasisForm::Pca);
+            const auto pw = skylit::render::blend_weights(pca, S, sun);
+            std::vector<float> T_pca(T.size());
+            skylit::render::blend_cpu(pca, pw, pw.sun.isZero() ? std::span<const float>() : std::span<const float>(visibility),
+                                      T_pca);
+            for (std::size_t x = 0; x < basis.texel_count(); ++x) {
+              for (int ch = 0; ch < 3; ++ch) {
+                const std::size_t at = x * 3 + static_cast<std::size_t>(ch);
+                pca_vs_full[k].push_back(std::abs(static_cast<double>(T_pca[at]) - T[at]));
+                pca_vs_reference[k].push_back(std::abs(T_pca[at] - reference[j][x][ch]));
+              }
             }
           }
         }
@@ -634,6 +678,20 @@ int main(int argc, char** argv) {
                   e.max,
                   found.c_str());
       std::fflush(stdout);
+      for (const int k : pca_components) {
+        if (!pca_vs_full.count(k)) continue;
+        const Errors full = errors_of(pca_vs_full[k]);
+        const Errors ref = errors_of(pca_vs_reference[k]);
+        char row[256];
+        std::snprintf(row, sizeof row, "| %s | %s | %d of %zu | %.4f / %.4f / %.4f | %.4f / %.4f / %.4f | %.4f |",
+                      sky_file.stem().c_str(), c.name.c_str(), k, manifest.layer_count(), full.rms, full.p99, full.max,
+                      ref.rms, ref.p99, ref.max, e.rms);
+        pca_rows.push_back(row);
+        pca_results.push_back({{"sky", sky_file.stem().string()}, {"config", c.name}, {"components", k},
+                               {"layers", manifest.layer_count()},
+                               {"vs_full", {{"rms", full.rms}, {"p99", full.p99}, {"max", full.max}}},
+                               {"vs_reference", {{"rms", ref.rms}, {"p99", ref.p99}, {"max", ref.max}}}});
+      }
       results.push_back({{"sky", sky_file.stem().string()}, {"config", c.name}, {"frequency", c.frequency},
                          {"samples", c.samples}, {"basis", basis_name}, {"sun_separation", c.sun},
                          {"sun_found", estimate.sun.has_value()},
@@ -643,7 +701,13 @@ int main(int argc, char** argv) {
                          {"bake_seconds", bake_seconds.at(key_of(c))}});
     }
   }
-  skylit::write_file_atomic(fs::path(out_dir) / "accuracy.json", results.dump(2) + "\n");
+  if (!pca_rows.empty()) {
+    std::printf("\n| sky | configuration | K | vs full: RMS / p99 / max | vs reference: RMS / p99 / max | full vs reference RMS |\n"
+                "|---|---|---|---|---|---|\n");
+    for (const std::string& row : pca_rows) std::printf("%s\n", row.c_str());
+  }
+  skylit::write_file_atomic(fs::path(out_dir) / "accuracy.json",
+                            nlohmann::json{{"configs", results}, {"pca", pca_results}}.dump(2) + "\n");
   if (!sun_notes.empty()) std::printf("\n");
   for (const std::string& note : sun_notes) std::printf("%s\n", note.c_str());
   std::printf("\ntexels: planes of %s at 1/%d resolution; skies rendered into %s (%d² sub-pixels)\n", site_file.c_str(),

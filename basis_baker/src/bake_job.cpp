@@ -237,10 +237,14 @@ void check_pca_input(const std::optional<bake::PcaOptions>& options) {
 
 // Writes the PCA form of one plane beside its full image (planes/<name>.pca.exr, .pca.npy) and
 // records it; the files still need listing in the manifest.
-void write_pca_form(const fs::path& out_dir, bake::PlaneRecord& record, const bake::ImageStack& stack,
-                    const bake::PcaOptions& options, std::FILE* log) {
+void write_pca_form(const fs::path& out_dir, const bake::Manifest& manifest, bake::PlaneRecord& record,
+                    const bake::ImageStack& stack, const bake::PcaOptions& options, std::FILE* log) {
   const auto start = std::chrono::steady_clock::now();
-  const bake::PcaBasis pca = bake::compress_pca(stack, record.unoccluded, options);
+  // Each layer's direction: its face's centre.
+  std::vector<Vec3> directions;
+  const std::size_t per_face = static_cast<std::size_t>(manifest.plan.layers_per_face());
+  for (std::size_t l = 0; l < manifest.layer_count(); ++l) directions.push_back(manifest.faces[l / per_face].direction);
+  const bake::PcaBasis pca = bake::compress_pca(stack, record.unoccluded, options, directions);
   bake::PcaRecord r;
   const fs::path stem = fs::path(record.file).replace_extension();
   r.file = stem.string() + ".pca.exr";
@@ -249,6 +253,7 @@ void write_pca_form(const fs::path& out_dir, bake::PlaneRecord& record, const ba
   r.max_error = pca.max_error;
   r.rms_error = pca.rms_error;
   r.variance_kept = pca.variance_kept;
+  r.sky_correlation_deg = options.sky_correlation_deg;
   bake::write_exr_stack(out_dir / r.file, pca.images, bake::pca_layer_names(pca.components));
   const std::size_t shape[] = {static_cast<std::size_t>(pca.source_layers), static_cast<std::size_t>(pca.components)};
   bake::write_npy(out_dir / r.coefficients, pca.coefficients, shape);
@@ -323,7 +328,7 @@ std::uint64_t finalize(const fs::path& out_dir, bake::Manifest manifest, const s
     if (previews) write_plane_previews(out_dir / "preview", manifest, static_cast<int>(j), stack);
     manifest.files.push_back({manifest.planes[j].file, 0, ""});
     if (pca) {
-      write_pca_form(out_dir, manifest.planes[j], stack, *pca, log);
+      write_pca_form(out_dir, manifest, manifest.planes[j], stack, *pca, log);
       manifest.files.push_back({manifest.planes[j].pca->file, 0, ""});
       manifest.files.push_back({manifest.planes[j].pca->coefficients, 0, ""});
     }
@@ -633,7 +638,7 @@ void compress_bake(const fs::path& bake_dir, const bake::PcaOptions& options, st
       std::erase_if(manifest.files, [&](const bake::FileRecord& f) { return old.count(f.path) > 0; });
     }
     const bake::ImageStack stack = bake::read_exr_stack(bake_dir / record.file);
-    write_pca_form(bake_dir, record, stack, options, log);
+    write_pca_form(bake_dir, manifest, record, stack, options, log);
     manifest.files.push_back({record.pca->file, 0, ""});
     manifest.files.push_back({record.pca->coefficients, 0, ""});
   }

@@ -75,6 +75,8 @@ int main(int argc, char** argv) {
     to->add_option("--pca-components", pca.components, "also store the basis compressed to at least K principal components");
     to->add_option("--pca-variance", pca.variance, "... keeping at least this fraction of the variance (0 < F <= 1)");
     to->add_option("--pca-max-error", pca.max_error, "... with |T - T_full| at most E for every sky (E > 0)");
+    to->add_option("--pca-sky-correlation", pca.sky_correlation_deg,
+                   "components for skies whose radiance correlates over this many degrees (0: plain PCA)");
   };
   add_pca_options(&app);
 

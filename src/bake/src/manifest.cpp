@@ -308,7 +308,8 @@ json to_json(const Manifest& m) {
                   {"components", r.pca->components},
                   {"max_error", r.pca->max_error},
                   {"rms_error", r.pca->rms_error},
-                  {"variance_kept", r.pca->variance_kept}};
+                  {"variance_kept", r.pca->variance_kept},
+                  {"sky_correlation_deg", r.pca->sky_correlation_deg}};
     }
     planes.push_back(std::move(p));
   }
@@ -407,6 +408,10 @@ Manifest manifest_from_json(const json& j, const fs::path& source) {
       record.max_error = to_double(src, get(pca, pfield, "max_error"), join(pfield, "max_error"));
       record.rms_error = to_double(src, get(pca, pfield, "rms_error"), join(pfield, "rms_error"));
       record.variance_kept = to_double(src, get(pca, pfield, "variance_kept"), join(pfield, "variance_kept"));
+      if (pca.contains("sky_correlation_deg")) {
+        record.sky_correlation_deg =
+            to_double(src, pca["sky_correlation_deg"], join(pfield, "sky_correlation_deg"));
+      }
       r.pca = std::move(record);
     }
     m.planes.push_back(std::move(r));

@@ -41,6 +41,10 @@ void check_pca_options(const PcaOptions& options) {
   if (options.variance && !(*options.variance > 0.0 && *options.variance <= 1.0)) {
     throw std::invalid_argument("pca.variance: " + std::to_string(*options.variance) + " is not in (0, 1]");
   }
+  if (!(options.sky_correlation_deg >= 0.0 && std::isfinite(options.sky_correlation_deg))) {
+    throw std::invalid_argument("pca.sky_correlation_deg: " + std::to_string(options.sky_correlation_deg) +
+                                " is not a finite angle >= 0");
+  }
   if (options.max_error && !(*options.max_error > 0.0 && std::isfinite(*options.max_error))) {
     throw std::invalid_argument("pca.max_error: " + std::to_string(*options.max_error) + " is not a finite value > 0");
   }
@@ -56,7 +60,8 @@ std::vector<std::string> pca_layer_names(int components) {
   return names;
 }
 
-PcaBasis compress_pca(const ImageStack& stack, std::span<const double> unoccluded, const PcaOptions& options) {
+PcaBasis compress_pca(const ImageStack& stack, std::span<const double> unoccluded, const PcaOptions& options,
+                      std::span<const Vec3> directions) {
   check_pca_options(options);
   const std::size_t texels = static_cast<std::size_t>(stack.width) * static_cast<std::size_t>(stack.height);
   if (stack.width <= 0 || stack.height <= 0 || stack.layers < 0 ||
@@ -108,12 +113,35 @@ PcaBasis compress_pca(const ImageStack& stack, std::span<const double> unocclude
     const auto block = residual.middleCols(x0, width);
     gram += (block * block.transpose()).cast<double>();
   }
+  // With a sky prior the components are those of F·W, W = C^{1/2} for the second moments C of
+  // the weights α a sky puts on the layers: the images that matter for skies, not for single
+  // faces. The mixing vectors W v_k (v_k eigenvectors of W G W) make the images.
+  Eigen::MatrixXd mixing_root = Eigen::MatrixXd::Identity(rows, rows);
+  if (options.sky_correlation_deg > 0.0 && rows > 0) {
+    if (directions.size() != static_cast<std::size_t>(stack.layers)) {
+      throw std::invalid_argument("compress_pca: a sky prior needs one direction per layer");
+    }
+    const double sigma = options.sky_correlation_deg * 3.14159265358979323846 / 180.0;
+    Eigen::MatrixXd moments(rows, rows);
+    for (Eigen::Index r = 0; r < rows; ++r) {
+      for (Eigen::Index c = 0; c < rows; ++c) {
+        const auto lr = static_cast<std::size_t>(lit[static_cast<std::size_t>(r)]);
+        const auto lc = static_cast<std::size_t>(lit[static_cast<std::size_t>(c)]);
+        const double angle = std::atan2(directions[lr].cross(directions[lc]).norm(), directions[lr].dot(directions[lc]));
+        moments(r, c) = unoccluded[lr] * unoccluded[lc] * std::exp(-0.5 * angle * angle / (sigma * sigma));
+      }
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> prior(moments);
+    const Eigen::VectorXd roots = prior.eigenvalues().cwiseMax(0.0).cwiseSqrt();
+    mixing_root = prior.eigenvectors() * roots.asDiagonal() * prior.eigenvectors().transpose();
+    mixing_root /= mixing_root.norm() / std::sqrt(static_cast<double>(rows));  // scale is irrelevant; keep it near 1
+  }
   std::vector<Eigen::VectorXd> eigenvectors;
   if (rows > 0) {
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(gram);
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(mixing_root * gram * mixing_root);
     for (Eigen::Index k = rows - 1; k >= 0; --k) {
       pca.eigenvalues.push_back(std::max(0.0, solver.eigenvalues()[k]));
-      eigenvectors.push_back(solver.eigenvectors().col(k));
+      eigenvectors.push_back(mixing_root * solver.eigenvectors().col(k));
     }
   }
   // Components beyond the numerical rank carry rounding noise, not shadows.

@@ -54,6 +54,7 @@ struct PcaRecord {
   double max_error = 0.0;                 // max |F − F̂| (pca.hpp): bounds |T − T_full|
   double rms_error = 0.0;
   double variance_kept = 1.0;
+  double sky_correlation_deg = 0.0;       // the sky prior it was made with (0: none; pca.hpp)
 };
 
 struct PlaneRecord {

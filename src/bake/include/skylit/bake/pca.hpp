@@ -27,6 +27,11 @@ struct PcaOptions {
   std::optional<int> components;      // at least this many, ≥ 1
   std::optional<double> variance;     // fraction of the fractions' variance kept, in (0, 1]
   std::optional<double> max_error;    // bound on |T − T_full|, > 0 (see above)
+  // The components that matter for skies rather than for single faces: each image's error is
+  // weighed by how skies weigh the layers, α_l ∝ A_l L(ω_l), with the radiance L of two layers
+  // correlated as exp(−θ²/2σ²) over the angle θ between their directions (σ this, degrees).
+  // 0: every layer alike (plain PCA of the fractions). Needs the layers' directions.
+  double sky_correlation_deg = 0.0;
 };
 
 // std::invalid_argument naming the field for an option out of range or none given.
@@ -52,7 +57,9 @@ struct PcaBasis {
 
 // The components of `stack` (the full basis, B in steradians) with A per layer `unoccluded`.
 // std::invalid_argument for sizes that disagree or bad options.
-PcaBasis compress_pca(const ImageStack& stack, std::span<const double> unoccluded, const PcaOptions& options);
+// `directions`: per layer, unit, its face's centre (needed only with sky_correlation_deg > 0).
+PcaBasis compress_pca(const ImageStack& stack, std::span<const double> unoccluded, const PcaOptions& options,
+                      std::span<const Vec3> directions = {});
 
 // Names of the PCA form's layers: "mean", "pc_001", …
 std::vector<std::string> pca_layer_names(int components);
