@@ -12,6 +12,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "skylit/bake/footprint.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/base/files.hpp"
 #include "skylit/base/progress.hpp"
@@ -224,6 +225,25 @@ bake::Manifest manifest_for(const bake::Plan& plan, const geom::Dome& dome) {
   return m;
 }
 
+// What of the plane's basis a blend needs (bake/footprint.hpp): said, so that a site's planes
+// can be placed and sized for what they shadow.
+void log_footprint(const bake::PlaneRecord& record, const bake::ImageStack& stack, std::FILE* log) {
+  if (!log) return;
+  const bake::PlaneFootprint f = bake::analyse_footprint(stack, record.unoccluded);
+  constexpr double kMiB = 1024.0 * 1024.0;
+  const double layer_mib = static_cast<double>(f.texels) * 2.0 / kMiB;  // half floats
+  const double cropped = f.shadowed > 0 ? static_cast<double>(f.shadowed_texels) /
+                                              (static_cast<double>(f.shadowed) * static_cast<double>(f.texels))
+                                        : 0.0;
+  std::fprintf(log,
+               "skylit-bake: plane '%s': %d of %d layers hold a shadow (%d the plane cannot see, %d unshadowed): the "
+               "lean form blends %d layers, %.1f MiB instead of %.1f MiB; cropped to their shadows the shadowed layers "
+               "would hold %.0f%% of their texels (%.1f MiB)\n",
+               record.plane.name.c_str(), f.shadowed, stack.layers, f.dark, f.unshadowed, f.needed_layers(),
+               layer_mib * f.needed_layers(), layer_mib * stack.layers, 100.0 * cropped,
+               static_cast<double>(f.shadowed_texels) * 2.0 / kMiB + (f.unshadowed > 0 ? layer_mib : 0.0));
+}
+
 // Options checked before any work, so that a typo does not cost a bake.
 void check_pca_input(const std::optional<bake::PcaOptions>& options) {
   if (!options) return;
@@ -325,6 +345,7 @@ std::uint64_t finalize(const fs::path& out_dir, bake::Manifest manifest, const s
     }
     const fs::path file = out_dir / manifest.planes[j].file;
     bake::write_exr_stack(file, stack, layer_names);
+    log_footprint(manifest.planes[j], stack, log);
     if (previews) write_plane_previews(out_dir / "preview", manifest, static_cast<int>(j), stack);
     manifest.files.push_back({manifest.planes[j].file, 0, ""});
     if (pca) {

@@ -7,6 +7,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -108,6 +109,7 @@ class ExtremesTest : public ::testing::TestWithParam<geom::DomeBasis> {
     std::vector<render::BlendWeights> weights;
     std::vector<std::vector<float>> T;
     std::vector<std::vector<float>> T_pca;  // the same from the bake's PCA form
+    std::vector<int> lean_layers;           // layers of the lean form, per plane
   };
 
   // Sky frame → S (and sun) → T for every plane, as skylit-shade does it, on the bake of the
@@ -155,6 +157,27 @@ class ExtremesTest : public ::testing::TestWithParam<geom::DomeBasis> {
               << "plane " << j << " texel " << k << " channel " << c;
         }
       }
+      // The lean form: only the layers that hold a shadow; within the footprint's tolerance (1e-3).
+      const render::BasisImages lean =
+          render::load_basis(bake_dir(GetParam()), m, static_cast<int>(j), render::BasisForm::Lean);
+      EXPECT_LE(lean.layers, basis.layers);
+      const render::BlendWeights lean_weights = render::blend_weights(lean, S, sun);
+      std::vector<float> T_lean(T.size());
+      render::blend_cpu(lean, lean_weights,
+                        lean_weights.sun.isZero() ? std::span<const float>() : std::span<const float>(visibility), T_lean);
+      for (std::size_t k = 0; k < T.size(); ++k) {
+        EXPECT_TRUE(std::isfinite(T_lean[k]) && T_lean[k] >= 0.0f && T_lean[k] <= 1.0f) << "plane " << j;
+        // Within the tolerance times Σ|α| (1 for faces; corners' negative coefficients raise it).
+        const auto c = k % 3;
+        double alpha = 1.0;
+        if (!o.weights.back().no_light[c]) {
+          alpha = 0.0;
+          for (std::size_t l = 0; l < S.size(); ++l) alpha += std::abs(S[l][static_cast<Eigen::Index>(c)] * m.planes[j].unoccluded[l]);
+          alpha /= o.weights.back().denominator[static_cast<Eigen::Index>(c)];
+        }
+        EXPECT_LE(std::abs(T_lean[k] - T[k]), 1e-3 * alpha + 1e-5) << "plane " << j << " value " << k;
+      }
+      o.lean_layers.push_back(lean.layers);
       o.T.push_back(std::move(T));
       o.T_pca.push_back(std::move(T_pca));
     }
@@ -380,6 +403,12 @@ TEST_P(ExtremesTest, PlaneFacingAwayFromEveryLitFace) {
   EXPECT_TRUE(any_no_light(o.weights[1]));
   for (float t : o.T[1]) EXPECT_EQ(t, 1.0f);
   EXPECT_FALSE(any_no_light(o.weights[0]));  // the ground is lit
+  // The wall sees half the dome, and the box it stands on shadows none of it: the lean form
+  // keeps a layer of ones and nothing else. (The box shadows the ground from every direction.)
+  EXPECT_EQ(o.lean_layers[1], 1);
+  std::printf("measured: lean form, %s basis: ground %d of %zu layers, north wall %d\n",
+              std::string(geom::basis_name(GetParam())).c_str(), o.lean_layers[0], manifest().layer_count(),
+              o.lean_layers[1]);
 }
 
 INSTANTIATE_TEST_SUITE_P(Basis, ExtremesTest, ::testing::Values(geom::DomeBasis::Faces, geom::DomeBasis::Corners),

@@ -6,6 +6,7 @@
 // Plane::normal() uses cross(), which Eigen defines in <Eigen/Geometry>.
 #include <Eigen/Geometry>
 
+#include "skylit/bake/footprint.hpp"
 #include "skylit/bake/pca.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/render/cpu_blend.hpp"
@@ -44,6 +45,38 @@ void check_values(const fs::path& file, const BasisImages& basis) {
           kRebake));
     }
   }
+}
+
+// Keeps the layers that hold a shadow, one layer of ones for the unshadowed ones' constant light,
+// nothing for the layers the plane cannot see; `projection` maps the dome's weights onto them.
+void make_lean(BasisImages& basis) {
+  bake::ImageStackHalf stack;
+  stack.width = basis.width;
+  stack.height = basis.height;
+  stack.layers = basis.layers;
+  stack.data = std::move(basis.half);
+  const bake::PlaneFootprint footprint = bake::analyse_footprint(stack, basis.unoccluded);
+  const std::size_t texels = basis.texel_count();
+  const int kept = footprint.needed_layers();
+  basis.half.clear();
+  basis.half.reserve(static_cast<std::size_t>(kept) * texels);
+  basis.projection = Eigen::MatrixXf::Zero(basis.layers, kept);
+  int stored = 0;
+  for (int l = 0; l < basis.layers; ++l) {
+    if (footprint.layers[static_cast<std::size_t>(l)].kind != bake::LayerFootprint::Kind::Shadowed) continue;
+    const auto begin = stack.data.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(l) * texels);
+    basis.half.insert(basis.half.end(), begin, begin + static_cast<std::ptrdiff_t>(texels));
+    basis.projection(l, stored++) = 1.0f;
+  }
+  if (footprint.unshadowed > 0) {
+    basis.half.insert(basis.half.end(), texels, float_to_half(1.0f));
+    for (int l = 0; l < basis.layers; ++l) {
+      if (footprint.layers[static_cast<std::size_t>(l)].kind == bake::LayerFootprint::Kind::Unshadowed) {
+        basis.projection(l, stored) = static_cast<float>(basis.unoccluded[static_cast<std::size_t>(l)]);
+      }
+    }
+  }
+  basis.layers = kept;
 }
 
 BasisImages load_pca_form(const fs::path& bake_dir, const bake::Manifest& manifest, int plane) {
@@ -187,6 +220,7 @@ BasisImages load_basis(const fs::path& bake_dir, const bake::Manifest& manifest,
   basis.normal = record.plane.normal();
   basis.layers_per_face = manifest.plan.layers_per_face();
   check_values(file, basis);
+  if (form == BasisForm::Lean) make_lean(basis);
   return basis;
 }
 

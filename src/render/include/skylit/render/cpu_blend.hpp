@@ -44,17 +44,24 @@ struct BasisImages {
   // The PCA form (bake/pca.hpp): the stored layers are the mean visible fraction and K
   // eigen-images (values of either sign), and `projection` (n source layers × `layers`) maps the
   // weights of the full basis onto them: u = projectionᵀ w, with row l = A_l · (1, P_{l,1..K}).
-  // Empty for the full form, whose layers are the basis itself. `unoccluded` has n values either way.
+  // The lean form (BasisForm::Lean) uses the same: its shadowed layers map one to one and the
+  // unshadowed ones onto a layer of ones with A_l. Empty (0 rows) for the full form, whose layers
+  // are the basis itself. `unoccluded` has n values either way.
   Eigen::MatrixXf projection;
-  bool compressed() const { return projection.size() > 0; }
+  bool compressed() const { return projection.rows() > 0; }
   // n: the layers S and A are given for (the dome's), whichever form is stored.
   int source_layers() const { return compressed() ? static_cast<int>(projection.rows()) : layers; }
   std::size_t texel_count() const { return static_cast<std::size_t>(width) * height; }
 };
 
-// Which form of a plane's basis to read: the full one, or its principal components (stored when
-// the bake was made or compressed with --pca-*; InputError from load_basis otherwise).
-enum class BasisForm { Full, Pca };
+// Which form of a plane's basis to read:
+//   Full  every layer as baked;
+//   Lean  the layers that hold a shadow (bake/footprint.hpp), plus one layer of ones that carries
+//         the unshadowed layers' constant light; layers the plane cannot see are left out. T
+//         changes by at most 1e-3 (the footprint's tolerance), the blend reads fewer layers;
+//   Pca   its principal components (stored when the bake was made or compressed with --pca-*;
+//         InputError otherwise).
+enum class BasisForm { Full, Lean, Pca };
 
 // Reads plane `plane` (an index into manifest.planes) of a verified bake, in the form asked for.
 BasisImages load_basis(const std::filesystem::path& bake_dir, const bake::Manifest& manifest, int plane,
