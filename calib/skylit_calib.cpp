@@ -1,14 +1,16 @@
 // skylit-calib: calibration tools for installers. `fisheye` and `camera`: intrinsics from photos
 // of a chessboard or ChArUco board; `sky-orientation`: the sky camera's R_site_from_camera from
-// the sun in timestamped sky frames, or from a level and a compass. Each writes its YAML
-// atomically (a failed run leaves an existing file as it was), prints its quality figures,
-// writes a diagnostic image beside the YAML and says what to do when the data are not good
-// enough. See docs/calibration.md.
+// the sun in timestamped sky frames, or from a level and a compass; `markers`: a marker map from
+// photos of the site's AprilTags; `hid list`: the HID devices present and the IMU profile that
+// matches each. Each writes its YAML atomically (a failed run leaves an existing file as it
+// was), prints its quality figures, writes a diagnostic image beside the YAML (not `hid list`)
+// and says what to do when the data are not good enough. See docs/calibration.md.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <exception>
 #include <filesystem>
+#include <map>
 #include <numbers>
 #include <optional>
 #include <sstream>
@@ -22,12 +24,15 @@
 #include "skylit/base/files.hpp"
 #include "skylit/calib/board.hpp"
 #include "skylit/calib/intrinsics.hpp"
+#include "skylit/calib/marker_survey.hpp"
 #include "skylit/calib/orientation.hpp"
 #include "skylit/calib/sun_frames.hpp"
 #include "skylit/sky/calibration.hpp"
 #include "skylit/sky/image_io.hpp"
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/solar.hpp"
+#include "skylit/track/hid_imu.hpp"
+#include "skylit/track/marker_map.hpp"
 
 namespace {
 
@@ -36,6 +41,7 @@ using skylit::input_message;
 using skylit::InputError;
 namespace calib = skylit::calib;
 namespace sky = skylit::sky;
+namespace track = skylit::track;
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
@@ -294,6 +300,196 @@ int run_orientation(const OrientationArgs& a) {
   return 0;
 }
 
+
+// ---------------------------------------------------------------------------------------------
+// markers
+
+struct MarkersArgs {
+  std::string camera, output, image_out, family = "tag36h11";
+  int origin = 0;
+  std::vector<double> origin_pose;
+  double size = 0;
+  std::vector<std::string> tag_sizes;
+  int min_photos = 2;
+  double decimation = 1.0;
+  std::vector<std::string> photos;
+};
+
+// "ID=METRES" → (id, metres).
+std::pair<int, double> parse_tag_size(const std::string& text) {
+  const std::size_t equals = text.find('=');
+  const std::string fix = "write ID=METRES, the tag's id and the edge of its black square, e.g. --tag-size 3=0.16";
+  if (equals == std::string::npos) bad_option("--tag-size", "'" + text + "' has no '='", fix);
+  try {
+    std::size_t used_id = 0, used_size = 0;
+    const std::string id_text = text.substr(0, equals), size_text = text.substr(equals + 1);
+    const int id = std::stoi(id_text, &used_id);
+    const double size = std::stod(size_text, &used_size);
+    if (used_id != id_text.size() || used_size != size_text.size() || id < 0 || !(size > 0)) {
+      bad_option("--tag-size", "'" + text + "' is not a tag id and a positive size", fix);
+    }
+    return {id, size};
+  } catch (const std::logic_error&) {
+    bad_option("--tag-size", "'" + text + "' is not a tag id and a size", fix);
+  }
+}
+
+calib::MarkerSurveyOptions survey_options(const MarkersArgs& a) {
+  calib::MarkerSurveyOptions options;
+  options.family = a.family;
+  options.origin_id = a.origin;
+  options.default_size = a.size;
+  options.min_photos = a.min_photos;
+  for (const std::string& entry : a.tag_sizes) {
+    const auto [id, size] = parse_tag_size(entry);
+    options.sizes[id] = size;
+  }
+  if (a.size <= 0 && options.sizes.empty()) {
+    bad_option("--size", "no tag size given", "give --size METRES, the edge of the tags' black square (e.g. 0.2), and "
+                                                 "--tag-size ID=METRES for tags of another size");
+  }
+  if (!a.origin_pose.empty()) {
+    if (a.origin_pose.size() != 7) bad_option("--origin-pose", "needs 7 numbers", "give x,y,z,qw,qx,qy,qz");
+    const auto& v = a.origin_pose;
+    options.origin_pose.t_site_from_tag = Eigen::Vector3d(v[0], v[1], v[2]);
+    options.origin_pose.R_site_from_tag = Eigen::Quaterniond(v[3], v[4], v[5], v[6]);
+  }
+  if (a.min_photos < 1) bad_option("--min-photos", "must be at least 1", "use 2 (the default) or more");
+  return options;
+}
+
+int run_markers(const MarkersArgs& a) {
+  calib::MarkerSurveyOptions options = survey_options(a);
+  sky::CameraCalibration camera = sky::load_calibration(a.camera);
+  const fs::path output(a.output);
+  skylit::ensure_writable_directory(output.parent_path().empty() ? fs::path(".") : output.parent_path());
+  track::TagDetectorOptions detector;
+  detector.family = a.family;
+  detector.decimation = a.decimation;
+  if (std::find(track::tag_families().begin(), track::tag_families().end(), a.family) == track::tag_families().end()) {
+    std::string known;
+    for (std::string_view f : track::tag_families()) known.append(known.empty() ? "" : ", ").append(f);
+    bad_option("--family", "unknown tag family '" + a.family + "'", "give one of " + known);
+  }
+  const std::vector<fs::path> files(a.photos.begin(), a.photos.end());
+  const std::vector<calib::MarkerPhoto> photos = calib::detect_marker_photos(files, camera, detector);
+  std::size_t with_tags = 0;
+  for (const calib::MarkerPhoto& p : photos) with_tags += p.detections.empty() ? 0 : 1;
+  std::printf("skylit-calib markers: tags found in %zu of %zu photo(s) (%s, origin tag %d)\n", with_tags, photos.size(),
+              a.family.c_str(), a.origin);
+
+  const calib::MarkerSurvey survey = calib::survey_markers(photos, camera, options);
+  const std::size_t posed = static_cast<std::size_t>(
+      std::count_if(survey.photos.begin(), survey.photos.end(), [](const calib::SurveyedPhoto& p) { return p.posed; }));
+  std::printf("  %zu tag(s) mapped from %zu posed photo(s); RMS reprojection error %.3f px over %d corners (%d iterations)\n",
+              survey.map.tags.size(), posed, survey.rms_px, survey.corners, survey.iterations);
+  // Widths count bytes: ± and ° take two.
+  std::printf("  %5s %6s %8s %10s %10s %9s   %s\n", "tag", "photos", "rms px", "±pos mm", "±rot °", "spread °",
+              "position (m, x east, y north, z up)");
+  for (std::size_t k = 0; k < survey.tags.size(); ++k) {
+    const calib::SurveyedTag& t = survey.tags[k];
+    const Eigen::Vector3d& p = survey.map.tags[k].t_site_from_tag;
+    if (t.origin) {
+      std::printf("  %5d %6d %8.3f %9s %8s %8.0f   %.3f %.3f %.3f  (origin, fixed)\n", t.id, t.photos, t.rms_px, "-", "-",
+                  t.view_spread_deg, p.x(), p.y(), p.z());
+    } else {
+      std::printf("  %5d %6d %8.3f %9.1f %8.2f %8.0f   %.3f %.3f %.3f\n", t.id, t.photos, t.rms_px, 1000 * t.sigma_position_m,
+                  t.sigma_rotation_deg, t.view_spread_deg, p.x(), p.y(), p.z());
+    }
+  }
+  std::printf("  photos:\n");
+  for (const calib::SurveyedPhoto& p : survey.photos) {
+    if (p.posed) {
+      std::string ids;
+      for (int id : p.tags) ids.append(ids.empty() ? "" : " ").append(std::to_string(id));
+      std::printf("    %-32s %.3f px  tags %s\n", p.name.c_str(), p.rms_px, ids.c_str());
+    } else {
+      std::printf("    %-32s not used: %s\n", p.name.c_str(), p.reason.c_str());
+    }
+  }
+  for (const calib::LeftOutTag& t : survey.left_out) std::printf("  not mapped: tag %d: %s\n", t.id, t.reason.c_str());
+  print_advice(survey.advice);
+
+  track::MarkerMap map = survey.map;
+  map.file = output;
+  track::save_marker_map(map, output);
+  const fs::path diagnostic = a.image_out.empty() ? beside(output, ".markers.png") : fs::path(a.image_out);
+  sky::write_image(diagnostic, calib::draw_marker_survey(survey, options));
+  std::printf("wrote %s and %s\n", output.string().c_str(), diagnostic.string().c_str());
+  return 0;
+}
+
+// ---------------------------------------------------------------------------------------------
+// hid list
+
+struct HidListArgs {
+  std::string profiles, output;
+};
+
+std::string hex4(unsigned value) {
+  char text[8];
+  std::snprintf(text, sizeof text, "%04x", value & 0xffffu);
+  return text;
+}
+
+// YAML double-quoted scalar.
+std::string yaml_quoted(const std::string& text) {
+  std::string out = "\"";
+  for (char c : text) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out + "\"";
+}
+
+int run_hid_list(const HidListArgs& a) {
+  // The profiles: --profiles, or config/imu of the working directory (the source tree's).
+  fs::path folder = a.profiles;
+  if (folder.empty() && fs::is_directory("config/imu")) folder = "config/imu";
+  if (!a.profiles.empty() && !fs::is_directory(folder)) {
+    bad_option("--profiles", "'" + a.profiles + "' is not a folder", "give the folder of the IMU profiles (*.yaml), e.g. config/imu");
+  }
+  const std::vector<track::HidImuProfile> profiles =
+      folder.empty() ? std::vector<track::HidImuProfile>{} : track::load_hid_imu_profiles(folder);
+  const std::vector<track::HidDeviceInfo> devices = track::enumerate_hid_devices(profiles);
+  const std::string from = folder.empty() ? std::string("no profile folder (give --profiles DIR)")
+                                          : std::to_string(profiles.size()) + " IMU profile(s) from " + folder.string();
+  std::vector<std::string> advice;
+  std::string yaml = "# HID devices listed by skylit-calib hid list; profiles: " + from + "\ndevices:";
+  if (devices.empty()) {
+    std::printf("skylit-calib hid list: no HID devices found (%s)\n", from.c_str());
+    advice.emplace_back("plug the IMU in; if it is plugged in, check that /dev/hidraw* exists and that this user may read "
+                        "it (a udev rule, docs/imu.md)");
+    yaml += " []\n";
+  } else {
+    std::printf("skylit-calib hid list: %zu HID device(s) (%s)\n", devices.size(), from.c_str());
+    yaml += "\n";
+    bool any_matched = false;
+    for (const track::HidDeviceInfo& d : devices) {
+      const std::string id = hex4(d.vendor_id) + ":" + hex4(d.product_id);
+      std::string name = d.manufacturer;
+      if (!d.product.empty()) name.append(name.empty() ? "" : " ").append(d.product);
+      const std::string profile =
+          d.profile.empty() ? std::string("no profile") : "profile \"" + d.profile + "\" (" + d.profile_file.string() + ")";
+      std::printf("  %s  %-16s %-40s %s\n", id.c_str(), d.path.c_str(), name.empty() ? "(no name)" : name.c_str(), profile.c_str());
+      any_matched = any_matched || !d.profile.empty();
+      yaml += "  - id: " + yaml_quoted(id) + "\n    path: " + yaml_quoted(d.path) + "\n    name: " + yaml_quoted(name) +
+              "\n    interface: " + std::to_string(d.interface_number) + "\n    profile: " +
+              (d.profile.empty() ? std::string("null") : yaml_quoted(d.profile_file.string())) + "\n";
+    }
+    if (!any_matched) {
+      advice.emplace_back("no device matches an IMU profile: plug the IMU in, or write a profile for it (docs/imu.md) "
+                          "and give its folder with --profiles");
+    }
+  }
+  print_advice(advice);
+  if (!a.output.empty()) {
+    skylit::write_file_atomic(a.output, yaml);
+    std::printf("wrote %s\n", a.output.c_str());
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -329,6 +525,33 @@ int main(int argc, char** argv) {
   orientation->add_option("--declination", o.declination, "magnetic declination to add to --level-compass, degrees east")
       ->capture_default_str();
 
+  MarkersArgs m;
+  CLI::App* markers = app.add_subcommand(
+      "markers", "a marker map (the AprilTags' poses in the site) from photos of the site, one tag as the origin");
+  markers->add_option("--camera", m.camera, "the photographing camera's calibration (YAML from skylit-calib camera)")->required();
+  markers->add_option("--origin", m.origin, "id of the tag that is the site's origin")->capture_default_str();
+  markers->add_option("--origin-pose", m.origin_pose,
+                      "the origin tag's pose in the site: x,y,z,qw,qx,qy,qz (default: at 0,0,0, face up, top edge north)")
+      ->expected(7)
+      ->delimiter(',');
+  markers->add_option("--size", m.size, "edge of the tags' black square, metres (e.g. 0.2)");
+  markers->add_option("--tag-size", m.tag_sizes, "ID=METRES: a tag of another size (repeatable)")->allow_extra_args(false);
+  markers->add_option("--family", m.family, "the printed tags' AprilTag family")->capture_default_str();
+  markers->add_option("--min-photos", m.min_photos, "photos a tag must be seen in to be mapped")->capture_default_str();
+  markers->add_option("--decimation", m.decimation, "detect quads in an image shrunk by this factor (faster on large photos)")
+      ->capture_default_str();
+  markers->add_option("-o,--output", m.output, "marker map to write (YAML); OUT.markers.png goes beside it")->required();
+  markers->add_option("--image-out", m.image_out, "the diagnostic plan (PNG) elsewhere than beside the map");
+  markers->add_option("photos", m.photos, "photos of the site, each showing two or more tags (10 or more, from all around)")
+      ->required();
+
+  HidListArgs h;
+  CLI::App* hid = app.add_subcommand("hid", "HID devices (IMUs)");
+  hid->require_subcommand(1);
+  CLI::App* hid_list = hid->add_subcommand("list", "the HID devices present, with the IMU profile that matches each");
+  hid_list->add_option("--profiles", h.profiles, "folder of IMU profiles (*.yaml; default config/imu when it is here)");
+  hid_list->add_option("-o,--output", h.output, "also write the list as YAML");
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (*fisheye) return run_intrinsics("fisheye", fisheye_args, sky::LensModel::Fisheye);
@@ -337,6 +560,8 @@ int main(int argc, char** argv) {
                             camera_args.model == "fisheye" ? sky::LensModel::Fisheye : sky::LensModel::Pinhole);
     }
     if (*orientation) return run_orientation(o);
+    if (*markers) return run_markers(m);
+    if (*hid_list) return run_hid_list(h);
   } catch (const InputError& e) {
     std::fflush(stdout);
     std::fprintf(stderr, "skylit-calib: error: %s\n", e.what());

@@ -19,6 +19,9 @@
 #include "skylit/calib/orientation.hpp"
 #include "skylit/sky/calibration.hpp"
 #include "skylit/sky/solar.hpp"
+#include "skylit/track/marker_map.hpp"
+#include "skylit/track/marker_render.hpp"
+#include "synthetic_markers.hpp"
 #include "synthetic_sky.hpp"
 
 namespace {
@@ -159,6 +162,110 @@ TEST(SkylitCalibCli, SkyOrientationFromLevelAndCompass) {
   const skylit::sky::CameraCalibration c = skylit::sky::load_calibration(dir / "sky.yaml");
   EXPECT_LT(skylit::calib::rotation_difference_deg(c.R_site_from_camera, skylit::calib::level_compass_rotation(87.5)), 1e-6);
   EXPECT_NE(skylit::read_file(dir / "sky.yaml").find("bearing 87.50° true"), std::string::npos);
+}
+
+
+// The survey site of synthetic_markers.hpp photographed from its eight places, as PNG files, and
+// the camera's calibration; the photos' names, quoted, for the command line.
+std::string write_site_photos(const fs::path& dir) {
+  const skylit::sky::CameraCalibration camera = skylit::calib_test::survey_camera();
+  skylit::sky::save_calibration(camera, dir / "hmd.yaml");
+  const skylit::sky::Lens lens(camera);
+  skylit::track::MarkerRenderOptions render;
+  render.supersampling = 3;
+  std::string names;
+  int k = 0;
+  for (const skylit::track::Pose& pose : skylit::calib_test::survey_viewpoints()) {
+    render.seed = static_cast<std::uint64_t>(++k);
+    const fs::path file = dir / ("site" + std::to_string(k) + ".png");
+    cv::imwrite(file.string(), skylit::track::render_markers(skylit::calib_test::survey_site(), lens, pose, render));
+    names.append(" ").append(q(file));
+  }
+  return names;
+}
+
+TEST(SkylitCalibCli, MarkersMapsTheSiteFromPhotos) {
+  const TempDir dir;
+  const std::string site_photos = write_site_photos(dir.path());
+  const Result r = run_calib("markers --camera " + q(dir / "hmd.yaml") + " --origin 0 --size 0.2 --tag-size 5=0.2 -o " +
+                             q(dir / "site_tags.yaml") + site_photos);
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("tags found in 8 of 8 photo(s) (tag36h11, origin tag 0)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("6 tag(s) mapped from 8 posed photo(s); RMS reprojection error"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("(origin, fixed)"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("advice:"), std::string::npos) << "good data need no advice:\n" << r.output;
+  const skylit::track::MarkerMap map = skylit::track::load_marker_map(dir / "site_tags.yaml");
+  const skylit::track::MarkerMap truth = skylit::calib_test::survey_site();
+  ASSERT_EQ(map.tags.size(), truth.tags.size());
+  for (const skylit::track::MarkerTag& expected : truth.tags) {
+    const skylit::track::MarkerTag* found = map.find(expected.id);
+    ASSERT_NE(found, nullptr) << expected.id;
+    EXPECT_LT(skylit::calib_test::position_error_m(*found, expected), 0.01) << expected.id;
+    EXPECT_LT(skylit::calib_test::rotation_error_deg(*found, expected), 0.5) << expected.id;
+  }
+  const cv::Mat plan = cv::imread((dir / "site_tags.markers.png").string());
+  EXPECT_FALSE(plan.empty()) << "the diagnostic plan beside the map";
+}
+
+TEST(SkylitCalibCli, MarkersFailsCleanlyAndAdvises) {
+  const TempDir dir;
+  const std::string site_photos = write_site_photos(dir.path());
+  const fs::path out = dir / "site_tags.yaml";
+  write_sentinel(out);
+  // An origin that is in no photo.
+  Result r = run_calib("markers --camera " + q(dir / "hmd.yaml") + " --origin 42 --size 0.2 -o " + q(out) + site_photos);
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("the origin tag 42 is in none of the 8 photo(s) (tags seen: 0, 1, 2, 3, 4, 5)"), std::string::npos)
+      << r.output;
+  EXPECT_TRUE(untouched(out));
+  EXPECT_FALSE(fs::exists(dir / "site_tags.markers.png"));
+  // One photo: too few views.
+  r = run_calib("markers --camera " + q(dir / "hmd.yaml") + " --size 0.2 -o " + q(out) + " " + q(dir / "site1.png"));
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("too few views"), std::string::npos) << r.output;
+  EXPECT_TRUE(untouched(out));
+  // Bad options.
+  r = run_calib("markers --camera " + q(dir / "hmd.yaml") + " --size 0.2 --tag-size 3:0.16 -o " + q(out) + site_photos);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("--tag-size"), std::string::npos) << r.output;
+  r = run_calib("markers --camera " + q(dir / "hmd.yaml") + " -o " + q(out) + site_photos);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("no tag size given"), std::string::npos) << r.output;
+  EXPECT_TRUE(untouched(out));
+  r = run_calib("markers --camera " + q(dir / "hmd.yaml") + " --size 0.2 --origin-pose 0,0,0,2,0,0,0 -o " + q(out) + site_photos);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("--origin-pose"), std::string::npos) << r.output;
+  EXPECT_TRUE(untouched(out));
+  // Three photos from the middle of the arc: a map, with advice to take more.
+  r = run_calib("markers --camera " + q(dir / "hmd.yaml") + " --size 0.2 --origin-pose 0,0,0,1,0,0,0 -o " + q(out) + " --image-out " +
+                q(dir / "plan.png") + " " + q(dir / "site4.png") + " " + q(dir / "site5.png") + " " + q(dir / "site6.png"));
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("advice: only 3 photo(s) are posed"), std::string::npos) << r.output;
+  EXPECT_TRUE(fs::exists(dir / "plan.png"));
+  EXPECT_FALSE(untouched(out));
+}
+
+TEST(SkylitCalibCli, HidListShowsTheDevicesAndTheirProfiles) {
+  const TempDir dir;
+  const Result r = run_calib("hid list --profiles " + q(skylit::cli_test::kSource / "config" / "imu") + " -o " +
+                             q(dir / "hid.yaml"));
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("1 IMU profile(s) from"), std::string::npos) << r.output;
+  const std::string yaml = skylit::read_file(dir / "hid.yaml");
+  if (r.output.find("skylit-calib hid list: no HID devices found") != std::string::npos) {
+    // A machine without HID devices (the build machines): say so, and what to check.
+    EXPECT_NE(r.output.find("advice: plug the IMU in"), std::string::npos) << r.output;
+    EXPECT_NE(yaml.find("devices: []"), std::string::npos) << yaml;
+  } else {
+    EXPECT_NE(r.output.find("HID device(s)"), std::string::npos) << r.output;
+    EXPECT_NE(yaml.find("  - id: \""), std::string::npos) << yaml;
+  }
+  // A profile folder that is not there.
+  const Result bad = run_calib("hid list --profiles " + q(dir / "no_such_folder"));
+  EXPECT_EQ(bad.status, 2);
+  EXPECT_NE(bad.output.find("--profiles"), std::string::npos) << bad.output;
+  // `hid` alone asks for its subcommand.
+  EXPECT_NE(run_calib("hid").status, 0);
 }
 
 }  // namespace
