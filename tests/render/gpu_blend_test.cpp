@@ -16,9 +16,9 @@
 
 #include "blend_fixtures.hpp"
 #include "gpu_test_support.hpp"
+#include "../support/gl_suite.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/base/error.hpp"
-#include "skylit/gpu/egl_context.hpp"
 #include "skylit/render/gpu_blend.hpp"
 
 namespace skylit::render {
@@ -33,16 +33,7 @@ constexpr double kUnitRoundoff = 0x1p-24;  // float, round to nearest
 constexpr double kHalfUlpBelowOne = 0x1p-11;  // RGBA16F output: one unit in the last place in [0.5, 1)
 
 // One context for the whole program (the blenders' names die before it).
-class GpuBlend : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() { context_ = new gpu::HeadlessContext(); }
-  static void TearDownTestSuite() {
-    delete context_;
-    context_ = nullptr;
-  }
-  static gpu::HeadlessContext* context_;
-};
-gpu::HeadlessContext* GpuBlend::context_ = nullptr;
+class GpuBlend : public skylit::test::GlSuite {};
 
 struct Case {
   BasisStorage storage;

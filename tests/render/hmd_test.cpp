@@ -13,8 +13,8 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
+#include "../support/gl_suite.hpp"
 #include "skylit/base/error.hpp"
-#include "skylit/gpu/egl_context.hpp"
 #include "skylit/render/hmd_distortion.hpp"
 #include "skylit/render/hmd_profile.hpp"
 
@@ -172,16 +172,7 @@ TEST(HmdMapping, TheMeshErrorFallsAsTheSquareOfTheGrid) {
 
 // ---- the GPU pass ----
 
-class HmdDistortionGpu : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() { context_ = new gpu::HeadlessContext(); }
-  static void TearDownTestSuite() {
-    delete context_;
-    context_ = nullptr;
-  }
-  static gpu::HeadlessContext* context_;
-};
-gpu::HeadlessContext* HmdDistortionGpu::context_ = nullptr;
+class HmdDistortionGpu : public skylit::test::GlSuite {};
 
 // A smooth, coloured test image (no channel equal to another), different for each seed.
 cv::Mat smooth_image(int width, int height, double seed) {

@@ -11,9 +11,9 @@
 
 #include "../bake/bake_fixtures.hpp"
 #include "gpu_test_support.hpp"
+#include "../support/gl_suite.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/base/error.hpp"
-#include "skylit/gpu/egl_context.hpp"
 #include "skylit/render/cpu_blend.hpp"
 #include "skylit/render/gpu_blend.hpp"
 
@@ -159,16 +159,7 @@ TEST(PcaBlend, CompressRefusesBadOptionsAndForeignDirectories) {
   EXPECT_THROW(baker::compress_bake(dir.path() / "nowhere", pca_components(2), nullptr), InputError);
 }
 
-class PcaGpuBlend : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() { context_ = new gpu::HeadlessContext(); }
-  static void TearDownTestSuite() {
-    delete context_;
-    context_ = nullptr;
-  }
-  static gpu::HeadlessContext* context_;
-};
-gpu::HeadlessContext* PcaGpuBlend::context_ = nullptr;
+class PcaGpuBlend : public skylit::test::GlSuite {};
 
 TEST_F(PcaGpuBlend, MatchesTheCpuBlendOfTheSameForm) {
   TempDir dir;

@@ -13,10 +13,10 @@
 #include <gtest/gtest.h>
 
 #include "../baker/box_scene.hpp"
+#include "../support/gl_suite.hpp"
 #include "skylit/baker/visibility.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/base/files.hpp"
-#include "skylit/gpu/egl_context.hpp"
 #include "skylit/gpu/shader.hpp"
 #include "skylit/render/gpu_blend.hpp"
 #include "skylit/render/sun_shadow_map.hpp"
@@ -33,16 +33,7 @@ using geom::Vec3;
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
-class SunShadow : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() { context_ = new gpu::HeadlessContext(); }
-  static void TearDownTestSuite() {
-    delete context_;
-    context_ = nullptr;
-  }
-  static gpu::HeadlessContext* context_;
-};
-gpu::HeadlessContext* SunShadow::context_ = nullptr;
+class SunShadow : public skylit::test::GlSuite {};
 
 // A 2 m cube and a 4 m pole on the ground, and a 12 m ground plane (12.5 cm texels) just above it.
 scene::Mesh site_mesh() { return mesh_of({Box{{-1, -1, 0}, {1, 1, 2}}, Box{{2.5, -3.2, 0}, {2.8, -2.9, 4}}}); }
