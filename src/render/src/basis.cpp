@@ -47,6 +47,20 @@ void check_values(const fs::path& file, const BasisImages& basis) {
   }
 }
 
+// The plane's images as read, with what the blend needs from its record.
+BasisImages basis_of(const bake::PlaneRecord& record, const bake::Manifest& manifest, bake::ImageStackHalf stack) {
+  BasisImages basis;
+  basis.name = record.plane.name;
+  basis.width = stack.width;
+  basis.height = stack.height;
+  basis.layers = stack.layers;
+  basis.half = std::move(stack.data);
+  basis.unoccluded = record.unoccluded;
+  basis.normal = record.plane.normal();
+  basis.layers_per_face = manifest.plan.layers_per_face();
+  return basis;
+}
+
 // Keeps the layers that hold a shadow, one layer of ones for the unshadowed ones' constant light,
 // nothing for the layers the plane cannot see; `projection` maps the dome's weights onto them.
 void make_lean(BasisImages& basis) {
@@ -112,15 +126,7 @@ BasisImages load_pca_form(const fs::path& bake_dir, const bake::Manifest& manife
                                    "is not [" + std::to_string(n) + ", " + std::to_string(k) + "] (layers × components)",
                                    "compress the bake again: skylit-bake compress " + bake_dir.string() + " --pca-…"));
   }
-  BasisImages basis;
-  basis.name = record.plane.name;
-  basis.width = stack.width;
-  basis.height = stack.height;
-  basis.layers = stack.layers;
-  basis.half = std::move(stack.data);
-  basis.unoccluded = record.unoccluded;
-  basis.normal = record.plane.normal();
-  basis.layers_per_face = manifest.plan.layers_per_face();
+  BasisImages basis = basis_of(record, manifest, std::move(stack));
   basis.projection.resize(static_cast<Eigen::Index>(n), k + 1);
   for (std::size_t l = 0; l < n; ++l) {
     const auto a = static_cast<float>(record.unoccluded[l]);
@@ -210,15 +216,7 @@ BasisImages load_basis(const fs::path& bake_dir, const bake::Manifest& manifest,
                                    "unexpected layer: the bake has " + layers_text, kRebake));
   }
 
-  BasisImages basis;
-  basis.name = record.plane.name;
-  basis.width = stack.width;
-  basis.height = stack.height;
-  basis.layers = stack.layers;
-  basis.half = std::move(stack.data);
-  basis.unoccluded = record.unoccluded;
-  basis.normal = record.plane.normal();
-  basis.layers_per_face = manifest.plan.layers_per_face();
+  BasisImages basis = basis_of(record, manifest, std::move(stack));
   check_values(file, basis);
   if (form == BasisForm::Lean) make_lean(basis);
   return basis;
