@@ -5,6 +5,7 @@
 #include <opencv2/core.hpp>
 
 #include "compose_fixture.hpp"
+#include "../support/gl_suite.hpp"
 #include "skylit/render/hmd_distortion.hpp"
 
 namespace skylit::compose_test {
@@ -33,16 +34,7 @@ TEST(EyePose, EyesSitHalfTheIpdEitherSideAlongTheCameraX) {
   EXPECT_TRUE(right.R_site_from_camera.isApprox(head.R_site_from_camera));
 }
 
-class StereoFrame : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() { context_ = new gpu::HeadlessContext(); }
-  static void TearDownTestSuite() {
-    delete context_;
-    context_ = nullptr;
-  }
-  static gpu::HeadlessContext* context_;
-};
-gpu::HeadlessContext* StereoFrame::context_ = nullptr;
+class StereoFrame : public skylit::test::GlSuite {};
 
 TEST_F(StereoFrame, EachHalfIsItsEyesCompositeAndTheEyesDiffer) {
   const BakedSite& baked = BakedSite::get();
