@@ -3,7 +3,8 @@
 // times T where the pixel's ray meets a real plane first; then the building, looked up in the
 // pinhole render at the ray's pinhole position (bilinear over the texels the building covers),
 // over it, unless the real plane is nearer than the building by more than occlusion_margin.
-// Writes linear values and their sRGB encoding (for display).
+// Then blended towards the camera's own pixel by opacity (1: the composite, 0: the camera image
+// unchanged). Writes linear values and their sRGB encoding (for display).
 //
 // The compositor compiles it for its site with REAL_PLANES (0 … 8) real planes: code for planes
 // that do not exist is not compiled (a SIMD renderer such as llvmpipe would run every branch of
@@ -25,6 +26,7 @@ uniform mat3 site_from_camera;
 uniform vec3 camera_position;             // site frame
 uniform vec4 pinhole;                     // fx, fy, cx, cy of the building render
 uniform float occlusion_margin;
+uniform float opacity;                    // in [0, 1]: 0 shows the camera image alone
 uniform vec3 plane_origin[kMaxRealPlanes];
 uniform vec3 plane_s_axis[kMaxRealPlanes];
 uniform vec3 plane_t_axis[kMaxRealPlanes];
@@ -117,7 +119,8 @@ vec3 finite_or_zero(vec3 v) {
 
 void main() {
   ivec2 pixel = ivec2(gl_FragCoord.xy);
-  vec3 background = texelFetch(camera_image, pixel, 0).rgb;
+  vec3 camera = texelFetch(camera_image, pixel, 0).rgb;
+  vec3 background = camera;
   vec3 colour = background;
   vec4 ray = texelFetch(rays, pixel, 0);
   if (ray.w > 0.5) {
@@ -176,7 +179,14 @@ void main() {
     bool hidden = plane_distance > 0.0 && plane_distance * ray.z < depth - occlusion_margin;
     if (coverage > 0.0 && !hidden) colour = sum + (1.0 - coverage) * background;
   }
+  // Opacity 0 gives the camera's pixel unchanged and 1 the composite unchanged, bit for bit:
+  // chosen outright, since a driver may evaluate mix as a + (b − a)·t, which rounds at t = 1.
   colour = finite_or_zero(colour);
+  if (opacity <= 0.0) {
+    colour = finite_or_zero(camera);
+  } else if (opacity < 1.0) {
+    colour = mix(finite_or_zero(camera), colour, opacity);
+  }
   linear_out = vec4(colour, 1.0);
   vec3 shown = clamp(colour, 0.0, 1.0);
   display_out = vec4(srgb_encode(shown), 1.0);

@@ -387,6 +387,85 @@ TEST_F(CompositorTest, RealPixelsPassUntouchedWhereNothingVirtualIs) {
   EXPECT_GT(cv::countNonZero(building), 3000);  // the building is in view
 }
 
+TEST_F(CompositorTest, OpacityBlendsTheCompositeTowardsTheCameraImage) {
+  // The building and its shadow on the ground (a low sun in the west-south-west), over a random
+  // real world: opacity 0 must give the camera image exactly, 0.5 the midpoint of the camera
+  // image and the full composite, and the CPU reference with the same opacity must agree.
+  const BakedSite& baked = BakedSite::get();
+  const Vector3d towards_sun = from_angles(250.0, 35.0);
+  const std::vector<Vector3d> S = uniform_sky(0.05);
+  const render::SunLight sun{towards_sun, Vector3d::Ones()};
+  const std::vector<PlaneRatios> ratios = baked.shadow_ratios(S, sun);
+  const RatioTextures textures = upload(ratios);
+  render::SunShadowMap shadow_map(baked.mesh, baked.site.planes);
+  shadow_map.update(towards_sun, 0.0047);
+  cv::Mat camera(240, 320, CV_32FC3);
+  cv::randu(camera, cv::Scalar::all(0.05), cv::Scalar::all(0.9));
+  const render::CameraPose pose = hmd_pose(4.0, -8.0, 8.0, 40.0);
+
+  render::Compositor compositor = make();
+  render::CompositeInput input;
+  input.camera = camera;
+  input.pose = pose;
+  input.sky = S;
+  input.sun = sun;
+  input.shadow_ratios = textures.names;
+  input.sun_shadow = &shadow_map;
+  const auto composite_at = [&](double opacity) {
+    input.opacity = opacity;
+    return compositor.composite(input);
+  };
+  const cv::Mat full = composite_at(1.0);
+  const cv::Mat half = composite_at(0.5);
+  const cv::Mat none = composite_at(0.0);
+
+  // Opacity 0: the camera's values, bit for bit (the building and the ground's shadow gone).
+  cv::Mat changed;
+  cv::compare(none, camera, changed, cv::CMP_NE);
+  EXPECT_EQ(cv::countNonZero(changed.reshape(1)), 0);
+  // The full composite does differ from the camera (the building and its shadow are in view).
+  cv::compare(full, camera, changed, cv::CMP_NE);
+  EXPECT_GT(cv::countNonZero(changed.reshape(1)), 3 * 3000);
+
+  // Opacity 0.5: the midpoint, within float rounding (|d| ≤ 1e-6 + 1e-6 of the value).
+  const cv::Mat midpoint = 0.5 * (camera + full);
+  const Difference to_midpoint = compare(half, midpoint, cv::Mat(), 1e-6, 1e-6);
+  std::printf("measured: opacity 0.5 against the midpoint of camera and composite: %lld px, max |d| %.3g, off %lld px\n",
+              static_cast<long long>(to_midpoint.pixels), to_midpoint.max,
+              static_cast<long long>(to_midpoint.fraction_off * static_cast<double>(to_midpoint.pixels)));
+  EXPECT_EQ(to_midpoint.fraction_off, 0.0);
+  EXPECT_LT(to_midpoint.max, 2e-6);
+
+  // The CPU reference at opacity 0.5: the bounds of the full-opacity comparisons (RecordedFrames…).
+  const sky::Lens lens(hmd_camera());
+  const RayCaster caster(baked.mesh);
+  ReferenceInputs reference_in = reference_inputs(ratios, S, sun);
+  reference_in.opacity = 0.5;
+  const ReferenceResult reference = reference_composite(reference_in, lens, caster, camera, pose);
+  const double scale = cv::mean(reference.linear)[1];
+  const Difference all = compare(half, reference.linear, cv::Mat(), 0.01 * scale, 0.02);
+  std::printf("measured: opacity 0.5, GPU vs CPU reference: %lld px, mean |d| %.3g, off %.2f%%\n",
+              static_cast<long long>(all.pixels), all.mean, 100 * all.fraction_off);
+  EXPECT_LT(all.mean, 0.005 * scale);
+  EXPECT_LT(all.fraction_off, 0.02);
+  reference_in.opacity = 0.0;
+  const ReferenceResult reference_none = reference_composite(reference_in, lens, caster, camera, pose);
+  EXPECT_EQ(compare(none, reference_none.linear, cv::Mat(), 0.0, 0.0).max, 0.0);
+
+  // Out of range: clamped; NaN shows nothing rather than a building that may be misplaced.
+  EXPECT_EQ(compare(composite_at(1.5), full, cv::Mat(), 0.0, 0.0).max, 0.0);
+  EXPECT_EQ(compare(composite_at(std::numeric_limits<double>::quiet_NaN()), camera, cv::Mat(), 0.0, 0.0).max, 0.0);
+
+  // An 8-bit frame at opacity 0: the display shows exactly the camera's codes, every pixel.
+  cv::Mat codes(240, 320, CV_8UC3);
+  cv::randu(codes, cv::Scalar::all(0), cv::Scalar::all(256));
+  input.camera = codes;
+  const cv::Mat shown = composite_at(0.0);
+  ASSERT_EQ(shown.type(), CV_8UC3);
+  cv::compare(shown, codes, changed, cv::CMP_NE);
+  EXPECT_EQ(cv::countNonZero(changed.reshape(1)), 0);
+}
+
 TEST_F(CompositorTest, VirtualPlaneShadesExactlyWithItsRatioInsteadOfTheTransfer) {
   const BakedSite& baked = BakedSite::get();
   const std::vector<Vector3d> S = uniform_sky(1.0);

@@ -138,6 +138,7 @@ struct ReferenceInputs {
   Vector3d photometric = Vector3d::Ones();
   render::CompositorOptions options;
   bool sun_shadows = true;                         // false: the building's sun term is unshadowed
+  double opacity = 1.0;                            // CompositeInput::opacity, in [0, 1]
 };
 
 // (s, t) of a point in a plane's coordinates (the dual basis of u, v).
@@ -208,6 +209,7 @@ inline ReferenceResult reference_composite(const ReferenceInputs& in, const sky:
           if (!std::isfinite(background[c]) || background[c] < 0) background[c] = 0;
         }
       }
+      const Vector3d camera_linear = background;
       Vector3d colour = background;
       const std::optional<Vector3d> ray = lens.unproject(Eigen::Vector2d(x, y));
       if (ray && ray->z() >= min_z) {
@@ -284,6 +286,7 @@ inline ReferenceResult reference_composite(const ReferenceInputs& in, const sky:
           result.what.at<std::uint8_t>(y, x) = 2;
         }
       }
+      colour = (1.0 - in.opacity) * camera_linear + in.opacity * colour;
       result.linear.at<cv::Vec3f>(y, x) =
           cv::Vec3f(static_cast<float>(colour.z()), static_cast<float>(colour.y()), static_cast<float>(colour.x()));
     }

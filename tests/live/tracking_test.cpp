@@ -3,7 +3,11 @@
 // the service draws from (/status), the tracking state when a replayed IMU ends mid-run, and the
 // config's errors.
 #include <algorithm>
+#include <cmath>
+#include <fstream>
 #include <numbers>
+#include <optional>
+#include <sstream>
 
 #include "../track/marker_scene.hpp"
 #include "live_fixture.hpp"
@@ -141,6 +145,135 @@ TEST(LiveTracking, FramesWithoutTagsFollowThePoseMissingPath) {
   EXPECT_EQ(status["pose"]["markers"]["latest"]["flags"], "no tags");
   EXPECT_EQ(status["pose"]["markers"]["latest"]["tags_seen"], 0);
   EXPECT_TRUE(has_flag(status, "markers_not_accepted")) << status["flags"].dump();
+}
+
+// One line of a recording's frame log: the camera frame's timestamp and the building's opacity
+// (none for frames shown before the sky came).
+struct LoggedFrame {
+  std::string file;
+  double timestamp = 0;
+  std::optional<double> opacity;
+};
+
+std::vector<LoggedFrame> read_frame_log(const fs::path& csv) {
+  std::ifstream in(csv);
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::string> header;
+  {
+    std::stringstream row(line);
+    for (std::string field; std::getline(row, field, ',');) header.push_back(field);
+  }
+  const auto column = [&](const std::string& name) {
+    return static_cast<std::size_t>(std::find(header.begin(), header.end(), name) - header.begin());
+  };
+  const std::size_t file = column("file"), timestamp = column("timestamp"), opacity = column("opacity");
+  std::vector<LoggedFrame> frames;
+  while (std::getline(in, line)) {
+    std::vector<std::string> fields;
+    std::stringstream row(line);
+    for (std::string field; std::getline(row, field, ',');) fields.push_back(field);
+    LoggedFrame f;
+    f.file = fields.at(file);
+    f.timestamp = std::stod(fields.at(timestamp));
+    if (opacity < fields.size() && !fields[opacity].empty()) f.opacity = std::stod(fields[opacity]);
+    frames.push_back(f);
+  }
+  return frames;
+}
+
+TEST(LiveTracking, BuildingFadesOutWhenTagsVanishAndInAgainAtTheNewPose) {
+  // 30 Hz, played once: 1 s of the board seen from kTruth, 0.8 s without tags (the board gone),
+  // 1 s of the board seen from another place. The tracker keeps a pose 0.12 s after its last
+  // solve; tracking.fade_s 0.3.
+  constexpr double kFps = 30.0, kFade = 0.3, kMaxAge = 0.12;
+  constexpr double kLogged = 1e-4;  // the frame log writes the opacity to 4 decimals
+  constexpr int kBefore = 30, kLost = 24, kAfter = 30;
+  const Pose elsewhere = marker_scene::head(Vec3(5.0, -5.5, 1.8), Vec3(6.0, -3.0, 1.5), -2.0);
+  RigOptions options = tag_rig_options("tracking:\n  fade_s: 0.3\n");
+  options.pose = "pose:\n  kind: markers\n  map: tags.yaml\n  decimation: 1\n  max_age: 0.12\n";
+  options.camera_loop = false;
+  Rig rig(options);
+  track::save_marker_map(board(), rig.dir() / "tags.yaml");
+  const sky::Lens lens(sky::load_calibration(rig.dir() / "hmd.yaml"));
+  std::vector<cv::Mat> frames;
+  for (int k = 0; k < kBefore + kLost + kAfter; ++k) {
+    track::MarkerRenderOptions render_options;
+    render_options.seed = static_cast<std::uint64_t>(k + 1);
+    const bool lost = k >= kBefore && k < kBefore + kLost;
+    const track::MarkerMap map = lost ? track::MarkerMap{} : board();
+    cv::Mat bgr;
+    cv::cvtColor(track::render_markers(map, lens, k < kBefore ? kTruth : elsewhere, render_options), bgr, cv::COLOR_GRAY2BGR);
+    frames.push_back(bgr);
+  }
+  write_frames(rig.dir() / "camera", frames, kFps, "png");
+  live::ServiceOptions service_options = quiet_options();
+  service_options.record = rig.dir() / "recorded";
+  RunningService running(rig.config(), service_options);
+
+  // While the tags are gone: the building hidden, said so in /status.
+  const bool hidden = running.wait_for([](const nlohmann::json& s) {
+    return s["opacity"].get<double>() == 0.0 && s["pose"]["fade"]["state"] == "hidden" && has_flag(s, "pose_lost");
+  }, 60);
+  EXPECT_TRUE(hidden) << running.error() << "\n" << running.status().dump(2);
+  running.join();
+  ASSERT_EQ(running.error(), "");
+  const nlohmann::json status = running.status();
+  EXPECT_EQ(status["opacity"], 1.0) << status["pose"].dump(2);
+  EXPECT_EQ(status["pose"]["fade"]["state"], "shown");
+  EXPECT_EQ(status["pose"]["fade"]["fade_s"], kFade);
+  EXPECT_GT(status["pose"]["missing"].get<std::int64_t>(), 0);
+  EXPECT_LT(marker_scene::position_error(pose_from_status(status["pose"]["last"]), elsewhere), kPositionTolerance);
+
+  const std::vector<LoggedFrame> logged = read_frame_log(rig.dir() / "recorded" / "frames.csv");
+  // The last frame with a pose before the loss is at most last_pose_at; the tags are back at back_at.
+  const double last_pose_at = (kBefore - 1) / kFps + kMaxAge, back_at = (kBefore + kLost) / kFps;
+  int with_opacity = 0, in_between = 0, hidden_frames = 0, first_back = -1;
+  double previous = 1.0;
+  std::string trace;
+  for (std::size_t k = 0; k < logged.size(); ++k) {
+    const LoggedFrame& f = logged[k];
+    if (!f.opacity) continue;  // before the sky: the camera image alone
+    ++with_opacity;
+    const double opacity = *f.opacity;
+    char entry[48];
+    std::snprintf(entry, sizeof entry, " %.3f:%.2f", f.timestamp, opacity);
+    trace += entry;
+    const cv::Mat recorded = cv::imread((rig.dir() / "recorded" / f.file).string(), cv::IMREAD_UNCHANGED);
+    const cv::Mat& input = frames.at(static_cast<std::size_t>(std::lround(f.timestamp * kFps)));
+    const int to_camera = max_difference(recorded, input);
+    if (f.timestamp <= last_pose_at) {
+      EXPECT_EQ(opacity, 1.0) << "t " << f.timestamp;  // tracked, the building shown
+      EXPECT_GT(to_camera, 10) << "t " << f.timestamp << ": the building should be in view";
+    } else if (f.timestamp < back_at - 1e-6) {
+      // The pose is lost: the building fades out at the last pose, never up again.
+      EXPECT_LE(opacity, previous) << "t " << f.timestamp;
+      EXPECT_LE(opacity, std::max(0.0, 1.0 - (f.timestamp - last_pose_at) / kFade) + kLogged) << "t " << f.timestamp;
+      if (opacity > 0.0 && opacity < 1.0) ++in_between;
+      if (opacity == 0.0) {
+        ++hidden_frames;
+        EXPECT_EQ(to_camera, 0) << "t " << f.timestamp << ": hidden, the camera image unchanged";
+      }
+    } else {
+      if (first_back < 0) {
+        // The first frame at the new pose: from nothing, the camera image exactly.
+        first_back = static_cast<int>(k);
+        EXPECT_EQ(opacity, 0.0) << "t " << f.timestamp;
+        EXPECT_EQ(to_camera, 0) << "t " << f.timestamp;
+      }
+      EXPECT_GE(opacity, previous) << "t " << f.timestamp;  // fading in, never down again
+      EXPECT_LE(opacity, std::min(1.0, (f.timestamp - back_at) / kFade) + kLogged) << "t " << f.timestamp;
+      if (opacity > 0.0 && opacity < 1.0) ++in_between;
+    }
+    previous = opacity;
+  }
+  std::printf("measured: fade: %d frames composited, %d hidden, %d part faded; t:opacity%s\n", with_opacity, hidden_frames,
+              in_between, trace.c_str());
+  EXPECT_GT(with_opacity, 50);
+  EXPECT_GT(hidden_frames, 3);
+  EXPECT_GT(in_between, 2);
+  EXPECT_GE(first_back, 0);
+  EXPECT_EQ(previous, 1.0);  // shown again at the end
 }
 
 // A still head: the gyro reads nothing (a small bias), the accelerometer gravity, in the camera's

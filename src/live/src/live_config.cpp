@@ -10,12 +10,14 @@ namespace skylit::live {
 namespace {
 
 constexpr const char* kDocs = "see docs/live.md (Configuration)";
-constexpr std::array<std::string_view, 12> kTopKeys{"site",  "bake",        "sky",    "camera", "pose",   "imu",
-                                                    "fusion", "blend", "photometric", "output", "status", "display"};
+constexpr std::array<std::string_view, 13> kTopKeys{"site",  "bake",        "sky",    "camera", "pose",   "imu",     "fusion",
+                                                    "tracking", "blend", "photometric", "output", "status", "display"};
 constexpr std::array<std::string_view, 7> kSkyKeys{"calibration", "source", "response", "rate",
                                                    "sun", "smoothing", "stale_after"};
 constexpr std::array<std::string_view, 2> kCameraKeys{"calibration", "source"};
-constexpr std::array<std::string_view, 5> kBlendKeys{"device", "threads", "storage", "skip_threshold", "change_threshold"};
+constexpr std::array<std::string_view, 6> kBlendKeys{"device", "threads", "storage", "basis", "skip_threshold", "change_threshold"};
+constexpr std::array<std::string_view, 3> kBasisForms{"full", "lean", "pca"};
+constexpr std::array<std::string_view, 1> kTrackingKeys{"fade_s"};
 constexpr std::array<std::string_view, 3> kBlendDevices{"auto", "cpu", "gpu"};
 constexpr std::array<std::string_view, 2> kRecordKeys{"path", "fps"};
 
@@ -106,6 +108,13 @@ LiveConfig load_live_config(const std::filesystem::path& file) {
     }
   }
   if (auto n = YamlReader::optional(root, "fusion")) c.fusion = track::parse_fusion_settings(n, file);
+  if (auto tracking = YamlReader::optional(root, "tracking")) {
+    r.expect_map(tracking, "tracking", "tracking: {fade_s: 0.3}; " + std::string(kDocs));
+    r.check_keys(tracking, "tracking.", kTrackingKeys);
+    if (auto n = YamlReader::optional(tracking, "fade_s")) {
+      c.tracking.fade_s = r.non_negative(n, "tracking.fade_s", "seconds the building takes to fade out or in, e.g. 0.3 (0: at once)");
+    }
+  }
 
   if (auto blend = YamlReader::optional(root, "blend"); blend && blend.IsScalar()) {
     c.blend.device = parse_blend_device(r, blend, "blend");  // the short form: `blend: cpu`
@@ -119,6 +128,16 @@ LiveConfig load_live_config(const std::filesystem::path& file) {
     if (auto n = YamlReader::optional(blend, "storage")) {
       constexpr std::array<std::string_view, 2> storages{"half", "unorm8"};
       c.blend.unorm8 = r.choice(n, "blend.storage", storages) == "unorm8";
+    }
+    if (auto n = YamlReader::optional(blend, "basis")) {
+      const std::string form(r.choice(n, "blend.basis", kBasisForms));
+      c.blend.basis = form == "pca" ? BlendSettings::Basis::Pca : form == "lean" ? BlendSettings::Basis::Lean : BlendSettings::Basis::Full;
+    }
+    if (c.blend.basis == BlendSettings::Basis::Pca && c.blend.unorm8) {
+      // A PCA form's eigen-images take either sign; 8-bit layers store [0, 1] only.
+      r.fail(blend["storage"], "blend.storage",
+             "unorm8 cannot hold the PCA form's eigen-images, whose values may be negative (blend.basis is pca)",
+             "set 'storage: half', or 'basis: full'");
     }
     if (auto n = YamlReader::optional(blend, "skip_threshold")) c.blend.skip_threshold = r.non_negative(n, "blend.skip_threshold", "T units, e.g. 0.002");
     if (auto n = YamlReader::optional(blend, "change_threshold")) c.blend.change_threshold = r.non_negative(n, "blend.change_threshold", "T units, e.g. 0.002");

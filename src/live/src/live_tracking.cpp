@@ -42,6 +42,43 @@ cv::Mat tracker_image(const cv::Mat& image) {
   return codes;
 }
 
+double BuildingFade::next(bool has_pose, double timestamp) {
+  // Frame time since the last frame; a clock that steps back (a recording looping) counts as none.
+  const double elapsed = last_timestamp_ ? std::max(0.0, timestamp - *last_timestamp_) : 0.0;
+  last_timestamp_ = timestamp;
+  const double step = fade_s_ > 0.0 ? elapsed / fade_s_ : std::numeric_limits<double>::infinity();
+  double opacity = opacity_.load();
+  State state = state_.load();
+  if (has_pose) {
+    if (state == State::NoPoseYet || (had_pose_ && state == State::Shown) || fade_s_ <= 0.0) {
+      opacity = 1.0;
+    } else if (!had_pose_) {
+      opacity = 0.0;  // a pose back after a loss: at its own place, from nothing
+    } else {
+      opacity = std::min(1.0, opacity + step);
+    }
+    state = opacity >= 1.0 ? State::Shown : State::FadingIn;
+  } else if (state != State::NoPoseYet) {
+    opacity = std::max(0.0, opacity - step);
+    state = opacity <= 0.0 ? State::Hidden : State::FadingOut;
+  }
+  had_pose_ = has_pose;
+  opacity_ = opacity;
+  state_ = state;
+  return opacity;
+}
+
+std::string to_string(BuildingFade::State state) {
+  switch (state) {
+    case BuildingFade::State::NoPoseYet: return "no pose yet";
+    case BuildingFade::State::Shown: return "shown";
+    case BuildingFade::State::FadingOut: return "fading out";
+    case BuildingFade::State::Hidden: return "hidden";
+    case BuildingFade::State::FadingIn: return "fading in";
+  }
+  return "shown";
+}
+
 LiveTracking::LiveTracking(const LiveConfig& config, const sky::CameraCalibration& hmd) : marker_options_(config.pose.markers) {
   if (config.pose.kind != track::PoseConfig::Kind::Markers) {
     configured_ = track::open_pose_source(config.pose);

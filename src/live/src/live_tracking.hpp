@@ -74,6 +74,39 @@ class LiveTracking {
   double last_display_delay_ = 0;
 };
 
+// The building's opacity from frame to frame (tracking.fade_s, docs/live.md "Tracking lost"): a
+// clear tracking-lost state in which the building fades instead of jumping. While frames have a
+// pose it is shown at full opacity; when the pose goes missing it fades out, still at the last
+// pose, by 1/fade_s per second of frame time; when a pose returns after a loss the building is
+// drawn at the new pose from opacity 0 and fades in, so it never jumps to a new pose at full
+// opacity. The first pose of a run shows it at once, like the first sky does.
+//
+// Time is the frames' own timestamps: a recording fades over the same frames however fast it
+// plays. Threads: next() belongs to the render thread; opacity() and state() may be read from any.
+class BuildingFade {
+ public:
+  enum class State { NoPoseYet, Shown, FadingOut, Hidden, FadingIn };
+
+  // fade_s ≥ 0; 0: hidden at once when the pose is lost, shown at once when it returns.
+  explicit BuildingFade(double fade_s) : fade_s_(fade_s) {}
+
+  // The opacity to draw the frame stamped `timestamp` with, `has_pose` whether it has its own pose.
+  double next(bool has_pose, double timestamp);
+
+  double opacity() const { return opacity_.load(); }
+  State state() const { return state_.load(); }
+  double fade_s() const { return fade_s_; }
+
+ private:
+  const double fade_s_;
+  std::optional<double> last_timestamp_;
+  bool had_pose_ = false;
+  std::atomic<double> opacity_{0.0};
+  std::atomic<State> state_{State::NoPoseYet};
+};
+
+std::string to_string(BuildingFade::State state);  // "no pose yet", "shown", "fading out", "hidden", "fading in"
+
 // An 8-bit grey or BGR image for the tag detector: 8-bit frames as they are, 16-bit ones scaled,
 // float (linear) ones clipped to [0, 1] and scaled.
 cv::Mat tracker_image(const cv::Mat& image);

@@ -185,6 +185,7 @@ struct RecordedFrame {
   std::optional<double> sky_timestamp;           // the sky frame's, on the sky source's clock; none: no sky yet
   std::optional<std::chrono::sys_seconds> sky_utc;
   std::optional<Eigen::Vector3d> sun_direction;  // towards the sun, when the sky has one
+  std::optional<double> opacity;                 // the building's (BuildingFade); none: the camera image as it came
 };
 
 // Composited frames to a video file or a folder of PNGs, with a frame log beside them (CSV, one
@@ -274,7 +275,7 @@ class Recorder {
     if (!log_.is_open()) {
       log_.open(frame_log_path(path_));
       if (!log_) throw InputError("--record: cannot write " + frame_log_path(path_).string());
-      log_ << "frame,file,timestamp,sky_timestamp,sky_utc,sun_elevation_deg,sun_azimuth_deg\n";
+      log_ << "frame,file,timestamp,sky_timestamp,sky_utc,sun_elevation_deg,sun_azimuth_deg,opacity\n";
     }
     char line[256];
     std::snprintf(line, sizeof line, "%lld,%s,%.6f,", static_cast<long long>(count_), file.c_str(), info.timestamp);
@@ -291,6 +292,11 @@ class Recorder {
       log_ << line;
     } else {
       log_ << ',';
+    }
+    log_ << ',';
+    if (info.opacity) {
+      std::snprintf(line, sizeof line, "%.4f", *info.opacity);
+      log_ << line;
     }
     log_ << '\n' << std::flush;  // a process killed hard still leaves a readable log
   }
@@ -488,6 +494,7 @@ struct Service::State {
   const capture::ReconnectingSource* sky_reconnecting = nullptr;
   const capture::ReconnectingSource* camera_reconnecting = nullptr;
   std::unique_ptr<LiveTracking> tracking;  // the pose: fixed, a track, or the marker tracker (and IMU)
+  std::unique_ptr<BuildingFade> fade;      // the building's opacity as the pose is lost and returns
   SourceActivity sky_activity, camera_activity;
   FrameRateMeter camera_rate;
   ArrivalTimes camera_arrivals;
@@ -536,7 +543,17 @@ Service::Service(const LiveConfig& config, const ServiceOptions& options) : stat
   std::vector<std::size_t> shape;
   s.transfer = bake::read_npy(config.bake / s.manifest.transfer_file, &shape);
   for (std::size_t j = 0; j < s.manifest.planes.size(); ++j) {
-    s.bases.push_back(render::load_basis(config.bake, s.manifest, static_cast<int>(j)));
+    if (config.blend.basis == BlendSettings::Basis::Pca && !s.manifest.planes[j].pca) {
+      throw InputError(input_message(config.file, -1, -1, "blend.basis",
+                                     "pca, and the bake " + config.bake.string() + " has no PCA form of plane '" +
+                                         s.manifest.planes[j].plane.name + "'",
+                                     "compress the bake: skylit-bake compress " + config.bake.string() +
+                                         " --pca-variance 0.999; or set 'basis: full'"));
+    }
+    const render::BasisForm form = config.blend.basis == BlendSettings::Basis::Pca    ? render::BasisForm::Pca
+                                   : config.blend.basis == BlendSettings::Basis::Lean ? render::BasisForm::Lean
+                                                                                    : render::BasisForm::Full;
+    s.bases.push_back(render::load_basis(config.bake, s.manifest, static_cast<int>(j), form));
   }
   s.sky_calibration = sky::load_calibration(config.sky.calibration);
   s.hmd_calibration = sky::load_calibration(config.camera.calibration);
@@ -552,6 +569,7 @@ Service::Service(const LiveConfig& config, const ServiceOptions& options) : stat
   s.camera_source = std::move(camera_opened.source);
   s.camera_reconnecting = camera_opened.reconnecting;
   s.tracking = std::make_unique<LiveTracking>(config, s.hmd_calibration);
+  s.fade = std::make_unique<BuildingFade>(config.tracking.fade_s);
   const auto listen = options.status_listen ? options.status_listen : config.status_listen;
   if (listen) {
     const auto [host, port] = parse_listen_address(*listen, "status.listen");
@@ -919,12 +937,17 @@ std::int64_t Service::run() {
     } else {
       ++s.counters.pose_missing;
     }
+    // Without a pose the building fades out at the last one; a pose back after a loss fades it
+    // in from nothing (BuildingFade), so it never jumps to the new pose at full opacity.
+    const double opacity = s.fade->next(pose.has_value(), frame->timestamp);
     // Before the sky is known the building would be drawn unlit (black): the camera image alone.
     if (sky && !last_pose) continue;  // nothing to draw from yet
 
     const auto t1 = Clock::now();
     cv::Mat composite;
-    if (!sky) {
+    // With tracking lost and the building faded out, the frame is the camera image unchanged,
+    // which the compositor would give at opacity 0 (tested): shown as it is, without its passes.
+    if (!sky || opacity <= 0.0) {
       composite = frame->image;
       if (window) present(camera_texture->upload(composite), composite.cols, composite.rows);
     } else {
@@ -935,6 +958,7 @@ std::int64_t Service::run() {
       input.sun = sky->sun;
       input.shadow_ratios = ratios;
       input.sun_shadow = sky->sun ? &shadow_map : nullptr;
+      input.opacity = opacity;
       if (reference_plane &&
           (!last_photometric_estimate || frames - *last_photometric_estimate >= s.config.photometric.every)) {
         last_photometric_estimate = frames;
@@ -979,6 +1003,7 @@ std::int64_t Service::run() {
         info.sky_timestamp = sky->frame_timestamp;
         info.sky_utc = sky->utc;
         if (sky->sun) info.sun_direction = sky->sun->direction;
+        info.opacity = opacity;
       }
       recorder->write(composite, info, s.camera_rate.rate());
     }
@@ -1072,7 +1097,10 @@ nlohmann::json Service::State::status_report() const {
   j["camera"] = camera_json;
   nlohmann::json pose_json = tracking->report();
   pose_json["missing"] = counters.pose_missing.load();
+  pose_json["fade"] = {{"state", to_string(fade->state())}, {"opacity", fade->opacity()}, {"fade_s", fade->fade_s()}};
   j["pose"] = pose_json;
+  // How much of the building (and its shadows) the frames show: 1 tracked, 0 lost (BuildingFade).
+  j["opacity"] = fade->opacity();
   nlohmann::json sky_json = source_report(*sky_source, sky_reconnecting, sky_activity, now);
   sky_json["frames"] = counters.sky_frames.load();
   sky_json["estimates"] = counters.sky_estimates.load();
@@ -1113,10 +1141,26 @@ nlohmann::json Service::State::status_report() const {
     flags.push_back("no_sky_yet");
   }
   tracking->add_flags(flags);
+  if (const BuildingFade::State state = fade->state(); state == BuildingFade::State::FadingOut || state == BuildingFade::State::Hidden) {
+    flags.push_back("pose_lost");  // the building fades out, or is hidden, until a pose returns
+  }
   j["sky"] = sky_json;
   j["blends"] = {{"run", counters.blends_run.load()}, {"skipped", counters.blends_skipped.load()}};
   nlohmann::json blend_json;
   blend_json["setting"] = blend_device_name(config.blend.device);
+  blend_json["basis"] = config.blend.basis == BlendSettings::Basis::Pca    ? "pca"
+                        : config.blend.basis == BlendSettings::Basis::Lean ? "lean"
+                                                                          : "full";
+  nlohmann::json planes_json = nlohmann::json::array();
+  for (std::size_t k = 0; k < bases.size() && k < manifest.planes.size(); ++k) {
+    nlohmann::json plane;
+    plane["name"] = manifest.planes[k].plane.name;
+    plane["layers"] = bases[k].layers;                  // the images each blend sums
+    plane["source_layers"] = bases[k].source_layers();  // the dome's layers S is given for
+    if (config.blend.basis == BlendSettings::Basis::Pca && manifest.planes[k].pca) plane["max_error"] = manifest.planes[k].pca->max_error;
+    planes_json.push_back(plane);
+  }
+  blend_json["planes"] = planes_json;
   if (blend_decided) {
     blend_json["device"] = blend_on_cpu ? "cpu" : "gpu";
     blend_json["renderer"] = renderer;
@@ -1182,6 +1226,8 @@ std::string Service::metrics_text() const {
                                                          : source["seconds_since_frame"].get<double>(),
                  label});
   }
+  m.push_back({"skylit_building_opacity", "How much of the building and its shadows is shown: 1 tracked, 0 tracking lost.",
+               "gauge", s.fade->opacity(), ""});
   m.push_back({"skylit_waiting_for_sky", "1 while no sky is known (the camera image is shown alone).", "gauge",
                j["state"] == "waiting for sky" ? 1.0 : 0.0, ""});
   if (!j["blend"]["device"].is_null()) {

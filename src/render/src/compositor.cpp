@@ -680,6 +680,8 @@ void Compositor::State::draw_composite(const CompositeInput& input) {
   glUniform4f(uniform(program, "pinhole"), static_cast<float>(pinhole.fx), static_cast<float>(pinhole.fy),
               static_cast<float>(pinhole.cx), static_cast<float>(pinhole.cy));
   glUniform1f(uniform(program, "occlusion_margin"), static_cast<float>(options.occlusion_margin));
+  const double opacity = std::isnan(input.opacity) ? 0.0 : std::clamp(input.opacity, 0.0, 1.0);
+  glUniform1f(uniform(program, "opacity"), static_cast<float>(opacity));
 
   std::vector<Eigen::Vector3f> origin, s_axis, t_axis, normal;
   for (int plane : real_planes) {

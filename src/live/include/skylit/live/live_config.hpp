@@ -19,10 +19,14 @@
 //   imu: {kind: hid | replay, ...}      # optional, with pose.kind markers: track::ImuConfig, fused
 //                                       # with the tracker's poses (docs/imu.md)
 //   fusion: {camera_timeout: 0.2, ...}  # optional, with pose.kind markers: track::FusionSettings
+//   tracking:
+//     fade_s: 0.3                       # seconds: the building fades out when the pose is lost,
+//                                       # and in again from 0 at the pose that returns (0: no fade)
 //   blend:                              # or just `blend: auto | cpu | gpu`
 //     device: auto | cpu | gpu          # where T is blended (auto: cpu on a software GL renderer)
 //     threads: 2                        # cpu: blend threads (0: all hardware threads)
 //     storage: half | unorm8            # gpu: how the basis is stored
+//     basis: full | lean | pca          # every layer; only those that hold a shadow; the PCA form
 //     skip_threshold: 0                 # T units (docs/live.md, "Blend"); both devices
 //     change_threshold: 0.002
 //   photometric:
@@ -76,8 +80,18 @@ struct BlendSettings {
   BlendDevice device = BlendDevice::Auto;
   int threads = 2;                    // CPU blend threads, the sky thread included (0: all hardware threads)
   bool unorm8 = false;
+  // blend.basis: full (every layer), lean (the layers that hold a shadow and one of ones, T
+  // within 1e-3; docs/baker.md) or pca (each plane's PCA form, K + 1 layers, docs/bake-format.md;
+  // the bake must have one: skylit-bake compress).
+  enum class Basis { Full, Lean, Pca };
+  Basis basis = Basis::Full;
   double skip_threshold = 0.0;
   double change_threshold = 0.002;
+};
+
+// What the service shows when the pose is lost and when it returns (docs/live.md, "Tracking lost").
+struct TrackingSettings {
+  double fade_s = 0.3;   // seconds from full opacity to none, and back; 0: at once
 };
 
 struct PhotometricSettings {
@@ -113,6 +127,7 @@ struct LiveConfig {
   // the IMU's gyro joins them when `imu` is. Without both the tracker's poses are used as they are.
   std::optional<track::ImuConfig> imu;
   std::optional<track::FusionSettings> fusion;
+  TrackingSettings tracking;
   BlendSettings blend;
   PhotometricSettings photometric;
   OutputSettings output;

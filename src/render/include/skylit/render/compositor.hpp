@@ -14,7 +14,9 @@
 //                 E = Σ_i S_i t_{v,i} (interpolated) + E_sun max(0, n·ω_sun) V_sun  elsewhere,
 //                     V_sun from the sun's shadow map (SunShadowMap; 1 without one);
 //   output      L over B, except where a real plane is nearer than the building by more than
-//               occlusion_margin (the real surface hides it).
+//               occlusion_margin (the real surface hides it);
+//   faded       (1 − α) camera(p) + α output, α = CompositeInput::opacity: α = 1 is the output,
+//               α = 0 the camera image unchanged (no building, no shadows).
 // The building is rendered with a pinhole camera and distorted to the lens through a per-pixel
 // ray table (lens_remap.hpp); the camera's pixels are never resampled.
 //
@@ -95,6 +97,11 @@ struct CompositeInput {
   // unshadowed (CompositeStats says so).
   const SunShadowMap* sun_shadow = nullptr;
   std::optional<PhotometricMatch> photometric;   // overrides CompositorOptions::photometric
+  // α: how much of the virtual content (the building and its shadows) is shown, a linear blend
+  // of the composite towards the camera image (the live service fades the building out when
+  // tracking is lost, and in again when it returns). Clamped to [0, 1]; NaN counts as 0, since
+  // a building drawn where it may be wrong is worse than none.
+  double opacity = 1.0;
 };
 
 struct CompositeStats {

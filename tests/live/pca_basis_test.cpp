@@ -1,0 +1,227 @@
+// blend.basis pca: the service blends each plane's PCA form (K + 1 layers) instead of its full
+// basis. A copy of the tests' bake, compressed (baker::compress_bake, --pca-variance 0.999), runs
+// with blend.basis pca; its shadow ratios agree with the full form's within the manifest's
+// max_error, and its frames with the compositor driven directly with the PCA form's T. A bake
+// without the PCA form, and 8-bit storage with it, are refused naming the config's field.
+// Measured figures are printed ("measured:" lines).
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "live_fixture.hpp"
+#include "skylit/baker/bake_job.hpp"
+#include "skylit/base/error.hpp"
+#include "skylit/geom/dome.hpp"
+#include "skylit/render/sun_shadow_map.hpp"
+#include "skylit/sky/sky_estimate.hpp"
+#include "skylit/track/pose.hpp"
+
+namespace skylit::live_test {
+namespace {
+
+// The rig's config with `bake:` pointing at `bake_dir` and `blend` as given.
+void write_config_with_bake(const Rig& rig, const fs::path& bake_dir, const std::string& blend) {
+  std::string text = rig.config_text();
+  const std::string original = "bake: " + quoted(BakedSite::get().dir / "bake") + "\n";
+  const std::size_t at = text.find(original);
+  ASSERT_NE(at, std::string::npos) << text;
+  text.replace(at, original.size(), "bake: " + quoted(bake_dir) + "\n");
+  std::ofstream(rig.config_file()) << text << blend;
+}
+
+// A copy of the tests' bake beside the rig, with each plane's PCA form added.
+fs::path compressed_bake(const Rig& rig) {
+  const fs::path copy = rig.dir() / "bake";
+  fs::copy(BakedSite::get().dir / "bake", copy, fs::copy_options::recursive);
+  bake::PcaOptions options;
+  options.variance = 0.999;
+  baker::compress_bake(copy, options, nullptr);
+  return copy;
+}
+
+std::string load_error(const fs::path& config_file, bool run_service) {
+  try {
+    const live::LiveConfig config = live::load_live_config(config_file);
+    if (run_service) live::Service service(config, quiet_options());
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// The largest |a − b| over two T images (RGB floats).
+double largest_difference(const std::vector<float>& a, const std::vector<float>& b) {
+  double worst = 0;
+  for (std::size_t k = 0; k < a.size() && k < b.size(); ++k) worst = std::max(worst, std::abs(double(a[k]) - double(b[k])));
+  return worst;
+}
+
+// blend.basis lean: the layers that hold a shadow, and one of ones for the unshadowed light.
+TEST(LivePcaBasis, LeanFormBlendsOnlyTheShadowedLayers) {
+  RigOptions rig_options;
+  const Rig rig(rig_options);
+  write_config_with_bake(rig, BakedSite::get().dir / "bake", "blend:\n  device: cpu\n  basis: lean\n");
+  const live::LiveConfig config = rig.config();
+  ASSERT_EQ(config.blend.basis, live::BlendSettings::Basis::Lean);
+  live::ServiceOptions options = quiet_options();
+  options.frames = 10;
+  RunningService running(config, options);
+  running.join();
+  ASSERT_EQ(running.error(), "");
+  const nlohmann::json status = running.status();
+  EXPECT_EQ(status["blend"]["basis"], "lean") << status["blend"].dump(2);
+  const bake::Manifest manifest = bake::read_manifest(BakedSite::get().dir / "bake");
+  ASSERT_EQ(status["blend"]["planes"].size(), manifest.planes.size());
+  for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
+    const nlohmann::json& plane = status["blend"]["planes"][j];
+    const render::BasisImages lean = render::load_basis(BakedSite::get().dir / "bake", manifest, static_cast<int>(j),
+                                                        render::BasisForm::Lean);
+    EXPECT_EQ(plane["layers"], lean.layers);
+    EXPECT_LE(plane["layers"].get<int>(), static_cast<int>(manifest.layer_count()));
+    std::printf("measured: plane '%s': lean form of %d layers for %zu\n", manifest.planes[j].plane.name.c_str(),
+                lean.layers, manifest.layer_count());
+  }
+}
+
+TEST(LivePcaBasis, CompressedBakeBlendsItsPcaFormWithinItsMaxError) {
+  RigOptions rig_options;
+  const Rig rig(rig_options);
+  const fs::path bake_dir = compressed_bake(rig);
+  write_config_with_bake(rig, bake_dir, "blend:\n  device: cpu\n  basis: pca\n");
+  const live::LiveConfig config = rig.config();
+  ASSERT_EQ(config.blend.basis, live::BlendSettings::Basis::Pca);
+  live::ServiceOptions options = quiet_options();
+  options.frames = 20;
+  options.record = rig.dir() / "recorded";
+  nlohmann::json status;
+  {
+    RunningService running(config, options);
+    running.join();
+    ASSERT_EQ(running.error(), "");
+    status = running.status();
+  }
+
+  // Status: the form and the layers each plane blends (K + 1 of the dome's n).
+  const bake::Manifest manifest = bake::read_manifest(bake_dir);
+  const nlohmann::json& blend = status["blend"];
+  EXPECT_EQ(blend["basis"], "pca") << blend.dump(2);
+  ASSERT_EQ(blend["planes"].size(), manifest.planes.size()) << blend.dump(2);
+  for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
+    const bake::PlaneRecord& record = manifest.planes[j];
+    ASSERT_TRUE(record.pca);
+    const nlohmann::json& plane = blend["planes"][j];
+    EXPECT_EQ(plane["name"], record.plane.name);
+    EXPECT_EQ(plane["layers"], record.pca->components + 1);
+    EXPECT_EQ(plane["source_layers"], manifest.faces.size());
+    EXPECT_EQ(plane["max_error"], record.pca->max_error);
+    std::printf("measured: plane '%s': PCA form of %d + 1 layers for %zu, max_error %.4g\n", record.plane.name.c_str(),
+                record.pca->components, manifest.faces.size(), record.pca->max_error);
+  }
+  EXPECT_GT(status["blends"]["run"].get<std::int64_t>(), 0);
+  EXPECT_LT(status["frames_without_sky"].get<std::int64_t>(), 15) << "the sky came too late to compare frames";
+
+  // The same sky without the service: T of each plane from both forms, and the composite with
+  // the PCA form's T (the CPU blend with the sun's shadow map's visibility, as the service's).
+  const gpu::HeadlessContext context;
+  const scene::Site site = scene::load_site(config.site);
+  const scene::Mesh mesh = scene::load_model(site.model, site.up, site.scale);
+  std::vector<std::size_t> shape;
+  const std::vector<float> transfer = bake::read_npy(bake_dir / manifest.transfer_file, &shape);
+  const geom::Dome dome(manifest.plan.frequency);
+  sky::SkyEstimateOptions estimate_options;
+  estimate_options.table.basis = manifest.plan.basis;
+  const sky::SkyEstimator estimator(sky::load_calibration(config.sky.calibration), dome, estimate_options);
+  const sky::SkyEstimate estimate =
+      estimator.estimate(sky::linearise(sky::read_sky_image(rig.dir() / "sky" / "frame_0000.exr"), sky::ResponseCurve::linear(8), {}));
+  ASSERT_TRUE(estimate.sun) << estimate.sun_reason;
+  const std::vector<Vector3d> S = sky::layer_radiances(estimate.luminance);
+  const render::SunLight sun{estimate.sun->direction, estimate.sun->energy};
+  std::vector<geom::Plane> planes;
+  for (const auto& record : manifest.planes) planes.push_back(record.plane);
+  render::SunShadowMap shadow_map(mesh, planes);
+  shadow_map.update(sun.direction, std::max(estimate.sun->angular_radius, 0.0047));
+
+  std::vector<gpu::Texture> textures;
+  std::vector<GLuint> names;
+  for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
+    const int plane = static_cast<int>(j);
+    const std::vector<float> visibility = shadow_map.read_visibility(plane);
+    std::vector<float> full_t, pca_t;
+    int width = 0, height = 0;
+    for (const render::BasisForm form : {render::BasisForm::Full, render::BasisForm::Pca}) {
+      const render::BasisImages basis = render::load_basis(bake_dir, manifest, plane, form);
+      std::vector<float> rgb(basis.texel_count() * 3);
+      render::blend_cpu(basis, render::blend_weights(basis, S, sun), visibility, rgb);
+      (form == render::BasisForm::Pca ? pca_t : full_t) = std::move(rgb);
+      width = basis.width;
+      height = basis.height;
+    }
+    const double difference = largest_difference(pca_t, full_t);
+    const double max_error = manifest.planes[j].pca->max_error;
+    std::printf("measured: plane '%s': max |T_pca − T_full| %.4g (manifest max_error %.4g)\n",
+                manifest.planes[j].plane.name.c_str(), difference, max_error);
+    // max_error bounds |F − F̂| on the stored forms; T blends them in float (a few ulps more).
+    EXPECT_LE(difference, max_error + 1e-5);
+    textures.push_back(render::upload_shadow_ratio(pca_t, width, height));
+    names.push_back(textures.back().get());
+  }
+
+  const auto pose = track::open_pose_source(config.pose)->pose_at(0.0);
+  ASSERT_TRUE(pose);
+  render::CompositeInput input;
+  input.pose.R_site_from_camera = pose->R_site_from_camera.toRotationMatrix();
+  input.pose.t_site_from_camera = pose->t_site_from_camera;
+  input.sky = S;
+  input.sun = sun;
+  input.shadow_ratios = names;
+  input.sun_shadow = &shadow_map;
+  render::Compositor compositor(site, mesh, manifest, transfer, sky::load_calibration(config.camera.calibration));
+  std::vector<cv::Mat> direct;
+  for (const cv::Mat& camera : rig.camera_frames()) {
+    input.camera = camera;
+    direct.push_back(compositor.composite(input));
+  }
+  // Each recorded frame after the sky came against the nearest direct composite (the frame it
+  // was made from): the service's CPU blend of the PCA form is the same sum as blend_cpu's.
+  int worst = 0, compared = 0;
+  for (int k = static_cast<int>(status["frames_without_sky"].get<std::int64_t>()); k < 20; ++k) {
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%06d.png", k);
+    const cv::Mat recorded = cv::imread((rig.dir() / "recorded" / name).string(), cv::IMREAD_UNCHANGED);
+    ASSERT_FALSE(recorded.empty()) << name;
+    int nearest = 255;
+    for (const cv::Mat& d : direct) nearest = std::min(nearest, max_difference(recorded, d));
+    worst = std::max(worst, nearest);
+    ++compared;
+  }
+  std::printf("measured: blend.basis pca: %d frames, max |service − direct with the PCA form's T| %d codes\n", compared, worst);
+  EXPECT_GT(compared, 4);
+  EXPECT_LE(worst, 2);
+}
+
+TEST(LivePcaBasis, BakeWithoutPcaFormIsRefusedNamingTheFieldAndTheFix) {
+  const Rig rig;
+  write_config_with_bake(rig, BakedSite::get().dir / "bake", "blend:\n  basis: pca\n");
+  ASSERT_FALSE(bake::read_manifest(BakedSite::get().dir / "bake").planes.front().pca) << "the tests' bake has a PCA form";
+  const std::string message = load_error(rig.config_file(), true);
+  EXPECT_NE(message.find(rig.config_file().string()), std::string::npos) << message;
+  EXPECT_NE(message.find("blend.basis"), std::string::npos) << message;
+  EXPECT_NE(message.find("skylit-bake compress"), std::string::npos) << message;
+  EXPECT_NE(message.find("--pca-variance 0.999"), std::string::npos) << message;
+}
+
+TEST(LivePcaBasis, EightBitStorageWithPcaIsRefused) {
+  const Rig rig;
+  write_config_with_bake(rig, BakedSite::get().dir / "bake", "blend:\n  device: gpu\n  storage: unorm8\n  basis: pca\n");
+  const std::string message = load_error(rig.config_file(), false);
+  EXPECT_NE(message.find(rig.config_file().string()), std::string::npos) << message;
+  EXPECT_NE(message.find("blend.storage"), std::string::npos) << message;
+  EXPECT_NE(message.find("negative"), std::string::npos) << message;
+  EXPECT_NE(message.find("storage: half"), std::string::npos) << message;
+}
+
+}  // namespace
+}  // namespace skylit::live_test
