@@ -8,6 +8,7 @@
 
 #include "skylit/base/error.hpp"
 #include "skylit/baker/bake_job.hpp"
+#include "skylit/baker/error_budget.hpp"
 
 namespace {
 
@@ -66,6 +67,12 @@ int main(int argc, char** argv) {
   app.add_option("--shadow-map", options.shadow_map_resolution, "raster: shadow-map resolution (default: from the planes)");
   app.add_option("--threads", options.threads, "raytrace: threads (default: all cores)");
   app.add_option("--shader-dir", options.shader_dir, "where the GLSL shaders are (default: installed or source tree)");
+  skylit::baker::ErrorBudgetOptions budget;
+  app.add_option("--error-budget", budget.budget,
+                 "pick the cheapest dome (frequency, samples) whose shadow ratios stay within this RMS error of a "
+                 "denser bake over clear and overcast test skies (docs/baker.md)");
+  app.add_option("--latitude", budget.latitude_deg, "with --error-budget: the site's latitude for the test skies' sun")
+      ->capture_default_str();
   bool no_previews = false;
   app.add_flag("--no-previews", no_previews, "skip the preview contact sheets");
   app.add_flag("-q,--quiet", quiet, "only warnings and errors");
@@ -139,6 +146,17 @@ int main(int argc, char** argv) {
     options.shard = shard.empty() ? skylit::baker::shard_from_environment()
                                   : std::optional(skylit::baker::parse_shard(shard));
     options.previews = !no_previews;
+    if (app.count("--error-budget")) {
+      if (app.count("--samples")) {
+        throw skylit::InputError("options --error-budget and --samples: the budget picks the samples. Fix: drop one");
+      }
+      skylit::baker::run_error_budget_bake(options, budget);
+      return 0;
+    }
+    if (app.count("--latitude")) {
+      throw skylit::InputError("option --latitude only sets the test skies of --error-budget. Fix: drop it, or add "
+                               "--error-budget E");
+    }
     skylit::baker::run_bake(options);
     return 0;
   } catch (const skylit::InputError& e) {

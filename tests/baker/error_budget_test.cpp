@@ -1,0 +1,170 @@
+// --error-budget on a box over a ground plane: a generous budget takes the cheapest dome, a
+// tight one a denser dome, an impossible one fails naming the best it got.
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "skylit/bake/format.hpp"
+#include "skylit/base/error.hpp"
+#include "skylit/baker/error_budget.hpp"
+
+namespace skylit::baker {
+namespace {
+
+namespace fs = std::filesystem;
+
+class ErrorBudget : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new fs::path(fs::temp_directory_path() /
+                        ("skylit-budget-" + std::to_string(::getpid()) + "-" +
+                         std::to_string(std::chrono::steady_clock::now().time_since_epoch().count())));
+    fs::create_directories(*dir_);
+    std::ofstream(*dir_ / "box.obj") << "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\n"
+                                        "v -1 -1 2\nv 1 -1 2\nv 1 1 2\nv -1 1 2\n"
+                                        "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+    std::ofstream(*dir_ / "site.yaml") << "scene:\n  model: box.obj\n  up: z\n  scale: 1\n"
+                                          "dome:\n  frequency: 2\n"
+                                          "planes:\n"
+                                          "  - name: ground\n    origin: [-6, -6, 0.01]\n    u: [12, 0, 0]\n"
+                                          "    v: [0, 12, 0]\n    resolution: [24, 24]\n"
+                                          "  - name: north_wall\n    origin: [1, 1.01, 0]\n    u: [-2, 0, 0]\n"
+                                          "    v: [0, 0, 2]\n    resolution: [8, 8]\n";
+    quiet_ = std::fopen("/dev/null", "w");
+  }
+  static void TearDownTestSuite() {
+    std::error_code ignored;
+    fs::remove_all(*dir_, ignored);
+    delete dir_;
+    std::fclose(quiet_);
+  }
+
+  static BakeOptions bake_options(const std::string& out) {
+    BakeOptions o;
+    o.site_file = *dir_ / "site.yaml";
+    o.out_dir = *dir_ / out;
+    o.method = "raytrace";
+    o.previews = false;
+    o.threads = 2;
+    return o;
+  }
+  // Small candidates and reference so that the suite stays fast on two cores.
+  static ErrorBudgetOptions budget_options(double budget) {
+    ErrorBudgetOptions o;
+    o.budget = budget;
+    o.latitude_deg = 35.0;
+    o.frequencies = {2, 4};
+    o.samples = {1, 4};
+    o.reference_frequency = 6;
+    o.reference_samples = 16;
+    o.scratch_dir = *dir_ / "scratch";
+    return o;
+  }
+
+  static fs::path* dir_;
+  static std::FILE* quiet_;
+  static double cheapest_rms_;  // of ν=2, 1 sample, from the generous run
+};
+
+fs::path* ErrorBudget::dir_ = nullptr;
+std::FILE* ErrorBudget::quiet_ = nullptr;
+double ErrorBudget::cheapest_rms_ = -1.0;
+
+TEST_F(ErrorBudget, CandidatesGoCheapestFirstFewerLayersOnATie) {
+  ErrorBudgetOptions o;
+  const std::vector<CandidateResult> c = budget_candidates(o);
+  ASSERT_EQ(c.size(), 9u);
+  EXPECT_EQ(c[0].frequency, 2);
+  EXPECT_EQ(c[0].samples, 1);
+  for (std::size_t i = 1; i < c.size(); ++i) {
+    EXPECT_LE(c[i - 1].cost(), c[i].cost());
+    if (c[i - 1].cost() == c[i].cost()) {
+      EXPECT_LT(c[i - 1].layers, c[i].layers);
+    }
+  }
+  // ν=2 × 4 samples and ν=4 × 1 sample cost alike: the 40-layer dome comes first.
+  EXPECT_EQ(c[1].frequency, 2);
+  EXPECT_EQ(c[1].samples, 4);
+}
+
+TEST_F(ErrorBudget, GenerousBudgetTakesTheCheapestDome) {
+  const BakeOptions bake = bake_options("generous");
+  const ErrorBudgetReport report = run_error_budget_bake(bake, budget_options(0.5), quiet_);
+  ASSERT_TRUE(report.picked.has_value());
+  ASSERT_EQ(report.tried.size(), 1u);
+  const CandidateResult& picked = report.tried[*report.picked];
+  EXPECT_EQ(picked.frequency, 2);
+  EXPECT_EQ(picked.samples, 1);
+  EXPECT_GT(picked.rms, 0.0);
+  EXPECT_LE(picked.rms, 0.5);
+  EXPECT_GE(picked.max_abs, picked.rms);
+  EXPECT_NE(report.verdict.find("picked ν=2, samples=1"), std::string::npos) << report.verdict;
+  EXPECT_GE(report.skies.size(), 10u);  // clear skies across the year at 35°N plus overcast
+  cheapest_rms_ = picked.rms;
+
+  const bake::VerifyReport verified = bake::verify(bake.out_dir);
+  ASSERT_TRUE(verified.ok);
+  EXPECT_EQ(verified.manifest.plan.frequency, 2);
+  EXPECT_EQ(verified.manifest.plan.samples, 1);
+  EXPECT_FALSE(fs::exists(*dir_ / "scratch"));
+}
+
+TEST_F(ErrorBudget, TightBudgetTakesADenserDome) {
+  ASSERT_GT(cheapest_rms_, 0.0) << "needs GenerousBudgetTakesTheCheapestDome first";
+  const BakeOptions bake = bake_options("tight");
+  const ErrorBudgetReport report = run_error_budget_bake(bake, budget_options(0.6 * cheapest_rms_), quiet_);
+  ASSERT_TRUE(report.picked.has_value());
+  ASSERT_GE(report.tried.size(), 2u);
+  const CandidateResult& picked = report.tried[*report.picked];
+  EXPECT_GT(picked.cost(), report.tried[0].cost());
+  EXPECT_LE(picked.rms, 0.6 * cheapest_rms_);
+  for (std::size_t i = 0; i < *report.picked; ++i) {
+    EXPECT_FALSE(report.tried[i].within_budget);
+  }
+  EXPECT_NE(report.verdict.find("would not do"), std::string::npos) << report.verdict;
+  const bake::Manifest manifest = bake::read_manifest(bake.out_dir);
+  EXPECT_EQ(manifest.plan.frequency, picked.frequency);
+  EXPECT_EQ(manifest.plan.samples, picked.samples);
+}
+
+TEST_F(ErrorBudget, ImpossibleBudgetFailsNamingTheBest) {
+  const BakeOptions bake = bake_options("impossible");
+  try {
+    run_error_budget_bake(bake, budget_options(1e-9), quiet_);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("no candidate meets"), std::string::npos) << message;
+    EXPECT_NE(message.find("the best, ν="), std::string::npos) << message;
+  }
+  EXPECT_FALSE(fs::exists(bake.out_dir));
+  EXPECT_FALSE(fs::exists(*dir_ / "scratch"));
+}
+
+TEST_F(ErrorBudget, RefusesWhatItCannotDo) {
+  BakeOptions bake = bake_options("refused");
+  EXPECT_THROW(run_error_budget_bake(bake, budget_options(0.0), quiet_), InputError);
+  EXPECT_THROW(run_error_budget_bake(bake, budget_options(-1.0), quiet_), InputError);
+  ErrorBudgetOptions bad_latitude = budget_options(0.1);
+  bad_latitude.latitude_deg = 91.0;
+  EXPECT_THROW(run_error_budget_bake(bake, bad_latitude, quiet_), InputError);
+  bake.frequency = 4;
+  EXPECT_THROW(run_error_budget_bake(bake, budget_options(0.1), quiet_), InputError);
+  bake.frequency.reset();
+  bake.basis = geom::DomeBasis::Corners;
+  EXPECT_THROW(run_error_budget_bake(bake, budget_options(0.1), quiet_), InputError);
+  bake.basis.reset();
+  fs::create_directories(bake.out_dir);
+  std::ofstream(bake.out_dir / "keep.txt") << "something of the user's";
+  EXPECT_THROW(run_error_budget_bake(bake, budget_options(0.1), quiet_), InputError);
+  EXPECT_TRUE(fs::exists(bake.out_dir / "keep.txt"));
+}
+
+}  // namespace
+}  // namespace skylit::baker
