@@ -67,9 +67,19 @@ class ErrorBudget : public ::testing::Test {
     return o;
   }
 
+  // RMS of the cheapest candidate (ν=2, 1 sample): from the generous run when it ran in this
+  // process, else from a run of its own (each test may run alone, as ctest runs them).
+  static double cheapest_rms() {
+    if (cheapest_rms_ < 0.0) {
+      const ErrorBudgetReport report = run_error_budget_bake(bake_options("probe"), budget_options(0.5), quiet_);
+      if (report.picked) cheapest_rms_ = report.tried[*report.picked].rms;
+    }
+    return cheapest_rms_;
+  }
+
   static fs::path* dir_;
   static std::FILE* quiet_;
-  static double cheapest_rms_;  // of ν=2, 1 sample, from the generous run
+  static double cheapest_rms_;  // of ν=2, 1 sample
 };
 
 fs::path* ErrorBudget::dir_ = nullptr;
@@ -116,14 +126,15 @@ TEST_F(ErrorBudget, GenerousBudgetTakesTheCheapestDome) {
 }
 
 TEST_F(ErrorBudget, TightBudgetTakesADenserDome) {
-  ASSERT_GT(cheapest_rms_, 0.0) << "needs GenerousBudgetTakesTheCheapestDome first";
+  const double cheapest = cheapest_rms();
+  ASSERT_GT(cheapest, 0.0);
   const BakeOptions bake = bake_options("tight");
-  const ErrorBudgetReport report = run_error_budget_bake(bake, budget_options(0.6 * cheapest_rms_), quiet_);
+  const ErrorBudgetReport report = run_error_budget_bake(bake, budget_options(0.6 * cheapest), quiet_);
   ASSERT_TRUE(report.picked.has_value());
   ASSERT_GE(report.tried.size(), 2u);
   const CandidateResult& picked = report.tried[*report.picked];
   EXPECT_GT(picked.cost(), report.tried[0].cost());
-  EXPECT_LE(picked.rms, 0.6 * cheapest_rms_);
+  EXPECT_LE(picked.rms, 0.6 * cheapest);
   for (std::size_t i = 0; i < *report.picked; ++i) {
     EXPECT_FALSE(report.tried[i].within_budget);
   }

@@ -10,13 +10,6 @@
 namespace skylit::live {
 namespace {
 
-// MarkerTracker's rule for keeping a solve (marker_tracker.hpp), repeated here to count the
-// accepted and refused solves for /status.
-bool accepted(const track::MarkerSolve& solve, const track::MarkerTrackerOptions& options) {
-  return solve.pose && !solve.high_error && (options.accept_ambiguous || !solve.ambiguous) &&
-         (options.accept_single_distant || !solve.single_distant_tag);
-}
-
 nlohmann::json pose_json(const track::Pose& pose) {
   const Eigen::Quaterniond& q = pose.R_site_from_camera;
   const Eigen::Vector3d& t = pose.t_site_from_camera;
@@ -79,7 +72,7 @@ std::string to_string(BuildingFade::State state) {
   return "shown";
 }
 
-LiveTracking::LiveTracking(const LiveConfig& config, const sky::CameraCalibration& hmd) : marker_options_(config.pose.markers) {
+LiveTracking::LiveTracking(const LiveConfig& config, const sky::CameraCalibration& hmd) {
   if (config.pose.kind != track::PoseConfig::Kind::Markers) {
     configured_ = track::open_pose_source(config.pose);
     return;
@@ -109,7 +102,7 @@ void LiveTracking::on_camera_frame(const cv::Mat& image, double timestamp) {
   if (!tracker_) return;
   try {
     const track::MarkerSolve solve = tracker_->process(tracker_image(image), timestamp);
-    if (!accepted(solve, marker_options_)) {
+    if (!tracker_->accepts(solve)) {
       ++solves_rejected_;
       return;
     }
@@ -176,7 +169,7 @@ nlohmann::json LiveTracking::report() const {
     latest["tags_unknown"] = solve->tags_unknown;
     latest["reprojection_error_px"] = solve->pose ? nlohmann::json(solve->rms_px) : nlohmann::json(nullptr);
     latest["ambiguity"] = solve->ambiguity;
-    latest["accepted"] = accepted(*solve, marker_options_);
+    latest["accepted"] = tracker_->accepts(*solve);
     latest["flags"] = solve->describe_flags();
     latest["pose"] = solve->pose ? pose_json(*solve->pose) : nlohmann::json(nullptr);
     markers["latest"] = latest;
@@ -213,7 +206,7 @@ nlohmann::json LiveTracking::report() const {
 void LiveTracking::add_flags(std::vector<std::string>& flags) const {
   if (!tracker_) return;
   const auto solve = tracker_->latest_solve();
-  if (solve && !accepted(*solve, marker_options_)) flags.push_back("markers_not_accepted");
+  if (solve && !tracker_->accepts(*solve)) flags.push_back("markers_not_accepted");
   if (tracker_errors_ > 0) flags.push_back("tracker_errors");
   {
     const std::lock_guard lock(mutex_);

@@ -59,7 +59,6 @@ class LiveTracking {
   std::size_t feed_imu(double until);
   std::optional<track::ImuState> imu_state() const;
 
-  const track::MarkerTrackerOptions marker_options_;
   std::unique_ptr<track::PoseSource> configured_;      // pose.kind fixed or track
   std::unique_ptr<track::MarkerTracker> tracker_;      // pose.kind markers
   std::unique_ptr<track::PoseFusion> fusion_;          // markers with imu or fusion

@@ -53,7 +53,7 @@ MarkerSolve MarkerTracker::process(const cv::Mat& frame, double timestamp) {
   if (solve.alternative) solve.alternative->timestamp = timestamp;
   const std::lock_guard lock(mutex_);
   ++frames_;
-  if (accepted(solve, options_)) accepted_ = solve.pose;
+  if (accepts(solve)) accepted_ = solve.pose;
   latest_ = solve;
   return solve;
 }
@@ -81,6 +81,8 @@ std::string MarkerTracker::describe() const {
   }
   return text;
 }
+
+bool MarkerTracker::accepts(const MarkerSolve& solve) const { return accepted(solve, options_); }
 
 std::optional<MarkerSolve> MarkerTracker::latest_solve() const {
   const std::lock_guard lock(mutex_);

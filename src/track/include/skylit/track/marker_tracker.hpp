@@ -39,6 +39,8 @@ class MarkerTracker final : public PoseSource {
   // The latest accepted pose, stamped `timestamp`, when its frame is at most max_age away.
   std::optional<Pose> pose_at(double timestamp) override;
   std::string describe() const override;
+  // Whether a solve is kept as the pose, by the rule above and these options.
+  bool accepts(const MarkerSolve& solve) const;
   // The latest solve (accepted or not), stamped with its frame's time.
   std::optional<MarkerSolve> latest_solve() const;
   const MarkerMap& map() const { return map_; }
