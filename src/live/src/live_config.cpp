@@ -15,7 +15,8 @@ constexpr std::array<std::string_view, 13> kTopKeys{"site",  "bake",        "sky
 constexpr std::array<std::string_view, 7> kSkyKeys{"calibration", "source", "response", "rate",
                                                    "sun", "smoothing", "stale_after"};
 constexpr std::array<std::string_view, 2> kCameraKeys{"calibration", "source"};
-constexpr std::array<std::string_view, 6> kBlendKeys{"device", "threads", "storage", "basis", "skip_threshold", "change_threshold"};
+constexpr std::array<std::string_view, 7> kBlendKeys{"device",         "threads",          "storage",    "basis",
+                                                     "skip_threshold", "change_threshold", "cull_planes"};
 constexpr std::array<std::string_view, 3> kBasisForms{"full", "lean", "pca"};
 constexpr std::array<std::string_view, 1> kTrackingKeys{"fade_s"};
 constexpr std::array<std::string_view, 3> kBlendDevices{"auto", "cpu", "gpu"};
@@ -141,6 +142,7 @@ LiveConfig load_live_config(const std::filesystem::path& file) {
     }
     if (auto n = YamlReader::optional(blend, "skip_threshold")) c.blend.skip_threshold = r.non_negative(n, "blend.skip_threshold", "T units, e.g. 0.002");
     if (auto n = YamlReader::optional(blend, "change_threshold")) c.blend.change_threshold = r.non_negative(n, "blend.change_threshold", "T units, e.g. 0.002");
+    if (auto n = YamlReader::optional(blend, "cull_planes")) c.blend.cull_planes = r.boolean(n, "blend.cull_planes", "true or false");
   }
 
   if (auto photometric = YamlReader::optional(root, "photometric")) {

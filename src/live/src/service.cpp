@@ -37,6 +37,7 @@
 #include "skylit/render/cpu_blend.hpp"
 #include "skylit/render/gpu_blend.hpp"
 #include "skylit/render/hmd_distortion.hpp"
+#include "skylit/render/plane_view.hpp"
 #include "skylit/render/sun_shadow_map.hpp"
 #include "skylit/scene/site.hpp"
 #include "skylit/sky/calibration.hpp"
@@ -71,8 +72,13 @@ struct SkyState {
   double estimate_ms = 0;
   // With the blend on the CPU: T of every plane (RGBA floats, CpuShadowRatios::rgba), blended on
   // the sky thread for this S and sun. A plane's pointer changes only when its blend ran, so the
-  // render thread uploads what changed, even when it missed the skies in between.
+  // render thread uploads what changed, even when it missed the skies in between. Null for a
+  // plane out of view (blend.cull_planes): the render thread blends it when it comes into view.
   std::vector<std::shared_ptr<const std::vector<float>>> shadow_ratios;
+  // The sun's visibility V over each plane behind this sky's blends (empty without a sun shadow
+  // map) and its revision: what the render thread needs to blend a plane the sky thread left out.
+  std::vector<std::shared_ptr<const std::vector<float>>> sun_visibility;
+  std::uint64_t sun_revision = 0;
   double cpu_blend_ms = 0;        // the CPU blend of every plane
   double sun_visibility_ms = 0;   // the sky thread's sun shadow map and V (when the sun moved)
 };
@@ -158,6 +164,23 @@ class ArrivalTimes {
   mutable std::mutex mutex_;
   std::array<std::pair<double, double>, 8> entries_ = empty_entries();  // (frame timestamp, arrival); arrival < 0: unused
   std::size_t next_ = 0;
+};
+
+// One plane's view of the current frame (blend.cull_planes): the render thread writes in_view
+// from each frame's pose, the sky thread reads it to leave out the planes no view can see.
+struct PlaneView {
+  std::atomic<bool> in_view{true};                  // true until a pose says otherwise
+  std::atomic<std::int64_t> blends_out_of_view{0};  // blends of a new sky left out, the plane out of view
+  std::atomic<std::int64_t> blends_on_return{0};    // blends run as the plane came back into view
+};
+
+// With the blend on the CPU: one plane's blender, used by the sky thread for each new sky and by
+// the render thread for a plane that comes into view with T of an older sky.
+struct SharedCpuBlend {
+  SharedCpuBlend(const render::BasisImages& basis, double skip_threshold, double change_threshold)
+      : ratios(basis, skip_threshold, change_threshold) {}
+  std::mutex mutex;
+  CpuShadowRatios ratios;
 };
 
 struct Counters {
@@ -505,6 +528,10 @@ struct Service::State {
   std::string renderer;             // GL_RENDERER; written before blend_decided is set
   // The render thread has a sky: the building and its shadows are drawn (before: the camera image).
   std::atomic<bool> sky_drawn{false};
+  // One per plane (manifest order).
+  std::unique_ptr<PlaneView[]> plane_views;
+  // With the blend on the CPU: made by the sky thread before it is ready, then shared.
+  std::vector<std::unique_ptr<SharedCpuBlend>> cpu_blends;
 
   // Hand-over.
   Mailbox<SkyState> sky_box;
@@ -555,6 +582,7 @@ Service::Service(const LiveConfig& config, const ServiceOptions& options) : stat
                                                                                     : render::BasisForm::Full;
     s.bases.push_back(render::load_basis(config.bake, s.manifest, static_cast<int>(j), form));
   }
+  s.plane_views = std::make_unique<PlaneView[]>(s.bases.size());
   s.sky_calibration = sky::load_calibration(config.sky.calibration);
   s.hmd_calibration = sky::load_calibration(config.camera.calibration);
   s.dome = std::make_unique<geom::Dome>(s.manifest.plan.frequency);
@@ -603,17 +631,17 @@ void Service::State::sky_loop(std::promise<void>& ready) {
   // the building's own sun shadow; both give the same V).
   const bool cpu = blend_on_cpu;
   std::unique_ptr<render::BlendWorkers> workers;
-  std::vector<CpuShadowRatios> ratios;
   std::optional<gpu::HeadlessContext> context;
   std::unique_ptr<render::SunShadowMap> shadow_map;
-  std::vector<std::vector<float>> visibility;
+  std::vector<std::shared_ptr<const std::vector<float>>> visibility;
   std::uint64_t sun_revision = 0;
   Eigen::Vector3d shadow_direction = Eigen::Vector3d::Zero();
   try {
     if (cpu) {
       workers = std::make_unique<render::BlendWorkers>(config.blend.threads);
-      ratios.reserve(bases.size());
-      for (const auto& basis : bases) ratios.emplace_back(basis, config.blend.skip_threshold, config.blend.change_threshold);
+      for (const auto& basis : bases) {
+        cpu_blends.push_back(std::make_unique<SharedCpuBlend>(basis, config.blend.skip_threshold, config.blend.change_threshold));
+      }
       if (config.sky.sun) {
         context.emplace();
         shadow_map = std::make_unique<render::SunShadowMap>(mesh, bake_planes(manifest));
@@ -686,16 +714,27 @@ void Service::State::sky_loop(std::promise<void>& ready) {
           shadow_map->update(state.sun->direction, shadow_angular_radius(state.sun_angular_radius));
           shadow_direction = state.sun->direction;
           ++sun_revision;
-          for (std::size_t j = 0; j < visibility.size(); ++j) visibility[j] = shadow_map->read_visibility(static_cast<int>(j));
+          for (std::size_t j = 0; j < visibility.size(); ++j) {
+            visibility[j] = std::make_shared<const std::vector<float>>(shadow_map->read_visibility(static_cast<int>(j)));
+          }
           state.sun_visibility_ms = std::chrono::duration<double, std::milli>(Clock::now() - sun_start).count();
         }
         const auto blend_start = Clock::now();
-        for (std::size_t j = 0; j < ratios.size(); ++j) {
+        state.sun_visibility = visibility;
+        state.sun_revision = sun_revision;
+        for (std::size_t j = 0; j < cpu_blends.size(); ++j) {
+          if (config.blend.cull_planes && !plane_views[j].in_view) {
+            ++plane_views[j].blends_out_of_view;
+            state.shadow_ratios.push_back(nullptr);
+            continue;
+          }
           const render::BlendWeights weights = render::blend_weights(bases[j], state.S, state.sun);
-          const std::span<const float> sun_visibility = shadow_map ? std::span<const float>(visibility[j]) : std::span<const float>();
-          const bool ran = ratios[j].blend(weights, sun_visibility, sun_revision, workers.get());
+          const std::span<const float> sun_visibility =
+              shadow_map && visibility[j] ? std::span<const float>(*visibility[j]) : std::span<const float>();
+          std::lock_guard blend_lock(cpu_blends[j]->mutex);
+          const bool ran = cpu_blends[j]->ratios.blend(weights, sun_visibility, sun_revision, workers.get());
           ++(ran ? counters.blends_run : counters.blends_skipped);
-          state.shadow_ratios.push_back(ratios[j].rgba());
+          state.shadow_ratios.push_back(cpu_blends[j]->ratios.rgba());
         }
         state.cpu_blend_ms = std::chrono::duration<double, std::milli>(Clock::now() - blend_start).count();
         std::lock_guard lock(stats_mutex);
@@ -796,7 +835,8 @@ std::int64_t Service::run() {
   render::SunShadowMap shadow_map(s.mesh, planes);
   std::vector<std::unique_ptr<render::GpuBlender>> blenders;     // blend.device gpu
   std::vector<ShadowRatioTexture> cpu_ratios;                     // blend.device cpu
-  std::vector<const std::vector<float>*> uploaded(s.bases.size(), nullptr);
+  // The CPU blend's T each texture holds (kept alive, so that a new T never shares its address).
+  std::vector<std::shared_ptr<const std::vector<float>>> uploaded(s.bases.size());
   std::vector<GLuint> ratios;
   if (cpu) {
     for (const auto& basis : s.bases) {
@@ -858,6 +898,27 @@ std::int64_t Service::run() {
   sky_ready.get_future().get();
   s.camera_thread = std::thread([&s] { s.camera_loop(); });
 
+  // blend.cull_planes: which planes this frame's view can see (every eye's, in stereo), through
+  // the compositor's pinhole view, which holds every ray it draws; a plane's box is grown by the
+  // cover distance, within which a building fragment takes the plane's T.
+  const std::size_t plane_count = s.bases.size();
+  render::PlaneViewOptions view_options;
+  view_options.thickness = compositor_options.cover_distance;
+  const double ipd = stereo && hmd_profile ? hmd_profile->ipd : 0.0;
+  auto plane_seen = [&](std::size_t j, const render::CameraPose& pose) {
+    const geom::Plane& plane = s.manifest.planes[j].plane;
+    const render::PinholeCamera& view = compositor.lens_remap().pinhole;
+    if (render::plane_in_view(plane, pose, view, view_options)) return true;
+    if (!stereo) return false;
+    return render::plane_in_view(plane, render::eye_pose(pose, ipd, 0), view, view_options) ||
+           render::plane_in_view(plane, render::eye_pose(pose, ipd, 1), view, view_options);
+  };
+  std::vector<char> in_view(plane_count, 1);
+  // Planes whose T is not that of the current sky: with the GPU blend, every plane when a sky
+  // comes, until it is blended; with the CPU blend, those the sky thread left out of view. A
+  // plane is blended before the first frame that can see it.
+  std::vector<char> behind_sky(plane_count, 0);
+
   std::optional<SkyState> sky;
   std::optional<render::CameraPose> last_pose;
   Eigen::Vector3d shadow_direction = Eigen::Vector3d::Zero();
@@ -894,22 +955,16 @@ std::int64_t Service::run() {
         sun_shadow_ms = std::chrono::duration<double, std::milli>(Clock::now() - sun_start).count();
       }
       const auto t0 = Clock::now();
-      if (cpu) {
-        for (std::size_t j = 0; j < cpu_ratios.size() && j < sky->shadow_ratios.size(); ++j) {
-          const std::vector<float>* rgba = sky->shadow_ratios[j].get();
-          if (rgba == nullptr || rgba == uploaded[j]) continue;
-          cpu_ratios[j].upload(*rgba);
-          uploaded[j] = rgba;
-        }
-      } else {
-        for (std::size_t j = 0; j < blenders.size(); ++j) {
-          const render::BlendWeights weights = render::blend_weights(s.bases[j], sky->S, sky->sun);
-          const bool ran = blenders[j]->blend(weights, weights.sun.isZero() ? nullptr : &shadow_map.visibility(static_cast<int>(j)));
-          ++(ran ? s.counters.blends_run : s.counters.blends_skipped);
-        }
+      for (std::size_t j = 0; j < plane_count; ++j) {
+        const std::shared_ptr<const std::vector<float>> rgba =
+            cpu && j < sky->shadow_ratios.size() ? sky->shadow_ratios[j] : nullptr;
+        behind_sky[j] = rgba == nullptr;
+        if (rgba == nullptr || rgba == uploaded[j]) continue;
+        cpu_ratios[j].upload(*rgba);
+        uploaded[j] = rgba;
       }
       if (s.options.profile) glFinish();
-      (cpu ? upload_ms : blend_ms) = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+      if (cpu) upload_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
       if (!s.sky_drawn && !s.options.quiet) std::fprintf(stderr, "\rskylit-live: the sky is known: drawing the building\n");
       s.sky_drawn = true;
     }
@@ -936,6 +991,58 @@ std::int64_t Service::run() {
       last_pose = camera_pose;
     } else {
       ++s.counters.pose_missing;
+    }
+    // Which planes this frame can show (before the first pose: all of them); the sky thread
+    // leaves the others out of its next blends.
+    if (last_pose) {
+      for (std::size_t j = 0; j < plane_count; ++j) {
+        in_view[j] = !s.config.blend.cull_planes || plane_seen(j, *last_pose);
+        s.plane_views[j].in_view = in_view[j] != 0;
+      }
+    }
+    // T of the current sky for every plane in view that lacks it (GPU: blended here; CPU: a plane
+    // the sky thread left out, blended here on the CPU before it is drawn).
+    if (sky) {
+      const auto t0 = Clock::now();
+      int blended = 0;
+      for (std::size_t j = 0; j < plane_count; ++j) {
+        if (!behind_sky[j]) continue;
+        if (!in_view[j]) {
+          if (sky_changed && !cpu) ++s.plane_views[j].blends_out_of_view;  // the sky thread counts its own
+          continue;
+        }
+        const render::BlendWeights weights = render::blend_weights(s.bases[j], sky->S, sky->sun);
+        bool ran = false;
+        if (cpu) {
+          std::shared_ptr<const std::vector<float>> rgba;
+          {
+            SharedCpuBlend& shared = *s.cpu_blends[j];
+            std::lock_guard blend_lock(shared.mutex);
+            const std::span<const float> sun_visibility = j < sky->sun_visibility.size() && sky->sun_visibility[j]
+                                                              ? std::span<const float>(*sky->sun_visibility[j])
+                                                              : std::span<const float>();
+            ran = shared.ratios.blend(weights, sun_visibility, sky->sun_revision, nullptr);
+            rgba = shared.ratios.rgba();
+          }
+          if (rgba && rgba != uploaded[j]) {
+            cpu_ratios[j].upload(*rgba);
+            uploaded[j] = rgba;
+          }
+          ++s.plane_views[j].blends_on_return;
+        } else {
+          ran = blenders[j]->blend(weights, weights.sun.isZero() ? nullptr : &shadow_map.visibility(static_cast<int>(j)));
+          if (!sky_changed) ++s.plane_views[j].blends_on_return;
+        }
+        ++(ran ? s.counters.blends_run : s.counters.blends_skipped);
+        behind_sky[j] = 0;
+        ++blended;
+      }
+      if (blended > 0) {
+        if (s.options.profile) glFinish();
+        // The CPU blend's `blend` stage is the sky thread's; a plane blended here as it came
+        // back into view counts with the upload of T, the render thread's share of the CPU blend.
+        (cpu ? upload_ms : blend_ms) += std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+      }
     }
     // Without a pose the building fades out at the last one; a pose back after a loss fades it
     // in from nothing (BuildingFade), so it never jumps to the new pose at full opacity.
@@ -1158,9 +1265,15 @@ nlohmann::json Service::State::status_report() const {
     plane["layers"] = bases[k].layers;                  // the images each blend sums
     plane["source_layers"] = bases[k].source_layers();  // the dome's layers S is given for
     if (config.blend.basis == BlendSettings::Basis::Pca && manifest.planes[k].pca) plane["max_error"] = manifest.planes[k].pca->max_error;
+    // blend.cull_planes: whether the latest pose can see the plane, the blends of new skies left
+    // out while it could not, and those run as it came back into view.
+    plane["in_view"] = plane_views[k].in_view.load();
+    plane["blends_out_of_view"] = plane_views[k].blends_out_of_view.load();
+    plane["blends_on_return"] = plane_views[k].blends_on_return.load();
     planes_json.push_back(plane);
   }
   blend_json["planes"] = planes_json;
+  blend_json["cull_planes"] = config.blend.cull_planes;
   if (blend_decided) {
     blend_json["device"] = blend_on_cpu ? "cpu" : "gpu";
     blend_json["renderer"] = renderer;
@@ -1233,6 +1346,13 @@ std::string Service::metrics_text() const {
   if (!j["blend"]["device"].is_null()) {
     m.push_back({"skylit_blend_on_cpu", "1 when the shadow ratios are blended on the CPU, 0 on the GPU.", "gauge",
                  j["blend"]["device"] == "cpu" ? 1.0 : 0.0, ""});
+  }
+  for (const auto& plane : j["blend"]["planes"]) {
+    const std::string label = "plane=\"" + plane["name"].get<std::string>() + "\"";
+    m.push_back({"skylit_plane_in_view", "1 while the latest pose can see the plane (blend.cull_planes).", "gauge",
+                 plane["in_view"].get<bool>() ? 1.0 : 0.0, label});
+    m.push_back({"skylit_plane_blends_out_of_view_total", "Blends of a new sky left out, the plane out of view.",
+                 "counter", plane["blends_out_of_view"].get<double>(), label});
   }
   s.tracking->add_metrics(m);
   for (const auto& flag : j["flags"]) {

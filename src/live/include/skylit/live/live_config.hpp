@@ -29,6 +29,7 @@
 //     basis: full | lean | pca          # every layer; only those that hold a shadow; the PCA form
 //     skip_threshold: 0                 # T units (docs/live.md, "Blend"); both devices
 //     change_threshold: 0.002
+//     cull_planes: true                 # blend only the planes the current view can see
 //   photometric:
 //     scale: [1, 1, 1]                  # camera linear value per unit radiance; or
 //     estimate: {plane: ground, region: [s0, s1, t0, t1], albedo: [0.2, 0.2, 0.2], every: 30}
@@ -87,6 +88,9 @@ struct BlendSettings {
   Basis basis = Basis::Full;
   double skip_threshold = 0.0;
   double change_threshold = 0.002;
+  // Blend only the planes the current view can see (render::plane_in_view); a plane that comes
+  // back into view is blended for the current sky before it is drawn. false: every plane, every sky.
+  bool cull_planes = true;
 };
 
 // What the service shows when the pose is lost and when it returns (docs/live.md, "Tracking lost").
