@@ -222,6 +222,10 @@ TEST(ServiceStatus, StatusAndMetricsOverHttpWhileRunning) {
   EXPECT_EQ(first->get_header_value("Content-Type"), "application/json");
   const json status = json::parse(first->body);
   EXPECT_GE(status["frames"].get<int>(), 3);
+  // Camera frame received to composite done: at least a frame's drawing, far under a second.
+  EXPECT_GT(status["latency_ms"]["p50"].get<double>(), 0.0) << status.dump(2);
+  EXPECT_LE(status["latency_ms"]["p50"].get<double>(), status["latency_ms"]["p99"].get<double>());
+  EXPECT_LT(status["latency_ms"]["p99"].get<double>(), 1000.0);
   EXPECT_EQ(status["sky"]["S"].size(), BakedSite::get().manifest.layer_count());
   EXPECT_FALSE(status["sky"]["sun"].is_null());
   EXPECT_NEAR(status["sky"]["sun"]["elevation_deg"].get<double>(), kSunElevationDeg, 1.0);

@@ -545,6 +545,9 @@ struct Service::State {
   FrameTimes frame_times{600}, blend_times{600}, upload_times{600}, composite_times{600}, record_times{600};
   FrameTimes sun_shadow_times{600}, sky_sun_visibility_times{600};
   FrameTimes sky_change_frame_times{600};  // frames that took a new sky (its shadow map and T)
+  // From the camera thread receiving a frame to its composite being done (shown, recorded): the
+  // part of motion-to-photon latency the service adds (docs/live.md, "Latency").
+  FrameTimes latency_times{600};
   double record_fps = 0;
   std::optional<render::PhotometricMatch> photometric;
   std::int64_t blend_skipped_layers = 0;
@@ -979,7 +982,8 @@ std::int64_t Service::run() {
     // The frame is shown after the time it has waited since it came and the time a frame takes
     // to draw (the median of the last ones): the latency the pipeline adds, for status.
     double display_delay = 0;
-    if (const auto arrived = s.camera_arrivals.find(frame->timestamp)) {
+    const std::optional<double> arrived = s.camera_arrivals.find(frame->timestamp);
+    if (arrived) {
       std::lock_guard lock(s.stats_mutex);
       display_delay = now_seconds() - *arrived + s.frame_times.percentile(0.5);
     }
@@ -1123,6 +1127,7 @@ std::int64_t Service::run() {
       std::lock_guard lock(s.stats_mutex);
       s.frame_times.add(std::chrono::duration<double>(Clock::now() - frame_start).count(), end);
       if (sky_changed) s.sky_change_frame_times.add(std::chrono::duration<double>(Clock::now() - frame_start).count(), end);
+      if (arrived) s.latency_times.add(end - *arrived, end);
       if (sun_shadow_ms > 0) s.sun_shadow_times.add(sun_shadow_ms / 1e3, end);
       if (blend_ms > 0) s.blend_times.add(blend_ms / 1e3, end);
       if (upload_ms > 0) s.upload_times.add(upload_ms / 1e3, end);
@@ -1181,6 +1186,7 @@ nlohmann::json Service::State::status_report() const {
     std::lock_guard lock(stats_mutex);
     j["frame_rate"] = frame_times.rate();
     j["frame_time_ms"] = {{"p50", 1e3 * frame_times.percentile(0.5)}, {"p99", 1e3 * frame_times.percentile(0.99)}};
+    j["latency_ms"] = {{"p50", 1e3 * latency_times.percentile(0.5)}, {"p99", 1e3 * latency_times.percentile(0.99)}};
     j["sky_change_frame_ms"] = {{"p50", 1e3 * sky_change_frame_times.percentile(0.5)},
                                 {"p99", 1e3 * sky_change_frame_times.percentile(0.99)}};
     j["stage_ms_p50"] = {{"sun_shadow", 1e3 * sun_shadow_times.percentile(0.5)},
