@@ -12,6 +12,7 @@
 #include <Eigen/Geometry>
 
 #include "box_scene.hpp"
+#include "../support/box_site.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/baker/visibility.hpp"
@@ -143,20 +144,13 @@ TEST(WeightedDirections, BothEnginesGiveEveryLayerInOnePass) {
 class CornersBake : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = new fs::path(fs::temp_directory_path() /
-                        ("skylit-corners-bake-" + std::to_string(::getpid()) + "-" +
-                         std::to_string(std::chrono::steady_clock::now().time_since_epoch().count())));
-    fs::create_directories(*dir_);
-    std::ofstream(*dir_ / "box.obj") << "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\n"
-                                        "v -1 -1 2\nv 1 -1 2\nv 1 1 2\nv -1 1 2\n"
-                                        "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
-    std::ofstream(*dir_ / "site.yaml") << "scene:\n  model: box.obj\n  up: z\n  scale: 1\n"
-                                          "dome:\n  frequency: 2\n  basis: corners\n"
-                                          "planes:\n"
-                                          "  - name: ground\n    origin: [-6, -6, 0.01]\n    u: [12, 0, 0]\n"
-                                          "    v: [0, 12, 0]\n    resolution: [48, 48]\n"
-                                          "  - name: south\n    origin: [-1, -1.01, 0]\n    u: [2, 0, 0]\n"
-                                          "    v: [0, 0, 2]\n    resolution: [8, 8]\n";
+    dir_ = new fs::path(skylit::test::make_suite_dir("skylit-corners-bake"));
+    skylit::test::write_box_site(*dir_, "dome:\n  frequency: 2\n  basis: corners\n"
+                                        "planes:\n"
+                                        "  - name: ground\n    origin: [-6, -6, 0.01]\n    u: [12, 0, 0]\n"
+                                        "    v: [0, 12, 0]\n    resolution: [48, 48]\n"
+                                        "  - name: south\n    origin: [-1, -1.01, 0]\n    u: [2, 0, 0]\n"
+                                        "    v: [0, 0, 2]\n    resolution: [8, 8]\n");
     std::FILE* quiet = std::fopen("/dev/null", "w");
     BakeOptions options;
     options.site_file = *dir_ / "site.yaml";

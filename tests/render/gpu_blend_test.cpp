@@ -17,6 +17,7 @@
 #include "blend_fixtures.hpp"
 #include "gpu_test_support.hpp"
 #include "../support/gl_suite.hpp"
+#include "../support/box_site.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/render/gpu_blend.hpp"
@@ -386,20 +387,13 @@ class GpuBlendRealBake : public GpuBlend {
  protected:
   static void SetUpTestSuite() {
     GpuBlend::SetUpTestSuite();
-    dir_ = new fs::path(fs::temp_directory_path() /
-                        ("skylit-gpu-blend-" + std::to_string(::getpid()) + "-" +
-                         std::to_string(std::chrono::steady_clock::now().time_since_epoch().count())));
-    fs::create_directories(*dir_);
-    std::ofstream(*dir_ / "box.obj") << "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\n"
-                                        "v -1 -1 2\nv 1 -1 2\nv 1 1 2\nv -1 1 2\n"
-                                        "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
-    std::ofstream(*dir_ / "site.yaml") << "scene:\n  model: box.obj\n  up: z\n  scale: 1\n"
-                                          "dome:\n  frequency: 2\n"
-                                          "planes:\n"
-                                          "  - name: ground\n    origin: [-6, -6, 0.01]\n    u: [12, 0, 0]\n"
-                                          "    v: [0, 12, 0]\n    resolution: [40, 40]\n"
-                                          "  - name: north_wall\n    origin: [1, 1.01, 0]\n    u: [-2, 0, 0]\n"
-                                          "    v: [0, 0, 2]\n    resolution: [8, 8]\n";
+    dir_ = new fs::path(skylit::test::make_suite_dir("skylit-gpu-blend"));
+    skylit::test::write_box_site(*dir_, "dome:\n  frequency: 2\n"
+                                        "planes:\n"
+                                        "  - name: ground\n    origin: [-6, -6, 0.01]\n    u: [12, 0, 0]\n"
+                                        "    v: [0, 12, 0]\n    resolution: [40, 40]\n"
+                                        "  - name: north_wall\n    origin: [1, 1.01, 0]\n    u: [-2, 0, 0]\n"
+                                        "    v: [0, 0, 2]\n    resolution: [8, 8]\n");
     baker::BakeOptions options;
     options.site_file = *dir_ / "site.yaml";
     options.out_dir = *dir_ / "bake";

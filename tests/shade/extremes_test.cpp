@@ -21,6 +21,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "../support/box_site.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/baker/visibility.hpp"
 #include "skylit/render/cpu_blend.hpp"
@@ -48,20 +49,13 @@ double angle(const Vec3& a, const Vec3& b) { return std::atan2(a.cross(b).norm()
 class ExtremesTest : public ::testing::TestWithParam<geom::DomeBasis> {
  protected:
   static void SetUpTestSuite() {
-    dir_ = new fs::path(fs::temp_directory_path() /
-                        ("skylit-extremes-" + std::to_string(::getpid()) + "-" +
-                         std::to_string(std::chrono::steady_clock::now().time_since_epoch().count())));
-    fs::create_directories(*dir_);
-    std::ofstream(*dir_ / "box.obj") << "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\n"
-                                        "v -1 -1 2\nv 1 -1 2\nv 1 1 2\nv -1 1 2\n"
-                                        "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
-    std::ofstream(*dir_ / "site.yaml") << "scene:\n  model: box.obj\n  up: z\n  scale: 1\n"
-                                          "dome:\n  frequency: 2\n"
-                                          "planes:\n"
-                                          "  - name: ground\n    origin: [-6, -6, 0.01]\n    u: [12, 0, 0]\n"
-                                          "    v: [0, 12, 0]\n    resolution: [24, 24]\n"
-                                          "  - name: north_wall\n    origin: [1, 1.01, 0]\n    u: [-2, 0, 0]\n"
-                                          "    v: [0, 0, 2]\n    resolution: [8, 8]\n";
+    dir_ = new fs::path(skylit::test::make_suite_dir("skylit-extremes"));
+    skylit::test::write_box_site(*dir_, "dome:\n  frequency: 2\n"
+                                        "planes:\n"
+                                        "  - name: ground\n    origin: [-6, -6, 0.01]\n    u: [12, 0, 0]\n"
+                                        "    v: [0, 12, 0]\n    resolution: [24, 24]\n"
+                                        "  - name: north_wall\n    origin: [1, 1.01, 0]\n    u: [-2, 0, 0]\n"
+                                        "    v: [0, 0, 2]\n    resolution: [8, 8]\n");
     std::FILE* quiet = std::fopen("/dev/null", "w");
     for (const geom::DomeBasis basis : {geom::DomeBasis::Faces, geom::DomeBasis::Corners}) {
       baker::BakeOptions options;
