@@ -43,12 +43,12 @@
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/simulate.hpp"
 #include "skylit/sky/sky_estimate.hpp"
+#include "study/study.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
-using skylit::geom::Vec3;
-using Clock = std::chrono::steady_clock;
+using namespace skylit::study;
 
 struct Config {
   std::string name;
@@ -67,16 +67,13 @@ struct Config {
   //   OracleEnergy: the detected disc's shape, scaled to the oracle's energy, the live dome.
   //   OraclePoint: the oracle with its whole light at its centroid (a point sun);
   //   OracleCorePoint: the oracle with the pixels within 1° of its peak merged into one direction;
-  //   Sources: up to --sources compact sources detected one after the other in the fisheye (each
-  //   found source's disc replaced by its background before looking for the next), each its own
-  //   separated term: what several separated terms would give (the live path has one);
+  //   Sources: the product path with SkyEstimateOptions::max_sources = --sources (the sun's test,
+  //   then lamps, each found disc replaced by its background before looking for the next), each
+  //   its own separated term in blend_cpu_sources (skylit-shade --sources N; the live path has one);
   //   FillDome: the detected sun, the dome from the frame with the disc's pixels set to the
   //   sun's background instead of left out.
   enum class Mix { None, OracleLight, OracleDome, OracleEnergy, OraclePoint, OracleCorePoint, Sources, FillDome } mix = Mix::None;
 };
-
-constexpr double kOracleRadiusDeg = 4.0;
-constexpr double kBrightOverMedian = 20.0;  // --reference-supersample: which pixels are bright
 
 const std::vector<Config> kConfigs{
     {"paper", 2, 1, false},     // ν=2, face centre, no sun separation (paper 003)
@@ -104,125 +101,6 @@ const std::vector<Config> kConfigs{
 // One bake per (ν, K, basis).
 using BakeKey = std::tuple<int, int, skylit::geom::DomeBasis>;
 BakeKey key_of(const Config& c) { return {c.frequency, c.samples, c.basis}; }
-
-struct Errors {
-  double rms = 0, p99 = 0, max = 0;
-};
-
-Errors errors_of(std::vector<double> diffs) {
-  Errors e;
-  if (diffs.empty()) return e;
-  double sum = 0;
-  for (double d : diffs) sum += d * d;
-  e.rms = std::sqrt(sum / static_cast<double>(diffs.size()));
-  const auto at = diffs.begin() + static_cast<std::ptrdiff_t>(0.99 * static_cast<double>(diffs.size() - 1));
-  std::nth_element(diffs.begin(), at, diffs.end());
-  e.p99 = *at;
-  e.max = *std::max_element(diffs.begin(), diffs.end());
-  return e;
-}
-
-double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-
-double luminance(const Eigen::Vector3d& rgb) { return rgb.dot(Eigen::Vector3d(0.2126, 0.7152, 0.0722)); }
-double degrees_between(const Vec3& a, const Vec3& b) { return std::atan2(a.cross(b).norm(), a.dot(b)) * 180.0 / M_PI; }
-
-// The sun as the equirect has it: its brightest pixel above the horizon, the median radiance of
-// the ring 6°–15° around it as background, and the pixels within kOracleRadiusDeg with their
-// radiance above that background (energy = Σ (L − L_bg) Ω, per channel).
-struct EquirectSun {
-  bool found = false;
-  Vec3 peak = Vec3::UnitZ();
-  Vec3 centroid = Vec3::UnitZ();             // energy-weighted
-  Eigen::Vector3d background = Eigen::Vector3d::Zero();
-  Eigen::Vector3d energy = Eigen::Vector3d::Zero();
-  std::vector<Vec3> directions;
-  std::vector<double> weights;               // share of the energy's luminance, sum 1
-  std::vector<std::pair<int, int>> pixels;   // (row, col)
-  double energy_within(double radius_deg, const cv::Mat& equirect) const {
-    double e = 0;
-    for (int row = 0; row < equirect.rows; ++row) {
-      const double omega = skylit::sky::equirect_pixel_solid_angle(equirect.cols, equirect.rows, row);
-      for (int col = 0; col < equirect.cols; ++col) {
-        const Vec3 d = skylit::sky::equirect_direction(equirect.cols, equirect.rows, col, row);
-        if (d.z() <= 0.0 || degrees_between(d, peak) > radius_deg) continue;
-        const cv::Vec3f& l = equirect.at<cv::Vec3f>(row, col);
-        e += std::max(0.0, luminance(Eigen::Vector3d(l[2], l[1], l[0]) - background)) * omega;
-      }
-    }
-    return e;
-  }
-};
-
-EquirectSun equirect_sun(const cv::Mat& equirect) {
-  EquirectSun sun;
-  double best = 0;
-  std::vector<double> all;
-  for (int row = 0; row < equirect.rows; ++row) {
-    for (int col = 0; col < equirect.cols; ++col) {
-      const Vec3 d = skylit::sky::equirect_direction(equirect.cols, equirect.rows, col, row);
-      if (d.z() <= 0.0) continue;
-      const cv::Vec3f& l = equirect.at<cv::Vec3f>(row, col);
-      const double y = luminance(Eigen::Vector3d(l[2], l[1], l[0]));
-      all.push_back(y);
-      if (y > best) {
-        best = y;
-        sun.peak = d;
-      }
-    }
-  }
-  std::nth_element(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(all.size() / 2), all.end());
-  sun.found = best > 100.0 * all[all.size() / 2];  // as basis_study: 100× the median
-  if (!sun.found) return sun;
-  std::vector<double> ring[3];
-  for (int row = 0; row < equirect.rows; ++row) {
-    for (int col = 0; col < equirect.cols; ++col) {
-      const Vec3 d = skylit::sky::equirect_direction(equirect.cols, equirect.rows, col, row);
-      const double angle = degrees_between(d, sun.peak);
-      if (d.z() <= 0.0 || angle < 6.0 || angle > 15.0) continue;
-      const cv::Vec3f& l = equirect.at<cv::Vec3f>(row, col);
-      for (int c = 0; c < 3; ++c) ring[c].push_back(l[2 - c]);
-    }
-  }
-  for (int c = 0; c < 3; ++c) {
-    std::nth_element(ring[c].begin(), ring[c].begin() + static_cast<std::ptrdiff_t>(ring[c].size() / 2), ring[c].end());
-    sun.background[c] = ring[c][ring[c].size() / 2];
-  }
-  Vec3 centroid = Vec3::Zero();
-  double total = 0;
-  for (int row = 0; row < equirect.rows; ++row) {
-    const double omega = skylit::sky::equirect_pixel_solid_angle(equirect.cols, equirect.rows, row);
-    for (int col = 0; col < equirect.cols; ++col) {
-      const Vec3 d = skylit::sky::equirect_direction(equirect.cols, equirect.rows, col, row);
-      if (d.z() <= 0.0 || degrees_between(d, sun.peak) > kOracleRadiusDeg) continue;
-      const cv::Vec3f& l = equirect.at<cv::Vec3f>(row, col);
-      const Eigen::Vector3d above = (Eigen::Vector3d(l[2], l[1], l[0]) - sun.background).cwiseMax(0.0) * omega;
-      sun.energy += above;
-      sun.directions.push_back(d);
-      sun.weights.push_back(luminance(above));
-      sun.pixels.emplace_back(row, col);
-      centroid += luminance(above) * d;
-      total += luminance(above);
-    }
-  }
-  for (double& w : sun.weights) w /= total;
-  sun.centroid = centroid.normalized();
-  return sun;
-}
-
-// The site with every plane's resolution divided by `scale` (the reference costs one ray per
-// texel and sky pixel).
-fs::path coarse_site(const fs::path& site_file, int scale, const fs::path& dir) {
-  skylit::scene::Site site = skylit::scene::load_site(site_file);
-  for (auto& p : site.planes) {
-    p.width = std::max(4, p.width / scale);
-    p.height = std::max(4, p.height / scale);
-  }
-  site.model = fs::absolute(site.model);
-  const fs::path out = dir / "site.yaml";
-  skylit::write_file_atomic(out, skylit::scene::site_to_yaml(site));
-  return out;
-}
 
 }  // namespace
 
@@ -337,104 +215,17 @@ int main(int argc, char** argv) {
     // Lossy HDR captures hold negative (and, in general, non-finite) pixels. Both paths see the
     // same sky: cleaned once here, so that resampling the artefacts into the fisheye does not
     // count as error of the dome.
-    cv::Mat equirect = skylit::sky::read_sky_image(sky_file);
-    for (int row = 0; row < equirect.rows; ++row) {
-      for (auto* p = equirect.ptr<float>(row), *end = p + 3 * equirect.cols; p != end; ++p) {
-        *p = std::isfinite(*p) && *p > 0.0f ? *p : 0.0f;
-      }
-    }
-    // Reference weights: every pixel above the horizon, radiance × solid angle (bad pixels as 0).
-    // With --reference-supersample N, the pixels near a bright one (over
-    // kBrightOverMedian × the median, or next to one) become N×N sub-directions with the
-    // bilinearly interpolated radiance: the continuous sky the fisheye is rendered from, instead
-    // of one point light per 0.7° pixel.
-    std::vector<Vec3> directions;
-    std::vector<Eigen::Vector3d> weights;
-    cv::Mat near_bright(equirect.size(), CV_8UC1, cv::Scalar(0));
-    if (reference_supersample > 1) {
-      std::vector<double> all;
-      for (int row = 0; row < equirect.rows / 2; ++row) {
-        for (int col = 0; col < equirect.cols; ++col) {
-          const cv::Vec3f& l = equirect.at<cv::Vec3f>(row, col);
-          all.push_back(luminance(Eigen::Vector3d(l[2], l[1], l[0])));
-        }
-      }
-      std::nth_element(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(all.size() / 2), all.end());
-      const double median_y = all[all.size() / 2];
-      for (int row = 0; row < equirect.rows; ++row) {
-        for (int col = 0; col < equirect.cols; ++col) {
-          const cv::Vec3f& l = equirect.at<cv::Vec3f>(row, col);
-          if (luminance(Eigen::Vector3d(l[2], l[1], l[0])) <= kBrightOverMedian * median_y) continue;
-          for (int dy = -2; dy <= 2; ++dy) {
-            for (int dx = -2; dx <= 2; ++dx) {
-              near_bright.at<std::uint8_t>(std::clamp(row + dy, 0, equirect.rows - 1),
-                                           (col + dx + equirect.cols) % equirect.cols) = 255;
-            }
-          }
-        }
-      }
-    }
-    const auto bilinear = [&](double x, double y) {
-      const int w = equirect.cols, h = equirect.rows;
-      const double fx = std::floor(x), fy = std::floor(y);
-      const double tx = x - fx, ty = y - fy;
-      const int x0 = (static_cast<int>(fx) % w + w) % w, x1 = (x0 + 1) % w;
-      const int y0 = std::clamp(static_cast<int>(fy), 0, h - 1), y1 = std::clamp(static_cast<int>(fy) + 1, 0, h - 1);
-      Eigen::Vector3d rgb;
-      for (int ch = 0; ch < 3; ++ch) {
-        const double top = (1 - tx) * equirect.at<cv::Vec3f>(y0, x0)[ch] + tx * equirect.at<cv::Vec3f>(y0, x1)[ch];
-        const double bottom = (1 - tx) * equirect.at<cv::Vec3f>(y1, x0)[ch] + tx * equirect.at<cv::Vec3f>(y1, x1)[ch];
-        rgb[2 - ch] = (1 - ty) * top + ty * bottom;
-      }
-      return rgb;
-    };
-    std::size_t supersampled = 0;
-    for (int row = 0; row < equirect.rows; ++row) {
-      const double solid_angle = skylit::sky::equirect_pixel_solid_angle(equirect.cols, equirect.rows, row);
-      for (int col = 0; col < equirect.cols; ++col) {
-        if (near_bright.at<std::uint8_t>(row, col)) {
-          ++supersampled;
-          const int n = reference_supersample;
-          for (int j = 0; j < n; ++j) {
-            const double y = row - 0.5 + (j + 0.5) / n;
-            // Solid angle of the sub-row: the band between its edges, split over n columns.
-            const double top = M_PI / 2 - M_PI * (y + 0.5 - 0.5 / n) / equirect.rows;
-            const double bottom = M_PI / 2 - M_PI * (y + 0.5 + 0.5 / n) / equirect.rows;
-            const double sub_angle = 2.0 * M_PI / equirect.cols / n * (std::sin(top) - std::sin(bottom));
-            for (int i = 0; i < n; ++i) {
-              const double x = col - 0.5 + (i + 0.5) / n;
-              const Vec3 d = skylit::sky::equirect_direction(equirect.cols, equirect.rows, x, y);
-              if (d.z() <= 0.0) continue;
-              directions.push_back(d);
-              weights.push_back(bilinear(x, y) * sub_angle);
-            }
-          }
-          continue;
-        }
-        const Vec3 d = skylit::sky::equirect_direction(equirect.cols, equirect.rows, col, row);
-        if (d.z() <= 0.0) continue;
-        const cv::Vec3f& l = equirect.at<cv::Vec3f>(row, col);
-        directions.push_back(d);
-        weights.emplace_back(l[2] * solid_angle, l[1] * solid_angle, l[0] * solid_angle);
-      }
-    }
-    if (supersampled > 0) {
+    const cv::Mat equirect = read_clean_sky(sky_file);
+    // Reference weights: every pixel above the horizon, radiance × solid angle (bad pixels as 0);
+    // with --reference-supersample N, the pixels near a bright one as N×N sub-directions
+    // (study::dense_reference).
+    const DenseReference dense = dense_reference(equirect, site, mesh, reference_supersample);
+    if (dense.supersampled > 0) {
       std::fprintf(stderr, "%s: reference: %zu pixels near bright ones as %d² sub-directions\n",
-                   sky_file.stem().c_str(), supersampled, reference_supersample);
+                   sky_file.stem().c_str(), dense.supersampled, reference_supersample);
     }
-    auto t = Clock::now();
-    std::vector<std::vector<Eigen::Vector3d>> reference;
-    for (const auto& plane : site.planes) {
-      std::vector<Eigen::Vector3d> visible(static_cast<std::size_t>(plane.width) * plane.height);
-      skylit::baker::weighted_plane_visibility(mesh, plane, directions, weights, visible);
-      Eigen::Vector3d total = Eigen::Vector3d::Zero();
-      for (std::size_t k = 0; k < directions.size(); ++k) total += std::max(0.0, plane.normal().dot(directions[k])) * weights[k];
-      for (auto& v : visible) {
-        for (int c = 0; c < 3; ++c) v[c] = total[c] > 0.0 ? v[c] / total[c] : 1.0;
-      }
-      reference.push_back(std::move(visible));
-    }
-    const double reference_seconds = seconds_since(t);
+    const std::vector<std::vector<Eigen::Vector3d>>& reference = dense.planes;
+    const double reference_seconds = dense.seconds;
 
     const skylit::sky::RadianceFrame frame{skylit::sky::render_fisheye(lens, equirect, {.supersample = supersample}), cv::Mat()};
     // The oracle's frame: the sun's pixels replaced by the background around them.
@@ -460,6 +251,10 @@ int main(int argc, char** argv) {
       sky_options.sun_mode = c.sun && !use_oracle ? skylit::sky::SunMode::Auto : skylit::sky::SunMode::Off;
       sky_options.table.basis = c.basis;
       sky_options.sun = sun_options;
+      if (c.mix == Config::Mix::Sources) {
+        sky_options.max_sources = source_count;  // the product path: the sun test, then lamps
+        sky_options.lamp = skylit::sky::lamp_options(sun_options);
+      }
       const skylit::sky::SkyEstimator estimator(calibration, dome, sky_options);
       skylit::sky::SkyEstimate estimate = estimator.estimate(use_oracle ? oracle_frame : frame);
       const bool mixed = c.mix != Config::Mix::None && oracle.found && estimate.sun;
@@ -475,24 +270,11 @@ int main(int argc, char** argv) {
         estimate.luminance = skylit::sky::compute_luminance(estimator.table(), dome, filled, frame.clipped, cv::Mat(),
                                                             sky_options.luminance);
       }
-      // Several separated sources (a diagnosis): found one after the other, all taken out of the dome.
+      // Several separated sources (SkyEstimateOptions::max_sources): found one after the other, all
+      // taken out of the dome, each its own term in the blend below.
       std::vector<skylit::sky::Sun> sources;
       if (c.mix == Config::Mix::Sources) {
-        const skylit::sky::SunDetector detector(lens, cv::Mat(), sun_options);
-        cv::Mat working = frame.radiance.clone();
-        cv::Mat exclude(working.size(), CV_8UC1, cv::Scalar(0));
-        for (int k = 0; k < source_count; ++k) {
-          const skylit::sky::SunDetection found = detector.detect(working, cv::Mat());
-          if (!found.sun) break;
-          sources.push_back(*found.sun);
-          const cv::Vec3f background(static_cast<float>(found.sun->background.z()),
-                                     static_cast<float>(found.sun->background.y()),
-                                     static_cast<float>(found.sun->background.x()));
-          working.setTo(background, found.mask);
-          exclude.setTo(255, found.mask);
-        }
-        estimate.luminance = skylit::sky::compute_luminance(estimator.table(), dome, frame.radiance, frame.clipped,
-                                                            exclude, sky_options.luminance);
+        sources = estimate.sources;
         estimate.sun.reset();
         estimate.sun_reason = std::to_string(sources.size()) + " source(s)";
       }
@@ -592,30 +374,20 @@ int main(int argc, char** argv) {
         std::vector<float> T(basis.texel_count() * 3);
         skylit::render::blend_cpu(basis, w, w.sun.isZero() ? std::span<const float>() : std::span<const float>(visibility), T);
         if (!sources.empty()) {
-          // T = (T_dome D_dome + Σ_k E_k c_k V_k) / (D_dome + Σ_k E_k c_k), c_k = max(0, n·ω_k).
+          // The CPU blend with every source: T = (Σ S B + Σ_k E_k c_k V_k) / (Σ S A + Σ_k E_k c_k).
           const Vec3 normal = manifest.planes[j].plane.normal();
-          std::vector<Eigen::Vector3d> numerator(basis.texel_count());
-          for (std::size_t x = 0; x < basis.texel_count(); ++x) {
-            for (int ch = 0; ch < 3; ++ch) numerator[x][ch] = T[x * 3 + static_cast<std::size_t>(ch)] * w.denominator[ch];
+          std::vector<skylit::render::SunLight> lights;
+          std::vector<std::vector<float>> source_visibility(sources.size());
+          std::vector<std::span<const float>> views;
+          for (std::size_t k = 0; k < sources.size(); ++k) {
+            lights.push_back({sources[k].direction, sources[k].energy});
+            if (normal.dot(sources[k].direction) < -1e-6) continue;  // faces away: zero weight, no V needed
+            source_visibility[k].resize(basis.texel_count());
+            skylit::baker::area_light_visibility(mesh, manifest.planes[j].plane, sources[k].disc_directions,
+                                                 sources[k].disc_weights, source_visibility[k]);
           }
-          Eigen::Vector3d denominator = w.denominator;
-          std::vector<float> source_visibility(basis.texel_count());
-          for (const skylit::sky::Sun& source : sources) {
-            const double facing = std::max(0.0, normal.dot(source.direction));
-            if (facing <= 0.0) continue;
-            skylit::baker::area_light_visibility(mesh, manifest.planes[j].plane, source.disc_directions,
-                                                 source.disc_weights, source_visibility);
-            for (std::size_t x = 0; x < basis.texel_count(); ++x) {
-              numerator[x] += facing * source_visibility[x] * source.energy;
-            }
-            denominator += facing * source.energy;
-          }
-          for (std::size_t x = 0; x < basis.texel_count(); ++x) {
-            for (int ch = 0; ch < 3; ++ch) {
-              T[x * 3 + static_cast<std::size_t>(ch)] =
-                  denominator[ch] > 0.0 ? static_cast<float>(std::clamp(numerator[x][ch] / denominator[ch], 0.0, 1.0)) : 1.0f;
-            }
-          }
+          for (const auto& v : source_visibility) views.emplace_back(v);
+          skylit::render::blend_cpu_sources(basis, skylit::render::blend_weights_sources(basis, S, lights), views, T);
         }
         if (sources.empty()) {
           for (const int k : pca_components) {

@@ -8,7 +8,9 @@
 //     T(x) ≈ Σ_k S_k B_k(x) / Σ_k S_k A_k,   B_k = Σ_p φ_k(p) Ω_p c_p V(x,p),  A_k likewise with V = 1.
 // Compared: the paper's piecewise-constant faces (φ = indicator, S = mean over the face), and
 // piecewise-linear hats on the dome's vertices (φ = barycentric weight within the face) with S
-// the hat-weighted mean (positive, total energy preserved) or the L2 projection (mass matrix).
+// the hat-weighted mean (positive, total energy preserved) or the L2 projection (mass matrix),
+// their discontinuous per-face form (three hats per face), and per-face quadratics (the six
+// quadratic Bernstein polynomials of the barycentric coordinates, L2 projection).
 // The sun (pixels near a peak over 100× the median) is optionally taken out and added exactly,
 // as the sun separation does. Visibility sampling, the fisheye and the half-float storage are
 // left out on purpose: what remains is the basis alone.
@@ -39,10 +41,11 @@ namespace {
 namespace fs = std::filesystem;
 using skylit::geom::Vec3;
 
-// Up to three (basis index, weight) pairs per sky pixel.
+// Up to six (basis index, weight) pairs per sky pixel.
+constexpr int kMaxMembers = 6;
 struct Membership {
-  std::array<int, 3> index{-1, -1, -1};
-  std::array<double, 3> weight{0, 0, 0};
+  std::array<int, kMaxMembers> index{-1, -1, -1, -1, -1, -1};
+  std::array<double, kMaxMembers> weight{0, 0, 0, 0, 0, 0};
 };
 
 struct Basis {
@@ -63,6 +66,13 @@ std::array<double, 3> barycentric(const Vec3& a, const Vec3& b, const Vec3& c, c
   for (int k = 0; k < 3; ++k) l[k] = std::max(0.0, l[k]);
   const double sum = l.sum();
   return {l[0] / sum, l[1] / sum, l[2] / sum};
+}
+
+// The barycentric coordinates of `d` in face `face`'s flat triangle.
+std::array<double, 3> face_barycentric(const skylit::geom::Dome& dome, int face, const Vec3& d) {
+  const auto& f = dome.face(face);
+  const auto& vs = dome.vertices();
+  return barycentric(vs[f.vertex[0]], vs[f.vertex[1]], vs[f.vertex[2]], d);
 }
 
 Basis face_basis(const skylit::geom::Dome& dome, const std::vector<Vec3>& dirs) {
@@ -104,9 +114,7 @@ Basis corner_basis(const skylit::geom::Dome& dome, const std::vector<Vec3>& dirs
   Basis b{"face corners ν=" + std::to_string(dome.frequency()), 3 * dome.face_count(), {}, true};
   for (const Vec3& d : dirs) {
     const int face = dome.face_of(d);
-    const auto& f = dome.face(face);
-    const auto& vs = dome.vertices();
-    const auto w = barycentric(vs[f.vertex[0]], vs[f.vertex[1]], vs[f.vertex[2]], d);
+    const auto w = face_barycentric(dome, face, d);
     Membership m;
     for (int k = 0; k < 3; ++k) {
       m.index[k] = 3 * face + k;
@@ -117,10 +125,30 @@ Basis corner_basis(const skylit::geom::Dome& dome, const std::vector<Vec3>& dirs
   return b;
 }
 
+// Discontinuous piecewise-quadratic: per face the six quadratic Bernstein polynomials of the
+// barycentric coordinates (λ_a², λ_b², λ_c², 2λ_aλ_b, 2λ_bλ_c, 2λ_cλ_a: non-negative, summing to
+// 1), zero outside the face; coefficients by L2 projection.
+Basis quadratic_basis(const skylit::geom::Dome& dome, const std::vector<Vec3>& dirs) {
+  Basis b{"face quadratics ν=" + std::to_string(dome.frequency()), 6 * dome.face_count(), {}, true};
+  for (const Vec3& d : dirs) {
+    const int face = dome.face_of(d);
+    const auto w = face_barycentric(dome, face, d);
+    Membership m;
+    for (int k = 0; k < 3; ++k) {
+      m.index[k] = 6 * face + k;
+      m.weight[k] = w[k] * w[k];
+      m.index[3 + k] = 6 * face + 3 + k;
+      m.weight[3 + k] = 2.0 * w[k] * w[(k + 1) % 3];
+    }
+    b.of_pixel.push_back(m);
+  }
+  return b;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"basis_study: piecewise-constant faces against piecewise-linear vertex hats, all else exact"};
+  CLI::App app{"basis_study: faces, vertex hats, per-face linear hats and per-face quadratics, all else exact"};
   std::string skies_dir = "data/hdri", site_file = "config/sample_site.yaml", only_sky;
   int texel_scale = 8, sky_width = 256;
   std::vector<int> frequencies{2, 4};
@@ -183,6 +211,7 @@ int main(int argc, char** argv) {
     bases.push_back(vertex_basis(dome, dirs, false));
     bases.push_back(vertex_basis(dome, dirs, true));
     bases.push_back(corner_basis(dome, dirs));
+    bases.push_back(quadratic_basis(dome, dirs));
   }
 
   // Per basis and plane: B_k(x) and A_k (radiance-independent).
@@ -201,10 +230,10 @@ int main(int argc, char** argv) {
         const double c = std::max(0.0, n.dot(dirs[p])) * omega[p];
         if (c == 0.0) continue;
         const Membership& m = basis.of_pixel[p];
-        for (int k = 0; k < 3 && m.index[k] >= 0; ++k) A[static_cast<std::size_t>(m.index[k])] += m.weight[k] * c;
+        for (int k = 0; k < kMaxMembers && m.index[k] >= 0; ++k) A[static_cast<std::size_t>(m.index[k])] += m.weight[k] * c;
         for (std::size_t x = 0; x < texels[j]; ++x) {
           if (!visible[j][x * n_dirs + p]) continue;
-          for (int k = 0; k < 3 && m.index[k] >= 0; ++k) {
+          for (int k = 0; k < kMaxMembers && m.index[k] >= 0; ++k) {
             B[x * static_cast<std::size_t>(basis.count) + static_cast<std::size_t>(m.index[k])] += m.weight[k] * c;
           }
         }
@@ -275,11 +304,11 @@ int main(int argc, char** argv) {
         for (std::size_t p = 0; p < n_dirs; ++p) {
           const Membership& m = basis.of_pixel[p];
           const Eigen::Vector3d l = separate && is_sun[p] ? Eigen::Vector3d::Zero() : L[p];
-          for (int k = 0; k < 3 && m.index[k] >= 0; ++k) {
+          for (int k = 0; k < kMaxMembers && m.index[k] >= 0; ++k) {
             const auto i = static_cast<std::size_t>(m.index[k]);
             num[i] += m.weight[k] * omega[p] * l;
             den[i] += m.weight[k] * omega[p];
-            for (int q = 0; q < 3 && m.index[q] >= 0; ++q) mass(m.index[k], m.index[q]) += m.weight[k] * m.weight[q] * omega[p];
+            for (int q = 0; q < kMaxMembers && m.index[q] >= 0; ++q) mass(m.index[k], m.index[q]) += m.weight[k] * m.weight[q] * omega[p];
           }
         }
         std::vector<Eigen::Vector3d> S(count, Eigen::Vector3d::Zero());

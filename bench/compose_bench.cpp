@@ -30,6 +30,7 @@
 #include "skylit/render/sun_shadow_map.hpp"
 #include "skylit/scene/site.hpp"
 #include "skylit/sky/calibration.hpp"
+#include "study/study.hpp"
 
 namespace {
 
@@ -95,31 +96,15 @@ struct Scene {
 // The sample HMD camera (config/hmd_camera.yaml) scaled to width (same focal length per pixel of
 // width), any height.
 sky::CameraCalibration camera(int width, int height) {
-  sky::CameraCalibration c = sky::load_calibration(fs::path(SKYLIT_SOURCE_DIR) / "config/hmd_camera.yaml");
-  const double s = static_cast<double>(width) / c.image_width;
-  c.fx *= s;
-  c.fy *= s;
-  c.cx = (width - 1) / 2.0;   // centred, whatever the aspect ratio
-  c.cy = (height - 1) / 2.0;
-  c.image_width = width;
-  c.image_height = height;
-  return c;
+  return study::scaled_camera(fs::path(SKYLIT_SOURCE_DIR) / "config/hmd_camera.yaml", width, height);
 }
 
-// A visitor's view: eye height 1.6 m, 18 m south of the gate's centre, looking at its middle
-// (0, 0, 3 m), as the demo's walk (config/demo.yaml) at its midpoint. The gate spans the frame;
-// the ground in front of it, lit, and the eaves' shadows on its south face are in view.
-render::CameraPose visitor_pose() {
-  const Eigen::Vector3d eye(0.0, -18.0, 1.6);
-  const Eigen::Vector3d forward = (Eigen::Vector3d(0.0, 0.0, 3.0) - eye).normalized();
-  const Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();
-  render::CameraPose pose;
-  pose.R_site_from_camera.col(0) = right;
-  pose.R_site_from_camera.col(1) = forward.cross(right);  // down
-  pose.R_site_from_camera.col(2) = forward;
-  pose.t_site_from_camera = eye;
-  return pose;
-}
+// A visitor's view (study::visitor_pose): eye height 1.6 m, 18 m south of the gate's centre,
+// looking at its middle (0, 0, 3 m), as the demo's walk (config/demo.yaml) at its midpoint. The
+// gate spans the frame; the ground in front of it, lit, and the eaves' shadows on its south face
+// are in view.
+using study::median;
+using study::visitor_pose;
 
 render::CompositeInput frame_input(const Scene& scene, const sky::CameraCalibration& calibration, cv::Mat& image) {
   image = cv::Mat(calibration.image_height, calibration.image_width, CV_8UC3);
@@ -165,12 +150,6 @@ void frame(benchmark::State& state, bool read_back) {
   state.counters["Mpixel/s"] =
       benchmark::Counter(static_cast<double>(width) * height * static_cast<double>(state.iterations()) / 1e6,
                          benchmark::Counter::kIsRate);
-}
-
-double median(std::vector<double> values) {
-  if (values.empty()) return 0.0;
-  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2), values.end());
-  return values[values.size() / 2];
 }
 
 // The frame with read-back split by stage (glFinish after each: CompositorOptions::time_stages);

@@ -1,12 +1,13 @@
 // The GPU blend alone (render/gpu_blend.hpp): ν = 2, 4, 8 (40, 160, 640 layers) and 1, 4, 16
-// planes of 512², R16F and R8 basis storage, against the memory-bandwidth floor measured in the
+// planes of 512², R16F and R8 basis storage (and EAC R11 on request), against the memory-bandwidth floor measured in the
 // same run on the same device (the basis bytes read once, at the device's copy bandwidth).
 // Prints markdown tables; see bench/RESULTS.md ("GPU blend").
 //
 //   gpu_blend_bench [--size 512] [--repeats 9] [--batch 20] [--frequencies 2,4,8] [--planes 1,4,16]
-//                   [--storage r16f,r8] [--layout packed,single] [--no-check] [--shader-dir DIR]
+//                   [--storage r16f,r8,eac] [--layout packed,single] [--no-check] [--shader-dir DIR]
 //
-// Layouts: packed = four layers per texel (RGBA16F / RGBA8 arrays), single = one (R16F / R8).
+// Layouts: packed = four layers per texel (RGBA16F / RGBA8 arrays; two in RG11 EAC), single = one
+// (R16F / R8 / R11 EAC).
 // Per configuration: every plane blended once per call (all layers active, no savings), wall
 // time to glFinish and, where the driver has GL_EXT_disjoint_timer_query, GPU time; medians of
 // --repeats calls after a second of warm-up calls. "Sustained" times --batch calls issued back to back
@@ -60,7 +61,7 @@ struct Settings {
 [[noreturn]] void usage(const std::string& problem) {
   std::fprintf(stderr,
                "gpu_blend_bench: %s\nusage: gpu_blend_bench [--size N] [--repeats N] [--batch N] [--frequencies 2,4,8] "
-               "[--planes 1,4,16] [--storage r16f,r8] [--layout packed,single] [--no-check] [--shader-dir DIR]\n",
+               "[--planes 1,4,16] [--storage r16f,r8,eac] [--layout packed,single] [--no-check] [--shader-dir DIR]\n",
                problem.c_str());
   std::exit(2);
 }
@@ -110,8 +111,12 @@ Settings parse(int argc, char** argv) {
           s.storages.push_back(BasisStorage::Half);
         } else if (name == "r8") {
           s.storages.push_back(BasisStorage::Unorm8);
+        } else if (name == "eac") {
+          // Not in the default list: the synthetic layers are noise, EAC's worst case, and take
+          // about a second per 512² layer to encode.
+          s.storages.push_back(BasisStorage::Eac11);
         } else {
-          usage("--storage takes r16f and/or r8, got '" + name + "'");
+          usage("--storage takes r16f, r8 and/or eac, got '" + name + "'");
         }
       }
     } else if (arg == "--layout") {
@@ -300,6 +305,7 @@ BlendWeights sky_weights(const BasisImages& basis, std::uint64_t seed) {
 
 const char* storage_name(BasisStorage storage, bool packed) {
   if (storage == BasisStorage::Half) return packed ? "RGBA16F (4 layers/texel)" : "R16F";
+  if (storage == BasisStorage::Eac11) return packed ? "RG11 EAC (2 layers/texel)" : "R11 EAC";
   return packed ? "RGBA8 (4 layers/texel)" : "R8";
 }
 

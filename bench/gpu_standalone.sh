@@ -52,7 +52,7 @@ g++ -std=c++20 -O2 -pthread \
   -DSKYLIT_SOURCE_SHADER_DIR="\"$repo/shaders\"" -DSKYLIT_INSTALL_SHADER_DIR="\"/usr/local/share/skylit/shaders\"" \
   "$repo/bench/gpu_blend_bench.cpp" "$repo/bench/gpu_standalone_files.cpp" \
   "$repo/src/render/src/gpu_blend.cpp" "$repo/src/render/src/cpu_blend.cpp" "$repo/src/render/src/blend_kernel.cpp" \
-  "$repo/src/render/src/half.cpp" "$repo/src/render/src/blend_workers.cpp" \
+  "$repo/src/render/src/half.cpp" "$repo/src/render/src/blend_workers.cpp" "$repo/src/render/src/eac.cpp" \
   "$repo"/src/gpu/src/*.cpp "$repo/src/base/src/error.cpp" \
   "$lib_dir/libEGL.so.1" "$lib_dir/libGLESv2.so.2" -Wl,-rpath,"$lib_dir" \
   -o "$out_dir/gpu_blend_bench"

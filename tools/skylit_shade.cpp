@@ -44,6 +44,7 @@ struct Options {
   std::string sky_calib;
   std::string out_dir;
   std::string sun = "auto";
+  int sources = 1;                // separated sources at most: the sun, then compact lamps
   std::vector<double> exposure;   // seconds, one per frame
   double gain = 1.0;
   std::string response = "srgb";  // srgb | linear | FILE.yaml
@@ -120,10 +121,8 @@ std::vector<std::string> face_flag_names(std::uint32_t flags) {
 
 nlohmann::json vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
-// Sun visibility for every texel of every plane: its disc as an area light (soft shadows),
-// ray-cast with Embree against the site model the bake was made from.
-std::vector<std::vector<float>> sun_visibility(const Options& o, const skylit::bake::Manifest& manifest,
-                                               const skylit::sky::Sun& sun) {
+// The site model the bake was made from, for the separated sources' shadows.
+skylit::scene::Mesh site_mesh(const Options& o, const skylit::bake::Manifest& manifest) {
   const fs::path site_file = o.site.empty() ? fs::path(manifest.plan.site_file) : fs::path(o.site);
   if (!fs::exists(site_file)) {
     throw InputError(site_file.string() + ": the site this bake was made from is not here, and the sun's shadows "
@@ -135,6 +134,13 @@ std::vector<std::vector<float>> sun_visibility(const Options& o, const skylit::b
     spdlog::warn("the model {} changed since the bake was made: the sun's shadows follow the new model",
                  site.model.string());
   }
+  return mesh;
+}
+
+// Visibility of a separated source (the sun, a lamp) for every texel of every plane: its disc as
+// an area light (soft shadows), ray-cast with Embree against the site model.
+std::vector<std::vector<float>> sun_visibility(const Options& o, const skylit::bake::Manifest& manifest,
+                                               const skylit::scene::Mesh& mesh, const skylit::sky::Sun& sun) {
   std::vector<skylit::geom::Vec3> directions = sun.disc_directions;
   std::vector<double> weights = sun.disc_weights;
   if (directions.empty()) {
@@ -155,6 +161,11 @@ int run(const Options& o) {
   const fs::path out_dir = o.out_dir;
   if (o.sun != "auto" && o.sun != "off") {
     throw InputError("option --sun: got '" + o.sun + "'. Fix: use --sun auto (separate a compact sun) or --sun off");
+  }
+  if (o.sources < 1 || (o.sources > 1 && o.sun == "off")) {
+    throw InputError("option --sources: got " + std::to_string(o.sources) + (o.sun == "off" ? " with --sun off" : "") +
+                     ". Fix: use --sources 1 (the sun alone), or N > 1 with --sun auto to separate further compact "
+                     "sources");
   }
   const skylit::bake::VerifyReport report = skylit::bake::verify(o.bake_dir);
   if (!report.ok) {
@@ -178,18 +189,23 @@ int run(const Options& o) {
   sky_options.table.basis = manifest.plan.basis;  // S per layer of the bake
   sky_options.luminance.min_coverage = o.min_coverage;
   sky_options.sun_mode = o.sun == "auto" ? skylit::sky::SunMode::Auto : skylit::sky::SunMode::Off;
+  sky_options.max_sources = o.sources;
   const skylit::sky::SkyEstimator estimator(calibration, dome, sky_options);
   const double table_ms = ms_since(t);
   const skylit::sky::SkyEstimate estimate = estimator.estimate(frame);
 
   const std::vector<Eigen::Vector3d> S = skylit::sky::layer_radiances(estimate.luminance);
-  std::optional<skylit::render::SunLight> sun;
-  std::vector<std::vector<float>> visibility(manifest.planes.size());
+  // One separated term per source (with --sources 1: the sun, when there is one).
+  std::vector<skylit::render::SunLight> lights;
+  std::vector<std::vector<std::vector<float>>> visibility;  // [source][plane][texel]
   double visibility_ms = 0;
-  if (estimate.sun) {
-    sun = skylit::render::SunLight{estimate.sun->direction, estimate.sun->energy};
+  if (!estimate.sources.empty()) {
     t = Clock::now();
-    visibility = sun_visibility(o, manifest, *estimate.sun);
+    const skylit::scene::Mesh mesh = site_mesh(o, manifest);
+    for (const skylit::sky::Sun& source : estimate.sources) {
+      lights.push_back(skylit::render::SunLight{source.direction, source.energy});
+      visibility.push_back(sun_visibility(o, manifest, mesh, source));
+    }
     visibility_ms = ms_since(t);
   }
 
@@ -200,10 +216,11 @@ int run(const Options& o) {
   for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
     const skylit::render::BasisImages basis = skylit::render::load_basis(o.bake_dir, manifest, static_cast<int>(j));
     t = Clock::now();
-    const skylit::render::BlendWeights weights = skylit::render::blend_weights(basis, S, sun, blend_options);
+    const skylit::render::BlendWeights weights = skylit::render::blend_weights_sources(basis, S, lights, blend_options);
     std::vector<float> rgb(basis.texel_count() * 3);
-    const std::span<const float> v = weights.sun.isZero() ? std::span<const float>() : std::span<const float>(visibility[j]);
-    const skylit::render::BlendStats stats = skylit::render::blend_cpu(basis, weights, v, rgb, blend_options);
+    std::vector<std::span<const float>> v;
+    for (const auto& source : visibility) v.emplace_back(source[j]);
+    const skylit::render::BlendStats stats = skylit::render::blend_cpu_sources(basis, weights, v, rgb, blend_options);
     const double ms = ms_since(t);
     blend_ms += ms;
 
@@ -273,23 +290,31 @@ int run(const Options& o) {
                      {"no_face_seen", l.no_face_seen},
                      {"sun_mode", o.sun},
                      {"sun_reason", estimate.sun_reason},
+                     {"max_sources", o.sources},
                      {"planes", planes_json}};
-  if (estimate.sun) {
-    const auto& s = *estimate.sun;
+  const auto source_json = [](const skylit::sky::Sun& s) {
     const double elevation = std::asin(std::clamp(s.direction.z(), -1.0, 1.0)) * 180.0 / 3.141592653589793;
     const double azimuth = std::fmod(std::atan2(s.direction.x(), s.direction.y()) * 180.0 / 3.141592653589793 + 360.0, 360.0);
-    sky["sun"] = {{"direction", vec(s.direction)},
-                  {"azimuth_deg", azimuth},
-                  {"elevation_deg", elevation},
-                  {"angular_radius_deg", s.angular_radius * 180.0 / 3.141592653589793},
-                  {"energy", vec(s.energy)},
-                  {"background", vec(s.background)},
-                  {"contrast", s.contrast},
-                  {"pixels", s.pixel_count},
-                  {"clipped", s.clipped}};
-  } else {
-    sky["sun"] = nullptr;
+    return nlohmann::json{{"direction", vec(s.direction)},
+                          {"azimuth_deg", azimuth},
+                          {"elevation_deg", elevation},
+                          {"angular_radius_deg", s.angular_radius * 180.0 / 3.141592653589793},
+                          {"energy", vec(s.energy)},
+                          {"background", vec(s.background)},
+                          {"contrast", s.contrast},
+                          {"pixels", s.pixel_count},
+                          {"clipped", s.clipped}};
+  };
+  sky["sun"] = estimate.sun ? source_json(*estimate.sun) : nlohmann::json(nullptr);
+  // Every separated source, the sun first when there is one ("sun": true on it).
+  nlohmann::json sources_json = nlohmann::json::array();
+  for (std::size_t k = 0; k < estimate.sources.size(); ++k) {
+    nlohmann::json s = source_json(estimate.sources[k]);
+    s["sun"] = k == 0 && estimate.sun.has_value();
+    sources_json.push_back(std::move(s));
   }
+  sky["sources"] = std::move(sources_json);
+  if (o.sources > 1) sky["sources_reason"] = estimate.sources_reason;
   sky["timings_ms"] = {{"load_frames", load_ms},  {"table", table_ms},         {"sun", estimate.sun_ms},
                        {"luminance", estimate.luminance_ms}, {"sun_visibility", visibility_ms},
                        {"blend", blend_ms},       {"total", ms_since(start)}};
@@ -307,6 +332,9 @@ int run(const Options& o) {
   if (l.no_face_seen) spdlog::warn("the frame sees no face of the dome: every S is 0 and T = 1");
   if (l.clipped_pixels > 0) spdlog::warn("{} clipped pixel(s): the sky there is brighter than measured", l.clipped_pixels);
   spdlog::info("sun: {}", estimate.sun_reason);
+  if (o.sources > 1) {
+    spdlog::info("{} separated source(s) (at most {}): {}", estimate.sources.size(), o.sources, estimate.sources_reason);
+  }
   spdlog::info("wrote {} plane(s), sky.json and sky_overlay.png to {} in {:.0f} ms", manifest.planes.size(),
                out_dir.string(), ms_since(start));
   return 0;
@@ -323,6 +351,10 @@ int main(int argc, char** argv) {
   app.add_option("--sky-calib", o.sky_calib, "sky-camera calibration (YAML, or OpenCV FileStorage)")->required();
   app.add_option("-o,--output", o.out_dir, "output directory")->required();
   app.add_option("--sun", o.sun, "auto: separate a compact sun as a directional light; off: dome only")
+      ->capture_default_str();
+  app.add_option("--sources", o.sources,
+                 "separated sources at most: 1 the sun alone; N > 1 also up to N − 1 further compact sources "
+                 "(lamps), each with its own shadows")
       ->capture_default_str();
   app.add_option("--exposure", o.exposure, "exposure time per frame, seconds (default: from EXIF, or 1)");
   app.add_option("--gain", o.gain, "sensor gain (linear) when --exposure is given")->capture_default_str();

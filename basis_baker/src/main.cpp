@@ -7,6 +7,7 @@
 #include <spdlog/spdlog.h>
 
 #include "skylit/base/error.hpp"
+#include "skylit/base/presets.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/baker/error_budget.hpp"
 
@@ -73,6 +74,11 @@ int main(int argc, char** argv) {
                  "denser bake over clear and overcast test skies (docs/baker.md)");
   app.add_option("--latitude", budget.latitude_deg, "with --error-budget: the site's latitude for the test skies' sun")
       ->capture_default_str();
+  std::string preset_name, presets_file = skylit::default_presets_file().string();
+  app.add_option("--preset", preset_name,
+                 "bake with a preset's settings: fast, balanced, accurate (docs/presets.md); --frequency, --basis, "
+                 "--samples and --pca-components given too override it");
+  app.add_option("--presets", presets_file, "the presets file for --preset")->capture_default_str();
   bool no_previews = false;
   app.add_flag("--no-previews", no_previews, "skip the preview contact sheets");
   app.add_flag("-q,--quiet", quiet, "only warnings and errors");
@@ -134,9 +140,20 @@ int main(int argc, char** argv) {
     }
     options.site_file = site;
     options.out_dir = out;
+    if (!preset_name.empty()) {
+      const skylit::Preset preset = skylit::find_preset(presets_file, preset_name);
+      if (!app.count("--frequency")) frequency = preset.bake.frequency;
+      if (!app.count("--basis")) basis = preset.bake.basis;
+      if (!app.count("--samples")) options.samples = preset.bake.samples;
+      if (!pca.components && !pca.variance && !pca.max_error && preset.bake.pca_components > 0) {
+        pca.components = preset.bake.pca_components;
+      }
+      spdlog::info("preset {} ({}): frequency {}, basis {}, samples {}, PCA components {}", preset.name, presets_file,
+                   frequency, basis, options.samples, pca.components ? std::to_string(*pca.components) : "none");
+    }
     options.pca = want_pca();
     if (frequency != 0 || app.count("--frequency")) options.frequency = frequency;
-    if (app.count("--basis")) {
+    if (app.count("--basis") || !preset_name.empty()) {
       options.basis = skylit::geom::parse_basis(basis);
       if (!options.basis) {
         throw skylit::InputError("option --basis: got '" + basis + "'. Fix: use --basis faces or --basis corners");

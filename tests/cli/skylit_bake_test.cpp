@@ -372,3 +372,32 @@ TEST(SkylitBake, SampleSiteConfigBakes) {
   EXPECT_GE(m.planes.size(), 3u);
   for (const auto& p : m.planes) EXPECT_TRUE(fs::exists(dir / "bake" / "preview" / (p.plane.name + ".png")));
 }
+
+namespace {
+
+TEST(SkylitBake, PresetSetsTheBakeAndAnUnknownOneListsTheValidNames) {
+  // config/presets.yaml's fast preset: ν=2, corners, 16 samples, a PCA form with 8 components;
+  // --samples given too overrides the preset's.
+  TempDir dir;
+  const Result r = run((kSource / "config" / "sample_site.yaml").string() + " -o " + (dir / "bake").string() +
+                       " --preset fast --samples 3 --method raytrace --resolution 16x8 --no-previews");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto m = skylit::bake::read_manifest(dir / "bake");
+  EXPECT_EQ(m.plan.frequency, 2);
+  EXPECT_EQ(m.plan.basis, skylit::geom::DomeBasis::Corners);
+  EXPECT_EQ(m.plan.samples, 3);
+  for (const auto& p : m.planes) {
+    ASSERT_TRUE(p.pca.has_value()) << p.plane.name;
+    EXPECT_GE(p.pca->components, 8);
+  }
+
+  const Result bad = run((kSource / "config" / "sample_site.yaml").string() + " -o " + (dir / "other").string() +
+                         " --preset turbo");
+  EXPECT_EQ(bad.status, 2) << bad.output;
+  EXPECT_NE(bad.output.find("turbo"), std::string::npos) << bad.output;
+  EXPECT_NE(bad.output.find("presets.yaml"), std::string::npos) << bad.output;
+  EXPECT_NE(bad.output.find("fast, balanced, accurate"), std::string::npos) << bad.output;
+  EXPECT_FALSE(fs::exists(dir / "other" / "manifest.json"));
+}
+
+}  // namespace

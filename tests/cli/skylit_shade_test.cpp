@@ -99,6 +99,42 @@ TEST_F(SkylitShade, SunOffKeepsTheSunInTheDome) {
   EXPECT_EQ(sky["sun_reason"], "sun separation off");
 }
 
+TEST_F(SkylitShade, SourcesListsEverySeparatedSourceTheSunFirst) {
+  // Default (--sources 1): the sun alone, listed once.
+  const fs::path one = *dir_ / "one";
+  Result r = run(kBin / "skylit-shade", common(one) + " --sky " + (*dir_ / "park.exr").string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  const nlohmann::json sky1 = nlohmann::json::parse(std::ifstream(one / "sky.json"));
+  ASSERT_EQ(sky1["sources"].size(), 1u);
+  EXPECT_TRUE(sky1["sources"][0]["sun"].get<bool>());
+  EXPECT_EQ(sky1["sources"][0]["direction"], sky1["sun"]["direction"]);
+  EXPECT_EQ(sky1["max_sources"], 1);
+  // --sources 4: the sun first, then up to three compact sources, each with its energy.
+  const fs::path four = *dir_ / "four";
+  r = run(kBin / "skylit-shade", common(four) + " --sources 4 --sky " + (*dir_ / "park.exr").string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  const nlohmann::json sky4 = nlohmann::json::parse(std::ifstream(four / "sky.json"));
+  ASSERT_GE(sky4["sources"].size(), 1u);
+  ASSERT_LE(sky4["sources"].size(), 4u);
+  EXPECT_TRUE(sky4["sources"][0]["sun"].get<bool>());
+  EXPECT_EQ(sky4["sources"][0]["direction"], sky1["sun"]["direction"]);
+  for (std::size_t k = 1; k < sky4["sources"].size(); ++k) {
+    EXPECT_FALSE(sky4["sources"][k]["sun"].get<bool>());
+    for (double e : sky4["sources"][k]["energy"]) EXPECT_TRUE(std::isfinite(e) && e >= 0.0);
+  }
+  EXPECT_TRUE(sky4.contains("sources_reason"));
+  for (const auto& plane : sky4["planes"]) {
+    EXPECT_GE(plane["min_T"].get<double>(), 0.0);
+    EXPECT_LE(plane["mean_T"].get<double>(), 1.0);
+  }
+  // Several sources need sun separation; fewer than one is no setting.
+  for (const char* bad : {" --sources 3 --sun off", " --sources 0"}) {
+    r = run(kBin / "skylit-shade", common(*dir_ / "bad_sources") + bad + " --sky " + (*dir_ / "park.exr").string());
+    EXPECT_EQ(r.status, 2) << bad << "\n" << r.output;
+    EXPECT_NE(r.output.find("--sources"), std::string::npos) << r.output;
+  }
+}
+
 TEST_F(SkylitShade, AnEightBitBracketMergesToHdr) {
   const cv::Mat hdr = skylit::sky::read_sky_image(*dir_ / "park.exr");
   std::string frames;

@@ -2,8 +2,12 @@
 // and releases cleanly.
 #include <gtest/gtest.h>
 
+#include <array>
+#include <cstdint>
 #include <cstdlib>
+#include <memory>
 #include <string>
+#include <thread>
 
 #include "skylit/gpu/egl_context.hpp"
 #include "skylit/gpu/gl.hpp"
@@ -67,6 +71,46 @@ TEST(HeadlessContext, TwoContextsCoexistAndOutliveEachOther) {
   glBindTexture(GL_TEXTURE_2D, texture.get());
   EXPECT_EQ(glIsTexture(texture.get()), GL_TRUE);
   check_gl_error("first context after the second is gone");
+}
+
+// A context made in another's share group sees its textures (name and contents), on the same
+// display, and outlives it; a thread with no context current has no share group to give.
+TEST(HeadlessContext, ASharedContextSeesTheOtherContextsObjects) {
+  auto first = std::make_unique<HeadlessContext>();
+  GLuint name = 0;  // deleted in the shared context, after the first is gone
+  glGenTextures(1, &name);
+  glBindTexture(GL_TEXTURE_2D, name);
+  const std::array<std::uint8_t, 4> texel{10, 20, 30, 40};
+  glTexStorage2D(GL_TEXTURE_2D, 1, GL_RGBA8, 1, 1);
+  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, 1, 1, GL_RGBA, GL_UNSIGNED_BYTE, texel.data());
+  glFinish();  // complete before the other context uses it
+  const HeadlessContext::ShareGroup share = HeadlessContext::current_share_group();
+  {
+    const HeadlessContext shared(share);  // current now
+    EXPECT_FALSE(shared.renderer().empty());
+    EXPECT_EQ(glIsTexture(name), GL_TRUE);
+    Framebuffer framebuffer = make_framebuffer();
+    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer.get());
+    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, name, 0);
+    std::array<std::uint8_t, 4> read{};
+    glReadPixels(0, 0, 1, 1, GL_RGBA, GL_UNSIGNED_BYTE, read.data());
+    EXPECT_EQ(read, texel);
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    check_gl_error("shared context");
+    first.reset();  // the shared context keeps the share group (and the display) alive
+    EXPECT_EQ(glIsTexture(name), GL_TRUE);
+    glDeleteTextures(1, &name);
+    check_gl_error("shared context after the first is gone");
+  }
+  std::string error;
+  std::thread([&error] {
+    try {
+      HeadlessContext::current_share_group();
+    } catch (const ContextError& e) {
+      error = e.what();
+    }
+  }).join();
+  EXPECT_NE(error.find("no EGL context is current"), std::string::npos) << error;
 }
 
 TEST(HeadlessContext, MovesOwnership) {

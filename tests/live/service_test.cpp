@@ -158,6 +158,13 @@ TEST_P(ServiceBlend, RecordedFramesMatchTheCompositorDrivenDirectly) {
   ASSERT_LT(out.frames_without_sky, 25) << "the sky came too late to compare frames";
   EXPECT_EQ(out.status["blend"]["device"], GetParam()) << out.status["blend"].dump();
   EXPECT_EQ(out.status["blend"]["setting"], GetParam());
+  // The sun's shadow map is drawn on the sky thread, never on the render thread: a frame that
+  // takes a new sky switches to the finished map (sun_shadow_exchange.hpp).
+  const auto& maps = out.status["sun_shadow_maps"];
+  EXPECT_EQ(maps["drawn_on"], "sky thread") << out.status.dump();
+  EXPECT_GE(maps["drawn"].get<std::int64_t>(), 1);
+  EXPECT_GE(maps["taken"].get<std::int64_t>(), 1);
+  EXPECT_LE(maps["taken"].get<std::int64_t>(), maps["drawn"].get<std::int64_t>());
   int worst = 0, nearest_other = 255;
   for (std::size_t k = static_cast<std::size_t>(out.frames_without_sky); k < out.recorded.size(); ++k) {
     const cv::Mat& frame = out.recorded[k];

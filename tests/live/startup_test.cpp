@@ -10,6 +10,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "live_fixture.hpp"
+#include "skylit/base/error.hpp"
 
 namespace skylit::live_test {
 namespace {
@@ -186,12 +187,33 @@ TEST(ServiceConfig, BlendDeviceAndRecordSettings) {
   config = live::load_live_config(file);
   EXPECT_EQ(config.blend.device, live::BlendDevice::Gpu);
   EXPECT_EQ(config.blend.threads, 3);
-  EXPECT_TRUE(config.blend.unorm8);
+  EXPECT_EQ(config.blend.storage, live::BlendSettings::Storage::Unorm8);
   EXPECT_EQ(config.output.record, rig.dir() / "a.avi");
   EXPECT_FALSE(config.output.record_fps.has_value());
 
   std::ofstream(file) << rig.config_text();
   EXPECT_EQ(live::load_live_config(file).blend.device, live::BlendDevice::Auto);
+  EXPECT_EQ(live::load_live_config(file).render.scale, 1.0);
+
+  // EAC blocks and the building's render scale.
+  std::ofstream(file) << rig.config_text() << "blend:\n  device: gpu\n  storage: eac\nrender:\n  scale: 0.75\n";
+  config = live::load_live_config(file);
+  EXPECT_EQ(config.blend.storage, live::BlendSettings::Storage::Eac);
+  EXPECT_DOUBLE_EQ(config.render.scale, 0.75);
+  std::ofstream(file) << rig.config_text() << "render:\n  scale: 1.5\n";
+  try {
+    live::load_live_config(file);
+    ADD_FAILURE() << "a render scale over 1 was taken";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("render.scale"), std::string::npos) << e.what();
+  }
+  std::ofstream(file) << rig.config_text() << "blend:\n  storage: eac\n  basis: pca\n";
+  try {
+    live::load_live_config(file);
+    ADD_FAILURE() << "eac with the PCA form was taken";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("blend.storage"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -441,5 +441,44 @@ TEST_F(GpuBlendRealBake, MatchesTheCpuOnEveryPlaneUnderASunnySky) {
   std::printf("measured: real bake (ν = 2, 4 samples): worst R8 error %.3g\n", r8_error);
 }
 
+TEST_F(GpuBlendRealBake, EacLayersStayWithinTheErrorMeasuredOnUpload) {
+  // The same sky; EAC R11 blocks against the exact CPU blend. A bake's layers are mostly flat
+  // (open sky or full shadow) with edges between: the case block compression keeps best.
+  const geom::Vec3 sun_direction = geom::Vec3(0.54, -0.54, 0.643).normalized();
+  std::vector<Eigen::Vector3d> S;
+  for (const bake::FaceRecord& face : manifest_->faces) {
+    const double closeness = std::exp(-std::acos(std::clamp(face.direction.dot(sun_direction), -1.0, 1.0)) / 0.4);
+    S.push_back(Eigen::Vector3d(0.4, 0.6, 1.0) * (1.0 + 4.0 * closeness));
+  }
+  for (std::size_t j = 0; j < manifest_->planes.size(); ++j) {
+    const BasisImages basis = load_basis(*dir_ / "bake", *manifest_, static_cast<int>(j));
+    const BlendWeights w = blend_weights(basis, S, std::nullopt);
+    const std::vector<float> expected = cpu_blend(basis, w, {});
+    for (const bool packed : {false, true}) {
+      GpuBlendOptions options = test::blend_options(BasisStorage::Eac11, ShadowRatioFormat::Float);
+      options.pack_layers = packed;
+      GpuBlender blender(basis, options);
+      ASSERT_TRUE(blender.blend(w));
+      const std::vector<float> T = blender.read_back();
+      double bound = 0.0, worst_layer = 0.0;
+      for (int c = 0; c < 3; ++c) {
+        double channel = 0.0;
+        for (const int i : w.active) {
+          const auto k = static_cast<std::size_t>(i);
+          channel += std::abs(w.face[k][c]) * blender.eac_error()[k];
+          worst_layer = std::max(worst_layer, static_cast<double>(blender.eac_error()[k] / std::max(blender.layer_max()[k], 1e-30f)));
+        }
+        bound = std::max(bound, channel);
+      }
+      const double difference = max_abs_difference(T, expected);
+      std::printf("measured: real bake, plane %s, EAC %s: max |T_eac - T_cpu| = %.3g (mean %.3g; bound %.3g; worst layer "
+                  "%.3g of its maximum)\n",
+                  basis.name.c_str(), packed ? "RG11" : "R11", difference, mean_abs_difference(T, expected), bound, worst_layer);
+      EXPECT_LE(difference, bound + 1e-5);
+      EXPECT_LE(difference, 0.02);  // a bake's layers, unlike noise, compress well
+    }
+  }
+}
+
 }  // namespace
 }  // namespace skylit::render

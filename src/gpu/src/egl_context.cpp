@@ -238,6 +238,46 @@ struct HeadlessContext::State {
         return "no surfaceless contexts and eglCreatePbufferSurface failed (" + last_egl_error() + ")";
       }
     }
+    return finish_current();
+  }
+
+  // Makes a context in the share group of `share` (current on another thread, or none) on this
+  // state's display, with `share`'s config; "" on success, else the reason.
+  std::string create_shared_context(EGLContext share) {
+    if (eglBindAPI(EGL_OPENGL_ES_API) != EGL_TRUE) {
+      return "eglBindAPI(EGL_OPENGL_ES_API) failed (" + last_egl_error() + ")";
+    }
+    EGLint config_id = 0;
+    if (eglQueryContext(display, share, EGL_CONFIG_ID, &config_id) != EGL_TRUE) {
+      return "eglQueryContext(EGL_CONFIG_ID) failed (" + last_egl_error() + ")";
+    }
+    const EGLint config_attributes[] = {EGL_CONFIG_ID, config_id, EGL_NONE};
+    EGLConfig config = nullptr;
+    EGLint config_count = 0;
+    if (eglChooseConfig(display, config_attributes, &config, 1, &config_count) != EGL_TRUE || config_count < 1) {
+      return "the shared context's EGL config was not found (" + last_egl_error() + ")";
+    }
+    const EGLint versioned[] = {kContextMajorVersion, 3, kContextMinorVersion, 1, EGL_NONE};
+    context = eglCreateContext(display, config, share, versioned);
+    if (context == EGL_NO_CONTEXT) {
+      const EGLint major_only[] = {EGL_CONTEXT_CLIENT_VERSION, 3, EGL_NONE};
+      context = eglCreateContext(display, config, share, major_only);
+    }
+    if (context == EGL_NO_CONTEXT) {
+      return "eglCreateContext sharing objects failed (" + last_egl_error() + ")";
+    }
+    if (!has_word(eglQueryString(display, EGL_EXTENSIONS), "EGL_KHR_surfaceless_context")) {
+      const EGLint pbuffer_attributes[] = {EGL_WIDTH, 1, EGL_HEIGHT, 1, EGL_NONE};
+      surface = eglCreatePbufferSurface(display, config, pbuffer_attributes);
+      if (surface == EGL_NO_SURFACE) {
+        return "no surfaceless contexts and eglCreatePbufferSurface failed (" + last_egl_error() + ")";
+      }
+    }
+    return finish_current();
+  }
+
+  // Makes the new context current and checks its version; "" on success, else the reason.
+  std::string finish_current() {
     if (eglMakeCurrent(display, surface, surface, context) != EGL_TRUE) {
       return "eglMakeCurrent failed (" + last_egl_error() + ")";
     }
@@ -298,6 +338,36 @@ HeadlessContext::HeadlessContext() : state_(std::make_unique<State>()) {
       "\nFix: install libegl-mesa0 and libgl1-mesa-dri (Mesa) or a GPU driver; without a display "
       "server set EGL_PLATFORM=surfaceless.";
   throw ContextError(message);
+}
+
+HeadlessContext::ShareGroup HeadlessContext::current_share_group() {
+  const EGLContext context = eglGetCurrentContext();
+  const EGLDisplay display = eglGetCurrentDisplay();
+  if (context == EGL_NO_CONTEXT || display == EGL_NO_DISPLAY) {
+    throw ContextError("no EGL context is current on this thread to share objects with; fix: make the context "
+                       "current (HeadlessContext or WindowContext) before asking for its share group");
+  }
+  return ShareGroup{display, context};
+}
+
+HeadlessContext::HeadlessContext(const ShareGroup& share) : state_(std::make_unique<State>()) {
+  State& s = *state_;
+  const auto display = static_cast<EGLDisplay>(share.display);
+  if (display == EGL_NO_DISPLAY || share.context == nullptr) {
+    throw ContextError("a shared context needs a share group (HeadlessContext::current_share_group)");
+  }
+  // The display is initialised already (its context exists): this counts one more user of it.
+  if (!DisplayUsers::instance().initialize(display)) {
+    throw ContextError("eglInitialize failed on the shared context's display (" + last_egl_error() + ")");
+  }
+  s.display = display;
+  const std::string why = s.create_shared_context(static_cast<EGLContext>(share.context));
+  if (!why.empty()) {
+    s.release();
+    throw ContextError("no OpenGL ES context sharing objects with the current one: " + why +
+                       ". Fix: a driver whose EGL shares contexts on one display (Mesa does)");
+  }
+  s.platform = "shared with another context";
 }
 
 HeadlessContext::~HeadlessContext() = default;

@@ -1,17 +1,26 @@
 #include "skylit/live/live_config.hpp"
 
+#include <algorithm>
 #include <array>
 #include <filesystem>
 #include <string_view>
 
+#include "skylit/base/error.hpp"
+#include "skylit/base/presets.hpp"
 #include "skylit/base/yaml_reader.hpp"
 
 namespace skylit::live {
 namespace {
 
 constexpr const char* kDocs = "see docs/live.md (Configuration)";
-constexpr std::array<std::string_view, 13> kTopKeys{"site",  "bake",        "sky",    "camera", "pose",   "imu",     "fusion",
-                                                    "tracking", "blend", "photometric", "output", "status", "display"};
+constexpr std::array<std::string_view, 15> kTopKeys{"site",     "bake",  "preset",      "sky",    "camera", "pose",   "imu",
+                                                    "fusion",   "tracking", "blend", "render", "photometric", "output", "status", "display"};
+constexpr std::array<std::string_view, 1> kRenderKeys{"scale"};
+constexpr std::array<std::string_view, 3> kStorages{"half", "unorm8", "eac"};
+
+BlendSettings::Storage parse_storage(std::string_view name) {
+  return name == "unorm8" ? BlendSettings::Storage::Unorm8 : name == "eac" ? BlendSettings::Storage::Eac : BlendSettings::Storage::Half;
+}
 constexpr std::array<std::string_view, 7> kSkyKeys{"calibration", "source", "response", "rate",
                                                    "sun", "smoothing", "stale_after"};
 constexpr std::array<std::string_view, 2> kCameraKeys{"calibration", "source"};
@@ -35,6 +44,11 @@ constexpr std::array<std::string_view, 2> kDisplayModes{"mono", "stereo"};
 
 }  // namespace
 
+std::filesystem::path presets_file_for(const std::filesystem::path& config_file) {
+  const std::filesystem::path beside = config_file.parent_path() / "presets.yaml";
+  return std::filesystem::is_regular_file(beside) ? beside : default_presets_file();
+}
+
 std::string blend_device_name(BlendDevice device) {
   switch (device) {
     case BlendDevice::Cpu: return "cpu";
@@ -54,6 +68,27 @@ LiveConfig load_live_config(const std::filesystem::path& file) {
   c.file = file;
   c.site = r.path(r.require(root, "site", "site", "the site file, e.g. site: sample_site.yaml"), "site", kDocs);
   c.bake = r.path(r.require(root, "bake", "bake", "the bake folder, e.g. bake: ../build/demo/bake"), "bake", kDocs);
+  // preset: NAME sets the live settings of a preset (config/presets.yaml, docs/presets.md); the
+  // keys below override them.
+  if (auto n = YamlReader::optional(root, "preset")) {
+    const std::string name = r.text(n, "preset", "a preset's name, e.g. preset: balanced");
+    c.presets_file = presets_file_for(file);
+    const std::vector<Preset> presets = load_presets(c.presets_file);
+    const auto found = std::find_if(presets.begin(), presets.end(), [&](const Preset& p) { return p.name == name; });
+    if (found == presets.end()) {
+      r.fail(n, "preset", "no preset '" + name + "' in " + c.presets_file.string(), "use one of " + preset_names(presets));
+    }
+    c.preset = name;
+    c.sky.sun = found->live.sun;
+    c.sky.smoothing = found->live.smoothing;
+    c.blend.basis = found->live.basis == "pca"    ? BlendSettings::Basis::Pca
+                    : found->live.basis == "lean" ? BlendSettings::Basis::Lean
+                                                  : BlendSettings::Basis::Full;
+    c.blend.storage = parse_storage(found->live.storage);
+    c.render.scale = found->live.render_scale;
+    c.blend.skip_threshold = found->live.skip_threshold;
+    c.blend.change_threshold = found->live.change_threshold;
+  }
 
   const YAML::Node sky = r.require(root, "sky", "sky", "the sky camera: calibration and source");
   r.expect_map(sky, "sky", kDocs);
@@ -126,23 +161,30 @@ LiveConfig load_live_config(const std::filesystem::path& file) {
     if (auto n = YamlReader::optional(blend, "threads")) {
       c.blend.threads = static_cast<int>(r.integer(n, "blend.threads", 0, 256, "CPU blend threads, 0 for all hardware threads"));
     }
-    if (auto n = YamlReader::optional(blend, "storage")) {
-      constexpr std::array<std::string_view, 2> storages{"half", "unorm8"};
-      c.blend.unorm8 = r.choice(n, "blend.storage", storages) == "unorm8";
-    }
+    if (auto n = YamlReader::optional(blend, "storage")) c.blend.storage = parse_storage(r.choice(n, "blend.storage", kStorages));
     if (auto n = YamlReader::optional(blend, "basis")) {
       const std::string form(r.choice(n, "blend.basis", kBasisForms));
       c.blend.basis = form == "pca" ? BlendSettings::Basis::Pca : form == "lean" ? BlendSettings::Basis::Lean : BlendSettings::Basis::Full;
     }
-    if (c.blend.basis == BlendSettings::Basis::Pca && c.blend.unorm8) {
-      // A PCA form's eigen-images take either sign; 8-bit layers store [0, 1] only.
-      r.fail(blend["storage"], "blend.storage",
-             "unorm8 cannot hold the PCA form's eigen-images, whose values may be negative (blend.basis is pca)",
+    if (c.blend.basis == BlendSettings::Basis::Pca && c.blend.storage != BlendSettings::Storage::Half) {
+      // A PCA form's eigen-images take either sign; 8-bit and EAC layers store [0, 1] only.
+      r.fail(blend["storage"] ? blend["storage"] : blend["basis"], "blend.storage",
+             std::string(c.blend.storage == BlendSettings::Storage::Eac ? "eac" : "unorm8") +
+                 " cannot hold the PCA form's eigen-images, whose values may be negative (blend.basis is pca)",
              "set 'storage: half', or 'basis: full'");
     }
     if (auto n = YamlReader::optional(blend, "skip_threshold")) c.blend.skip_threshold = r.non_negative(n, "blend.skip_threshold", "T units, e.g. 0.002");
     if (auto n = YamlReader::optional(blend, "change_threshold")) c.blend.change_threshold = r.non_negative(n, "blend.change_threshold", "T units, e.g. 0.002");
     if (auto n = YamlReader::optional(blend, "cull_planes")) c.blend.cull_planes = r.boolean(n, "blend.cull_planes", "true or false");
+  }
+
+  if (auto render = YamlReader::optional(root, "render")) {
+    r.expect_map(render, "render", "render: {scale: 0.75}; " + std::string(kDocs));
+    r.check_keys(render, "render.", kRenderKeys);
+    if (auto n = YamlReader::optional(render, "scale")) {
+      c.render.scale = r.positive(n, "render.scale", "the building's render scale in (0, 1], e.g. 0.75");
+      if (c.render.scale > 1.0) r.fail(n, "render.scale", "is over 1", "a scale in (0, 1], e.g. 0.75 (1: the frame's resolution)");
+    }
   }
 
   if (auto photometric = YamlReader::optional(root, "photometric")) {

@@ -4,6 +4,7 @@
 #include <array>
 #include <atomic>
 #include <cctype>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -14,6 +15,9 @@
 #include <thread>
 #include <vector>
 
+#include <sys/resource.h>
+#include <unistd.h>
+
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -21,6 +25,7 @@
 
 #include "cpu_shadow_ratios.hpp"
 #include "live_tracking.hpp"
+#include "sun_shadow_exchange.hpp"
 
 #include "skylit/bake/format.hpp"
 #include "skylit/base/error.hpp"
@@ -79,8 +84,12 @@ struct SkyState {
   // map) and its revision: what the render thread needs to blend a plane the sky thread left out.
   std::vector<std::shared_ptr<const std::vector<float>>> sun_visibility;
   std::uint64_t sun_revision = 0;
+  // The sun's shadow map for this sky's sun, drawn and complete on the sky thread (the newest
+  // one, also when the sun has not moved since: a sky the render thread missed still brings it);
+  // null without a sun. The render thread switches to it when it differs from the one it has.
+  SunShadowHandle sun_map;
   double cpu_blend_ms = 0;        // the CPU blend of every plane
-  double sun_visibility_ms = 0;   // the sky thread's sun shadow map and V (when the sun moved)
+  double sun_visibility_ms = 0;   // the sky thread's sun shadow map, and V read back for the CPU blend (when the sun moved)
 };
 
 // A source's health for /status: when its last frame came, whether it has ended.
@@ -436,8 +445,11 @@ void pause_after_quick_not_yet(const capture::FrameResult& result, Clock::time_p
   }
 }
 
-// The sun's shadow map is drawn again when the sun has moved by more than a tenth of its radius
-// (both threads that draw one follow this rule, so their maps agree).
+// How much lower the sky thread's CPU priority is than the render thread's (nice levels).
+constexpr int kSkyThreadNiceness = 10;
+
+// The sun's shadow map is drawn again (by the sky thread) when the sun has moved by more than a
+// tenth of its radius.
 bool sun_moved(const Eigen::Vector3d& drawn_for, const Eigen::Vector3d& sun, double angular_radius) {
   return drawn_for.dot(sun) < std::cos(std::max(1e-4, 0.1 * angular_radius));
 }
@@ -533,6 +545,12 @@ struct Service::State {
   // With the blend on the CPU: made by the sky thread before it is ready, then shared.
   std::vector<std::unique_ptr<SharedCpuBlend>> cpu_blends;
 
+  // The sun's shadow maps: drawn on the sky thread in a GL context that shares objects with the
+  // render thread's (share_group, set by run() before the sky thread starts), used by the render
+  // thread. Declared before the mailboxes, whose skies hold handles to its maps.
+  gpu::HeadlessContext::ShareGroup share_group;
+  SunShadowExchange sun_maps;
+
   // Hand-over.
   Mailbox<SkyState> sky_box;
   Mailbox<capture::Frame> camera_box;
@@ -623,19 +641,46 @@ Service::~Service() {
 void Service::stop() {
   state_->running = false;
   state_->camera_box.close();
+  state_->sun_maps.close();  // a sky thread waiting for the render thread to free a map
 }
 
 std::string Service::status_address() const { return state_->status ? state_->status->address() : std::string(); }
 
 void Service::State::sky_loop(std::promise<void>& ready) {
-  // With the blend on the CPU, its objects live on this thread: the blend threads, each plane's T
-  // and, when the sky may have a sun, a GL context of this thread's own with a sun shadow map for
-  // the sun's visibility over the planes (the render thread's map, drawn for the same suns, gives
-  // the building's own sun shadow; both give the same V).
+  // This thread's work (the sky estimate, the sun's shadow map, the CPU blend; in the demo also
+  // the simulated sky) yields the cores to the render thread's: it runs niced, and so do the
+  // blend threads it starts, which inherit its niceness (llvmpipe's rasterizer threads are the
+  // process's, shared with the render thread, and keep theirs). On a machine with few cores a
+  // new sky then no longer slows the frames composited meanwhile; it comes a little later
+  // instead. (Per thread on Linux; where it fails, nothing changes.)
+  {
+    const auto thread = static_cast<id_t>(::gettid());
+    errno = 0;
+    const int niceness = ::getpriority(PRIO_PROCESS, thread);
+    if (errno == 0) static_cast<void>(::setpriority(PRIO_PROCESS, thread, std::min(niceness + kSkyThreadNiceness, 19)));
+  }
+  // When the sky may have a sun, this thread draws the sun's shadow maps (sun_maps), in a GL
+  // context of its own that shares objects with the render thread's: the render thread never
+  // draws one, it switches to each finished map (the building's own sun shadow; with the GPU
+  // blend, the planes' V). With the blend on the CPU its objects live here too: the blend
+  // threads, each plane's T, and V of each map read back for it.
   const bool cpu = blend_on_cpu;
   std::unique_ptr<render::BlendWorkers> workers;
   std::optional<gpu::HeadlessContext> context;
-  std::unique_ptr<render::SunShadowMap> shadow_map;
+  // Destroys the maps in this thread's context before the context goes (declared after it).
+  struct MapsOwner {
+    SunShadowExchange* maps = nullptr;
+    ~MapsOwner() {
+      if (maps == nullptr) return;
+      try {
+        maps->destroy();
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "skylit-live: destroying the sun shadow maps: %s\n", e.what());
+      }
+    }
+  } maps_owner;
+  bool shadow_maps = false;
+  SunShadowHandle last_map;
   std::vector<std::shared_ptr<const std::vector<float>>> visibility;
   std::uint64_t sun_revision = 0;
   Eigen::Vector3d shadow_direction = Eigen::Vector3d::Zero();
@@ -645,11 +690,13 @@ void Service::State::sky_loop(std::promise<void>& ready) {
       for (const auto& basis : bases) {
         cpu_blends.push_back(std::make_unique<SharedCpuBlend>(basis, config.blend.skip_threshold, config.blend.change_threshold));
       }
-      if (config.sky.sun) {
-        context.emplace();
-        shadow_map = std::make_unique<render::SunShadowMap>(mesh, bake_planes(manifest));
-        visibility.resize(bases.size());
-      }
+      if (config.sky.sun) visibility.resize(bases.size());
+    }
+    if (config.sky.sun) {
+      context.emplace(share_group);
+      sun_maps.create(mesh, bake_planes(manifest));
+      maps_owner.maps = &sun_maps;
+      shadow_maps = true;
     }
     ready.set_value();
   } catch (...) {
@@ -710,18 +757,24 @@ void Service::State::sky_loop(std::promise<void>& ready) {
       state.bad_pixels = estimate.luminance.nan_pixels + estimate.luminance.inf_pixels + estimate.luminance.negative_pixels;
       state.clipped_pixels = estimate.luminance.clipped_pixels;
       state.estimate_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+      // The sun's shadow map for a sun that moved, complete before the sky is handed over.
+      if (state.sun && shadow_maps && sun_moved(shadow_direction, state.sun->direction, state.sun_angular_radius)) {
+        const auto sun_start = Clock::now();
+        SunShadowHandle map = sun_maps.draw(state.sun->direction, shadow_angular_radius(state.sun_angular_radius));
+        if (!map) break;  // closed: the service is stopping
+        last_map = std::move(map);
+        shadow_direction = state.sun->direction;
+        ++sun_revision;
+        if (cpu) {
+          for (std::size_t j = 0; j < visibility.size(); ++j) {
+            visibility[j] = std::make_shared<const std::vector<float>>(last_map->map().read_visibility(static_cast<int>(j)));
+          }
+        }
+        state.sun_visibility_ms = std::chrono::duration<double, std::milli>(Clock::now() - sun_start).count();
+      }
+      if (state.sun) state.sun_map = last_map;
       if (cpu) {
         // T of every plane for this S and sun, now, so that the render thread only uploads it.
-        const auto sun_start = Clock::now();
-        if (state.sun && shadow_map && sun_moved(shadow_direction, state.sun->direction, state.sun_angular_radius)) {
-          shadow_map->update(state.sun->direction, shadow_angular_radius(state.sun_angular_radius));
-          shadow_direction = state.sun->direction;
-          ++sun_revision;
-          for (std::size_t j = 0; j < visibility.size(); ++j) {
-            visibility[j] = std::make_shared<const std::vector<float>>(shadow_map->read_visibility(static_cast<int>(j)));
-          }
-          state.sun_visibility_ms = std::chrono::duration<double, std::milli>(Clock::now() - sun_start).count();
-        }
         const auto blend_start = Clock::now();
         state.sun_visibility = visibility;
         state.sun_revision = sun_revision;
@@ -733,7 +786,7 @@ void Service::State::sky_loop(std::promise<void>& ready) {
           }
           const render::BlendWeights weights = render::blend_weights(bases[j], state.S, state.sun);
           const std::span<const float> sun_visibility =
-              shadow_map && visibility[j] ? std::span<const float>(*visibility[j]) : std::span<const float>();
+              shadow_maps && visibility[j] ? std::span<const float>(*visibility[j]) : std::span<const float>();
           std::lock_guard blend_lock(cpu_blends[j]->mutex);
           const bool ran = cpu_blends[j]->ratios.blend(weights, sun_visibility, sun_revision, workers.get());
           ++(ran ? counters.blends_run : counters.blends_skipped);
@@ -742,14 +795,21 @@ void Service::State::sky_loop(std::promise<void>& ready) {
         state.cpu_blend_ms = std::chrono::duration<double, std::milli>(Clock::now() - blend_start).count();
         std::lock_guard lock(stats_mutex);
         blend_times.add(state.cpu_blend_ms / 1e3, now_seconds());
-        if (state.sun_visibility_ms > 0) sky_sun_visibility_times.add(state.sun_visibility_ms / 1e3, now_seconds());
+      }
+      if (state.sun_visibility_ms > 0) {
+        std::lock_guard lock(stats_mutex);
+        sky_sun_visibility_times.add(state.sun_visibility_ms / 1e3, now_seconds());
       }
       ++counters.sky_estimates;
       if (status && state.received - last_overlay >= 1.0) {
         last_overlay = state.received;
         sky_jpeg.set(encode_jpeg(sky::draw_sky_overlay(estimator->lens(), *dome, radiance.radiance, estimate)));
       }
-      latest_sky.set(state);
+      {
+        SkyState for_status = state;
+        for_status.sun_map = nullptr;  // /status holds no map: a slot is free once the render thread is done with it
+        latest_sky.set(std::move(for_status));
+      }
       sky_box.put(std::move(state));
     } catch (const std::exception& e) {
       ++counters.sky_errors;
@@ -827,15 +887,12 @@ std::int64_t Service::run() {
                  software_renderer(s.renderer) ? ", a software one" : "");
   }
 
-  // The sun's shadow map: the building's own sun shadow, and (GPU blend) the planes' visibility.
-  // With the CPU blend the sky thread's map gives the planes' V, so this one keeps the planes'
-  // extent (the map's fit, hence the same depth map) at one texel each: its visibility pass costs
-  // nothing (on a software renderer it was half the map's time).
-  std::vector<geom::Plane> planes = bake_planes(s.manifest);
-  if (cpu) {
-    for (geom::Plane& plane : planes) plane.width = plane.height = 1;
-  }
-  render::SunShadowMap shadow_map(s.mesh, planes);
+  // The sun's shadow map (the building's own sun shadow, and with the GPU blend the planes' V)
+  // is drawn by the sky thread in a context that shares this one's objects: this thread switches
+  // to each finished map (its GL commands wait on the map's fence) and fences its last use of
+  // the one before, which the sky thread then redraws for a later sun (sun_shadow_exchange.hpp).
+  s.share_group = gpu::HeadlessContext::current_share_group();
+  SunShadowHandle sun_map;  // the map this thread draws with
   std::vector<std::unique_ptr<render::GpuBlender>> blenders;     // blend.device gpu
   std::vector<ShadowRatioTexture> cpu_ratios;                     // blend.device cpu
   // The CPU blend's T each texture holds (kept alive, so that a new T never shares its address).
@@ -848,7 +905,9 @@ std::int64_t Service::run() {
     }
   } else {
     render::GpuBlendOptions blend_options;
-    blend_options.storage = s.config.blend.unorm8 ? render::BasisStorage::Unorm8 : render::BasisStorage::Half;
+    blend_options.storage = s.config.blend.storage == BlendSettings::Storage::Unorm8 ? render::BasisStorage::Unorm8
+                            : s.config.blend.storage == BlendSettings::Storage::Eac  ? render::BasisStorage::Eac11
+                                                                                     : render::BasisStorage::Half;
     blend_options.skip_threshold = s.config.blend.skip_threshold;
     blend_options.change_threshold = s.config.blend.change_threshold;
     for (const auto& basis : s.bases) {
@@ -858,6 +917,7 @@ std::int64_t Service::run() {
   }
   render::CompositorOptions compositor_options;
   compositor_options.photometric.scale = s.config.photometric.scale;
+  compositor_options.lens.render_scale = s.config.render.scale;
   render::Compositor compositor(s.site, s.mesh, s.manifest, s.transfer, s.hmd_calibration, compositor_options);
   std::optional<CameraTexture> camera_texture;
   if (window) camera_texture.emplace();
@@ -924,7 +984,6 @@ std::int64_t Service::run() {
 
   std::optional<SkyState> sky;
   std::optional<render::CameraPose> last_pose;
-  Eigen::Vector3d shadow_direction = Eigen::Vector3d::Zero();
   std::int64_t frames = 0;
   // The photometric scale is first estimated on the first frame with a sky (until then the
   // configured scale would show the building far too bright or dark), then every `every` frames.
@@ -949,11 +1008,14 @@ std::int64_t Service::run() {
     bool sky_changed = false;
     if (auto fresh = s.sky_box.try_take()) {
       sky_changed = true;
+      SunShadowHandle fresh_map = std::move(fresh->sun_map);
       sky = std::move(fresh);
-      if (sky->sun && sun_moved(shadow_direction, sky->sun->direction, sky->sun_angular_radius)) {
+      if (fresh_map && fresh_map != sun_map) {
+        // A new sun's map, complete: switch to it (no drawing here, whatever the sun did).
         const auto sun_start = Clock::now();
-        shadow_map.update(sky->sun->direction, shadow_angular_radius(sky->sun_angular_radius));
-        shadow_direction = sky->sun->direction;
+        fresh_map->wait();
+        s.sun_maps.release(sun_map);
+        sun_map = std::move(fresh_map);
         if (s.options.profile) glFinish();
         sun_shadow_ms = std::chrono::duration<double, std::milli>(Clock::now() - sun_start).count();
       }
@@ -1034,7 +1096,7 @@ std::int64_t Service::run() {
           }
           ++s.plane_views[j].blends_on_return;
         } else {
-          ran = blenders[j]->blend(weights, weights.sun.isZero() ? nullptr : &shadow_map.visibility(static_cast<int>(j)));
+          ran = blenders[j]->blend(weights, weights.sun.isZero() || !sun_map ? nullptr : &sun_map->map().visibility(static_cast<int>(j)));
           if (!sky_changed) ++s.plane_views[j].blends_on_return;
         }
         ++(ran ? s.counters.blends_run : s.counters.blends_skipped);
@@ -1068,7 +1130,7 @@ std::int64_t Service::run() {
       input.sky = sky->S;
       input.sun = sky->sun;
       input.shadow_ratios = ratios;
-      input.sun_shadow = sky->sun ? &shadow_map : nullptr;
+      input.sun_shadow = sky->sun && sun_map ? &sun_map->map() : nullptr;
       input.opacity = opacity;
       if (reference_plane &&
           (!last_photometric_estimate || frames - *last_photometric_estimate >= s.config.photometric.every)) {
@@ -1145,6 +1207,8 @@ std::int64_t Service::run() {
   }
   s.running = false;
   s.camera_box.close();
+  s.sun_maps.release(sun_map);  // the sky thread destroys the maps once this thread's frames are done with them
+  s.sun_maps.close();
   if (s.sky_thread.joinable()) s.sky_thread.join();
   if (s.camera_thread.joinable()) s.camera_thread.join();
   if (recorder) {
@@ -1259,6 +1323,12 @@ nlohmann::json Service::State::status_report() const {
   }
   j["sky"] = sky_json;
   j["blends"] = {{"run", counters.blends_run.load()}, {"skipped", counters.blends_skipped.load()}};
+  // The sun's shadow maps, all drawn on the sky thread: drawn, switched to by the render thread
+  // (a skipped one was overtaken by a newer sun before a frame took it), and draws that waited
+  // for the render thread to free a map.
+  const SunShadowExchange::Counts maps = sun_maps.counts();
+  j["sun_shadow_maps"] = {{"drawn_on", "sky thread"}, {"drawn", maps.drawn}, {"taken", maps.taken},
+                          {"slot_waits", maps.slot_waits}};
   nlohmann::json blend_json;
   blend_json["setting"] = blend_device_name(config.blend.device);
   blend_json["basis"] = config.blend.basis == BlendSettings::Basis::Pca    ? "pca"

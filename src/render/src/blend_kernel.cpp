@@ -1,4 +1,4 @@
-// The two blend kernels. Per texel both compute acc = Σ_active w_i·B_i (+ w_sun·V) in float, in
+// The two blend kernels. Per texel both compute acc = Σ_active w_i·B_i (+ Σ_k w_k·V_k) in float, in
 // layer order, then clamp to [0, 1]; they differ only in how (the AVX2 one fuses each multiply
 // and add, so the two agree to float rounding, not bit for bit). The AVX2 kernel is bound by its
 // three FMAs per texel and layer about as much as by memory (1.2 cycles per 8 texel-layers with
@@ -100,14 +100,15 @@ void blend_range_portable(const BlendJob& job, std::size_t begin, std::size_t en
     std::size_t a = 0;
     for (; a + 4 <= active; a += 4) accumulate_portable<4>(job, a, block, count, acc);
     for (; a < active; ++a) accumulate_portable<1>(job, a, block, count, acc);
-    if (job.sun_visibility) {
-      const float* v = job.sun_visibility + block;
+    for (std::size_t s = 0; s < job.source_visibility.size(); ++s) {
+      const float* v = job.source_visibility[s] + block;
+      const float* ws = job.source_weights.data() + 3 * s;
       std::uint32_t bad = 0;
       for (std::size_t k = 0; k < count; ++k) {
         bad |= static_cast<std::uint32_t>(!(v[k] >= 0.0f) | !(v[k] <= 1.0f));
-        acc[0][k] += job.sun[0] * v[k];
-        acc[1][k] += job.sun[1] * v[k];
-        acc[2][k] += job.sun[2] * v[k];
+        acc[0][k] += ws[0] * v[k];
+        acc[1][k] += ws[1] * v[k];
+        acc[2][k] += ws[2] * v[k];
       }
       stats.bad_visibility |= bad != 0;
     }
@@ -247,11 +248,12 @@ __attribute__((target("avx2,f16c,fma"))) void blend_range_avx2(const BlendJob& j
     for (; a + 4 <= active; a += 4) accumulate_layers<4>(job, a, block, count, acc, next_of(a));
     for (; a < active; ++a) accumulate_layers<1>(job, a, block, count, acc, next_of(a));
 
-    if (job.sun_visibility) {
-      const float* v = job.sun_visibility + block;
-      const __m256 sr = _mm256_set1_ps(job.sun[0]);
-      const __m256 sg = _mm256_set1_ps(job.sun[1]);
-      const __m256 sb = _mm256_set1_ps(job.sun[2]);
+    for (std::size_t s = 0; s < job.source_visibility.size(); ++s) {
+      const float* v = job.source_visibility[s] + block;
+      const float* ws = job.source_weights.data() + 3 * s;
+      const __m256 sr = _mm256_set1_ps(ws[0]);
+      const __m256 sg = _mm256_set1_ps(ws[1]);
+      const __m256 sb = _mm256_set1_ps(ws[2]);
       for (std::size_t k = 0; k < vectors; k += 8) {
         const __m256 x = _mm256_loadu_ps(v + k);
         // Outside [0, 1] or NaN (unordered compares are true for NaN).
@@ -262,7 +264,7 @@ __attribute__((target("avx2,f16c,fma"))) void blend_range_avx2(const BlendJob& j
       }
       for (std::size_t k = vectors; k < count; ++k) {
         stats.bad_visibility |= !(v[k] >= 0.0f && v[k] <= 1.0f);
-        for (int c = 0; c < 3; ++c) acc[c][k] = std::fma(v[k], job.sun[c], acc[c][k]);
+        for (int c = 0; c < 3; ++c) acc[c][k] = std::fma(v[k], ws[c], acc[c][k]);
       }
     }
 

@@ -22,8 +22,10 @@ struct BlendJob {
   std::size_t layer_stride = 0;          // texels per layer
   std::span<const int> active;           // layers to sum, ascending
   std::span<const float> weights;        // 3 per active layer: w_r, w_g, w_b
-  const float* sun_visibility = nullptr; // per texel, or null (no sun term)
-  float sun[3] = {0, 0, 0};              // w_sun
+  // Separated terms (the sun, further sources): V_k per texel and w_k (3 per source), added in
+  // order after the layers. Empty: no separated term.
+  std::span<const float* const> source_visibility;
+  std::span<const float> source_weights;
   bool no_light[3] = {false, false, false};
   float* out = nullptr;                  // 3 floats per texel, RGB
 };

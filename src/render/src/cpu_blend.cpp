@@ -84,21 +84,29 @@ void check_rgb(const Eigen::Vector3d& value, const std::string& field, const std
   }
 }
 
-// E_sun·max(0, n·ω_sun) per channel: the sun's irradiance on the plane (zero without a sun).
-Eigen::Vector3d sun_on_plane(const BasisImages& basis, const std::optional<SunLight>& sun) {
-  if (!sun) return Eigen::Vector3d::Zero();
-  check_rgb(sun->energy, "sun.energy", "pass the sun's irradiance, linear RGB, 0 when it is hidden");
-  const Vec3& d = sun->direction;
+// E·max(0, n·ω) per channel: a separated source's irradiance on the plane. `field` names it in
+// errors ("sun", "sources[2]").
+Eigen::Vector3d source_on_plane(const BasisImages& basis, const SunLight& sun, const std::string& field) {
+  check_rgb(sun.energy, field + ".energy", "pass the sun's irradiance, linear RGB, 0 when it is hidden");
+  const Vec3& d = sun.direction;
   if (!d.allFinite() || d.norm() < 1e-9) {
     // Appended piecewise: GCC 12 warns falsely (-Wrestrict) on "(" + std::string.
     std::string problem = "(";
     problem += describe(d.x()) + ", " + describe(d.y()) + ", " + describe(d.z());
     problem += ") is not a direction";
-    bad_input("sun.direction", problem, "pass a unit vector towards the sun, site frame, or no sun");
+    bad_input(field + ".direction", problem, "pass a unit vector towards the sun, site frame, or no sun");
   }
   const double cosine = std::max(0.0, basis.normal.normalized().dot(d.normalized()));
-  return sun->energy * cosine;
+  return sun.energy * cosine;
 }
+
+// E_sun·max(0, n·ω_sun) per channel: the sun's irradiance on the plane (zero without a sun).
+Eigen::Vector3d sun_on_plane(const BasisImages& basis, const std::optional<SunLight>& sun) {
+  if (!sun) return Eigen::Vector3d::Zero();
+  return source_on_plane(basis, *sun, "sun");
+}
+
+std::string source_field(std::size_t k) { return "sources[" + std::to_string(k) + "]"; }
 
 void check_sizes(const BasisImages& basis, std::span<const float> sun_visibility, std::size_t out_size,
                  bool sun_term) {
@@ -119,19 +127,25 @@ void check_sizes(const BasisImages& basis, std::span<const float> sun_visibility
   }
 }
 
-[[noreturn]] void bad_visibility() {
-  bad_input("sun_visibility", "holds a value outside [0, 1] or NaN",
+[[noreturn]] void bad_visibility(const std::string& field = "sun_visibility") {
+  bad_input(field, "holds a value outside [0, 1] or NaN",
             "give the visible fraction of the sun per texel, 0 to 1");
+}
+
+void set_source_weights(BlendWeights& w, const std::vector<Eigen::Vector3d>& terms, const Eigen::Vector3d& inverse) {
+  for (const Eigen::Vector3d& term : terms) w.sources.push_back(term.cwiseProduct(inverse).cast<float>());
+  w.sun = w.sources.empty() ? Eigen::Vector3f::Zero() : w.sources.front();
 }
 
 }  // namespace
 
 bool blend_simd_available() { return detail::cpu_has_avx2_f16c_fma(); }
 
-BlendWeights blend_weights(const BasisImages& basis, std::span<const Eigen::Vector3d> S,
-                           const std::optional<SunLight>& sun, const BlendOptions& options) {
-  check_basis(basis);
-  check_options(options);
+namespace {
+
+// The weights for separated terms already on the plane (E_k c_k per source, in order).
+BlendWeights weights_for_terms(const BasisImages& basis, std::span<const Eigen::Vector3d> S,
+                               const std::vector<Eigen::Vector3d>& terms, const BlendOptions& options) {
   const std::size_t layers = static_cast<std::size_t>(basis.source_layers());
   if (S.size() != layers) {
     bad_input("S", std::to_string(S.size()) + " luminance values for the " + std::to_string(layers) +
@@ -152,8 +166,7 @@ BlendWeights blend_weights(const BasisImages& basis, std::span<const Eigen::Vect
   }
 
   BlendWeights w;
-  w.denominator = sun_on_plane(basis, sun);
-  const Eigen::Vector3d sun_term = w.denominator;
+  for (const Eigen::Vector3d& term : terms) w.denominator += term;
   for (std::size_t i = 0; i < layers; ++i) w.denominator += S[i] * basis.unoccluded[i];
 
   Eigen::Vector3d inverse = Eigen::Vector3d::Zero();  // 1/D, 0 for a channel without light
@@ -176,7 +189,7 @@ BlendWeights blend_weights(const BasisImages& basis, std::span<const Eigen::Vect
       w.face[k] = u[k].cast<float>();
       if (!w.face[k].isZero()) w.active.push_back(static_cast<int>(k));
     }
-    w.sun = sun_term.cwiseProduct(inverse).cast<float>();
+    set_source_weights(w, terms, inverse);
     return w;
   }
   w.face.assign(layers, Eigen::Vector3f::Zero());
@@ -186,12 +199,34 @@ BlendWeights blend_weights(const BasisImages& basis, std::span<const Eigen::Vect
     w.face[i] = S[i].cwiseProduct(inverse).cast<float>();
     if (!w.face[i].isZero()) w.active.push_back(static_cast<int>(i));
   }
-  w.sun = sun_term.cwiseProduct(inverse).cast<float>();
+  set_source_weights(w, terms, inverse);
   return w;
 }
 
-BlendStats blend_cpu(const BasisImages& basis, const BlendWeights& weights, std::span<const float> sun_visibility,
-                     std::span<float> out, const BlendOptions& options) {
+}  // namespace
+
+BlendWeights blend_weights(const BasisImages& basis, std::span<const Eigen::Vector3d> S,
+                           const std::optional<SunLight>& sun, const BlendOptions& options) {
+  check_basis(basis);
+  check_options(options);
+  std::vector<Eigen::Vector3d> terms;
+  if (sun) terms.push_back(sun_on_plane(basis, sun));
+  return weights_for_terms(basis, S, terms, options);
+}
+
+BlendWeights blend_weights_sources(const BasisImages& basis, std::span<const Eigen::Vector3d> S,
+                                   std::span<const SunLight> sources, const BlendOptions& options) {
+  check_basis(basis);
+  check_options(options);
+  std::vector<Eigen::Vector3d> terms;
+  for (std::size_t k = 0; k < sources.size(); ++k) terms.push_back(source_on_plane(basis, sources[k], source_field(k)));
+  return weights_for_terms(basis, S, terms, options);
+}
+
+namespace {
+
+// Checks shared by blend_cpu and blend_cpu_sources: the weights fit the basis.
+void check_weights(const BasisImages& basis, const BlendWeights& weights, const BlendOptions& options) {
   check_basis(basis);
   check_options(options);
   const std::size_t layers = static_cast<std::size_t>(basis.layers);
@@ -211,8 +246,12 @@ BlendStats blend_cpu(const BasisImages& basis, const BlendWeights& weights, std:
   if (!weights.sun.allFinite()) {
     bad_input("weights.sun", "is not finite", "compute the weights with blend_weights");
   }
-  check_sizes(basis, sun_visibility, out.size(), !weights.sun.isZero());
+}
 
+// The threaded blend: the active layers, then each separated term (V_k, w_k: 3 floats each).
+BlendStats run_blend(const BasisImages& basis, const BlendWeights& weights,
+                     std::span<const float* const> source_visibility, std::span<const float> source_weights,
+                     std::span<float> out, const BlendOptions& options, const std::string& visibility_field) {
   std::vector<float> packed;  // w_r, w_g, w_b per active layer, in the kernel's order
   packed.reserve(3 * weights.active.size());
   for (const int i : weights.active) {
@@ -224,12 +263,9 @@ BlendStats blend_cpu(const BasisImages& basis, const BlendWeights& weights, std:
   job.layer_stride = basis.texel_count();
   job.active = weights.active;
   job.weights = packed;
-  // Without a sun weight V changes nothing: skip reading it.
-  job.sun_visibility = (!sun_visibility.empty() && !weights.sun.isZero()) ? sun_visibility.data() : nullptr;
-  for (int c = 0; c < 3; ++c) {
-    job.sun[c] = weights.sun[c];
-    job.no_light[c] = weights.no_light[static_cast<std::size_t>(c)];
-  }
+  job.source_visibility = source_visibility;
+  job.source_weights = source_weights;
+  for (int c = 0; c < 3; ++c) job.no_light[c] = weights.no_light[static_cast<std::size_t>(c)];
   job.out = out.data();
 
   const auto kernel = options.use_simd && detail::cpu_has_avx2_f16c_fma() ? detail::blend_range_avx2
@@ -260,7 +296,7 @@ BlendStats blend_cpu(const BasisImages& basis, const BlendWeights& weights, std:
     total.clamped += s.clamped;
     total.bad_visibility |= s.bad_visibility;
   }
-  if (total.bad_visibility) bad_visibility();
+  if (total.bad_visibility) bad_visibility(visibility_field);
   BlendStats result;
   result.max_above_one = std::max(0.0f, total.max_t - 1.0f);
   result.max_below_zero = std::max(0.0f, -total.min_t);
@@ -268,18 +304,11 @@ BlendStats blend_cpu(const BasisImages& basis, const BlendWeights& weights, std:
   return result;
 }
 
-void blend_reference(const BasisImages& basis, std::span<const Eigen::Vector3d> S, const std::optional<SunLight>& sun,
-                     std::span<const float> sun_visibility, std::span<double> out, const BlendOptions& options) {
-  // blend_weights checks the inputs and finds D and the channels without light; the sums below
-  // use S directly, over every layer.
-  const BlendWeights weights = blend_weights(basis, S, sun, options);
-  const Eigen::Vector3d sun_term = sun_on_plane(basis, sun);
-  check_sizes(basis, sun_visibility, out.size(), !weights.sun.isZero());
-  for (const float v : sun_visibility) {
-    if (!(v >= 0.0f && v <= 1.0f)) bad_visibility();
-  }
+// Σ_i S_i B_i per texel and channel (RGB interleaved) over every stored layer, in double: the
+// reference blends' dome term. A layer's coefficient is S itself, or for a PCA basis
+// Σ_l S_l projection(l, k).
+std::vector<double> dome_sums(const BasisImages& basis, std::span<const Eigen::Vector3d> S) {
   const std::size_t texels = basis.texel_count();
-  // The coefficient of each stored layer: S itself, or for a PCA basis Σ_l S_l projection(l, k).
   std::vector<Eigen::Vector3d> coefficient(static_cast<std::size_t>(basis.layers), Eigen::Vector3d::Zero());
   for (std::size_t i = 0; i < coefficient.size(); ++i) {
     if (!basis.compressed()) {
@@ -298,6 +327,79 @@ void blend_reference(const BasisImages& basis, std::span<const Eigen::Vector3d> 
       for (int c = 0; c < 3; ++c) sum[3 * k + static_cast<std::size_t>(c)] += coefficient[i][c] * b;
     }
   }
+  return sum;
+}
+
+}  // namespace
+
+BlendStats blend_cpu(const BasisImages& basis, const BlendWeights& weights, std::span<const float> sun_visibility,
+                     std::span<float> out, const BlendOptions& options) {
+  check_weights(basis, weights, options);
+  if (weights.sources.size() > 1) {
+    bad_input("weights.sources", std::to_string(weights.sources.size()) + " separated sources for one visibility image",
+              "blend several sources with blend_cpu_sources, one V per source");
+  }
+  check_sizes(basis, sun_visibility, out.size(), !weights.sun.isZero());
+  // Without a sun weight V changes nothing: skip reading it.
+  std::vector<const float*> visibility;
+  std::vector<float> source_weights;
+  if (!sun_visibility.empty() && !weights.sun.isZero()) {
+    visibility.push_back(sun_visibility.data());
+    source_weights = {weights.sun.x(), weights.sun.y(), weights.sun.z()};
+  }
+  return run_blend(basis, weights, visibility, source_weights, out, options, "sun_visibility");
+}
+
+BlendStats blend_cpu_sources(const BasisImages& basis, const BlendWeights& weights,
+                             std::span<const std::span<const float>> source_visibility, std::span<float> out,
+                             const BlendOptions& options) {
+  check_weights(basis, weights, options);
+  std::vector<Eigen::Vector3f> sources = weights.sources;
+  if (sources.empty() && !weights.sun.isZero()) sources.push_back(weights.sun);
+  const std::size_t texels = basis.texel_count();
+  if (out.size() != 3 * texels) {
+    bad_input("out", "has " + std::to_string(out.size()) + " values; plane '" + basis.name + "' needs " +
+                         std::to_string(3 * texels) + " (3 per texel)",
+              "size it width x height x 3");
+  }
+  const bool all_zero = std::all_of(sources.begin(), sources.end(), [](const Eigen::Vector3f& w) { return w.isZero(); });
+  if (source_visibility.size() != sources.size() && !(source_visibility.empty() && all_zero)) {
+    bad_input("source_visibility", std::to_string(source_visibility.size()) + " visibility image(s) for " +
+                                       std::to_string(sources.size()) + " separated source(s)",
+              "give one V per source, in the order of the SunLights the weights were computed for");
+  }
+  std::vector<const float*> visibility;
+  std::vector<float> source_weights;
+  for (std::size_t k = 0; k < sources.size(); ++k) {
+    const std::string field = "source_visibility[" + std::to_string(k) + "]";
+    if (!sources[k].allFinite()) bad_input("weights.sources[" + std::to_string(k) + "]", "is not finite",
+                                           "compute the weights with blend_weights_sources");
+    // Without a weight V changes nothing: skip reading it.
+    if (sources[k].isZero()) continue;
+    const std::span<const float> v = source_visibility[k];
+    if (v.size() != texels) {
+      bad_input(field, "has " + std::to_string(v.size()) + " values; plane '" + basis.name + "' has " +
+                           std::to_string(texels) + " texels and source " + std::to_string(k) + " lights it",
+                "give one V in [0, 1] per texel (all 1 when nothing shadows the source)");
+    }
+    visibility.push_back(v.data());
+    source_weights.insert(source_weights.end(), {sources[k].x(), sources[k].y(), sources[k].z()});
+  }
+  return run_blend(basis, weights, visibility, source_weights, out, options, "source_visibility");
+}
+
+void blend_reference(const BasisImages& basis, std::span<const Eigen::Vector3d> S, const std::optional<SunLight>& sun,
+                     std::span<const float> sun_visibility, std::span<double> out, const BlendOptions& options) {
+  // blend_weights checks the inputs and finds D and the channels without light; the sums below
+  // use S directly, over every layer.
+  const BlendWeights weights = blend_weights(basis, S, sun, options);
+  const Eigen::Vector3d sun_term = sun_on_plane(basis, sun);
+  check_sizes(basis, sun_visibility, out.size(), !weights.sun.isZero());
+  for (const float v : sun_visibility) {
+    if (!(v >= 0.0f && v <= 1.0f)) bad_visibility();
+  }
+  const std::size_t texels = basis.texel_count();
+  const std::vector<double> sum = dome_sums(basis, S);
   for (std::size_t k = 0; k < texels; ++k) {
     const double v = sun_visibility.empty() ? 0.0 : sun_visibility[k];
     for (int c = 0; c < 3; ++c) {
@@ -307,6 +409,54 @@ void blend_reference(const BasisImages& basis, std::span<const Eigen::Vector3d> 
         continue;
       }
       const double t = (sum[at] + sun_term[c] * v) / weights.denominator[c];
+      out[at] = t > 1.0 ? 1.0 : (t >= 0.0 ? t : 0.0);
+    }
+  }
+}
+
+void blend_reference_sources(const BasisImages& basis, std::span<const Eigen::Vector3d> S,
+                             std::span<const SunLight> sources,
+                             std::span<const std::span<const float>> source_visibility, std::span<double> out,
+                             const BlendOptions& options) {
+  const BlendWeights weights = blend_weights_sources(basis, S, sources, options);
+  const std::size_t texels = basis.texel_count();
+  if (out.size() != 3 * texels) {
+    bad_input("out", "has " + std::to_string(out.size()) + " values; plane '" + basis.name + "' needs " +
+                         std::to_string(3 * texels) + " (3 per texel)",
+              "size it width x height x 3");
+  }
+  if (source_visibility.size() != sources.size()) {
+    bad_input("source_visibility", std::to_string(source_visibility.size()) + " visibility image(s) for " +
+                                       std::to_string(sources.size()) + " separated source(s)",
+              "give one V per source");
+  }
+  std::vector<Eigen::Vector3d> terms;
+  for (std::size_t k = 0; k < sources.size(); ++k) {
+    terms.push_back(source_on_plane(basis, sources[k], source_field(k)));
+    const std::span<const float> v = source_visibility[k];
+    if (v.empty() && terms.back().isZero()) continue;
+    if (v.size() != texels) {
+      bad_input("source_visibility[" + std::to_string(k) + "]",
+                "has " + std::to_string(v.size()) + " values for " + std::to_string(texels) + " texels",
+                "give one V in [0, 1] per texel");
+    }
+    for (const float x : v) {
+      if (!(x >= 0.0f && x <= 1.0f)) bad_visibility("source_visibility[" + std::to_string(k) + "]");
+    }
+  }
+  const std::vector<double> sum = dome_sums(basis, S);
+  for (std::size_t k = 0; k < texels; ++k) {
+    for (int c = 0; c < 3; ++c) {
+      const std::size_t at = 3 * k + static_cast<std::size_t>(c);
+      if (weights.no_light[static_cast<std::size_t>(c)]) {
+        out[at] = 1.0;
+        continue;
+      }
+      double numerator = sum[at];
+      for (std::size_t s = 0; s < terms.size(); ++s) {
+        if (!source_visibility[s].empty()) numerator += terms[s][c] * source_visibility[s][k];
+      }
+      const double t = numerator / weights.denominator[c];
       out[at] = t > 1.0 ? 1.0 : (t >= 0.0 ? t : 0.0);
     }
   }

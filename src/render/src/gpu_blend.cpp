@@ -11,12 +11,14 @@
 
 #include "skylit/base/error.hpp"
 #include "skylit/gpu/shader.hpp"
+#include "skylit/render/eac.hpp"
 
 namespace skylit::render {
 namespace {
 
 constexpr const char* kShaderFile = "blend.comp";
 constexpr int kPackedLayers = 4;  // layers per texel of a packed array: R, G, B, A
+constexpr int kPackedEacLayers = 2;  // RG11 EAC: R, G
 
 [[noreturn]] void bad_input(const std::string& field, const std::string& problem, const std::string& fix) {
   throw InputError(input_message({}, -1, -1, field, problem, fix));
@@ -92,7 +94,8 @@ GpuBlender::GpuBlender(const BasisImages& basis, const GpuBlendOptions& options)
   check_basis(basis);
   check_threshold(options.skip_threshold, "skip_threshold");
   check_threshold(options.change_threshold, "change_threshold");
-  layers_per_slice_ = options_.pack_layers ? kPackedLayers : 1;
+  const bool eac = options_.storage == BasisStorage::Eac11;
+  layers_per_slice_ = options_.pack_layers ? (eac ? kPackedEacLayers : kPackedLayers) : 1;
   slices_ = std::max((layers_ + layers_per_slice_ - 1) / layers_per_slice_, 1);
   const GLint max_slices = max_integer(GL_MAX_ARRAY_TEXTURE_LAYERS);
   const GLint max_size = max_integer(GL_MAX_TEXTURE_SIZE);
@@ -123,8 +126,11 @@ GpuBlender::GpuBlender(const BasisImages& basis, const GpuBlendOptions& options)
   const std::size_t texels = basis.texel_count();
   const bool unorm8 = options_.storage == BasisStorage::Unorm8;
   const std::size_t channels = static_cast<std::size_t>(layers_per_slice_);
-  const GLenum internal_format = options_.pack_layers ? (unorm8 ? GL_RGBA8 : GL_RGBA16F) : (unorm8 ? GL_R8 : GL_R16F);
+  const GLenum internal_format =
+      eac ? (options_.pack_layers ? GL_COMPRESSED_RG11_EAC : GL_COMPRESSED_R11_EAC)
+          : (options_.pack_layers ? (unorm8 ? GL_RGBA8 : GL_RGBA16F) : (unorm8 ? GL_R8 : GL_R16F));
   const GLenum format = options_.pack_layers ? GL_RGBA : GL_RED;
+  const std::size_t layer_block_bytes = eac_block_count(width_, height_) * kEacBlockBytes;
   basis_ = gpu::make_texture();
   glBindTexture(GL_TEXTURE_2D_ARRAY, basis_.get());
   glTexStorage3D(GL_TEXTURE_2D_ARRAY, 1, internal_format, width_, height_, slices_);
@@ -133,11 +139,26 @@ GpuBlender::GpuBlender(const BasisImages& basis, const GpuBlendOptions& options)
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
   layer_max_.assign(static_cast<std::size_t>(layers_), 0.0f);
   std::vector<float> values(texels);
-  std::vector<std::uint16_t> halves(unorm8 ? 0 : channels * texels);
+  std::vector<std::uint16_t> halves(unorm8 || eac ? 0 : channels * texels);
   std::vector<std::uint8_t> bytes(unorm8 ? channels * texels : 0);
+  // EAC: a slice is the R blocks then, packed, the G blocks, block by block (8 + 8 bytes).
+  std::vector<std::uint8_t> blocks(eac ? channels * layer_block_bytes : 0);
+  std::vector<float> unit(eac ? texels : 0);
+  // An absent layer of the last packed slice is zero: any valid blocks will do (its weight is 0).
+  const std::vector<std::uint8_t> zero_blocks = eac ? encode_eac_r11(std::vector<float>(texels, 0.0f), width_, height_)
+                                                    : std::vector<std::uint8_t>();
+  if (eac) eac_error_.assign(static_cast<std::size_t>(layers_), 0.0f);
   for (int slice = 0; slice < slices_ && layers_ > 0; ++slice) {
     std::fill(halves.begin(), halves.end(), std::uint16_t{0});
     std::fill(bytes.begin(), bytes.end(), std::uint8_t{0});
+    if (eac) {
+      for (std::size_t c = 0; c < channels; ++c) {
+        for (std::size_t b = 0; b < layer_block_bytes / kEacBlockBytes; ++b) {
+          std::copy_n(zero_blocks.begin() + static_cast<std::ptrdiff_t>(b * kEacBlockBytes), kEacBlockBytes,
+                      blocks.begin() + static_cast<std::ptrdiff_t>((b * channels + c) * kEacBlockBytes));
+        }
+      }
+    }
     for (std::size_t c = 0; c < channels; ++c) {
       const int i = slice * layers_per_slice_ + static_cast<int>(c);
       if (i >= layers_) break;
@@ -150,9 +171,10 @@ GpuBlender::GpuBlender(const BasisImages& basis, const GpuBlendOptions& options)
         top = std::abs(b) > top ? std::abs(b) : top;  // NaN compares false: ignored
         negative |= b < 0.0f;
       }
-      if (unorm8 && negative) {
+      if ((unorm8 || eac) && negative) {
         bad_input("basis '" + name_ + "' layer " + std::to_string(i),
-                  "holds negative values (a PCA basis), which 8-bit layers cannot store",
+                  std::string("holds negative values (a PCA basis), which ") + (eac ? "EAC" : "8-bit") +
+                      " layers cannot store",
                   "store the basis as half floats (blend.storage: half) or read the full form");
       }
       if (!std::isfinite(top)) {
@@ -166,13 +188,30 @@ GpuBlender::GpuBlender(const BasisImages& basis, const GpuBlendOptions& options)
           const float q = values[k] * scale;
           bytes[k * channels + c] = static_cast<std::uint8_t>(q > 0.0f ? std::lround(std::min(q, 255.0f)) : 0);
         }
+      } else if (eac) {
+        const float scale = top > 0.0f ? 1.0f / top : 0.0f;
+        for (std::size_t k = 0; k < texels; ++k) unit[k] = values[k] * scale;
+        const std::vector<std::uint8_t> encoded = encode_eac_r11(unit, width_, height_);
+        const std::vector<float> decoded = decode_eac_r11(encoded, width_, height_);
+        float worst = 0.0f;
+        for (std::size_t k = 0; k < texels; ++k) worst = std::max(worst, std::abs(decoded[k] * top - values[k]));
+        eac_error_[static_cast<std::size_t>(i)] = worst;
+        for (std::size_t b = 0; b < layer_block_bytes / kEacBlockBytes; ++b) {
+          std::copy_n(encoded.begin() + static_cast<std::ptrdiff_t>(b * kEacBlockBytes), kEacBlockBytes,
+                      blocks.begin() + static_cast<std::ptrdiff_t>((b * channels + c) * kEacBlockBytes));
+        }
       } else {
         for (std::size_t k = 0; k < texels; ++k) halves[k * channels + c] = layer[k];
       }
     }
-    glTexSubImage3D(GL_TEXTURE_2D_ARRAY, 0, 0, 0, slice, width_, height_, 1, format,
-                    unorm8 ? GL_UNSIGNED_BYTE : GL_HALF_FLOAT,
-                    unorm8 ? static_cast<const void*>(bytes.data()) : static_cast<const void*>(halves.data()));
+    if (eac) {
+      glCompressedTexSubImage3D(GL_TEXTURE_2D_ARRAY, 0, 0, 0, slice, width_, height_, 1, internal_format,
+                                static_cast<GLsizei>(blocks.size()), blocks.data());
+    } else {
+      glTexSubImage3D(GL_TEXTURE_2D_ARRAY, 0, 0, 0, slice, width_, height_, 1, format,
+                      unorm8 ? GL_UNSIGNED_BYTE : GL_HALF_FLOAT,
+                      unorm8 ? static_cast<const void*>(bytes.data()) : static_cast<const void*>(halves.data()));
+    }
   }
   gpu::check_gl_error("GPU blend: uploading the basis of plane '" + name_ + "'");
 
@@ -198,9 +237,10 @@ GpuBlender::GpuBlender(const BasisImages& basis, const GpuBlendOptions& options)
 }
 
 std::size_t GpuBlender::basis_bytes() const {
+  const std::size_t layers = static_cast<std::size_t>(slices_) * static_cast<std::size_t>(layers_per_slice_);
+  if (options_.storage == BasisStorage::Eac11) return eac_block_count(width_, height_) * kEacBlockBytes * layers;
   const std::size_t per_layer = options_.storage == BasisStorage::Unorm8 ? 1 : 2;
-  return static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_) * static_cast<std::size_t>(slices_) *
-         static_cast<std::size_t>(layers_per_slice_) * per_layer;
+  return static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_) * layers * per_layer;
 }
 
 bool GpuBlender::unchanged_since_last(const BlendWeights& weights, const SunVisibilityTexture* sun) const {
@@ -272,7 +312,7 @@ bool GpuBlender::blend(const BlendWeights& weights, const SunVisibilityTexture* 
   }
   // A slice is read when one of its layers is kept; then all its active layers are summed (they
   // come with the fetch), and only the layers of unread slices count as skipped.
-  const bool unorm8 = options_.storage == BasisStorage::Unorm8;
+  const bool scaled = options_.storage != BasisStorage::Half;  // layers stored as B / max_i
   std::vector<SliceWeights> slices;
   std::vector<bool> slice_read(static_cast<std::size_t>(slices_), false);
   for (std::size_t a = 0; a < active; ++a) {
@@ -291,7 +331,7 @@ bool GpuBlender::blend(const BlendWeights& weights, const SunVisibilityTexture* 
     }
     if (slices.empty() || slices.back().index[0] != slice) slices.push_back(SliceWeights{{}, {}, {}, {slice, 0, 0, 0}});
     const std::size_t c = static_cast<std::size_t>(i % layers_per_slice_);
-    const float scale = unorm8 ? layer_max_[static_cast<std::size_t>(i)] : 1.0f;
+    const float scale = scaled ? layer_max_[static_cast<std::size_t>(i)] : 1.0f;
     const Eigen::Vector3f& w = weights.face[static_cast<std::size_t>(i)];
     slices.back().red[c] = w.x() * scale;
     slices.back().green[c] = w.y() * scale;

@@ -38,7 +38,15 @@ cv::Mat load_calibration_mask(const CameraCalibration& calibration) {
 SkyEstimator::SkyEstimator(const CameraCalibration& calibration, const geom::Dome& dome, SkyEstimateOptions options)
     : lens_(calibration), dome_(dome), options_(options), mask_(load_calibration_mask(calibration)) {
   table_ = build_sky_table(lens_, dome_, mask_, options_.table);
-  if (options_.sun_mode == SunMode::Auto) sun_detector_.emplace(lens_, mask_, options_.sun);
+  if (options_.max_sources < 1) {
+    throw InputError(input_message({}, -1, -1, "max_sources",
+                                   "value " + std::to_string(options_.max_sources) + " is below 1",
+                                   "use 1 for the sun alone, or more to separate further compact sources"));
+  }
+  if (options_.sun_mode == SunMode::Auto) {
+    sun_detector_.emplace(lens_, mask_, options_.sun);
+    if (options_.max_sources > 1) lamp_detector_.emplace(lens_, mask_, options_.lamp);
+  }
 }
 
 SkyEstimate SkyEstimator::estimate(const RadianceFrame& frame) const {
@@ -50,6 +58,31 @@ SkyEstimate SkyEstimator::estimate(const RadianceFrame& frame) const {
     result.sun = detection.sun;
     result.sun_reason = detection.reason;
     exclude = detection.mask;
+    if (detection.sun) result.sources.push_back(*detection.sun);
+    if (lamp_detector_) {
+      // Detect, set the disc to its background (and no longer clipped), detect again.
+      cv::Mat working = frame.radiance.clone();
+      cv::Mat clipped = frame.clipped.empty() ? cv::Mat() : frame.clipped.clone();
+      if (exclude.empty()) exclude = cv::Mat(frame.radiance.size(), CV_8UC1, cv::Scalar(0));
+      const auto remove = [&](const Sun& source, const cv::Mat& disc) {
+        working.setTo(cv::Vec3f(static_cast<float>(source.background.z()), static_cast<float>(source.background.y()),
+                                static_cast<float>(source.background.x())),
+                      disc);
+        if (!clipped.empty()) clipped.setTo(0, disc);
+        exclude.setTo(255, disc);
+      };
+      if (detection.sun) remove(*detection.sun, detection.mask);
+      result.sources_reason = "max_sources reached";
+      while (result.sources.size() < static_cast<std::size_t>(options_.max_sources)) {
+        const SunDetection found = lamp_detector_->detect(working, clipped);
+        if (!found.sun) {
+          result.sources_reason = found.reason;
+          break;
+        }
+        result.sources.push_back(*found.sun);
+        remove(*found.sun, found.mask);
+      }
+    }
     result.sun_ms = milliseconds_since(start);
   } else {
     result.sun_reason = "sun separation off";

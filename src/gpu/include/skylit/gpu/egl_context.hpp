@@ -18,8 +18,24 @@ class ContextError : public std::runtime_error {
 
 class HeadlessContext {
  public:
+  // The EGL display and context current on the calling thread (opaque EGL handles), for a
+  // context that shares objects with it. ContextError when none is current.
+  struct ShareGroup {
+    void* display = nullptr;
+    void* context = nullptr;
+  };
+  static ShareGroup current_share_group();
+
   // Creates the context and makes it current on the calling thread. Throws ContextError.
   HeadlessContext();
+  // A context in `share`'s share group (the same display and config; surfaceless where EGL
+  // allows), current on the calling thread: textures, buffers, programs and sync objects are
+  // common to both, framebuffers and vertex arrays are each context's own. The context `share`
+  // names may be current on another thread meanwhile; it must outlive nothing (a share group
+  // lives while any of its contexts does). An object changed in one context is safe to use in the
+  // other only after the change is complete there (a fence: glFenceSync, then glWaitSync or
+  // glClientWaitSync on the other side) and once the user binds it again. Throws ContextError.
+  explicit HeadlessContext(const ShareGroup& share);
   ~HeadlessContext();
   HeadlessContext(HeadlessContext&&) noexcept;
   HeadlessContext& operator=(HeadlessContext&&) noexcept;

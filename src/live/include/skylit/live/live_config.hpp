@@ -3,6 +3,10 @@
 //
 //   site: sample_site.yaml              # the site the bake was made for
 //   bake: ../build/demo/bake            # the bake folder (skylit-bake's output)
+//   preset: balanced                    # optional: fast | balanced | accurate (presets.yaml beside
+//                                       # this file, else config/presets.yaml; docs/presets.md) sets
+//                                       # sky.sun, sky.smoothing and blend.basis, storage,
+//                                       # skip_threshold, change_threshold; keys given here override it
 //   sky:
 //     calibration: sky_camera.yaml
 //     source: {kind: sky-sim, ...}      # capture::SourceConfig (docs/live.md, "Frame sources")
@@ -25,11 +29,13 @@
 //   blend:                              # or just `blend: auto | cpu | gpu`
 //     device: auto | cpu | gpu          # where T is blended (auto: cpu on a software GL renderer)
 //     threads: 2                        # cpu: blend threads (0: all hardware threads)
-//     storage: half | unorm8            # gpu: how the basis is stored
+//     storage: half | unorm8 | eac      # gpu: how the basis is stored
 //     basis: full | lean | pca          # every layer; only those that hold a shadow; the PCA form
 //     skip_threshold: 0                 # T units (docs/live.md, "Blend"); both devices
 //     change_threshold: 0.002
 //     cull_planes: true                 # blend only the planes the current view can see
+//   render:
+//     scale: 0.75                       # the building's render resolution against the frame's
 //   photometric:
 //     scale: [1, 1, 1]                  # camera linear value per unit radiance; or
 //     estimate: {plane: ground, region: [s0, s1, t0, t1], albedo: [0.2, 0.2, 0.2], every: 30}
@@ -80,7 +86,9 @@ std::string blend_device_name(BlendDevice device);  // "auto", "cpu", "gpu"
 struct BlendSettings {
   BlendDevice device = BlendDevice::Auto;
   int threads = 2;                    // CPU blend threads, the sky thread included (0: all hardware threads)
-  bool unorm8 = false;
+  // blend.storage (GPU blend): half floats, 8-bit, or EAC R11 blocks (render::BasisStorage).
+  enum class Storage { Half, Unorm8, Eac };
+  Storage storage = Storage::Half;
   // blend.basis: full (every layer), lean (the layers that hold a shadow and one of ones, T
   // within 1e-3; docs/baker.md) or pca (each plane's PCA form, K + 1 layers, docs/bake-format.md;
   // the bake must have one: skylit-bake compress).
@@ -113,6 +121,13 @@ struct OutputSettings {
   bool window = false;
 };
 
+// How the building is rendered (render::CompositorOptions).
+struct RenderSettings {
+  // The pinhole render's resolution against the frame's (render::LensRemapOptions::render_scale):
+  // the building's fill cost goes as its square (docs/live.md, "Rendering and compositing").
+  double scale = 1.0;
+};
+
 // The HMD display (docs/hmd.md): a profile, the monitor to fill, one render or one per eye.
 struct DisplaySettings {
   std::filesystem::path profile;
@@ -124,6 +139,8 @@ struct LiveConfig {
   std::filesystem::path file;
   std::filesystem::path site;
   std::filesystem::path bake;
+  std::string preset;                        // empty: none
+  std::filesystem::path presets_file;        // where `preset` was looked up
   SkySettings sky;
   CameraSettings camera;
   track::PoseConfig pose;
@@ -133,11 +150,16 @@ struct LiveConfig {
   std::optional<track::FusionSettings> fusion;
   TrackingSettings tracking;
   BlendSettings blend;
+  RenderSettings render;
   PhotometricSettings photometric;
   OutputSettings output;
   std::optional<std::string> status_listen;  // "ADDR:PORT"
   std::optional<DisplaySettings> display;    // set: the window shows the HMD display
 };
+
+// The presets a config file's `preset` is looked up in: presets.yaml in its folder when there is
+// one, else skylit::default_presets_file() (config/presets.yaml of the source tree).
+std::filesystem::path presets_file_for(const std::filesystem::path& config_file);
 
 // InputError naming the file, line, column and field, with the fix, for anything wrong.
 LiveConfig load_live_config(const std::filesystem::path& file);

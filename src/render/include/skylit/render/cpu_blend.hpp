@@ -5,6 +5,12 @@
 //   T_j(x) = (Σ_i S_i B_{j,i}(x) + E_sun V(x, ω_sun) c) / (Σ_i S_i A_{j,i} + E_sun c),
 //   c = max(0, n·ω_sun),  per colour channel.
 //
+// With several separated sources (the sun and compact lamps, sky/sky_estimate.hpp max_sources)
+// the sun term becomes Σ_k E_k c_k V_k in the numerator and Σ_k E_k c_k in the denominator
+// (blend_weights_sources, blend_cpu_sources, blend_reference_sources); one source gives the
+// same T as the single-sun functions, bit for bit. The GPU blend (gpu_blend.hpp) and the live
+// service take one separated term: the first source.
+//
 // The weights w_i = S_i / D and w_sun = E_sun c / D (D the denominator) are computed once per
 // sky (blend_weights); the blend is then one weighted sum over the plane's basis layers, read
 // once each from half floats and accumulated in float. T is always finite and in [0, 1]: when a
@@ -90,6 +96,10 @@ struct BlendWeights {
   std::vector<Eigen::Vector3f> face;
   std::vector<int> active;             // layers with a non-zero weight, ascending
   Eigen::Vector3f sun = Eigen::Vector3f::Zero();   // w_sun (RGB), zero without a sun term
+  // w_k (RGB) of every separated source, in the order given (sources[0] == sun); one entry or
+  // none from blend_weights. blend_cpu reads `sun` only (and refuses more than one source here);
+  // blend_cpu_sources reads this (or `sun` when it is empty).
+  std::vector<Eigen::Vector3f> sources;
   Eigen::Vector3d denominator = Eigen::Vector3d::Zero();
   std::array<bool, 3> no_light{false, false, false};  // per channel: T = 1
 };
@@ -100,6 +110,11 @@ struct BlendWeights {
 // denominator is not above min_denominator is no light).
 BlendWeights blend_weights(const BasisImages& basis, std::span<const Eigen::Vector3d> S,
                            const std::optional<SunLight>& sun, const BlendOptions& options = {});
+
+// The same for several separated sources: w_k = E_k max(0, n·ω_k) / D for each, D including
+// every source. InputError as blend_weights, naming the source ("sources[k].energy").
+BlendWeights blend_weights_sources(const BasisImages& basis, std::span<const Eigen::Vector3d> S,
+                                   std::span<const SunLight> sources, const BlendOptions& options = {});
 
 struct BlendStats {
   float max_above_one = 0;             // largest T - 1 before clamping (0 when none)
@@ -114,11 +129,23 @@ BlendStats blend_cpu(const BasisImages& basis, const BlendWeights& weights,
                      std::span<const float> sun_visibility, std::span<float> out,
                      const BlendOptions& options = {});
 
+// Several separated sources: source_visibility[k] is V_k per texel in [0, 1] for weights.sources[k]
+// (an empty span is allowed for a source of zero weight). InputError when the count differs from
+// weights.sources (or from one, when only weights.sun is set), or a V is missing or out of range.
+BlendStats blend_cpu_sources(const BasisImages& basis, const BlendWeights& weights,
+                             std::span<const std::span<const float>> source_visibility, std::span<float> out,
+                             const BlendOptions& options = {});
+
 // The same in double precision, one thread, no shortcuts: the reference the fast path is
 // tested against.
 void blend_reference(const BasisImages& basis, std::span<const Eigen::Vector3d> S,
                      const std::optional<SunLight>& sun, std::span<const float> sun_visibility,
                      std::span<double> out, const BlendOptions& options = {});
+
+void blend_reference_sources(const BasisImages& basis, std::span<const Eigen::Vector3d> S,
+                             std::span<const SunLight> sources,
+                             std::span<const std::span<const float>> source_visibility, std::span<double> out,
+                             const BlendOptions& options = {});
 
 float half_to_float(std::uint16_t h);
 std::uint16_t float_to_half(float f);   // round to nearest even

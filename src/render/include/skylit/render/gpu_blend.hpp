@@ -41,6 +41,11 @@ namespace skylit::render {
 enum class BasisStorage {
   Half,    // 16-bit float: the baked half floats as they are (exact; 2 bytes per texel and layer)
   Unorm8,  // 8-bit: each layer scaled by its maximum, B ≈ max_i · q/255 (1 byte; T error ≤ Σ_i c_i / 510)
+  // EAC R11 blocks (eac.hpp; core in ES 3.0): each layer scaled by its maximum and compressed in
+  // 4×4 blocks on upload, B ≈ max_i · e (half a byte; the block error is data-dependent: the
+  // blender measures it, eac_error(), and T is off by at most Σ_i |w_i| max_i eac_error_i).
+  // Packed: two layers per texel (RG11 EAC).
+  Eac11,
 };
 
 // The texel format of the shadow-ratio texture.
@@ -52,8 +57,8 @@ enum class ShadowRatioFormat {
 
 struct GpuBlendOptions {
   BasisStorage storage = BasisStorage::Half;
-  // Four layers per texel of the texture array (RGBA16F / RGBA8: one fetch brings four layers),
-  // or one (R16F / R8). Same values either way; four is faster where fetches, not bytes, are the
+  // Four layers per texel of the texture array (RGBA16F / RGBA8: one fetch brings four layers;
+  // two for EAC: RG11), or one (R16F / R8 / R11). Same values either way; four is faster where fetches, not bytes, are the
   // limit (bench/RESULTS.md, "GPU blend").
   bool pack_layers = true;
   ShadowRatioFormat output = ShadowRatioFormat::Half;
@@ -106,6 +111,9 @@ class GpuBlender {
   // max_x |B_i(x)| per layer (0 for a layer that is zero everywhere): the R8 scale and the bound
   // behind both thresholds.
   const std::vector<float>& layer_max() const { return layer_max_; }
+  // Eac11: max_x |B_i(x) − B̂_i(x)| per layer, the decoded block against the half float, in units
+  // of B (measured on upload with the decoder of eac.hpp); empty for other storages.
+  const std::vector<float>& eac_error() const { return eac_error_; }
   // Bytes of the basis texture array as stored (what one blend reads at most).
   std::size_t basis_bytes() const;
 
@@ -128,6 +136,7 @@ class GpuBlender {
   int group_size_x_ = 8;
   int group_size_y_ = 8;
   std::vector<float> layer_max_;
+  std::vector<float> eac_error_;
   gpu::Program program_;
   gpu::Texture basis_;
   gpu::Texture output_;

@@ -50,6 +50,16 @@ struct SunOptions {
   double halo_radius_deg = 5.0;
 };
 
+// The detector's mode for further compact sources (lamps under a ceiling, a second light): the
+// sun's tests relaxed as in the "Separated sources (issue 3)" diagnosis of bench/RESULTS.md: the
+// brightest compact source, whatever its contrast (min_contrast 1), its core up to 15° wide. The
+// disc (pixels over disc_factor × background, within halo_radius) is the sun's.
+inline SunOptions lamp_options(SunOptions base = {}) {
+  base.min_contrast = 1.0;
+  base.max_angular_radius_deg = 15.0;
+  return base;
+}
+
 struct SunDetection {
   std::optional<Sun> sun;
   std::string reason;   // why there is no sun (or "compact sun" when there is one)

@@ -1,0 +1,106 @@
+// skylit-bench trade on a tiny grid (one bake, two forms, two bit depths; the park sky; planes at
+// 1/32; a 160×120 frame): every field of trade.json, the plot, and a Pareto front that is
+// exactly the non-dominated settings.
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "../cli/cli_support.hpp"
+
+namespace skylit::trade_test {
+namespace {
+
+namespace fs = std::filesystem;
+using cli_test::kBin;
+using cli_test::kSource;
+
+std::string read_all(const fs::path& file) {
+  std::ostringstream out;
+  out << std::ifstream(file).rdbuf();
+  return out.str();
+}
+
+bool dominates(const nlohmann::json& a, const nlohmann::json& b) {
+  const double ac = a.at("cost_ms"), bc = b.at("cost_ms"), ae = a.at("rms"), be = b.at("rms");
+  return ac <= bc && ae <= be && (ac < bc || ae < be);
+}
+
+TEST(SkylitBenchTrade, TinyGridWritesTheTableThePlotAndTheParetoFront) {
+  const fs::path out = fs::temp_directory_path() / ("skylit_trade_" + std::to_string(std::random_device{}()));
+  const cli_test::Result result = cli_test::run_program(
+      kBin / "skylit-bench",
+      "trade --site " + (kSource / "config/sample_site.yaml").string() + " --calib " +
+          (kSource / "config/sky_camera.yaml").string() + " --hmd-camera " + (kSource / "config/hmd_camera.yaml").string() +
+          " --skies " + (kSource / "data/hdri").string() +
+          " --sky park --frequencies 2 --bases faces --samples 3 --texel-scales 32 --forms full,lean,pca2 --bits 16,8"
+          " --sun on --skip-thresholds 0,0.01 --frame-width 160 --frame-height 120 --frame-repeats 3 --blend-repeats 2"
+          " --timing-scale 8 --supersample 1 --out " +
+          out.string());
+  ASSERT_EQ(result.status, 0) << result.output;
+  EXPECT_NE(result.output.find("bake 1/1"), std::string::npos) << result.output;  // progress
+
+  const nlohmann::json doc = nlohmann::json::parse(read_all(out / "trade.json"));
+  const auto& settings = doc.at("settings");
+  // full and lean at 16 and 8 bits, pca2 at 16 bits only; two S thresholds: 10 settings.
+  ASSERT_EQ(settings.size(), 10u);
+  for (const char* key : {"label", "frequency", "basis", "samples", "texel_scale", "form", "bits", "sun_separation",
+                          "skip_threshold", "change_threshold", "smoothing", "render_scale", "rms", "p99", "max",
+                          "rms_per_sky", "edge_displacement_m", "edge_displacement_deg", "bake_seconds", "bake_bytes",
+                          "gpu_bytes", "layers", "skipped_layers", "blend_ms", "blend_cpu_ms", "frame_ms", "frame_cpu_ms",
+                          "whole_frame_ms", "whole_frame_cpu_ms", "cost_ms", "frames_per_second", "pareto"}) {
+    for (const auto& s : settings) ASSERT_TRUE(s.contains(key)) << key << " missing in " << s.dump();
+  }
+  for (const auto& s : settings) {
+    SCOPED_TRACE(s.at("label").get<std::string>());
+    EXPECT_GT(s.at("rms").get<double>(), 0.0);
+    EXPECT_LE(s.at("rms").get<double>(), s.at("max").get<double>());
+    EXPECT_LE(s.at("p99").get<double>(), s.at("max").get<double>());
+    EXPECT_GT(s.at("bake_bytes").get<double>(), 0.0);
+    EXPECT_GT(s.at("gpu_bytes").get<double>(), 0.0);
+    EXPECT_GT(s.at("frame_ms").get<double>(), 0.0);
+    EXPECT_GT(s.at("blend_ms").get<double>(), 0.0);
+    EXPECT_TRUE(s.at("edge_displacement_deg").is_number()) << "park has a sun";
+    EXPECT_TRUE(s.at("rms_per_sky").contains("park"));
+  }
+  // 8-bit layers take half the GPU memory of half floats; the PCA form less than either.
+  const auto find = [&](const std::string& form, int bits) {
+    for (const auto& s : settings) {
+      if (s.at("form") == form && s.at("bits") == bits && s.at("skip_threshold") == 0.0) return s;
+    }
+    ADD_FAILURE() << form << " " << bits;
+    return nlohmann::json();
+  };
+  EXPECT_EQ(find("full", 16).at("gpu_bytes").get<double>(), 2 * find("full", 8).at("gpu_bytes").get<double>());
+  EXPECT_LT(find("pca2", 16).at("gpu_bytes").get<double>(), find("full", 8).at("gpu_bytes").get<double>());
+
+  // The front: exactly the settings no other one dominates, and listed in "pareto".
+  std::vector<std::size_t> front;
+  for (std::size_t k = 0; k < settings.size(); ++k) {
+    bool dominated = false;
+    for (const auto& other : settings) dominated = dominated || dominates(other, settings[k]);
+    EXPECT_EQ(settings[k].at("pareto").get<bool>(), !dominated) << settings[k].dump();
+    if (!dominated) front.push_back(k);
+  }
+  EXPECT_FALSE(front.empty());
+  EXPECT_EQ(doc.at("pareto").get<std::vector<std::size_t>>(), front);
+
+  const std::string svg = read_all(out / "trade.svg");
+  EXPECT_EQ(svg.rfind("<svg", 0), 0u);
+  EXPECT_NE(svg.find("<polyline"), std::string::npos);   // the front
+  std::size_t circles = 0;
+  for (std::size_t at = svg.find("<circle"); at != std::string::npos; at = svg.find("<circle", at + 1)) ++circles;
+  EXPECT_EQ(circles, settings.size());
+  const std::string md = read_all(out / "trade.md");
+  EXPECT_NE(md.find("| Pareto |"), std::string::npos);
+
+  std::error_code ignored;
+  fs::remove_all(out, ignored);
+}
+
+}  // namespace
+}  // namespace skylit::trade_test

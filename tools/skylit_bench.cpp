@@ -1,0 +1,947 @@
+// skylit-bench trade: the trade table of the sky stage (issue 6). Sweeps a grid of settings — the
+// bake's (dome frequency ν, basis faces/corners, samples per face, plane resolution), the stored
+// form (full, lean, PCA with K components; 16- or 8-bit layers) and the live service's (sun
+// separation, S threshold = blend.skip_threshold, ΔS threshold = blend.change_threshold,
+// smoothing) — over the sample site and real equirect skies, and reports per setting:
+//
+//   error of T against the dense reference (study::dense_reference): RMS, p99, max of |T − T_ref|
+//     over every texel, plane and channel of every sky; for sunny skies (a sun in the equirect),
+//     the shadow-edge displacement (docs/trade.md: the mean distance between the 0.5 level lines
+//     of T and T_ref, metres on the plane, and the visual angle it subtends from the benchmark
+//     visitor 18 m away, degrees);
+//   bake time, bake size on disk, GPU memory (the layer textures as the GPU blend holds them:
+//     four layers per RGBA slice, 2 or 1 byte per value);
+//   per-frame blend time (the live CPU blend, every plane at --timing-scale, median of
+//     --blend-repeats) and whole-frame time (the compositor at 640×480 on the headless GL
+//     context, draw + glFinish, median of --frame-repeats, plus the blend: a frame with a new
+//     sky), wall and process CPU time; the plot and the front use --clock (cpu: CPU time over
+//     --cores, which other processes' load does not change; wall).
+//
+// Writes OUT/trade.json, OUT/trade.md and OUT/trade.svg (RMS against whole-frame time, the
+// Pareto front marked). Bakes are cached in OUT/bakes (a bake is reused when its folder holds a
+// readable manifest and trade_bake.json).
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <numbers>
+#include <optional>
+#include <set>
+#include <sstream>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "../src/live/src/cpu_shadow_ratios.hpp"
+#include "skylit/baker/bake_job.hpp"
+#include "skylit/baker/visibility.hpp"
+#include "skylit/base/error.hpp"
+#include "skylit/base/files.hpp"
+#include "skylit/gpu/egl_context.hpp"
+#include "skylit/render/blend_workers.hpp"
+#include "skylit/render/compositor.hpp"
+#include "skylit/render/cpu_blend.hpp"
+#include "skylit/render/sun_shadow_map.hpp"
+#include "skylit/sky/simulate.hpp"
+#include "skylit/sky/sky_estimate.hpp"
+#include "study/study.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace skylit;
+using study::Clock;
+using study::median;
+using study::seconds_since;
+
+// ---------------------------------------------------------------------------------------------
+// The grid.
+
+struct BakeKey {
+  int frequency = 2;
+  geom::DomeBasis basis = geom::DomeBasis::Faces;
+  int samples = 16;
+  int texel_scale = 8;
+  auto tie() const { return std::tie(frequency, basis, samples, texel_scale); }
+  bool operator<(const BakeKey& o) const { return tie() < o.tie(); }
+  std::string name() const {
+    return "nu" + std::to_string(frequency) + "_" + std::string(geom::basis_name(basis)) + "_k" + std::to_string(samples) +
+           "_s" + std::to_string(texel_scale);
+  }
+};
+
+struct Form {
+  render::BasisForm form = render::BasisForm::Full;
+  int components = 0;  // Pca
+  std::string name() const {
+    return form == render::BasisForm::Pca ? "pca" + std::to_string(components)
+           : form == render::BasisForm::Lean ? "lean"
+                                             : "full";
+  }
+};
+
+Form parse_form(const std::string& text) {
+  if (text == "full") return {render::BasisForm::Full, 0};
+  if (text == "lean") return {render::BasisForm::Lean, 0};
+  if (text.rfind("pca", 0) == 0 && text.size() > 3) {
+    const int k = std::stoi(text.substr(3));
+    if (k > 0) return {render::BasisForm::Pca, k};
+  }
+  throw InputError("option --forms: got '" + text + "'. Fix: full, lean or pcaK (e.g. pca8)");
+}
+
+struct Setting {
+  BakeKey bake;
+  Form form;
+  int bits = 16;
+  bool sun = true;
+  double skip_threshold = 0;
+  double change_threshold = 0.002;
+  double smoothing = 0;
+  double render_scale = 1.0;
+  std::string label() const {
+    char text[160];
+    std::snprintf(text, sizeof text, "%s %s %db%s S%g", bake.name().c_str(), form.name().c_str(), bits,
+                  sun ? " sun" : " nosun", skip_threshold);
+    std::string s = text;
+    if (render_scale != 1.0) s += " r" + std::to_string(static_cast<int>(std::lround(render_scale * 100)));
+    return s;
+  }
+};
+
+struct Result {
+  Setting setting;
+  study::Errors error;
+  std::map<std::string, double> rms_per_sky;
+  std::optional<double> edge_m, edge_deg;  // sunny skies only
+  double bake_seconds = 0;
+  std::uint64_t bake_bytes = 0;
+  std::uint64_t gpu_bytes = 0;
+  int layers = 0;               // stored layers per plane, summed over planes
+  int skipped_layers = 0;       // by the S threshold, summed over planes (first sky)
+  double blend_ms = 0;
+  double blend_cpu_ms = 0;      // process CPU time per blend
+  double frame_ms = 0;
+  double frame_cpu_ms = 0;      // process CPU time per frame (llvmpipe's threads included)
+  double whole_frame_ms = 0;      // wall: frame_ms + blend_ms
+  double whole_frame_cpu_ms = 0;  // process CPU time: frame_cpu_ms + blend_cpu_ms
+  double cost_ms = 0;             // what the plot and the Pareto front use (--clock)
+  bool pareto = false;
+};
+
+std::uint64_t directory_bytes(const fs::path& dir) {
+  std::uint64_t bytes = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
+    if (entry.is_regular_file()) bytes += entry.file_size();
+  }
+  return bytes;
+}
+
+// 8-bit layers as the GPU blend stores them (gpu_blend.cpp): per layer, B ≈ top · round(255 B / top) / 255.
+void quantise_to_unorm8(render::BasisImages& basis) {
+  const std::size_t texels = basis.texel_count();
+  std::vector<float> values(texels);
+  for (int layer = 0; layer < basis.layers; ++layer) {
+    const std::span<std::uint16_t> halves(basis.half.data() + static_cast<std::size_t>(layer) * texels, texels);
+    render::halves_to_floats(halves, values);
+    float top = 0.0f;
+    for (float v : values) top = std::max(top, v);
+    if (top <= 0.0f) continue;
+    for (std::size_t k = 0; k < texels; ++k) {
+      const float q = std::round(std::clamp(values[k] / top * 255.0f, 0.0f, 255.0f));
+      halves[k] = render::float_to_half(top * q / 255.0f);
+    }
+  }
+}
+
+// The same basis at width × height texels, nearest texel: the blend's cost depends on the texels
+// and the layers, not on their values, so a coarse bake upsampled times the blend of a fine one.
+render::BasisImages upsampled(const render::BasisImages& b, int width, int height) {
+  render::BasisImages out = b;
+  out.width = width;
+  out.height = height;
+  out.half.assign(static_cast<std::size_t>(b.layers) * width * height, 0);
+  for (int layer = 0; layer < b.layers; ++layer) {
+    for (int row = 0; row < height; ++row) {
+      const std::size_t from = (static_cast<std::size_t>(layer) * b.height + row * b.height / height) * b.width;
+      const std::size_t to = (static_cast<std::size_t>(layer) * height + row) * width;
+      for (int col = 0; col < width; ++col) out.half[to + col] = b.half[from + static_cast<std::size_t>(col * b.width / width)];
+    }
+  }
+  return out;
+}
+
+std::vector<float> upsampled(const std::vector<float>& v, int w, int h, int width, int height) {
+  if (v.empty()) return v;
+  std::vector<float> out(static_cast<std::size_t>(width) * height);
+  for (int row = 0; row < height; ++row) {
+    for (int col = 0; col < width; ++col) {
+      out[static_cast<std::size_t>(row) * width + col] = v[static_cast<std::size_t>(row * h / height) * w + col * w / width];
+    }
+  }
+  return out;
+}
+
+double cpu_ms_since(std::clock_t t) { return 1000.0 * static_cast<double>(std::clock() - t) / CLOCKS_PER_SEC; }
+
+// ---------------------------------------------------------------------------------------------
+// Shadow-edge displacement: the level line of T's luminance at the middle of T_ref's range on the
+// plane ((p5 + p95) / 2, planes whose range is under 0.2 have no edge), as the texels where it
+// passes between a texel and its right or lower neighbour; the mean over both lines of each
+// point's distance to the other line, in metres on the plane. Returns (sum of distances, count).
+std::vector<std::pair<double, double>> edge_points(const std::vector<double>& y, const geom::Plane& plane, double level) {
+  std::vector<std::pair<double, double>> points;
+  const double du = plane.u.norm() / plane.width, dv = plane.v.norm() / plane.height;
+  for (int row = 0; row < plane.height; ++row) {
+    for (int col = 0; col < plane.width; ++col) {
+      const double a = y[static_cast<std::size_t>(row) * plane.width + col] - level;
+      if (col + 1 < plane.width) {
+        const double b = y[static_cast<std::size_t>(row) * plane.width + col + 1] - level;
+        if ((a < 0) != (b < 0)) points.emplace_back((col + 0.5 + a / (a - b)) * du, (row + 0.5) * dv);
+      }
+      if (row + 1 < plane.height) {
+        const double b = y[static_cast<std::size_t>(row + 1) * plane.width + col] - level;
+        if ((a < 0) != (b < 0)) points.emplace_back((col + 0.5) * du, (row + 0.5 + a / (a - b)) * dv);
+      }
+    }
+  }
+  return points;
+}
+
+std::pair<double, int> edge_displacement(const std::vector<float>& T, const std::vector<Eigen::Vector3d>& reference,
+                                         const geom::Plane& plane) {
+  std::vector<double> y(reference.size()), y_ref(reference.size());
+  for (std::size_t x = 0; x < reference.size(); ++x) {
+    y_ref[x] = study::luminance(reference[x]);
+    y[x] = study::luminance(Eigen::Vector3d(T[3 * x], T[3 * x + 1], T[3 * x + 2]));
+  }
+  std::vector<double> sorted = y_ref;
+  std::sort(sorted.begin(), sorted.end());
+  const double p5 = sorted[sorted.size() / 20], p95 = sorted[sorted.size() * 19 / 20];
+  if (p95 - p5 < 0.2) return {0.0, 0};
+  const double level = (p5 + p95) / 2;
+  const auto a = edge_points(y_ref, plane, level), b = edge_points(y, plane, level);
+  if (a.empty()) return {0.0, 0};
+  if (b.empty()) return {std::hypot(plane.u.norm(), plane.v.norm()) * static_cast<double>(a.size()), static_cast<int>(a.size())};
+  const auto nearest_sum = [](const auto& from, const auto& to) {
+    double sum = 0;
+    for (const auto& p : from) {
+      double best = 1e30;
+      for (const auto& q : to) best = std::min(best, std::hypot(p.first - q.first, p.second - q.second));
+      sum += best;
+    }
+    return sum;
+  };
+  return {nearest_sum(a, b) + nearest_sum(b, a), static_cast<int>(a.size() + b.size())};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Outputs.
+
+void mark_pareto(std::vector<Result>& results) {
+  for (Result& r : results) {
+    r.pareto = std::none_of(results.begin(), results.end(), [&](const Result& o) {
+      return o.cost_ms <= r.cost_ms && o.error.rms <= r.error.rms && (o.cost_ms < r.cost_ms || o.error.rms < r.error.rms);
+    });
+  }
+}
+
+std::string svg_plot(const std::vector<Result>& results, const std::string& title, const std::string& x_label) {
+  const double W = 960, H = 640, left = 80, right = 300, top = 50, bottom = 70;
+  double x0 = 1e30, x1 = 0, y0 = 1e30, y1 = 0;
+  for (const Result& r : results) {
+    x0 = std::min(x0, r.cost_ms);
+    x1 = std::max(x1, r.cost_ms);
+    y0 = std::min(y0, std::max(r.error.rms, 1e-5));
+    y1 = std::max(y1, std::max(r.error.rms, 1e-5));
+  }
+  // Log axes, a little margin, whole decades of error marked.
+  const double lx0 = std::log10(x0) - 0.05, lx1 = std::log10(x1) + 0.05;
+  const double ly0 = std::log10(y0) - 0.1, ly1 = std::log10(y1) + 0.1;
+  const auto px = [&](double ms) { return left + (std::log10(ms) - lx0) / std::max(lx1 - lx0, 1e-9) * (W - left - right); };
+  const auto py = [&](double e) {
+    return H - bottom - (std::log10(std::max(e, 1e-5)) - ly0) / std::max(ly1 - ly0, 1e-9) * (H - top - bottom);
+  };
+  std::ostringstream s;
+  s << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W << "\" height=\"" << H
+    << "\" font-family=\"sans-serif\" font-size=\"11\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
+  s << "<text x=\"" << left << "\" y=\"24\" font-size=\"15\">" << title << "</text>\n";
+  s << "<rect x=\"" << left << "\" y=\"" << top << "\" width=\"" << W - left - right << "\" height=\"" << H - top - bottom
+    << "\" fill=\"none\" stroke=\"#888\"/>\n";
+  for (double tick : {0.5, 1.0, 2.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 40.0, 50.0, 70.0, 100.0, 150.0, 200.0, 300.0, 500.0, 1000.0}) {
+    if (std::log10(tick) < lx0 || std::log10(tick) > lx1) continue;
+    s << "<line x1=\"" << px(tick) << "\" x2=\"" << px(tick) << "\" y1=\"" << top << "\" y2=\"" << H - bottom
+      << "\" stroke=\"#eee\"/><text x=\"" << px(tick) << "\" y=\"" << H - bottom + 16 << "\" text-anchor=\"middle\">" << tick
+      << "</text>\n";
+  }
+  for (double tick : {0.0001, 0.0002, 0.0005, 0.001, 0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5}) {
+    if (std::log10(tick) < ly0 || std::log10(tick) > ly1) continue;
+    s << "<line x1=\"" << left << "\" x2=\"" << W - right << "\" y1=\"" << py(tick) << "\" y2=\"" << py(tick)
+      << "\" stroke=\"" << (tick == 0.01 ? "#c88" : "#eee") << "\"/><text x=\"" << left - 6 << "\" y=\"" << py(tick) + 4
+      << "\" text-anchor=\"end\">" << tick << "</text>\n";
+  }
+  if (1000.0 / 60 >= x0 && 1000.0 / 60 <= x1 * 1.2) {
+    s << "<line x1=\"" << px(1000.0 / 60) << "\" x2=\"" << px(1000.0 / 60) << "\" y1=\"" << top << "\" y2=\"" << H - bottom
+      << "\" stroke=\"#c88\" stroke-dasharray=\"4 3\"/><text x=\"" << px(1000.0 / 60) + 3 << "\" y=\"" << top + 12
+      << "\" fill=\"#a44\">60 frames/s</text>\n";
+  }
+  s << "<text x=\"" << (left + W - right) / 2 << "\" y=\"" << H - 30
+    << "\" text-anchor=\"middle\">" << x_label << "</text>\n";
+  s << "<text transform=\"translate(22," << (top + H - bottom) / 2
+    << ") rotate(-90)\" text-anchor=\"middle\">RMS |T − T_ref| (log)</text>\n";
+  std::vector<const Result*> front;
+  for (const Result& r : results) {
+    if (r.pareto) front.push_back(&r);
+  }
+  std::sort(front.begin(), front.end(), [](const Result* a, const Result* b) { return a->cost_ms < b->cost_ms; });
+  if (!front.empty()) {
+    s << "<polyline fill=\"none\" stroke=\"#d33\" stroke-width=\"1.5\" points=\"";
+    for (const Result* r : front) s << px(r->cost_ms) << "," << py(r->error.rms) << " ";
+    s << "\"/>\n";
+  }
+  int k = 0;
+  for (const Result& r : results) {
+    const double x = px(r.cost_ms), y = py(r.error.rms);
+    s << "<circle cx=\"" << x << "\" cy=\"" << y << "\" r=\"" << (r.pareto ? 5 : 3) << "\" fill=\""
+      << (r.pareto ? "#d33" : "#58a") << "\"><title>" << r.setting.label() << "</title></circle>";
+    s << "<text x=\"" << x + 6 << "\" y=\"" << y - 4 << "\" font-size=\"8\" fill=\"#555\">" << k << "</text>\n";
+    ++k;
+  }
+  // The legend: the front's points, number and label (every point's label is its tooltip, and its
+  // number is its row in trade.md).
+  s << "<text x=\"" << W - right + 10 << "\" y=\"" << top + 10 << "\" font-weight=\"bold\">Pareto front (# = row of trade.md)</text>\n";
+  k = 0;
+  int shown = 0;
+  for (const Result& r : results) {
+    if (r.pareto && shown < 40) {
+      s << "<text x=\"" << W - right + 10 << "\" y=\"" << top + 26 + 12 * shown << "\" font-size=\"10\" fill=\"#d33\">" << k
+        << ": " << r.setting.label() << "</text>\n";
+      ++shown;
+    }
+    ++k;
+  }
+  s << "</svg>\n";
+  return s.str();
+}
+
+nlohmann::json to_json(const Result& r) {
+  nlohmann::json per_sky = nlohmann::json::object();
+  for (const auto& [sky, rms] : r.rms_per_sky) per_sky[sky] = rms;
+  return {{"label", r.setting.label()},
+          {"frequency", r.setting.bake.frequency},
+          {"basis", std::string(geom::basis_name(r.setting.bake.basis))},
+          {"samples", r.setting.bake.samples},
+          {"texel_scale", r.setting.bake.texel_scale},
+          {"form", r.setting.form.name()},
+          {"bits", r.setting.bits},
+          {"sun_separation", r.setting.sun},
+          {"skip_threshold", r.setting.skip_threshold},
+          {"change_threshold", r.setting.change_threshold},
+          {"smoothing", r.setting.smoothing},
+          {"render_scale", r.setting.render_scale},
+          {"rms", r.error.rms},
+          {"p99", r.error.p99},
+          {"max", r.error.max},
+          {"rms_per_sky", per_sky},
+          {"edge_displacement_m", r.edge_m ? nlohmann::json(*r.edge_m) : nlohmann::json(nullptr)},
+          {"edge_displacement_deg", r.edge_deg ? nlohmann::json(*r.edge_deg) : nlohmann::json(nullptr)},
+          {"bake_seconds", r.bake_seconds},
+          {"bake_bytes", r.bake_bytes},
+          {"gpu_bytes", r.gpu_bytes},
+          {"layers", r.layers},
+          {"skipped_layers", r.skipped_layers},
+          {"blend_ms", r.blend_ms},
+          {"blend_cpu_ms", r.blend_cpu_ms},
+          {"frame_ms", r.frame_ms},
+          {"frame_cpu_ms", r.frame_cpu_ms},
+          {"whole_frame_ms", r.whole_frame_ms},
+          {"whole_frame_cpu_ms", r.whole_frame_cpu_ms},
+          {"cost_ms", r.cost_ms},
+          {"frames_per_second", 1000.0 / r.cost_ms},
+          {"pareto", r.pareto}};
+}
+
+std::string markdown_table(const std::vector<Result>& results) {
+  std::string md =
+      "| # | ν | basis | K | texel scale | form | bits | sun | S thr. | render scale | RMS | p99 | max | edge (m / °) | bake s | "
+      "bake MB | GPU MB | blend ms wall / CPU | frame ms wall / CPU | cost ms (frames/s) | Pareto |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  int k = 0;
+  for (const Result& r : results) {
+    const Setting& s = r.setting;
+    char edge[48] = "—";
+    if (r.edge_m) std::snprintf(edge, sizeof edge, "%.3f / %.3f", *r.edge_m, *r.edge_deg);
+    char row[512];
+    std::snprintf(row, sizeof row,
+                  "| %d | %d | %s | %d | 1/%d | %s | %d | %s | %g | %g | %.4f | %.4f | %.4f | %s | %.1f | %.2f | %.1f | %.1f / %.1f | "
+                  "%.1f / %.1f | %.1f (%.0f) | %s |\n",
+                  k++, s.bake.frequency, std::string(geom::basis_name(s.bake.basis)).c_str(), s.bake.samples,
+                  s.bake.texel_scale, s.form.name().c_str(), s.bits, s.sun ? "on" : "off", s.skip_threshold, s.render_scale, r.error.rms,
+                  r.error.p99, r.error.max, edge, r.bake_seconds, static_cast<double>(r.bake_bytes) / 1e6,
+                  static_cast<double>(r.gpu_bytes) / 1e6, r.blend_ms, r.blend_cpu_ms, r.frame_ms, r.frame_cpu_ms, r.cost_ms,
+                  1000.0 / r.cost_ms,
+                  r.pareto ? "**yes**" : "");
+    md += row;
+  }
+  return md;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The sweep.
+
+struct TradeOptions {
+  std::string site_file = "config/sample_site.yaml";
+  std::string sky_calib = "config/sky_camera.yaml";
+  std::string hmd_calib = "config/hmd_camera.yaml";
+  std::string skies_dir = "data/hdri";
+  std::vector<std::string> skies;       // stems; empty: every .exr
+  std::string out_dir = "build/trade";
+  std::vector<int> frequencies{2, 4};
+  std::vector<std::string> bases{"faces", "corners"};
+  std::vector<int> samples{4, 16};
+  std::vector<int> texel_scales{8};
+  std::vector<std::string> forms{"full", "lean", "pca8"};
+  std::vector<int> bits{16, 8};
+  std::vector<std::string> sun{"on", "off"};
+  std::vector<double> skip_thresholds{0.0, 0.005};
+  std::vector<double> change_thresholds{0.002};
+  std::vector<double> smoothings{0.0};
+  std::vector<double> render_scales{1.0};
+  int frame_width = 640, frame_height = 480;
+  int blend_repeats = 9, frame_repeats = 30;
+  int supersample = 2, reference_supersample = 1;
+  int threads = 2;
+  int timing_scale = 1;
+  // The whole-frame time the plot and the Pareto front use: "cpu", the process CPU time per frame
+  // (compositor + blend) over `cores` (the wall time on an idle machine whose cores share the work
+  // evenly; it does not change with other processes' load), or "wall", as measured.
+  std::string clock = "cpu";
+  int cores = 2;   // blend timing and GPU memory at the site's resolution divided by this
+  // Seconds between sky changes: the service blends once per new sky (on the sky thread), not
+  // per frame, so the blend's CPU time is spread over the frames between; 0 counts it in every
+  // frame (the worst frame: the one whose sky changed, on one thread).
+  double sky_interval = 0.0;
+  bool quick = false;
+};
+
+struct SkyData {
+  std::string name;
+  cv::Mat equirect;
+  sky::RadianceFrame frame;
+  bool sunny = false;  // a sun in the equirect (study::equirect_sun)
+};
+
+int run_trade(TradeOptions o) {
+  const auto start = Clock::now();
+  fs::create_directories(o.out_dir);
+  const fs::path out(o.out_dir);
+
+  // Skies.
+  std::vector<fs::path> sky_files;
+  for (const auto& entry : fs::directory_iterator(o.skies_dir)) {
+    const std::string stem = entry.path().stem().string();
+    if (entry.path().extension() != ".exr") continue;
+    if (!o.skies.empty() && std::find(o.skies.begin(), o.skies.end(), stem) == o.skies.end()) continue;
+    sky_files.push_back(entry.path());
+  }
+  std::sort(sky_files.begin(), sky_files.end());
+  if (sky_files.empty()) throw InputError("no .exr skies in " + o.skies_dir + ". Fix: --skies DIR, --sky NAME,NAME");
+
+  // The grid, and the settings it cannot have (corners with fewer than 3 samples; 8-bit PCA).
+  std::vector<Setting> settings;
+  std::set<BakeKey> bake_keys;
+  std::set<std::pair<BakeKey, int>> pca_keys;
+  for (int f : o.frequencies) {
+    for (const std::string& b : o.bases) {
+      const auto basis = geom::parse_basis(b);
+      if (!basis) throw InputError("option --bases: got '" + b + "'. Fix: faces, corners");
+      for (int k : o.samples) {
+        if (*basis == geom::DomeBasis::Corners && k < baker::kMinCornerSamples) continue;
+        for (int scale : o.texel_scales) {
+          const BakeKey key{f, *basis, k, scale};
+          for (const std::string& form_text : o.forms) {
+            const Form form = parse_form(form_text);
+            for (int bits : o.bits) {
+              if (bits != 8 && bits != 16) throw InputError("option --bits: 16 or 8");
+              if (bits == 8 && form.form == render::BasisForm::Pca) continue;
+              for (const std::string& sun : o.sun) {
+                if (sun != "on" && sun != "off") throw InputError("option --sun: on, off");
+                for (double skip : o.skip_thresholds) {
+                  for (double change : o.change_thresholds) {
+                    for (double smoothing : o.smoothings) {
+                      for (double render_scale : o.render_scales) {
+                        settings.push_back({key, form, bits, sun == "on", skip, change, smoothing, render_scale});
+                        bake_keys.insert(key);
+                        if (form.form == render::BasisForm::Pca) pca_keys.insert({key, form.components});
+                      }
+                    }
+                  }
+                }
+              }
+            }
+          }
+        }
+      }
+    }
+  }
+  std::set<int> scales;
+  for (const BakeKey& k : bake_keys) scales.insert(k.texel_scale);
+  std::printf("skylit-bench trade: %zu settings, %zu bakes (+%zu PCA forms), %zu skies, plane resolution 1/%s\n",
+              settings.size(), bake_keys.size(), pca_keys.size(), sky_files.size(),
+              [&] {
+                std::string t;
+                for (int s : scales) t += (t.empty() ? "" : ",") + std::to_string(s);
+                return t;
+              }()
+                  .c_str());
+  // A rough estimate from the default sweep (2 cores, loaded): a ray-traced bake at 1/8 resolution
+  // with K=16 takes about 1.5 s per 40 layers; the reference about 10 s per sky; each setting and
+  // sky about 0.4 s; each setting's timing about 1.5 s.
+  double estimate_s = 0;
+  for (const BakeKey& k : bake_keys) {
+    const double layers = 10.0 * k.frequency * k.frequency * (k.basis == geom::DomeBasis::Corners ? 3 : 1);
+    estimate_s += 1.5 * layers / 40.0 * k.samples / 16.0 * 64.0 / (k.texel_scale * k.texel_scale);
+  }
+  for (int s : scales) estimate_s += 10.0 * static_cast<double>(sky_files.size()) * 64.0 / (s * s);
+  estimate_s += static_cast<double>(settings.size()) * (0.4 * static_cast<double>(sky_files.size()) + 1.5);
+  std::printf("estimate: about %.0f min without cached bakes\n", estimate_s / 60.0);
+  std::fflush(stdout);
+
+  // Sites at each resolution.
+  struct SiteData {
+    fs::path file;
+    scene::Site site;
+    scene::Mesh mesh;
+    std::vector<geom::Plane> full_planes;  // the site's own resolution
+  };
+  const scene::Site full_site = scene::load_site(o.site_file);
+  std::map<int, SiteData> sites;
+  for (int s : scales) {
+    const fs::path dir = out / ("site_s" + std::to_string(s));
+    fs::create_directories(dir);
+    SiteData d;
+    d.file = study::coarse_site(o.site_file, s, dir);
+    d.site = scene::load_site(d.file);
+    d.mesh = scene::load_model(d.site.model, d.site.up, d.site.scale);
+    for (const auto& p : full_site.planes) d.full_planes.push_back(p);
+    sites.emplace(s, std::move(d));
+  }
+
+  // Bakes, cached in OUT/bakes.
+  std::map<BakeKey, fs::path> bakes;
+  std::map<BakeKey, double> bake_seconds;
+  std::FILE* quiet = std::fopen("/dev/null", "w");
+  int done = 0;
+  for (const BakeKey& key : bake_keys) {
+    const fs::path dir = out / "bakes" / key.name();
+    const fs::path stamp = dir / "trade_bake.json";
+    ++done;
+    bool cached = false;
+    if (fs::exists(stamp)) {
+      try {
+        (void)bake::read_manifest(dir);
+        bake_seconds[key] = nlohmann::json::parse(read_file(stamp)).at("seconds").get<double>();
+        cached = true;
+      } catch (const std::exception&) {
+        cached = false;
+      }
+    }
+    if (!cached) {
+      std::printf("bake %d/%zu: %s ...\n", done, bake_keys.size(), key.name().c_str());
+      std::fflush(stdout);
+      baker::BakeOptions options;
+      options.site_file = sites.at(key.texel_scale).file;
+      options.out_dir = dir;
+      options.frequency = key.frequency;
+      options.samples = key.samples;
+      options.basis = key.basis;
+      options.method = "raytrace";
+      options.force = true;
+      options.previews = false;
+      const auto t = Clock::now();
+      baker::run_bake(options, quiet);
+      bake_seconds[key] = seconds_since(t);
+      write_file_atomic(stamp, nlohmann::json{{"seconds", bake_seconds[key]}}.dump() + "\n");
+      std::printf("bake %d/%zu: %s %.1f s\n", done, bake_keys.size(), key.name().c_str(), bake_seconds[key]);
+    } else {
+      std::printf("bake %d/%zu: %s cached (%.1f s when made)\n", done, bake_keys.size(), key.name().c_str(), bake_seconds[key]);
+    }
+    std::fflush(stdout);
+    bakes[key] = dir;
+  }
+  // PCA forms: a copy of the bake per K, compressed as skylit-bake compress does it.
+  std::map<std::pair<BakeKey, int>, fs::path> pca_bakes;
+  std::map<std::pair<BakeKey, int>, double> pca_seconds;
+  for (const auto& [key, k] : pca_keys) {
+    const fs::path copy = bakes.at(key).string() + "_pca" + std::to_string(k);
+    const fs::path stamp = copy / "trade_pca.json";
+    bool cached = false;
+    if (fs::exists(stamp)) {
+      try {
+        (void)bake::read_manifest(copy);
+        pca_seconds[{key, k}] = nlohmann::json::parse(read_file(stamp)).at("seconds").get<double>();
+        cached = true;
+      } catch (const std::exception&) {
+        cached = false;
+      }
+    }
+    if (!cached) {
+      fs::remove_all(copy);
+      fs::copy(bakes.at(key), copy, fs::copy_options::recursive);
+      fs::remove(copy / "trade_bake.json");
+      bake::PcaOptions pca;
+      pca.components = k;
+      const auto t = Clock::now();
+      baker::compress_bake(copy, pca, quiet);
+      pca_seconds[{key, k}] = seconds_since(t);
+      write_file_atomic(stamp, nlohmann::json{{"seconds", pca_seconds[{key, k}]}}.dump() + "\n");
+      std::printf("PCA %s K=%d: %.1f s\n", key.name().c_str(), k, pca_seconds[{key, k}]);
+      std::fflush(stdout);
+    }
+    pca_bakes[{key, k}] = copy;
+  }
+  std::fclose(quiet);
+
+  // Skies: the fisheye frame the live path sees, whether the equirect has a sun.
+  const sky::CameraCalibration calibration = sky::load_calibration(o.sky_calib);
+  const sky::Lens lens(calibration);
+  std::vector<SkyData> skies;
+  for (const fs::path& file : sky_files) {
+    SkyData d;
+    d.name = file.stem().string();
+    d.equirect = study::read_clean_sky(file);
+    d.frame = {sky::render_fisheye(lens, d.equirect, {.supersample = o.supersample}), cv::Mat()};
+    d.sunny = study::equirect_sun(d.equirect).found;
+    skies.push_back(std::move(d));
+  }
+  // The dense reference per resolution and sky.
+  std::map<std::pair<int, std::size_t>, std::vector<std::vector<Eigen::Vector3d>>> references;
+  for (int s : scales) {
+    for (std::size_t i = 0; i < skies.size(); ++i) {
+      const study::DenseReference ref =
+          study::dense_reference(skies[i].equirect, sites.at(s).site, sites.at(s).mesh, o.reference_supersample);
+      std::printf("reference 1/%d %s: %.1f s\n", s, skies[i].name.c_str(), ref.seconds);
+      std::fflush(stdout);
+      references[{s, i}] = ref.planes;
+    }
+  }
+
+  // The compositor's frame time per (bake, sun map, render scale): the headless GL context.
+  gpu::HeadlessContext context;
+  const sky::CameraCalibration hmd = study::scaled_camera(o.hmd_calib, o.frame_width, o.frame_height);
+  const double az = 140 * std::numbers::pi / 180, el = 35 * std::numbers::pi / 180;
+  const render::SunLight bench_sun{Eigen::Vector3d(std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)),
+                                   Eigen::Vector3d::Constant(3.0)};
+  // One compositor per (bake, sun map, render scale), all made first and then timed a frame each
+  // in turn, round after round, so that a change of the machine's load falls on all alike.
+  struct FrameRig {
+    std::unique_ptr<render::SunShadowMap> shadow_map;
+    std::vector<gpu::Texture> ratios;
+    std::vector<GLuint> names;
+    std::vector<Eigen::Vector3d> sky_radiance;
+    std::unique_ptr<render::Compositor> compositor;
+    cv::Mat image;
+    render::CompositeInput input;
+    std::vector<double> wall, cpu;
+  };
+  using FrameKey = std::tuple<BakeKey, bool, double>;
+  std::map<FrameKey, std::unique_ptr<FrameRig>> frame_rigs;
+  for (const Setting& s : settings) {
+    auto& rig = frame_rigs[std::make_tuple(s.bake, s.sun, s.render_scale)];
+    if (rig) continue;
+    rig = std::make_unique<FrameRig>();
+    const SiteData& site = sites.at(s.bake.texel_scale);
+    const fs::path dir = bakes.at(s.bake);
+    const bake::Manifest manifest = bake::read_manifest(dir);
+    std::vector<std::size_t> shape;
+    const std::vector<float> transfer = bake::read_npy(dir / manifest.transfer_file, &shape);
+    std::vector<geom::Plane> planes;
+    for (const auto& record : manifest.planes) planes.push_back(record.plane);
+    if (s.sun) {
+      rig->shadow_map = std::make_unique<render::SunShadowMap>(site.mesh, planes);
+      rig->shadow_map->update(bench_sun.direction, 0.0047);
+    }
+    for (const auto& plane : planes) {
+      const std::vector<float> T(static_cast<std::size_t>(plane.width) * plane.height * 3, 0.8f);
+      rig->ratios.push_back(render::upload_shadow_ratio(T, plane.width, plane.height));
+      rig->names.push_back(rig->ratios.back().get());
+    }
+    render::CompositorOptions options;
+    options.lens.render_scale = s.render_scale;
+    rig->compositor = std::make_unique<render::Compositor>(site.site, site.mesh, manifest, transfer, hmd, options);
+    rig->image = cv::Mat(hmd.image_height, hmd.image_width, CV_8UC3);
+    cv::randu(rig->image, cv::Scalar::all(0), cv::Scalar::all(256));
+    rig->sky_radiance.assign(manifest.layer_count(), Eigen::Vector3d(0.3, 0.4, 0.6));
+    rig->input.camera = rig->image;
+    rig->input.pose = study::visitor_pose();
+    rig->input.sky = rig->sky_radiance;
+    if (s.sun) rig->input.sun = bench_sun;
+    rig->input.shadow_ratios = rig->names;
+    rig->input.sun_shadow = rig->shadow_map.get();
+    rig->compositor->composite(rig->input);  // warm-up: first-use allocations in the driver
+  }
+  std::printf("timing %zu compositors × %d frames ...\n", frame_rigs.size(), o.frame_repeats);
+  std::fflush(stdout);
+  for (int round = 0; round < o.frame_repeats; ++round) {
+    for (auto& [key, rig] : frame_rigs) {
+      const auto t = Clock::now();
+      const std::clock_t c = std::clock();
+      rig->compositor->draw(rig->input);
+      glFinish();
+      rig->wall.push_back(1000.0 * seconds_since(t));
+      rig->cpu.push_back(cpu_ms_since(c));
+    }
+  }
+  std::map<FrameKey, std::pair<double, double>> frame_ms;
+  for (auto& [key, rig] : frame_rigs) frame_ms[key] = {median(rig->wall), median(rig->cpu)};
+  frame_rigs.clear();
+
+  // Per setting: T for every sky against the reference; the blend's time on the first sky.
+  render::BlendWorkers workers(o.threads);
+  std::vector<Result> results;
+  std::map<std::tuple<int, geom::DomeBasis, bool>, std::unique_ptr<sky::SkyEstimator>> estimators;
+  int index = 0;
+  for (const Setting& s : settings) {
+    ++index;
+    const auto t_setting = Clock::now();
+    Result r;
+    r.setting = s;
+    const bool pca = s.form.form == render::BasisForm::Pca;
+    const fs::path bake_dir = pca ? pca_bakes.at({s.bake, s.form.components}) : bakes.at(s.bake);
+    const bake::Manifest manifest = bake::read_manifest(bake_dir);
+    r.bake_seconds = bake_seconds.at(s.bake) + (pca ? pca_seconds.at({s.bake, s.form.components}) : 0.0);
+    r.bake_bytes = directory_bytes(bake_dir);
+    const SiteData& site = sites.at(s.bake.texel_scale);
+    std::vector<render::BasisImages> basis;
+    for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
+      basis.push_back(render::load_basis(bake_dir, manifest, static_cast<int>(j), s.form.form));
+      if (s.bits == 8) quantise_to_unorm8(basis.back());
+      r.layers += basis.back().layers;
+    }
+    auto& estimator = estimators[{s.bake.frequency, s.bake.basis, s.sun}];
+    const geom::Dome dome(s.bake.frequency);
+    if (!estimator) {
+      sky::SkyEstimateOptions sky_options;
+      sky_options.sun_mode = s.sun ? sky::SunMode::Auto : sky::SunMode::Off;
+      sky_options.table.basis = s.bake.basis;
+      estimator = std::make_unique<sky::SkyEstimator>(calibration, dome, sky_options);
+    }
+    std::vector<double> diffs;
+    double edge_sum = 0;
+    int edge_count = 0;
+    for (std::size_t i = 0; i < skies.size(); ++i) {
+      const sky::SkyEstimate estimate = estimator->estimate(skies[i].frame);
+      const std::vector<Eigen::Vector3d> S = sky::layer_radiances(estimate.luminance);
+      std::optional<render::SunLight> sun;
+      if (estimate.sun) sun = render::SunLight{estimate.sun->direction, estimate.sun->energy};
+      const auto& reference = references.at({s.bake.texel_scale, i});
+      std::vector<double> sky_diffs;
+      for (std::size_t j = 0; j < basis.size(); ++j) {
+        std::vector<float> visibility;
+        if (sun) {
+          visibility.resize(basis[j].texel_count());
+          baker::area_light_visibility(site.mesh, manifest.planes[j].plane, estimate.sun->disc_directions,
+                                       estimate.sun->disc_weights, visibility);
+        }
+        const render::BlendWeights w = render::blend_weights(basis[j], S, sun);
+        live::CpuShadowRatios ratios(basis[j], s.skip_threshold, 0.0);
+        ratios.blend(w, visibility, 1, &workers);
+        const std::vector<float>& rgba = *ratios.rgba();
+        std::vector<float> T(basis[j].texel_count() * 3);
+        for (std::size_t x = 0; x < basis[j].texel_count(); ++x) std::copy_n(rgba.data() + 4 * x, 3, T.data() + 3 * x);
+        for (std::size_t x = 0; x < basis[j].texel_count(); ++x) {
+          for (int ch = 0; ch < 3; ++ch) sky_diffs.push_back(std::abs(T[3 * x + static_cast<std::size_t>(ch)] - reference[j][x][ch]));
+        }
+        if (skies[i].sunny) {
+          const auto [sum, count] = edge_displacement(T, reference[j], manifest.planes[j].plane);
+          edge_sum += sum;
+          edge_count += count;
+        }
+        if (i == 0) {
+          // The blend's time at the timing resolution: weights alternating by 1e-4 so that the
+          // change threshold (0) never keeps the last T; every plane, as the live service blends them.
+          const geom::Plane& full = sites.at(s.bake.texel_scale).full_planes[j];
+          const int width = std::max(4, full.width / o.timing_scale), height = std::max(4, full.height / o.timing_scale);
+          const render::BasisImages fine = upsampled(basis[j], width, height);
+          const std::vector<float> fine_visibility = upsampled(visibility, basis[j].width, basis[j].height, width, height);
+          r.gpu_bytes += static_cast<std::uint64_t>((fine.layers + 3) / 4) * 4 * fine.texel_count() * (s.bits == 8 ? 1u : 2u);
+          live::CpuShadowRatios timed(fine, s.skip_threshold, 0.0);
+          render::BlendWeights nudged = w;
+          for (auto& f : nudged.face) f *= 1.0001f;
+          nudged.sun *= 1.0001f;
+          std::vector<double> times, cpu;
+          for (int rep = 0; rep <= o.blend_repeats; ++rep) {
+            const auto t = Clock::now();
+            const std::clock_t c = std::clock();
+            timed.blend(rep % 2 ? nudged : w, fine_visibility, 1, &workers);
+            if (rep > 0) {  // the first: allocations
+              times.push_back(1000.0 * seconds_since(t));
+              cpu.push_back(cpu_ms_since(c));
+            }
+          }
+          r.skipped_layers += timed.skipped_layers();
+          r.blend_ms += median(times);
+          r.blend_cpu_ms += median(cpu);
+        }
+      }
+      r.rms_per_sky[skies[i].name] = study::errors_of(sky_diffs).rms;
+      diffs.insert(diffs.end(), sky_diffs.begin(), sky_diffs.end());
+    }
+    r.error = study::errors_of(std::move(diffs));
+    if (edge_count > 0) {
+      r.edge_m = edge_sum / edge_count;
+      r.edge_deg = std::atan2(*r.edge_m, study::kVisitorDistance) * 180.0 / std::numbers::pi;
+    }
+    std::tie(r.frame_ms, r.frame_cpu_ms) = frame_ms.at(std::make_tuple(s.bake, s.sun, s.render_scale));
+    r.whole_frame_ms = r.frame_ms + r.blend_ms;
+    r.whole_frame_cpu_ms = r.frame_cpu_ms + r.blend_cpu_ms;
+    if (o.sky_interval <= 0.0) {
+      r.cost_ms = o.clock == "wall" ? r.whole_frame_ms : r.whole_frame_cpu_ms / o.cores;
+    } else {
+      // The frame rate the cores sustain with a blend every sky_interval: per second,
+      // fps · frame + blend / interval of work, `cores` seconds of it at most (CPU), or the
+      // frame's wall time plus its share of the blend's (wall).
+      const double frame = o.clock == "wall" ? r.frame_ms : r.frame_cpu_ms / o.cores;
+      const double blend_per_s = (o.clock == "wall" ? r.blend_ms : r.blend_cpu_ms / o.cores) / o.sky_interval;
+      r.cost_ms = frame / std::max(1.0 - blend_per_s / 1000.0, 1e-3);
+    }
+    std::printf("[%d/%zu] %-44s RMS %.4f p99 %.4f max %.4f | blend %.2f ms frame %.2f ms (%.1f s)\n", index, settings.size(),
+                s.label().c_str(), r.error.rms, r.error.p99, r.error.max, r.blend_ms, r.frame_ms, seconds_since(t_setting));
+    std::fflush(stdout);
+    results.push_back(std::move(r));
+  }
+
+  mark_pareto(results);
+  nlohmann::json settings_json = nlohmann::json::array();
+  nlohmann::json front = nlohmann::json::array();
+  for (std::size_t k = 0; k < results.size(); ++k) {
+    settings_json.push_back(to_json(results[k]));
+    if (results[k].pareto) front.push_back(k);
+  }
+  nlohmann::json sky_names = nlohmann::json::array();
+  for (const SkyData& d : skies) sky_names.push_back({{"name", d.name}, {"sunny", d.sunny}});
+  const nlohmann::json doc{{"frame", {{"width", o.frame_width}, {"height", o.frame_height}}},
+                           {"skies", sky_names},
+                           {"blend_threads", o.threads},
+                           {"timing_scale", o.timing_scale},
+                           {"clock", o.clock},
+                           {"cores", o.cores},
+                           {"load_1min_at_end", [] {
+                              double load[1] = {0};
+                              return getloadavg(load, 1) == 1 ? load[0] : -1.0;
+                            }()},
+                           {"settings", settings_json},
+                           {"pareto", front},
+                           {"seconds", seconds_since(start)}};
+  write_file_atomic(out / "trade.json", doc.dump(2) + "\n");
+  const std::string md = markdown_table(results);
+  write_file_atomic(out / "trade.md", md);
+  char title[160];
+  std::snprintf(title, sizeof title, "skylit-bench trade: %zu settings, %zu skies, %d×%d", results.size(), skies.size(),
+                o.frame_width, o.frame_height);
+  std::string x_label = o.clock == "wall"
+                            ? "frame time, ms (log): compositor + CPU blend, wall"
+                            : "frame time, ms (log): process CPU time of compositor + CPU blend / " + std::to_string(o.cores) + " cores";
+  if (o.sky_interval > 0.0) {
+    char every[64];
+    std::snprintf(every, sizeof every, ", a blend every %g s", o.sky_interval);
+    x_label += every;
+  } else {
+    x_label += ", a blend every frame";
+  }
+  write_file_atomic(out / "trade.svg", svg_plot(results, title, x_label));
+  std::printf("\n%s\nwrote %s, %s, %s (%.0f s)\n", md.c_str(), (out / "trade.json").c_str(), (out / "trade.md").c_str(),
+              (out / "trade.svg").c_str(), seconds_since(start));
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"skylit-bench: measurements of the sky stage", "skylit-bench"};
+  app.require_subcommand(1);
+  TradeOptions o;
+  auto* trade = app.add_subcommand("trade", "the trade table: error against cost over a grid of settings (docs/trade.md)");
+  trade->add_option("--site", o.site_file)->capture_default_str();
+  trade->add_option("--calib", o.sky_calib, "sky camera the skies are rendered into")->capture_default_str();
+  trade->add_option("--hmd-camera", o.hmd_calib, "HMD camera of the composited frame")->capture_default_str();
+  trade->add_option("--skies", o.skies_dir, "folder of equirectangular .exr skies")->capture_default_str();
+  trade->add_option("--sky", o.skies, "only these skies (file stems)")->delimiter(',');
+  trade->add_option("--out", o.out_dir, "bakes (cached) and results")->capture_default_str();
+  trade->add_option("--frequencies", o.frequencies, "dome frequencies ν")->delimiter(',')->capture_default_str();
+  trade->add_option("--bases", o.bases, "faces, corners")->delimiter(',')->capture_default_str();
+  trade->add_option("--samples", o.samples, "samples per face")->delimiter(',')->capture_default_str();
+  trade->add_option("--texel-scales", o.texel_scales, "plane resolution divisors (1: the site's)")->delimiter(',')->capture_default_str();
+  trade->add_option("--forms", o.forms, "full, lean, pcaK")->delimiter(',')->capture_default_str();
+  trade->add_option("--bits", o.bits, "layer bit depth: 16 (half), 8 (unorm8; not with PCA)")->delimiter(',')->capture_default_str();
+  trade->add_option("--sun", o.sun, "sun separation: on, off")->delimiter(',')->capture_default_str();
+  trade->add_option("--skip-thresholds", o.skip_thresholds, "S threshold (blend.skip_threshold), T units")
+      ->delimiter(',')
+      ->capture_default_str();
+  trade->add_option("--change-thresholds", o.change_thresholds,
+                    "ΔS threshold (blend.change_threshold), T units: recorded; a still sky is blended once (docs/trade.md)")
+      ->delimiter(',')
+      ->capture_default_str();
+  trade->add_option("--smoothings", o.smoothings, "sky.smoothing, seconds: recorded; no effect on a still sky")
+      ->delimiter(',')
+      ->capture_default_str();
+  trade->add_option("--render-scales", o.render_scales, "the compositor's render scale")->delimiter(',')->capture_default_str();
+  trade->add_option("--frame-width", o.frame_width)->capture_default_str();
+  trade->add_option("--frame-height", o.frame_height)->capture_default_str();
+  trade->add_option("--blend-repeats", o.blend_repeats, "blend timings per setting (median)")->check(CLI::Range(1, 1000))->capture_default_str();
+  trade->add_option("--frame-repeats", o.frame_repeats, "frame timings per setting (median)")->check(CLI::Range(1, 1000))->capture_default_str();
+  trade->add_option("--supersample", o.supersample, "fisheye rendering: sub-pixels per axis")->capture_default_str();
+  trade->add_option("--reference-supersample", o.reference_supersample, "reference: N×N sub-directions near bright pixels")
+      ->check(CLI::Range(1, 16))
+      ->capture_default_str();
+  trade->add_option("--threads", o.threads, "CPU blend threads")->capture_default_str();
+  trade->add_option("--timing-scale", o.timing_scale,
+                    "blend time and GPU memory for planes at the site's resolution divided by this (the swept bake "
+                    "upsampled)")
+      ->check(CLI::Range(1, 64))
+      ->capture_default_str();
+  trade->add_option("--clock", o.clock,
+                    "whole-frame time: cpu (process CPU time over --cores: unaffected by other load) or wall")
+      ->check(CLI::IsMember({"cpu", "wall"}))
+      ->capture_default_str();
+  trade->add_option("--sky-interval", o.sky_interval,
+                    "seconds between sky changes: the blend's time spread over the frames between (0: a blend in every "
+                    "frame, the worst frame)")
+      ->check(CLI::Range(0.0, 3600.0))
+      ->capture_default_str();
+  trade->add_option("--cores", o.cores, "--clock cpu: the cores the work spreads over")->check(CLI::Range(1, 1024))->capture_default_str();
+  trade->add_flag("--quick", o.quick,
+                  "a small grid (ν 2, faces and corners, K 8, planes at 1/16, full and pca4, 16 bits, sun on, S 0; "
+                  "park and city) in a few minutes; explicit options still apply");
+  CLI11_PARSE(app, argc, argv);
+  try {
+    if (o.quick) {
+      const auto unless_given = [&](const char* name, auto& field, auto value) {
+        if (trade->count(name) == 0) field = value;
+      };
+      unless_given("--frequencies", o.frequencies, std::vector<int>{2});
+      unless_given("--bases", o.bases, std::vector<std::string>{"faces", "corners"});
+      unless_given("--samples", o.samples, std::vector<int>{8});
+      unless_given("--texel-scales", o.texel_scales, std::vector<int>{16});
+      unless_given("--forms", o.forms, std::vector<std::string>{"full", "pca4"});
+      unless_given("--bits", o.bits, std::vector<int>{16});
+      unless_given("--sun", o.sun, std::vector<std::string>{"on"});
+      unless_given("--skip-thresholds", o.skip_thresholds, std::vector<double>{0.0});
+      unless_given("--sky", o.skies, std::vector<std::string>{"city", "park"});
+      unless_given("--frame-repeats", o.frame_repeats, 10);
+      unless_given("--blend-repeats", o.blend_repeats, 5);
+    }
+    return run_trade(o);
+  } catch (const InputError& e) {
+    std::fprintf(stderr, "skylit-bench: %s\n", e.what());
+    return 2;
+  }
+}
