@@ -3,7 +3,10 @@
 // the shadow ratios. In every case T is finite and in [0, 1], and the flag says what happened.
 // Every case runs on a faces bake and on a corners bake (three layers per face, corner
 // coefficients that may be negative), and on the bake of every preset of config/presets.yaml
-// (its dome frequency, basis, samples and PCA components), each in its full, lean and PCA forms.
+// (its dome frequency, basis, samples and PCA components), each in its full, lean and PCA forms,
+// blended on the CPU and on the GPU (llvmpipe) in every storage the form can take: half, 8-bit
+// and EAC blocks.
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <chrono>
@@ -25,7 +28,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "../render/gpu_test_support.hpp"
 #include "../support/box_site.hpp"
+#include "skylit/gpu/egl_context.hpp"
+#include "skylit/render/gpu_blend.hpp"
 #include "skylit/base/presets.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/baker/visibility.hpp"
@@ -82,12 +88,49 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
                                         "    v: [0, 0, 2]\n    resolution: [8, 8]\n");
     const scene::Site site = scene::load_site(*dir_ / "site.yaml");
     mesh_ = new scene::Mesh(scene::load_model(site.model, site.up, site.scale));
+    context_ = new gpu::HeadlessContext();
   }
   static void TearDownTestSuite() {
     std::error_code ignored;
     fs::remove_all(*dir_, ignored);
     delete dir_;
     delete mesh_;
+    delete context_;
+  }
+
+  // The GPU blend of `basis` in every storage that can hold it (half; 8-bit and EAC blocks when
+  // no layer is negative, i.e. not a PCA form): T finite and in [0, 1], and within the storage's
+  // bound of the CPU blend `expected` (8-bit: Σ_i |w_i| max_i / 510; EAC: Σ_i |w_i| e_i with e_i
+  // the error measured on upload), plus fp32 summation in another order.
+  static void expect_gpu_blends(const render::BasisImages& basis, const render::BlendWeights& w,
+                                std::span<const float> visibility, std::span<const float> expected, std::size_t plane) {
+    std::optional<render::test::VisibilityTexture> sun;
+    if (!w.sun.isZero()) sun.emplace(basis.width, basis.height, visibility);
+    const bool negative = std::any_of(basis.half.begin(), basis.half.end(), [](std::uint16_t h) { return (h & 0x8000u) && (h & 0x7FFFu); });
+    std::vector<render::BasisStorage> storages{render::BasisStorage::Half};
+    if (!negative) storages.insert(storages.end(), {render::BasisStorage::Unorm8, render::BasisStorage::Eac11});
+    for (const render::BasisStorage storage : storages) {
+      render::GpuBlender blender(basis, render::test::blend_options(storage, render::ShadowRatioFormat::Float));
+      blender.blend(w, sun ? &sun->texture : nullptr);
+      const std::vector<float> T = blender.read_back();
+      ASSERT_EQ(T.size(), expected.size());
+      Eigen::Vector3d magnitude = w.sun.cwiseAbs().cast<double>(), quantisation = Eigen::Vector3d::Zero();
+      for (const int i : w.active) {
+        const auto k = static_cast<std::size_t>(i);
+        const Eigen::Vector3d wi = w.face[k].cwiseAbs().cast<double>();
+        magnitude += wi * blender.layer_max()[k];
+        if (storage == render::BasisStorage::Unorm8) quantisation += wi * blender.layer_max()[k] / 510.0;
+        if (storage == render::BasisStorage::Eac11) quantisation += wi * blender.eac_error()[k];
+      }
+      const double bound = quantisation.maxCoeff() + 4.0 * static_cast<double>(w.active.size() + 2) * 0x1p-24 * std::max(magnitude.maxCoeff(), 1.0);
+      double worst = 0.0;
+      for (std::size_t k = 0; k < T.size(); ++k) {
+        ASSERT_TRUE(std::isfinite(T[k]) && T[k] >= 0.0f && T[k] <= 1.0f) << "plane " << plane << " value " << k;
+        worst = std::max(worst, std::abs(static_cast<double>(T[k]) - expected[k]));
+      }
+      EXPECT_LE(worst, bound + 1e-6) << "plane " << plane << ", storage " << static_cast<int>(storage) << ", "
+                                     << basis.layers << " layers";
+    }
   }
 
   static fs::path bake_dir() { return *dir_ / ("bake_" + GetParam().name); }
@@ -195,6 +238,10 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
         }
         EXPECT_LE(std::abs(T_lean[k] - T[k]), 1e-3 * alpha + 1e-5) << "plane " << j << " value " << k;
       }
+      // The same three forms blended on the GPU, in every storage each can take.
+      expect_gpu_blends(basis, o.weights.back(), visibility, T, j);
+      expect_gpu_blends(lean, lean_weights, visibility, T_lean, j);
+      expect_gpu_blends(pca, pca_weights, visibility, T_pca, j);
       o.lean_layers.push_back(lean.layers);
       o.T.push_back(std::move(T));
       o.T_pca.push_back(std::move(T_pca));
@@ -239,11 +286,13 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
   static fs::path* dir_;
   static std::map<std::string, bake::Manifest> manifests_;  // by variant name
   static scene::Mesh* mesh_;
+  static gpu::HeadlessContext* context_;  // the GPU blends' (their GL objects die before it)
 };
 
 fs::path* ExtremesTest::dir_ = nullptr;
 std::map<std::string, bake::Manifest> ExtremesTest::manifests_;
 scene::Mesh* ExtremesTest::mesh_ = nullptr;
+gpu::HeadlessContext* ExtremesTest::context_ = nullptr;
 
 // A blue sky with a sun of the given radiance and radius.
 std::function<Eigen::Vector3d(const Vec3&)> sunny(const Vec3& sun, double sun_radiance, double sky_level = 1.0,
