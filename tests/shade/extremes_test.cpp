@@ -30,6 +30,7 @@
 
 #include "../render/gpu_test_support.hpp"
 #include "../support/box_site.hpp"
+#include "../support/sky_paint.hpp"
 #include "skylit/gpu/egl_context.hpp"
 #include "skylit/render/gpu_blend.hpp"
 #include "skylit/base/presets.hpp"
@@ -48,12 +49,8 @@ namespace fs = std::filesystem;
 using geom::Vec3;
 constexpr double kDeg = std::numbers::pi / 180.0;
 
-Vec3 from_angles(double azimuth_deg, double elevation_deg) {
-  const double az = azimuth_deg * kDeg, el = elevation_deg * kDeg;
-  return {std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)};
-}
-
-double angle(const Vec3& a, const Vec3& b) { return std::atan2(a.cross(b).norm(), a.dot(b)); }
+using skylit::test::angle;
+using skylit::test::from_angles;
 
 // What a case is run on: a bake's settings.
 struct BakeVariant {
@@ -251,17 +248,7 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
 
   static sky::RadianceFrame paint(const sky::CameraCalibration& calibration,
                                   const std::function<Eigen::Vector3d(const Vec3&)>& radiance) {
-    const sky::Lens lens(calibration);
-    cv::Mat image(calibration.image_height, calibration.image_width, CV_32FC3, cv::Scalar(0, 0, 0));
-    for (int y = 0; y < image.rows; ++y) {
-      for (int x = 0; x < image.cols; ++x) {
-        const auto d = lens.pixel_to_site(sky::Vec2(x, y));
-        if (!d) continue;
-        const Eigen::Vector3d l = radiance(*d);
-        image.at<cv::Vec3f>(y, x) = cv::Vec3f(static_cast<float>(l.z()), static_cast<float>(l.y()), static_cast<float>(l.x()));
-      }
-    }
-    return {image, cv::Mat()};
+    return {skylit::test::paint_sky(sky::Lens(calibration), radiance), cv::Mat()};
   }
 
   static void expect_finite_unit(const Outcome& o) {

@@ -22,6 +22,7 @@
 #include "skylit/scene/site.hpp"
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/sky_estimate.hpp"
+#include "../support/sky_paint.hpp"
 
 namespace skylit {
 namespace {
@@ -30,12 +31,8 @@ namespace fs = std::filesystem;
 using geom::Vec3;
 constexpr double kDeg = std::numbers::pi / 180.0;
 
-Vec3 from_angles(double azimuth_deg, double elevation_deg) {
-  const double az = azimuth_deg * kDeg, el = elevation_deg * kDeg;
-  return {std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)};
-}
-
-double angle(const Vec3& a, const Vec3& b) { return std::atan2(a.cross(b).norm(), a.dot(b)); }
+using skylit::test::angle;
+using skylit::test::from_angles;
 
 struct Lamp {
   Vec3 direction;
@@ -128,18 +125,7 @@ class SourcesShadeTest : public ::testing::Test {
   }
 
   static sky::RadianceFrame paint(const std::function<Eigen::Vector3d(const Vec3&)>& radiance) {
-    const sky::CameraCalibration c = camera();
-    const sky::Lens lens(c);
-    cv::Mat image(c.image_height, c.image_width, CV_32FC3, cv::Scalar(0, 0, 0));
-    for (int y = 0; y < image.rows; ++y) {
-      for (int x = 0; x < image.cols; ++x) {
-        const auto d = lens.pixel_to_site(sky::Vec2(x, y));
-        if (!d) continue;
-        const Eigen::Vector3d l = radiance(*d);
-        image.at<cv::Vec3f>(y, x) = cv::Vec3f(static_cast<float>(l.z()), static_cast<float>(l.y()), static_cast<float>(l.x()));
-      }
-    }
-    return {image, cv::Mat()};
+    return {skylit::test::paint_sky(sky::Lens(camera()), radiance), cv::Mat()};
   }
 
   static Eigen::Vector3d lamps_on(const Vec3& d, const Eigen::Vector3d& sky) {

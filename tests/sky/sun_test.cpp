@@ -8,6 +8,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "../support/sky_paint.hpp"
 #include "skylit/base/error.hpp"
 
 #include "skylit/sky/sky_table.hpp"
@@ -31,27 +32,14 @@ CameraCalibration zenith_camera(int size = 512) {
   return c;
 }
 
-Vec3 from_angles(double azimuth_deg, double elevation_deg) {
-  const double az = azimuth_deg * kDeg, el = elevation_deg * kDeg;
-  return {std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)};
-}
+using skylit::test::angle;
+using skylit::test::from_angles;
 
 // Paints every pixel with radiance(direction) (RGB), 0 where the lens sees nothing.
 cv::Mat paint(const Lens& lens, const std::function<Eigen::Vector3d(const Vec3&)>& radiance) {
-  const auto& c = lens.calibration();
-  cv::Mat image(c.image_height, c.image_width, CV_32FC3, cv::Scalar(0, 0, 0));
-  for (int y = 0; y < image.rows; ++y) {
-    for (int x = 0; x < image.cols; ++x) {
-      const auto d = lens.pixel_to_site(Vec2(x, y));
-      if (!d) continue;
-      const Eigen::Vector3d l = radiance(*d);
-      image.at<cv::Vec3f>(y, x) = cv::Vec3f(static_cast<float>(l.z()), static_cast<float>(l.y()), static_cast<float>(l.x()));
-    }
-  }
-  return image;
+  return skylit::test::paint_sky(lens, radiance);
 }
 
-double angle(const Vec3& a, const Vec3& b) { return std::atan2(a.cross(b).norm(), a.dot(b)); }
 
 // A clear-ish sky (brighter towards the horizon and around the sun) with a disc.
 struct DiscSky {
