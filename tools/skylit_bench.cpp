@@ -462,9 +462,9 @@ int run_trade(TradeOptions o) {
   for (int f : o.frequencies) {
     for (const std::string& b : o.bases) {
       const auto basis = geom::parse_basis(b);
-      if (!basis) throw InputError("option --bases: got '" + b + "'. Fix: faces, corners");
+      if (!basis) throw InputError("option --bases: got '" + b + "'. Fix: faces, corners or quadratics");
       for (int k : o.samples) {
-        if (*basis == geom::DomeBasis::Corners && k < baker::kMinCornerSamples) continue;
+        if (k < baker::min_samples_per_face(*basis)) continue;
         for (int scale : o.texel_scales) {
           const BakeKey key{f, *basis, k, scale};
           for (const std::string& form_text : o.forms) {
@@ -507,7 +507,7 @@ int run_trade(TradeOptions o) {
   // sky about 0.4 s; each setting's timing about 1.5 s.
   double estimate_s = 0;
   for (const BakeKey& k : bake_keys) {
-    const double layers = 10.0 * k.frequency * k.frequency * (k.basis == geom::DomeBasis::Corners ? 3 : 1);
+    const double layers = 10.0 * k.frequency * k.frequency * geom::layers_per_face(k.basis);
     estimate_s += 1.5 * layers / 40.0 * k.samples / 16.0 * 64.0 / (k.texel_scale * k.texel_scale);
   }
   for (int s : scales) estimate_s += 10.0 * static_cast<double>(sky_files.size()) * 64.0 / (s * s);

@@ -1,6 +1,7 @@
 // skylit-shade: shadow ratios of every plane of a bake under one sky frame (or exposure
 // bracket), computed on the CPU: the offline preview, the reference for the GPU path, and the
 // tool installers use to check a sky camera against a bake.
+#include <array>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -116,6 +117,7 @@ std::vector<std::string> face_flag_names(std::uint32_t flags) {
   if (flags & skylit::sky::kFaceBadPixels) names.emplace_back("bad_pixels");
   if (flags & skylit::sky::kFaceSunRemoved) names.emplace_back("sun_removed");
   if (flags & skylit::sky::kFaceCornersFromMean) names.emplace_back("corners_from_mean");
+  if (flags & skylit::sky::kFaceFitLinear) names.emplace_back("fit_linear");
   return names;
 }
 
@@ -269,9 +271,18 @@ int run(const Options& o) {
       nlohmann::json corners = nlohmann::json::array();
       for (std::size_t k = 0; k < 3; ++k) {
         const auto vertex = static_cast<std::size_t>(dome.face(i).vertex[k]);
-        corners.push_back({{"vertex", vertex}, {"direction", vec(dome.vertices()[vertex])}, {"S", vec(f.corners[k])}});
+        corners.push_back({{"vertex", vertex}, {"direction", vec(dome.vertices()[vertex])}, {"S", vec(f.coefficients[k])}});
       }
       face["corners"] = std::move(corners);
+    } else if (manifest.plan.basis == skylit::geom::DomeBasis::Quadratics) {
+      // The six coefficients (layers 6i..6i+5): λ_k² at vertex k, then 2λ_kλ_l on the edges.
+      static constexpr std::array<const char*, 6> kFunctions{"vertex 0", "vertex 1", "vertex 2",
+                                                             "edge 01",  "edge 12",  "edge 20"};
+      nlohmann::json quadratics = nlohmann::json::array();
+      for (std::size_t k = 0; k < kFunctions.size(); ++k) {
+        quadratics.push_back({{"function", kFunctions[k]}, {"S", vec(f.coefficients[k])}});
+      }
+      face["quadratics"] = std::move(quadratics);
     }
     faces.push_back(std::move(face));
   }
@@ -287,6 +298,7 @@ int run(const Options& o) {
                                  {"clipped", l.clipped_pixels}}},
                      {"unseen_faces", l.unseen_faces},
                      {"corners_from_mean", l.corners_from_mean},
+                     {"linear_fits", l.linear_fits},
                      {"no_face_seen", l.no_face_seen},
                      {"sun_mode", o.sun},
                      {"sun_reason", estimate.sun_reason},
@@ -327,7 +339,10 @@ int run(const Options& o) {
   }
   if (l.unseen_faces > 0) spdlog::warn("{} face(s) the lens does not see were filled from their neighbours", l.unseen_faces);
   if (l.corners_from_mean > 0) {
-    spdlog::info("{} face(s) seen too little to fit three corners carry their mean in each", l.corners_from_mean);
+    spdlog::info("{} face(s) seen too little to fit their functions carry their mean in each", l.corners_from_mean);
+  }
+  if (l.linear_fits > 0) {
+    spdlog::info("{} face(s) seen too little for a quadratic fit carry a linear one", l.linear_fits);
   }
   if (l.no_face_seen) spdlog::warn("the frame sees no face of the dome: every S is 0 and T = 1");
   if (l.clipped_pixels > 0) spdlog::warn("{} clipped pixel(s): the sky there is brighter than measured", l.clipped_pixels);

@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <ctime>
 #include <set>
+#include <span>
 #include <sstream>
 
 #include <spdlog/spdlog.h>
@@ -187,16 +188,19 @@ std::set<int> prepare_output(const BakeOptions& o, const bake::Plan& plan, const
   return done;
 }
 
-// The corners basis with fewer than kMinCornerSamples directions per face is refused: say where
-// the basis came from.
+// A basis with fewer directions per face than it has functions is refused: say where the basis
+// came from.
 void check_basis_samples(const BakeOptions& o, const bake::Plan& plan) {
-  if (plan.basis != geom::DomeBasis::Corners || plan.samples >= kMinCornerSamples) return;
-  const std::string source = o.basis ? std::string("--basis corners")
-                                     : std::string("dome.basis: corners in ").append(o.site_file.string());
+  const int needed = min_samples_per_face(plan.basis);
+  if (plan.samples >= needed) return;
+  const std::string name(geom::basis_name(plan.basis));
+  const std::string source = o.basis ? "--basis " + name : "dome.basis: " + name + " in " + o.site_file.string();
   throw InputError(cli_error("--samples", "got " + std::to_string(plan.samples) + " with " + source,
-                             "the corners basis resolves three hats per face and needs at least " +
-                                 std::to_string(kMinCornerSamples) +
-                                 " samples per face: pass --samples 16 (or --basis faces)"));
+                             "the " + name + " basis resolves " + std::to_string(needed) +
+                                 " functions per face and needs at least " + std::to_string(needed) +
+                                 " samples per face: pass --samples " +
+                                 std::to_string(plan.basis == geom::DomeBasis::Quadratics ? 64 : 16) +
+                                 " (or --basis faces)"));
 }
 
 bake::Manifest manifest_for(const bake::Plan& plan, const geom::Dome& dome) {
@@ -214,7 +218,7 @@ bake::Manifest manifest_for(const bake::Plan& plan, const geom::Dome& dome) {
     r.neighbours = f.neighbour;
     m.faces.push_back(r);
   }
-  const std::vector<geom::FaceQuadrature> quadratures = corner_quadratures(dome, plan.basis);
+  const std::vector<geom::FaceQuadrature> quadratures = face_quadratures(dome, plan.basis);
   for (const geom::Plane& p : plan.planes) {
     bake::PlaneRecord r;
     r.plane = p;
@@ -306,7 +310,7 @@ std::uint64_t finalize(const fs::path& out_dir, bake::Manifest manifest, const s
   // of every vertex first (one row per vertex, as transfer.npy).
   const std::size_t vertex_count = mesh.vertex_count();
   std::vector<float> transfer(vertex_count * layers, 0.0f);
-  const std::vector<geom::FaceQuadrature> quadratures = corner_quadratures(dome, plan.basis);
+  const std::vector<geom::FaceQuadrature> quadratures = face_quadratures(dome, plan.basis);
   std::vector<double> vertex_unoccluded(vertex_count * layers);
   for (std::size_t v = 0; v < vertex_count; ++v) {
     const std::vector<double> a = layer_cosine_integrals(dome, plan.basis, quadratures, mesh.normals[v].cast<double>());
@@ -414,10 +418,12 @@ std::vector<geom::Vec3> face_sample_directions(const geom::Dome& dome, int face,
   return geom::stratified_samples(dome.triangle(face), samples, static_cast<std::uint64_t>(face));
 }
 
-std::vector<geom::FaceQuadrature> corner_quadratures(const geom::Dome& dome, geom::DomeBasis basis) {
+std::vector<geom::FaceQuadrature> face_quadratures(const geom::Dome& dome, geom::DomeBasis basis) {
   std::vector<geom::FaceQuadrature> quadratures;
-  if (basis != geom::DomeBasis::Corners) return quadratures;
-  for (int i = 0; i < dome.face_count(); ++i) quadratures.push_back(geom::face_quadrature(dome, i));
+  if (basis == geom::DomeBasis::Faces) return quadratures;
+  for (int i = 0; i < dome.face_count(); ++i) {
+    quadratures.push_back(geom::face_quadrature(dome, i, geom::kDefaultQuadratureSubdivisions, basis));
+  }
   return quadratures;
 }
 
@@ -429,9 +435,9 @@ std::vector<double> layer_cosine_integrals(const geom::Dome& dome, geom::DomeBas
     if (basis == geom::DomeBasis::Faces) {
       a.push_back(geom::cosine_integral(dome.triangle(i), n));
     } else {
-      const std::array<double, 3> corners =
-          geom::corner_cosine_integrals(dome, i, quadratures.at(static_cast<std::size_t>(i)), n);
-      a.insert(a.end(), corners.begin(), corners.end());
+      const std::vector<double> layers =
+          geom::layer_cosine_integrals(dome, i, quadratures.at(static_cast<std::size_t>(i)), n);
+      a.insert(a.end(), layers.begin(), layers.end());
     }
   }
   return a;
@@ -520,27 +526,44 @@ BakeSummary run_bake(const BakeOptions& options, std::FILE* log) {
     Progress progress("bake", static_cast<std::int64_t>(todo.size()), log);
     const geom::CornerWeights corner_weights(dome);
     const auto per_face = static_cast<std::size_t>(plan.layers_per_face());
+    // The engines weigh up to three layers at once (kEngineLayers); a basis with more functions
+    // per face is baked in groups of three, each seeing the same directions.
+    const std::size_t groups = (per_face + kEngineLayers - 1) / kEngineLayers;
     for (int i : todo) {
       const std::vector<geom::Vec3> directions = face_sample_directions(dome, i, plan.samples);
-      // Corners: each sample weighs the three hats by its barycentric coordinates in the face.
-      std::vector<SampleWeights> weights;
-      if (plan.basis == geom::DomeBasis::Corners) {
-        for (const geom::Vec3& d : directions) {
-          const std::array<double, 3> w = corner_weights(i, d);
-          weights.push_back({static_cast<float>(w[0]), static_cast<float>(w[1]), static_cast<float>(w[2])});
-        }
+      // Corners and quadratics: each sample weighs the face's functions at its barycentric
+      // coordinates in the face.
+      std::vector<geom::LayerValues> values;
+      if (plan.basis != geom::DomeBasis::Faces) {
+        for (const geom::Vec3& d : directions) values.push_back(geom::layer_values(plan.basis, corner_weights(i, d)));
       }
-      engine->set_weighted_directions(directions, weights, plan.layers_per_face());
       bake::FacePart part;
       part.face = i;
       for (std::size_t j = 0; j < plan.planes.size(); ++j) {
-        std::vector<float> fractions(per_face * static_cast<std::size_t>(plan.planes[j].width) *
-                                     static_cast<std::size_t>(plan.planes[j].height));
-        engine->plane_fractions(static_cast<int>(j), fractions);
-        part.plane_fractions.push_back(std::move(fractions));
+        part.plane_fractions.emplace_back(per_face * static_cast<std::size_t>(plan.planes[j].width) *
+                                          static_cast<std::size_t>(plan.planes[j].height));
       }
       part.vertex_fractions.resize(per_face * loaded.mesh.vertex_count());
-      engine->vertex_fractions(part.vertex_fractions);
+      for (std::size_t g = 0; g < groups; ++g) {
+        const std::size_t first = g * kEngineLayers;
+        const std::size_t count = std::min(kEngineLayers, per_face - first);
+        std::vector<SampleWeights> weights;
+        for (const geom::LayerValues& v : values) {
+          SampleWeights w{0.0f, 0.0f, 0.0f};
+          for (std::size_t k = 0; k < count; ++k) w[k] = static_cast<float>(v[first + k]);
+          weights.push_back(w);
+        }
+        engine->set_weighted_directions(directions, weights, static_cast<int>(count));
+        for (std::size_t j = 0; j < plan.planes.size(); ++j) {
+          const std::size_t texels =
+              static_cast<std::size_t>(plan.planes[j].width) * static_cast<std::size_t>(plan.planes[j].height);
+          std::span<float> out(part.plane_fractions[j]);
+          engine->plane_fractions(static_cast<int>(j), out.subspan(first * texels, count * texels));
+        }
+        const std::size_t vertices = loaded.mesh.vertex_count();
+        std::span<float> out(part.vertex_fractions);
+        engine->vertex_fractions(out.subspan(first * vertices, count * vertices));
+      }
       parts.write(part);
       ++summary.faces_baked;
       progress.advance();

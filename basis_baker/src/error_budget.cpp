@@ -7,8 +7,10 @@
 #include <cmath>
 #include <numbers>
 #include <sstream>
+#include <stdexcept>
 
 #include <fmt/format.h>
+#include <opencv2/core/mat.hpp>
 
 #include "skylit/bake/format.hpp"
 #include "skylit/base/error.hpp"
@@ -18,8 +20,11 @@
 #include "skylit/geom/spherical.hpp"
 #include "skylit/render/cpu_blend.hpp"
 #include "skylit/scene/site.hpp"
+#include "skylit/sky/calibration.hpp"
+#include "skylit/sky/luminance.hpp"
 #include "skylit/sky/simulate.hpp"
 #include "skylit/sky/sky_model.hpp"
+#include "skylit/sky/sky_table.hpp"
 #include "skylit/sky/solar.hpp"
 
 namespace skylit::baker {
@@ -27,9 +32,14 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// Directions per face for its mean sky radiance: enough that the circumsolar glow, the
-// sharpest part of a clear sky outside the disc, averages within a fraction of a percent.
-constexpr int kSkySamplesPerFace = 96;
+// The sky camera the luminance parameters are measured with, as the live path measures them: an
+// ideal equidistant fisheye looking at the zenith whose image edge lies 92° off its axis (the
+// horizon inside, with a margin), 64ν_ref pixels wide (at least 512): about 250 pixels per face
+// of the reference dome, each the mean of 2 × 2 sub-pixel directions.
+constexpr double kCameraEdgeDegrees = 92.0;
+constexpr int kCameraPixelsPerFrequency = 64;
+constexpr int kCameraMinSize = 512;
+constexpr int kCameraSupersample = 2;
 
 struct TestSky {
   std::string name;
@@ -60,17 +70,53 @@ std::vector<TestSky> test_skies(const ErrorBudgetOptions& options) {
   return skies;
 }
 
-// S_i: the mean sky radiance over each face (the disc is the sun term, not part of the dome).
-std::vector<Eigen::Vector3d> face_radiances(const geom::Dome& dome, const TestSky& test_sky) {
-  std::vector<Eigen::Vector3d> radiance(static_cast<std::size_t>(dome.face_count()), Eigen::Vector3d::Zero());
-  for (int i = 0; i < dome.face_count(); ++i) {
-    const std::vector<geom::Vec3> directions =
-        geom::stratified_samples(dome.triangle(i), kSkySamplesPerFace, static_cast<std::uint64_t>(i));
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    for (const geom::Vec3& d : directions) sum += test_sky.function.sky(d);
-    radiance[static_cast<std::size_t>(i)] = sum / static_cast<double>(directions.size());
+sky::Lens sky_camera(int reference_frequency) {
+  const int size = std::max(kCameraMinSize, kCameraPixelsPerFrequency * reference_frequency);
+  sky::CameraCalibration c;
+  c.image_width = size;
+  c.image_height = size;
+  c.model = sky::LensModel::Fisheye;
+  c.cx = (size - 1) / 2.0;
+  c.cy = c.cx;
+  c.fx = (size / 2.0) / (kCameraEdgeDegrees * std::numbers::pi / 180.0);
+  c.fy = c.fx;
+  c.D = {0.0, 0.0, 0.0, 0.0};  // equidistant
+  return sky::Lens(c);
+}
+
+// The camera's linear frame of each test sky without its disc (the disc is the sun term, not
+// part of the dome).
+std::vector<cv::Mat> sky_frames(const sky::Lens& lens, const std::vector<TestSky>& skies) {
+  sky::RenderOptions render;
+  render.supersample = kCameraSupersample;
+  std::vector<cv::Mat> frames;
+  for (const TestSky& s : skies) {
+    const sky::SkyFunction without_disc{s.function.sky, std::nullopt};
+    frames.push_back(sky::render_fisheye(lens, without_disc, render));
   }
-  return radiance;
+  return frames;
+}
+
+// S per layer of a bake of `basis` on `dome` (S_i for faces, S_{i,k} for corners, …), per sky:
+// the frames through a sky table of that basis, as the live service computes them.
+std::vector<std::vector<Eigen::Vector3d>> layer_radiances(const geom::Dome& dome, geom::DomeBasis basis,
+                                                          const sky::Lens& lens, const std::vector<cv::Mat>& frames) {
+  sky::SkyTableOptions table_options;
+  table_options.step = 1;
+  table_options.basis = basis;
+  const sky::SkyTable table = sky::build_sky_table(lens, dome, cv::Mat(), table_options);
+  std::vector<std::vector<Eigen::Vector3d>> S;
+  for (const cv::Mat& frame : frames) {
+    const sky::Luminance luminance = sky::compute_luminance(table, dome, frame, cv::Mat(), cv::Mat());
+    S.push_back(sky::layer_radiances(luminance));
+    const std::size_t expected =
+        static_cast<std::size_t>(dome.face_count()) * static_cast<std::size_t>(geom::layers_per_face(basis));
+    if (S.back().size() != expected) {
+      throw std::logic_error(fmt::format("error budget: {} luminance values for a {} basis of {} layers",
+                                         S.back().size(), geom::basis_name(basis), expected));
+    }
+  }
+  return S;
 }
 
 // The solar disc as seven equal directions (centre and a ring), for its penumbra.
@@ -123,18 +169,17 @@ std::vector<SkyInputs> sky_inputs(const std::vector<TestSky>& skies, const scene
 // T of every plane under every test sky: [sky][plane] → width × height × 3 floats.
 using ShadowRatios = std::vector<std::vector<std::vector<float>>>;
 
-ShadowRatios shadow_ratios(const fs::path& bake_dir, const std::vector<TestSky>& skies,
-                           const std::vector<SkyInputs>& inputs, int threads) {
-  const bake::Manifest manifest = bake::read_manifest(bake_dir);
+// The bake's own basis (its manifest) picks the sky table.
+ShadowRatios shadow_ratios(const fs::path& bake_dir, const bake::Manifest& manifest, const sky::Lens& lens,
+                           const std::vector<cv::Mat>& frames, const std::vector<SkyInputs>& inputs, int threads) {
   const geom::Dome dome(manifest.plan.frequency);
-  std::vector<std::vector<Eigen::Vector3d>> S;
-  for (const TestSky& s : skies) S.push_back(face_radiances(dome, s));
+  const std::vector<std::vector<Eigen::Vector3d>> S = layer_radiances(dome, manifest.plan.basis, lens, frames);
   render::BlendOptions blend;
   blend.threads = threads;
-  ShadowRatios T(skies.size());
+  ShadowRatios T(frames.size());
   for (int j = 0; j < static_cast<int>(manifest.planes.size()); ++j) {
     const render::BasisImages basis = render::load_basis(bake_dir, manifest, j);
-    for (std::size_t k = 0; k < skies.size(); ++k) {
+    for (std::size_t k = 0; k < frames.size(); ++k) {
       const render::BlendWeights weights = render::blend_weights(basis, S[k], inputs[k].sun, blend);
       std::vector<float> out(basis.texel_count() * 3);
       const std::span<const float> visibility =
@@ -169,11 +214,23 @@ void compare(const ShadowRatios& T, const ShadowRatios& reference, CandidateResu
 
 std::string describe(const CandidateResult& c) { return fmt::format("ν={}, samples={}", c.frequency, c.samples); }
 
+std::string describe_all(const std::vector<CandidateResult>& candidates) {
+  std::string text;
+  for (const CandidateResult& c : candidates) text += (text.empty() ? "" : "; ") + describe(c);
+  return text;
+}
+
 void print_table(std::FILE* log, const ErrorBudgetReport& report) {
-  std::fprintf(log, "skylit-bake: error budget E = %g on the RMS of |T − T_ref| (reference ν=%d, %d samples, "
-                    "raytrace, %.1f s; %zu test skies)\n",
-               report.budget, report.reference_frequency, report.reference_samples, report.reference_seconds,
-               report.skies.size());
+  std::fprintf(log, "skylit-bake: error budget E = %g on the RMS of |T − T_ref|, %s basis (reference ν=%d, %d "
+                    "samples, %s basis, raytrace, %.1f s; %zu test skies)\n",
+               report.budget, std::string(geom::basis_name(report.basis)).c_str(), report.reference_frequency,
+               report.reference_samples, std::string(geom::basis_name(report.reference_basis)).c_str(),
+               report.reference_seconds, report.skies.size());
+  if (!report.skipped.empty()) {
+    std::fprintf(log, "  skipped (the %s basis needs at least %d samples per face): %s\n",
+                 std::string(geom::basis_name(report.basis)).c_str(), min_samples_per_face(report.basis),
+                 describe_all(report.skipped).c_str());
+  }
   std::fprintf(log, "     ν  samples  layers        RMS        max     bake\n");
   for (const CandidateResult& c : report.tried) {
     std::fprintf(log, "  %4d  %7d  %6d  %9.5f  %9.5f  %6.1f s%s\n", c.frequency, c.samples, c.layers, c.rms,
@@ -198,9 +255,6 @@ void check_options(const BakeOptions& bake, const ErrorBudgetOptions& o) {
   if (bake.shard || bake.resume) {
     throw InputError("option --error-budget bakes several domes in one run and cannot be sharded or resumed. "
                      "Fix: drop --shard/--resume (and unset the array-job variables), or bake with --frequency");
-  }
-  if (bake.basis && *bake.basis != geom::DomeBasis::Faces) {
-    throw InputError("option --error-budget supports the faces basis only. Fix: drop --basis corners");
   }
   if (o.frequencies.empty() || o.samples.empty()) {
     throw InputError("option --error-budget: no candidate frequencies or samples. Fix: give at least one of each");
@@ -234,14 +288,14 @@ fs::path default_scratch(const fs::path& out_dir) {
   return parent / fmt::format(".{}.budget-{}", name.string(), ::getpid());
 }
 
-BakeSummary bake_into(const BakeOptions& base, const fs::path& dir, int frequency, int samples,
-                      const std::string& method, std::FILE* log) {
+BakeSummary bake_into(const BakeOptions& base, geom::DomeBasis basis, const fs::path& dir, int frequency,
+                      int samples, const std::string& method, std::FILE* log) {
   BakeOptions o = base;
   o.out_dir = dir;
   o.frequency = frequency;
   o.samples = samples;
   o.method = method;
-  o.basis = geom::DomeBasis::Faces;
+  o.basis = basis;
   o.force = true;
   o.previews = false;
   o.pca.reset();
@@ -250,14 +304,15 @@ BakeSummary bake_into(const BakeOptions& base, const fs::path& dir, int frequenc
 
 }  // namespace
 
-std::vector<CandidateResult> budget_candidates(const ErrorBudgetOptions& options) {
+std::vector<CandidateResult> budget_candidates(const ErrorBudgetOptions& options, geom::DomeBasis basis) {
   std::vector<CandidateResult> candidates;
   for (const int f : options.frequencies) {
     for (const int s : options.samples) {
       CandidateResult c;
       c.frequency = f;
       c.samples = s;
-      c.layers = 10 * f * f;  // faces of the upper hemisphere (geom/dome.hpp)
+      c.faces = 10 * f * f;  // faces of the upper hemisphere (geom/dome.hpp)
+      c.layers = c.faces * geom::layers_per_face(basis);
       candidates.push_back(c);
     }
   }
@@ -281,35 +336,66 @@ ErrorBudgetReport run_error_budget_bake(const BakeOptions& bake, const ErrorBudg
                                  report.reference_frequency, largest));
   }
 
+  // The basis as the bake resolves it: --basis, else the site's dome.basis.
+  const scene::Site site = scene::load_site(bake.site_file);
+  report.basis = bake.basis.value_or(site.dome_basis);
+  const std::string basis_name(geom::basis_name(report.basis));
+  const int min_samples = min_samples_per_face(report.basis);
+  if (report.reference_samples < min_samples) {
+    throw InputError(fmt::format("error budget: the reference has {} sample(s) per face; the {} basis needs at least "
+                                 "{}. Fix: use a reference with more samples",
+                                 report.reference_samples, basis_name, min_samples));
+  }
+  std::vector<CandidateResult> candidates;
+  for (const CandidateResult& c : budget_candidates(options, report.basis)) {
+    (c.samples < min_samples ? report.skipped : candidates).push_back(c);
+  }
+  if (candidates.empty()) {
+    throw InputError(fmt::format("option --error-budget: every candidate has fewer than {} samples per face, which "
+                                 "the {} basis needs. Fix: give candidates with more samples, or use --basis faces",
+                                 min_samples, basis_name));
+  }
+  if (!report.skipped.empty()) {
+    std::fprintf(log, "skylit-bake: error budget: the %s basis needs at least %d samples per face: skipping %s\n",
+                 basis_name.c_str(), min_samples, describe_all(report.skipped).c_str());
+  }
+
   const std::vector<TestSky> skies = test_skies(options);
   for (const TestSky& s : skies) report.skies.push_back(s.name);
   const ScratchFolder scratch(options.scratch_dir.empty() ? default_scratch(bake.out_dir) : options.scratch_dir);
 
   std::fprintf(log, "skylit-bake: error budget: %zu test skies at latitude %g°; baking the reference (ν=%d, %d "
-                    "samples, raytrace)\n",
-               skies.size(), options.latitude_deg, report.reference_frequency, report.reference_samples);
+                    "samples, %s basis, raytrace)\n",
+               skies.size(), options.latitude_deg, report.reference_frequency, report.reference_samples,
+               basis_name.c_str());
   const fs::path reference_dir = scratch.dir() / "reference";
-  report.reference_seconds =
-      bake_into(bake, reference_dir, report.reference_frequency, report.reference_samples, "raytrace", log).seconds;
+  report.reference_seconds = bake_into(bake, report.basis, reference_dir, report.reference_frequency,
+                                       report.reference_samples, "raytrace", log)
+                                 .seconds;
 
   const bake::Manifest reference_manifest = bake::read_manifest(reference_dir);
-  const scene::Site site = scene::load_site(bake.site_file);
+  report.reference_basis = reference_manifest.plan.basis;
   const scene::Mesh mesh = scene::load_model(site.model, site.up, site.scale);
   std::vector<geom::Plane> planes;
   for (const bake::PlaneRecord& r : reference_manifest.planes) planes.push_back(r.plane);
-  std::fprintf(log, "skylit-bake: error budget: sun visibility for %zu skies on %zu plane(s)\n", skies.size(),
-               planes.size());
+  std::fprintf(log, "skylit-bake: error budget: sun visibility for %zu skies on %zu plane(s), sky frames\n",
+               skies.size(), planes.size());
   const std::vector<SkyInputs> inputs = sky_inputs(skies, mesh, planes, bake.threads);
-  const ShadowRatios reference = shadow_ratios(reference_dir, skies, inputs, bake.threads);
+  const sky::Lens camera = sky_camera(report.reference_frequency);
+  const std::vector<cv::Mat> frames = sky_frames(camera, skies);
+  const ShadowRatios reference =
+      shadow_ratios(reference_dir, reference_manifest, camera, frames, inputs, bake.threads);
   fs::remove_all(reference_dir);
 
   fs::path picked_dir;
-  for (CandidateResult candidate : budget_candidates(options)) {
-    std::fprintf(log, "skylit-bake: error budget: trying %s (%d layers)\n", describe(candidate).c_str(),
-                 candidate.layers);
+  for (CandidateResult candidate : candidates) {
+    std::fprintf(log, "skylit-bake: error budget: trying %s (%d layers, %s basis)\n", describe(candidate).c_str(),
+                 candidate.layers, basis_name.c_str());
     const fs::path dir = scratch.dir() / fmt::format("nu{}_s{}", candidate.frequency, candidate.samples);
-    candidate.bake_seconds = bake_into(bake, dir, candidate.frequency, candidate.samples, bake.method, log).seconds;
-    compare(shadow_ratios(dir, skies, inputs, bake.threads), reference, candidate);
+    candidate.bake_seconds =
+        bake_into(bake, report.basis, dir, candidate.frequency, candidate.samples, bake.method, log).seconds;
+    const bake::Manifest manifest = bake::read_manifest(dir);
+    compare(shadow_ratios(dir, manifest, camera, frames, inputs, bake.threads), reference, candidate);
     candidate.within_budget = candidate.rms <= options.budget;
     std::fprintf(log, "skylit-bake: error budget: %s: RMS %.5f, max %.5f\n", describe(candidate).c_str(),
                  candidate.rms, candidate.max_abs);
@@ -326,17 +412,22 @@ ErrorBudgetReport run_error_budget_bake(const BakeOptions& bake, const ErrorBudg
   if (!report.picked) {
     const auto best = std::min_element(report.tried.begin(), report.tried.end(),
                                        [](const CandidateResult& a, const CandidateResult& b) { return a.rms < b.rms; });
-    throw InputError(fmt::format("option --error-budget: no candidate meets E = {}: the best, {}, has RMS {:.5f} "
-                                 "(max {:.5f}). Fix: allow a larger budget, or bake with --frequency and --samples",
-                                 options.budget, describe(*best), best->rms, best->max_abs));
+    throw InputError(fmt::format("option --error-budget: no candidate meets E = {} ({} basis): the best, {}, has RMS "
+                                 "{:.5f} (max {:.5f}). Fix: allow a larger budget, or bake with --frequency and "
+                                 "--samples",
+                                 options.budget, basis_name, describe(*best), best->rms, best->max_abs));
   }
   const CandidateResult& picked = report.tried[*report.picked];
-  report.verdict = fmt::format("picked {}: RMS {:.5f} ≤ E ({})", describe(picked), picked.rms, options.budget);
+  report.verdict = fmt::format("picked {} ({} basis): RMS {:.5f} ≤ E ({})", describe(picked), basis_name, picked.rms,
+                               options.budget);
   if (*report.picked > 0) {
     const CandidateResult& previous = report.tried[*report.picked - 1];
     report.verdict += fmt::format("; {} would not do (RMS {:.5f})", describe(previous), previous.rms);
   } else {
     report.verdict += "; it is the cheapest candidate";
+  }
+  if (!report.skipped.empty()) {
+    report.verdict += fmt::format("; skipped for too few samples: {}", describe_all(report.skipped));
   }
   std::fprintf(log, "skylit-bake: %s\n", report.verdict.c_str());
 
@@ -359,11 +450,12 @@ ErrorBudgetReport run_error_budget_bake(const BakeOptions& bake, const ErrorBudg
   }
   if (bake.pca) compress_bake(bake.out_dir, *bake.pca, log);
   report.final_bake.complete = true;
-  report.final_bake.faces_total = picked.layers;
-  report.final_bake.faces_baked = picked.layers;
+  report.final_bake.faces_total = picked.faces;
+  report.final_bake.faces_baked = picked.faces;
   report.final_bake.seconds = picked.bake_seconds;
-  std::fprintf(log, "skylit-bake: %s: the picked bake (ν=%d, %d sample(s)/face, %s)\n", bake.out_dir.string().c_str(),
-               picked.frequency, picked.samples, bake.method.c_str());
+  std::fprintf(log, "skylit-bake: %s: the picked bake (ν=%d, %d sample(s)/face, %s basis, %s)\n",
+               bake.out_dir.string().c_str(), picked.frequency, picked.samples, basis_name.c_str(),
+               bake.method.c_str());
   return report;
 }
 

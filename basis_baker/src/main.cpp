@@ -54,8 +54,9 @@ int main(int argc, char** argv) {
   app.add_option("-o,--output", out, "bake directory to write");
   app.add_option("--frequency", frequency, "dome frequency ν (even; overrides the site's)");
   std::string basis;
-  app.add_option("--basis", basis, "radiance basis: faces (one layer per face) or corners (three, linear across "
-                                   "the face; needs --samples >= 3); overrides the site's dome.basis");
+  app.add_option("--basis", basis, "radiance basis: faces (one layer per face), corners (three, linear across "
+                                   "the face; needs --samples >= 3) or quadratics (six, quadratic across the "
+                                   "face; needs --samples >= 6); overrides the site's dome.basis");
   app.add_option("--samples", options.samples, "samples per face: 1 = face centre (the paper), K > 1 = area light")
       ->capture_default_str();
   app.add_option("--method", options.method, "raster (OpenGL ES, default) or raytrace (Embree, reference)")
@@ -156,7 +157,7 @@ int main(int argc, char** argv) {
     if (app.count("--basis") || !preset_name.empty()) {
       options.basis = skylit::geom::parse_basis(basis);
       if (!options.basis) {
-        throw skylit::InputError("option --basis: got '" + basis + "'. Fix: use --basis faces or --basis corners");
+        throw skylit::InputError("option --basis: got '" + basis + "'. Fix: use --basis faces, corners or quadratics");
       }
     }
     if (!resolution.empty()) options.resolution = parse_resolution(resolution);

@@ -1,8 +1,10 @@
 // --error-budget on a box over a ground plane: a generous budget takes the cheapest dome, a
-// tight one a denser dome, an impossible one fails naming the best it got.
+// tight one a denser dome, an impossible one fails naming the best it got; with the corners
+// basis every bake (the reference too) is a corners bake and one-sample candidates are skipped.
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -162,13 +164,98 @@ TEST_F(ErrorBudget, RefusesWhatItCannotDo) {
   bake.frequency = 4;
   EXPECT_THROW(run_error_budget_bake(bake, budget_options(0.1), quiet_), InputError);
   bake.frequency.reset();
+  // The corners basis needs kMinCornerSamples per face: of the reference, and of some candidate.
   bake.basis = geom::DomeBasis::Corners;
-  EXPECT_THROW(run_error_budget_bake(bake, budget_options(0.1), quiet_), InputError);
+  ErrorBudgetOptions thin_reference = budget_options(0.1);
+  thin_reference.reference_samples = kMinCornerSamples - 1;
+  EXPECT_THROW(run_error_budget_bake(bake, thin_reference, quiet_), InputError);
   bake.basis.reset();
+  // … also when the basis comes from the site's dome.basis: only one-sample candidates is refused.
+  const fs::path corners_site = *dir_ / "corners_site";
+  fs::create_directories(corners_site);
+  skylit::test::write_box_site(corners_site, "dome:\n  frequency: 2\n  basis: corners\n"
+                                             "planes:\n"
+                                             "  - name: ground\n    origin: [-6, -6, 0.01]\n    u: [12, 0, 0]\n"
+                                             "    v: [0, 12, 0]\n    resolution: [8, 8]\n");
+  BakeOptions from_site = bake_options("refused_site");
+  from_site.site_file = corners_site / "site.yaml";
+  ErrorBudgetOptions one_sample = budget_options(0.1);
+  one_sample.samples = {1};
+  try {
+    run_error_budget_bake(from_site, one_sample, quiet_);
+    ADD_FAILURE() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("corners basis"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(from_site.out_dir));
   fs::create_directories(bake.out_dir);
   std::ofstream(bake.out_dir / "keep.txt") << "something of the user's";
   EXPECT_THROW(run_error_budget_bake(bake, budget_options(0.1), quiet_), InputError);
   EXPECT_TRUE(fs::exists(bake.out_dir / "keep.txt"));
+}
+
+// --basis corners: the candidates and the reference are corners bakes, blended with corner
+// luminance; one-sample candidates are skipped and said to be.
+TEST_F(ErrorBudget, CornersBasisBakesAndMeasuresCorners) {
+  BakeOptions bake = bake_options("corners");
+  bake.basis = geom::DomeBasis::Corners;
+  const double budget = 0.5;
+  std::string log_text;
+  ErrorBudgetReport report;
+  {
+    char* buffer = nullptr;
+    std::size_t size = 0;
+    std::FILE* log = open_memstream(&buffer, &size);
+    ASSERT_NE(log, nullptr);
+    report = run_error_budget_bake(bake, budget_options(budget), log);
+    std::fclose(log);
+    log_text.assign(buffer, size);
+    std::free(buffer);
+  }
+  EXPECT_EQ(report.basis, geom::DomeBasis::Corners);
+  EXPECT_EQ(report.reference_basis, geom::DomeBasis::Corners);  // from the reference bake's manifest
+  EXPECT_EQ(report.reference_frequency, 6);
+
+  // ν ∈ {2, 4} × samples ∈ {1, 4}: the one-sample candidates are skipped.
+  ASSERT_EQ(report.skipped.size(), 2u);
+  for (const CandidateResult& c : report.skipped) EXPECT_LT(c.samples, kMinCornerSamples);
+  ASSERT_TRUE(report.picked.has_value());
+  for (const CandidateResult& c : report.tried) EXPECT_GE(c.samples, kMinCornerSamples);
+  const CandidateResult& picked = report.tried[*report.picked];
+  EXPECT_EQ(picked.frequency, 2);
+  EXPECT_EQ(picked.samples, 4);
+  EXPECT_EQ(picked.faces, 40);
+  EXPECT_EQ(picked.layers, 3 * 40);
+  EXPECT_GT(picked.rms, 0.0);
+  EXPECT_LE(picked.rms, budget);
+  EXPECT_TRUE(picked.within_budget);
+  EXPECT_NE(report.verdict.find("corners basis"), std::string::npos) << report.verdict;
+  EXPECT_NE(report.verdict.find("skipped"), std::string::npos) << report.verdict;
+  EXPECT_NE(log_text.find("reference ν=6, 16 samples, corners basis"), std::string::npos) << log_text;
+  EXPECT_NE(log_text.find("needs at least 3 samples per face"), std::string::npos) << log_text;
+
+  const bake::VerifyReport verified = bake::verify(bake.out_dir);
+  ASSERT_TRUE(verified.ok);
+  EXPECT_EQ(verified.manifest.plan.basis, geom::DomeBasis::Corners);
+  EXPECT_EQ(verified.manifest.plan.frequency, 2);
+  EXPECT_EQ(verified.manifest.plan.samples, 4);
+  EXPECT_EQ(verified.manifest.layer_count(), 120u);
+  EXPECT_FALSE(fs::exists(*dir_ / "scratch"));
+}
+
+TEST_F(ErrorBudget, CandidateLayersCountTheBasisLayers) {
+  ErrorBudgetOptions o;
+  const std::vector<CandidateResult> faces = budget_candidates(o, geom::DomeBasis::Faces);
+  const std::vector<CandidateResult> corners = budget_candidates(o, geom::DomeBasis::Corners);
+  ASSERT_EQ(faces.size(), corners.size());
+  for (std::size_t i = 0; i < faces.size(); ++i) {
+    EXPECT_EQ(corners[i].frequency, faces[i].frequency);
+    EXPECT_EQ(corners[i].samples, faces[i].samples);
+    EXPECT_EQ(corners[i].faces, faces[i].faces);
+    EXPECT_EQ(corners[i].layers, geom::layers_per_face(geom::DomeBasis::Corners) * faces[i].layers);
+  }
+  EXPECT_EQ(min_samples_per_face(geom::DomeBasis::Faces), 1);
+  EXPECT_EQ(min_samples_per_face(geom::DomeBasis::Corners), kMinCornerSamples);
 }
 
 }  // namespace

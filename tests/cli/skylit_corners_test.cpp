@@ -35,7 +35,7 @@ TEST(SkylitCorners, BakeVerifyAndShade) {
   EXPECT_NE(refused.output.find("--samples 16"), std::string::npos) << refused.output;
   const Result unknown = run(kBin / "skylit-bake", site + " -o " + (dir / "unknown").string() + " --basis vertices -q");
   EXPECT_EQ(unknown.status, 2) << unknown.output;
-  EXPECT_NE(unknown.output.find("--basis faces or --basis corners"), std::string::npos) << unknown.output;
+  EXPECT_NE(unknown.output.find("--basis faces, corners or quadratics"), std::string::npos) << unknown.output;
 
   const fs::path bake = dir / "bake";
   const Result baked = run(kBin / "skylit-bake", site + " -o " + bake.string() +

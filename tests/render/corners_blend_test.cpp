@@ -40,7 +40,7 @@ TEST(CornersBlend, LoadBasisReadsThreeLayersPerFace) {
   } catch (const InputError& e) {
     const std::string message = e.what();
     EXPECT_NE(message.find("face_000_0.Y"), std::string::npos) << message;
-    EXPECT_NE(message.find("120 layers (3 corners of 40 dome faces)"), std::string::npos) << message;
+    EXPECT_NE(message.find("120 layers (corners basis: 3 per face of 40 dome faces)"), std::string::npos) << message;
   }
 }
 

@@ -349,7 +349,7 @@ TEST_P(ExtremesTest, SunOnADomeVertexAnEdgeTheHorizonAndBelow) {
           // A 1e4 sun in a linear fit: the corners away from it go negative, T stays in [0, 1].
           double lowest = 0;
           for (const auto& face : o.estimate.luminance.faces) {
-            for (const Eigen::Vector3d& corner : face.corners) lowest = std::min(lowest, corner.minCoeff());
+            for (const Eigen::Vector3d& corner : face.coefficients) lowest = std::min(lowest, corner.minCoeff());
           }
           EXPECT_LT(lowest, -1.0);
         }
@@ -439,7 +439,7 @@ TEST_P(ExtremesTest, NarrowLensesSeeLessOfTheHorizon) {
       ++flagged;
       EXPECT_GT(face.rgb.minCoeff(), 0.0);  // filled from the seen neighbours
       if (GetParam().basis == geom::DomeBasis::Corners) {
-        for (const Eigen::Vector3d& corner : face.corners) EXPECT_EQ(corner, face.rgb);  // all three corners
+        for (const Eigen::Vector3d& corner : face.coefficients) EXPECT_EQ(corner, face.rgb);  // all three corners
       }
     }
   }

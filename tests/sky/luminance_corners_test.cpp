@@ -104,7 +104,7 @@ TEST(CornersLuminance, AConstantSkyIsTheConstantInEveryCorner) {
     EXPECT_EQ(l.corners_from_mean, 0);
     for (const FaceLuminance& f : l.faces) {
       EXPECT_LT(relative(f.rgb, sky), 1e-6);
-      for (const Rgb& c : f.corners) EXPECT_LT(relative(c, sky), 2e-5) << "step " << step;
+      for (const Rgb& c : f.coefficients) EXPECT_LT(relative(c, sky), 2e-5) << "step " << step;
     }
   }
 }
@@ -121,7 +121,7 @@ TEST(CornersLuminance, ASkyLinearOnEveryFaceIsReproducedExactly) {
       EXPECT_EQ(f.flags, 0u);
       for (std::size_t k = 0; k < 3; ++k) {
         const Rgb truth = vertex_value(d.vertices()[static_cast<std::size_t>(d.face(i).vertex[k])]);
-        worst = std::max(worst, relative(f.corners[k], truth));
+        worst = std::max(worst, relative(f.coefficients[k], truth));
       }
     }
     // Float pixels and float sums along a run; the faces basis' mean of the same sky is off by
@@ -142,7 +142,7 @@ TEST(CornersLuminance, ALinearSkyInTheUnitDirectionIsCloseButNotExact) {
     for (int i = 0; i < d.face_count(); ++i) {
       for (std::size_t k = 0; k < 3; ++k) {
         const Vec3 v = d.vertices()[static_cast<std::size_t>(d.face(i).vertex[k])];
-        worst = std::max(worst, std::abs(l.faces[static_cast<std::size_t>(i)].corners[k].x() - sky(v).x()) / b);
+        worst = std::max(worst, std::abs(l.faces[static_cast<std::size_t>(i)].coefficients[k].x() - sky(v).x()) / b);
       }
     }
     EXPECT_GT(worst, 1e-4);
@@ -172,7 +172,7 @@ TEST(CornersLuminance, TheSunsExclusionKeepsTheFitExact) {
   EXPECT_LT(f.coverage, 0.95);
   for (std::size_t k = 0; k < 3; ++k) {
     const Rgb truth = vertex_value(d.vertices()[static_cast<std::size_t>(d.face(face).vertex[k])]);
-    EXPECT_LT(relative(f.corners[k], truth), 2e-5);
+    EXPECT_LT(relative(f.coefficients[k], truth), 2e-5);
   }
 }
 
@@ -190,20 +190,20 @@ TEST(CornersLuminance, FacesSeenOnASliverCarryTheirMeanAndAreFlagged) {
     const auto k = static_cast<std::size_t>(i);
     const FaceLuminance& f = l.faces[k];
     if (f.flags & kFaceUnseen) {
-      for (const Rgb& corner : f.corners) EXPECT_EQ(corner, f.rgb);  // filled: all three corners
+      for (const Rgb& corner : f.coefficients) EXPECT_EQ(corner, f.rgb);  // filled: all three corners
       EXPECT_GT(f.rgb.minCoeff(), 0.0);
       continue;
     }
     if (table.corner_conditioning[k] < LuminanceOptions{}.min_corner_conditioning) {
       ++sliver;
       EXPECT_TRUE(f.flags & kFaceCornersFromMean) << i;
-      for (const Rgb& corner : f.corners) EXPECT_EQ(corner, f.rgb);
+      for (const Rgb& corner : f.coefficients) EXPECT_EQ(corner, f.rgb);
     } else {
       ++fitted;
       EXPECT_FALSE(f.flags & kFaceCornersFromMean) << i;
       for (std::size_t v = 0; v < 3; ++v) {
         // Partly seen but well conditioned: still exact, the sky being linear on the face.
-        EXPECT_LT(relative(f.corners[v], vertex_value(d.vertices()[static_cast<std::size_t>(d.face(i).vertex[v])])), 1e-4);
+        EXPECT_LT(relative(f.coefficients[v], vertex_value(d.vertices()[static_cast<std::size_t>(d.face(i).vertex[v])])), 1e-4);
       }
     }
   }
@@ -240,7 +240,7 @@ TEST(CornersLuminance, BadPixelsAreCountedAsInTheFacesBasisAndNeverPropagate) {
     EXPECT_EQ(a.flags, b.flags & ~std::uint32_t{kFaceCornersFromMean});
     EXPECT_LT(relative(b.rgb, a.rgb), 1e-6);  // the same mean, from float sums along runs
     EXPECT_NEAR(b.clipped_fraction, a.clipped_fraction, 1e-6);
-    for (const Rgb& c : b.corners) EXPECT_TRUE(c.allFinite());
+    for (const Rgb& c : b.coefficients) EXPECT_TRUE(c.allFinite());
   }
 }
 
@@ -249,8 +249,8 @@ TEST(CornersLuminance, LayerRadiancesFollowTheBakesLayerOrder) {
   l.faces.resize(2);
   l.faces[0].rgb = Rgb(1, 1, 1);
   l.faces[1].rgb = Rgb(2, 2, 2);
-  l.faces[0].corners = {Rgb(1, 0, 0), Rgb(0, 1, 0), Rgb(0, 0, 1)};
-  l.faces[1].corners = {Rgb(3, 0, 0), Rgb(0, -3, 0), Rgb(0, 0, 3)};
+  l.faces[0].coefficients = {Rgb(1, 0, 0), Rgb(0, 1, 0), Rgb(0, 0, 1)};
+  l.faces[1].coefficients = {Rgb(3, 0, 0), Rgb(0, -3, 0), Rgb(0, 0, 3)};
   EXPECT_EQ(layer_radiances(l), (std::vector<Rgb>{Rgb(1, 1, 1), Rgb(2, 2, 2)}));
   l.basis = geom::DomeBasis::Corners;
   EXPECT_EQ(layer_radiances(l), (std::vector<Rgb>{Rgb(1, 0, 0), Rgb(0, 1, 0), Rgb(0, 0, 1), Rgb(3, 0, 0),

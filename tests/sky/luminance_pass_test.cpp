@@ -175,7 +175,7 @@ Errors compare(const SkyTable& table, const geom::Dome& d, const Reference& r, c
     const Eigen::Matrix3d fit = mass.inverse() * b;
     for (int k = 0; k < 3; ++k) {
       const Rgb expected = fit.row(k).transpose();
-      e.corner = std::max(e.corner, (face.corners[static_cast<std::size_t>(k)] - expected).norm() / scale);
+      e.corner = std::max(e.corner, (face.coefficients[static_cast<std::size_t>(k)] - expected).norm() / scale);
     }
     ++e.fitted;
   }
@@ -229,7 +229,7 @@ TEST_P(CornersPassTest, MatchesADoubleReferenceOnARealSky) {
     ASSERT_EQ(p.faces.size(), l.faces.size());
     for (std::size_t i = 0; i < l.faces.size(); ++i) {
       EXPECT_EQ(p.faces[i].rgb, l.faces[i].rgb) << i;
-      EXPECT_EQ(p.faces[i].corners, l.faces[i].corners) << i;
+      EXPECT_EQ(p.faces[i].coefficients, l.faces[i].coefficients) << i;
     }
   }
 }

@@ -129,7 +129,7 @@ geom::DomeBasis basis_from(const Source& src, const json& object, const std::str
   const std::string field = join(parent, "basis");
   const std::string name = to_string(src, object["basis"], field);
   const std::optional<geom::DomeBasis> basis = geom::parse_basis(name);
-  if (!basis) src.fail(field, "got '" + name + "', expected 'faces' or 'corners'");
+  if (!basis) src.fail(field, "got '" + name + "', expected " + std::string(geom::kBasisNames));
   return *basis;
 }
 

@@ -4,7 +4,7 @@
 //   char[8]   "SKYLITPT"
 //   uint32    part format version: 1 (one layer per face), 2 (the layer count follows)
 //   int32     face index
-//   uint32    version 2 only: layers per face L (3 for the corners basis)
+//   uint32    version 2 only: layers per face L (3 for corners, 6 for quadratics)
 //   uint32    plane count P
 //   P × (uint32 width, uint32 height)
 //   uint64    vertex count V
@@ -101,7 +101,10 @@ std::optional<PartHeader> parse_header(std::string_view bytes) {
   PartHeader h;
   std::uint32_t planes = 0;
   if (!r.get(h.version) || !r.get(h.face)) return std::nullopt;
-  if (h.version == kPartVersionLayers && (!r.get(h.layers) || h.layers == 0 || h.layers > 3)) return std::nullopt;
+  if (h.version == kPartVersionLayers && (!r.get(h.layers) || h.layers == 0 ||
+                                           h.layers > static_cast<std::uint32_t>(geom::kMaxLayersPerFace))) {
+    return std::nullopt;
+  }
   if (!r.get(planes) || planes > kMaxPlanes) return std::nullopt;
   for (std::uint32_t j = 0; j < planes; ++j) {
     std::uint32_t w = 0;

@@ -92,7 +92,9 @@ class Checker {
       if (r.unoccluded.size() != m.layer_count()) {
         problem(label + " has " + std::to_string(r.unoccluded.size()) + " unoccluded values for " +
                 std::to_string(m.faces.size()) + " faces" +
-                (per_face == 1 ? std::string() : " × " + std::to_string(per_face) + " corners") + ". " + kRebake);
+                (per_face == 1 ? std::string()
+                               : " × " + std::to_string(per_face) + " " + std::string(geom::basis_name(m.plan.basis)) +
+                                     " functions") + ". " + kRebake);
       }
       for (std::size_t i = 0; i < r.unoccluded.size(); ++i) {
         const double a = r.unoccluded[i];
@@ -303,7 +305,9 @@ VerifyReport verify(const fs::path& bake_dir) {
   check.check_pca(m, present);
   const std::size_t vertices = static_cast<std::size_t>(m.plan.vertex_count);
   check.check_array(m.transfer_file, {vertices, m.layer_count()},
-                    m.plan.layers_per_face() == 1 ? "(vertex_count, face_count)" : "(vertex_count, 3 × face_count)",
+                    m.plan.layers_per_face() == 1
+                        ? "(vertex_count, face_count)"
+                        : "(vertex_count, " + std::to_string(m.plan.layers_per_face()) + " × face_count)",
                     present);
   check.check_array(m.vertices_file, {vertices, 6}, "(vertex_count, 6: position, normal)", present);
   report.ok = report.problems.empty();

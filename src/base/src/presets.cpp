@@ -14,7 +14,7 @@ constexpr std::array<std::string_view, 2> kPresetKeys{"bake", "live"};
 constexpr std::array<std::string_view, 4> kBakeKeys{"frequency", "basis", "samples", "pca_components"};
 constexpr std::array<std::string_view, 7> kLiveKeys{"basis", "storage", "skip_threshold", "change_threshold",
                                                    "smoothing", "sun", "render_scale"};
-constexpr std::array<std::string_view, 2> kBases{"faces", "corners"};
+constexpr std::array<std::string_view, 3> kBases{"faces", "corners", "quadratics"};
 constexpr std::array<std::string_view, 3> kForms{"full", "lean", "pca"};
 constexpr std::array<std::string_view, 3> kStorages{"half", "unorm8", "eac"};
 constexpr std::array<std::string_view, 2> kSunModes{"auto", "off"};
@@ -42,7 +42,7 @@ std::vector<Preset> load_presets(const std::filesystem::path& file) {
         r.integer(r.require(bake, "frequency", at + "bake.frequency", "an even dome frequency, e.g. 2"),
                   at + "bake.frequency", 1, 64, "an even dome frequency, e.g. 2"));
     if (p.bake.frequency % 2 != 0) r.fail(bake["frequency"], at + "bake.frequency", "must be even", "e.g. 2 or 4");
-    p.bake.basis = r.choice(r.require(bake, "basis", at + "bake.basis", "faces or corners"), at + "bake.basis", kBases);
+    p.bake.basis = r.choice(r.require(bake, "basis", at + "bake.basis", "faces, corners or quadratics"), at + "bake.basis", kBases);
     p.bake.samples = static_cast<int>(r.integer(r.require(bake, "samples", at + "bake.samples", "samples per face, e.g. 16"),
                                                 at + "bake.samples", 1, 4096, "samples per face, e.g. 16"));
     if (auto n = YamlReader::optional(bake, "pca_components")) {

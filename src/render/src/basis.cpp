@@ -16,6 +16,14 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// The basis of a bake with this many layers per face (what layer names need).
+geom::DomeBasis basis_with_layers(int layers_per_face) {
+  for (const geom::DomeBasis b : {geom::DomeBasis::Corners, geom::DomeBasis::Quadratics}) {
+    if (geom::layers_per_face(b) == layers_per_face) return b;
+  }
+  return geom::DomeBasis::Faces;
+}
+
 constexpr const char* kRebake = "re-bake (skylit-bake --force), or restore the bake directory from a copy "
                                 "and check it with 'skylit-bake verify'";
 
@@ -37,8 +45,7 @@ void check_values(const fs::path& file, const BasisImages& basis) {
       const std::size_t width = static_cast<std::size_t>(basis.width);
       throw InputError(input_message(
           file, -1, -1,
-          bake::layer_name(basis.layers_per_face == 1 ? geom::DomeBasis::Faces : geom::DomeBasis::Corners,
-                           static_cast<int>(layer)) +
+          bake::layer_name(basis_with_layers(basis.layers_per_face), static_cast<int>(layer)) +
               ".Y",
           "texel (col " + std::to_string(texel % width) + ", row " + std::to_string(texel / width) + ") holds " +
               std::to_string(half_to_float(h)) + "; basis values are finite and >= 0 (steradians)",
@@ -166,12 +173,14 @@ BasisImages load_basis(const fs::path& bake_dir, const bake::Manifest& manifest,
   if (manifest.faces.empty()) {
     throw InputError(input_message(manifest_file, -1, -1, "dome.faces", "the dome has no faces", kRebake));
   }
-  // The layers: one per face, or three per face with the corners basis.
+  // The layers: one per face, or three (corners) or six (quadratics) per face.
   const std::size_t faces = manifest.layer_count();
   const geom::DomeBasis basis_kind = manifest.plan.basis;
   const std::string layers_text = manifest.plan.layers_per_face() == 1
                                       ? std::to_string(faces) + " dome faces"
-                                      : std::to_string(faces) + " layers (3 corners of " +
+                                      : std::to_string(faces) + " layers (" +
+                                            std::string(geom::basis_name(basis_kind)) + " basis: " +
+                                            std::to_string(manifest.plan.layers_per_face()) + " per face of " +
                                             std::to_string(manifest.faces.size()) + " dome faces)";
   if (record.unoccluded.size() != faces) {
     throw InputError(input_message(manifest_file, -1, -1, plane_field(plane, "unoccluded"),

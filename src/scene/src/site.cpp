@@ -249,8 +249,9 @@ class SiteParser {
     site.dome_frequency = static_cast<int>(value);
     if (const YAML::Node basis = dome["basis"]; basis.IsDefined()) {
       const std::string basis_fix =
-          "write 'basis: faces' (one radiance per sky face) or 'basis: corners' (three per face, "
-          "linear across it), or leave the field out for faces";
+          "write 'basis: faces' (one radiance per sky face), 'basis: corners' (three per face, "
+          "linear across it) or 'basis: quadratics' (six per face, quadratic across it), or leave the "
+          "field out for faces";
       if (!basis.IsScalar()) fail(basis.IsNull() ? key_node(dome, "basis") : basis, "dome.basis", "expected a name", basis_fix);
       const std::optional<geom::DomeBasis> parsed = geom::parse_basis(basis.Scalar());
       if (!parsed) fail(basis, "dome.basis", "unknown basis '" + basis.Scalar() + "'", basis_fix);
@@ -437,7 +438,7 @@ std::string site_to_yaml(const Site& site) {
       << "  frequency: " << site.dome_frequency
       << "  # geodesic sky dome, even: 2 = 40 faces, 4 = 160, 6 = 360, 8 = 640\n";
   if (site.dome_basis != geom::DomeBasis::Faces) {
-    out << "  basis: " << geom::basis_name(site.dome_basis) << "  # radiance per face: faces (constant) or corners (linear)\n";
+    out << "  basis: " << geom::basis_name(site.dome_basis) << "  # radiance per face: faces (constant), corners (linear) or quadratics\n";
   }
   out
       << "# Shadowing planes: rectangles origin + s·u + t·v (s, t in [0, 1]), normal = u × v.\n"

@@ -70,6 +70,9 @@ struct Sums {
   // Corners basis: Σ w λ0 L and Σ w λ1 L (R G B), and the hats' mass over excluded samples.
   Eigen::Vector3d corner0 = Eigen::Vector3d::Zero(), corner1 = Eigen::Vector3d::Zero();
   Eigen::Matrix3d excluded_mass = Eigen::Matrix3d::Zero();
+  // Quadratics basis: Σ w φ_k L (row k, R G B) and the functions' mass over excluded samples.
+  Eigen::Matrix<double, 6, 3> quadratic = Eigen::Matrix<double, 6, 3>::Zero();
+  Eigen::Matrix<double, 6, 6> quadratic_excluded_mass = Eigen::Matrix<double, 6, 6>::Zero();
 };
 
 struct Accumulator {
@@ -653,34 +656,95 @@ void accumulate_corners(const SkyTable& table, const cv::Mat& radiance, const cv
   }
 }
 
-// The corner fit of every seen face: M⁻¹ b with M the table's mass matrix, less the excluded
-// samples' when the sun took some; a face whose (remaining) pixels do not pin three corners down
-// gets its mean in all three and the flag.
-void fit_corners(const SkyTable& table, const std::vector<Sums>& sums, const std::vector<bool>& seen,
-                 const LuminanceOptions& options, Luminance& result) {
+// The quadratics pass: every sample in double, sanitised as it goes (one scalar pass; the
+// corners' SIMD form has no quadratic counterpart yet).
+void accumulate_quadratics(const SkyTable& table, const cv::Mat& radiance, const cv::Mat& clipped,
+                           const cv::Mat& exclude, std::vector<Sums>& sums, std::int64_t& samples) {
+  const RunLimits limits(table, sums.size());
+  const std::ptrdiff_t step = table.step;
+  for (const PixelRun& run : table.runs) {
+    limits.check(run);
+    Sums& s = sums[static_cast<std::size_t>(run.face)];
+    const float* pixel = radiance.ptr<float>(run.row) + 3 * std::ptrdiff_t{run.col_begin};
+    const std::uint8_t* c = clipped.empty() ? nullptr : clipped.ptr<std::uint8_t>(run.row) + run.col_begin;
+    const std::uint8_t* e = exclude.empty() ? nullptr : exclude.ptr<std::uint8_t>(run.row) + run.col_begin;
+    const float* weights = table.weights.data() + run.weight_offset;
+    const std::uint16_t* lambda = table.corner_weights.data() + 2 * std::size_t{run.weight_offset};
+    for (std::int32_t k = 0; k < run.count; ++k) {
+      const double w = weights[k];
+      const double l0 = lambda[2 * k] * kCornerWeightUnit, l1 = lambda[2 * k + 1] * kCornerWeightUnit;
+      const geom::LayerValues phi = geom::layer_values(geom::DomeBasis::Quadratics, {l0, l1, 1.0 - l0 - l1});
+      const Eigen::Map<const Eigen::Matrix<double, 6, 1>> v(phi.data());
+      if (e && e[k * step] != 0) {
+        s.excluded = true;
+        s.quadratic_excluded_mass.noalias() += (w * v) * v.transpose();
+        continue;
+      }
+      float value[3] = {pixel[k * 3 * step], pixel[k * 3 * step + 1], pixel[k * 3 * step + 2]};
+      sanitise(value, s);
+      s.b += w * value[0];
+      s.g += w * value[1];
+      s.r += w * value[2];
+      s.weight += w;
+      s.quadratic.noalias() += (w * v) * Eigen::RowVector3d(value[2], value[1], value[0]);
+      if (c && c[k * step] != 0) {
+        s.clipped += w;
+        ++s.clipped_pixels;
+      }
+    }
+    samples += run.count;
+  }
+}
+
+// The fit of every seen face's functions: M⁻¹ b with M the table's mass matrix, less the
+// excluded samples' when the sun took some. A quadratics face whose (remaining) pixels do not
+// pin six functions down gets the linear fit if they pin three; otherwise the face's mean in
+// every function, and the flag.
+void fit_layers(const SkyTable& table, const std::vector<Sums>& sums, const std::vector<bool>& seen,
+                const LuminanceOptions& options, Luminance& result) {
+  const bool quadratics = table.basis == geom::DomeBasis::Quadratics;
+  const auto layers = static_cast<Eigen::Index>(geom::layers_per_face(table.basis));
+  const auto passes = [&](double conditioning) {
+    return conditioning >= options.min_corner_conditioning && conditioning > 0.0;
+  };
   for (std::size_t i = 0; i < result.faces.size(); ++i) {
     FaceLuminance& face = result.faces[i];
     if (!seen[i]) continue;
     const Sums& s = sums[i];
-    double conditioning = table.corner_conditioning[i];
-    Eigen::Matrix3d inverse = table.corner_inverse[i];
-    if (s.excluded) {
-      const Eigen::Matrix3d mass = table.corner_mass[i] - s.excluded_mass;
-      conditioning = corner_conditioning(mass, table.corner_full_mass[i]);
-      inverse = conditioning > 0.0 ? Eigen::Matrix3d(mass.inverse()) : Eigen::Matrix3d::Zero();
+    Eigen::MatrixXd b(layers, 3);  // row k: Σ w φ_k L (R G B)
+    Eigen::MatrixXd mass = table.corner_mass[i];
+    if (quadratics) {
+      b = s.quadratic;
+      if (s.excluded) mass -= s.quadratic_excluded_mass;
+    } else {
+      b.row(0) = s.corner0.transpose();
+      b.row(1) = s.corner1.transpose();
+      b.row(2) = Eigen::Vector3d(s.r, s.g, s.b).transpose() - b.row(0) - b.row(1);
+      if (s.excluded) mass -= s.excluded_mass;
     }
-    if (!(conditioning >= options.min_corner_conditioning) || !(conditioning > 0.0)) {
+    const double conditioning =
+        s.excluded ? corner_conditioning(mass, table.corner_full_mass[i]) : table.corner_conditioning[i];
+    Eigen::MatrixXd fit;
+    if (passes(conditioning)) {
+      fit = (s.excluded ? Eigen::MatrixXd(mass.inverse()) : table.corner_inverse[i]) * b;
+    } else if (quadratics) {
+      const Eigen::Matrix<double, 3, 6> to_corner = geom::quadratic_to_corner();
+      const Eigen::Matrix3d linear_mass = to_corner * mass * to_corner.transpose();
+      const Eigen::Matrix3d linear_full = to_corner * table.corner_full_mass[i] * to_corner.transpose();
+      if (passes(corner_conditioning(linear_mass, linear_full))) {
+        fit = geom::corner_to_quadratic() * (linear_mass.inverse() * (to_corner * b));
+        face.flags |= kFaceFitLinear;
+        ++result.linear_fits;
+      }
+    }
+    if (fit.size() == 0) {
       face.flags |= kFaceCornersFromMean;
       ++result.corners_from_mean;
-      face.corners = {face.rgb, face.rgb, face.rgb};
+      face.coefficients.assign(static_cast<std::size_t>(layers), face.rgb);
       continue;
     }
-    Eigen::Matrix3d b;  // row k: Σ w λ_k L (R G B)
-    b.row(0) = s.corner0.transpose();
-    b.row(1) = s.corner1.transpose();
-    b.row(2) = Eigen::Vector3d(s.r, s.g, s.b).transpose() - b.row(0) - b.row(1);
-    const Eigen::Matrix3d fit = inverse * b;
-    for (std::size_t k = 0; k < 3; ++k) face.corners[k] = fit.row(static_cast<Eigen::Index>(k)).transpose();
+    face.coefficients.resize(static_cast<std::size_t>(layers));
+    for (Eigen::Index k = 0; k < layers; ++k) face.coefficients[static_cast<std::size_t>(k)] = fit.row(k).transpose();
   }
 }
 
@@ -760,13 +824,20 @@ Luminance compute_luminance(const SkyTable& table, const geom::Dome& dome, const
     reject_input("min_coverage", "the threshold must lie in [0, 1]",
                  "write a fraction of a face's solid angle, e.g. 0.05");
   }
-  const bool corners = table.basis == geom::DomeBasis::Corners;
-  if (corners) {
-    if (table.corner_weights.size() != 2 * table.weights.size() || table.corner_mass.size() != n ||
-        table.corner_inverse.size() != n || table.corner_full_mass.size() != n ||
-        table.corner_conditioning.size() != n) {
-      reject_input("table", "the corners table lacks its barycentric weights or mass matrices",
-                   "build the sky table with build_sky_table and basis corners");
+  const bool fitted = table.basis != geom::DomeBasis::Faces;
+  if (fitted) {
+    const auto layers = static_cast<Eigen::Index>(geom::layers_per_face(table.basis));
+    const auto sized = [&](const std::vector<Eigen::MatrixXd>& m) {
+      return m.size() == n && std::all_of(m.begin(), m.end(), [&](const Eigen::MatrixXd& x) {
+               return x.rows() == layers && x.cols() == layers;
+             });
+    };
+    if (table.corner_weights.size() != 2 * table.weights.size() || !sized(table.corner_mass) ||
+        !sized(table.corner_inverse) || !sized(table.corner_full_mass) || table.corner_conditioning.size() != n) {
+      reject_input("table",
+                   "the " + std::string(geom::basis_name(table.basis)) +
+                       " table lacks its barycentric weights or mass matrices",
+                   "build the sky table with build_sky_table and basis " + std::string(geom::basis_name(table.basis)));
     }
     if (!(options.min_corner_conditioning >= 0.0 && options.min_corner_conditioning <= 1.0)) {
       reject_input("min_corner_conditioning", "the threshold must lie in [0, 1]",
@@ -782,8 +853,10 @@ Luminance compute_luminance(const SkyTable& table, const geom::Dome& dome, const
   const std::ptrdiff_t stride = 3 * step;
   const bool has_clipped = !clipped.empty();
   const bool has_exclude = !exclude.empty();
-  if (corners) {
+  if (table.basis == geom::DomeBasis::Corners) {
     accumulate_corners(table, radiance, clipped, exclude, options.use_simd, sums, result.samples);
+  } else if (table.basis == geom::DomeBasis::Quadratics) {
+    accumulate_quadratics(table, radiance, clipped, exclude, sums, result.samples);
   } else {
     const RunLimits limits(table, n);
     for (const PixelRun& run : table.runs) {
@@ -835,15 +908,19 @@ Luminance compute_luminance(const SkyTable& table, const geom::Dome& dome, const
   }
   if (result.unseen_faces == static_cast<int>(n)) {
     result.no_face_seen = true;
-    for (FaceLuminance& face : result.faces) face.rgb.setZero();
+    for (FaceLuminance& face : result.faces) {
+      face.rgb.setZero();
+      if (fitted) face.coefficients.assign(static_cast<std::size_t>(geom::layers_per_face(table.basis)), face.rgb);
+    }
     return result;
   }
   const std::vector<bool> seen = known;
   if (result.unseen_faces > 0) fill_unseen(dome, known, weight, result);
-  if (corners) {
-    fit_corners(table, sums, seen, options, result);
+  if (fitted) {
+    fit_layers(table, sums, seen, options, result);
+    const auto layers = static_cast<std::size_t>(geom::layers_per_face(table.basis));
     for (std::size_t i = 0; i < n; ++i) {
-      if (!seen[i]) result.faces[i].corners = {result.faces[i].rgb, result.faces[i].rgb, result.faces[i].rgb};
+      if (!seen[i]) result.faces[i].coefficients.assign(layers, result.faces[i].rgb);
     }
   }
   return result;
@@ -851,13 +928,13 @@ Luminance compute_luminance(const SkyTable& table, const geom::Dome& dome, const
 
 std::vector<Eigen::Vector3d> layer_radiances(const Luminance& luminance) {
   std::vector<Eigen::Vector3d> S;
-  const bool corners = luminance.basis == geom::DomeBasis::Corners;
-  S.reserve(luminance.faces.size() * (corners ? 3 : 1));
+  const auto layers = static_cast<std::size_t>(geom::layers_per_face(luminance.basis));
+  S.reserve(luminance.faces.size() * layers);
   for (const FaceLuminance& face : luminance.faces) {
-    if (corners) {
-      S.insert(S.end(), face.corners.begin(), face.corners.end());
-    } else {
+    if (luminance.basis == geom::DomeBasis::Faces) {
       S.push_back(face.rgb);
+    } else {
+      S.insert(S.end(), face.coefficients.begin(), face.coefficients.end());
     }
   }
   return S;

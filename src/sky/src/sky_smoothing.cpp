@@ -49,23 +49,27 @@ void SkySmoother::update(double timestamp_s, std::span<const Eigen::Vector3d> S,
 }
 
 SkyEstimate SkySmoother::smooth(double timestamp_s, SkyEstimate estimate) {
-  // Every value the blend or a report reads: the face means, and with the corners basis the
-  // three corner values of each face after them.
-  const bool corners = estimate.luminance.basis == geom::DomeBasis::Corners;
+  // Every value the blend or a report reads: the face means, and with the corners or quadratics
+  // basis the coefficients of each face's functions after them.
+  const bool fitted = estimate.luminance.basis != geom::DomeBasis::Faces;
+  const auto layers = static_cast<std::size_t>(geom::layers_per_face(estimate.luminance.basis));
   std::vector<Eigen::Vector3d> S;
-  S.reserve(estimate.luminance.faces.size() * (corners ? 4 : 1));
+  S.reserve(estimate.luminance.faces.size() * (fitted ? layers + 1 : 1));
   for (const FaceLuminance& face : estimate.luminance.faces) S.push_back(face.rgb);
-  if (corners) {
-    for (const FaceLuminance& face : estimate.luminance.faces) S.insert(S.end(), face.corners.begin(), face.corners.end());
+  if (fitted) {
+    for (const FaceLuminance& face : estimate.luminance.faces) {
+      for (std::size_t k = 0; k < layers; ++k) S.push_back(k < face.coefficients.size() ? face.coefficients[k] : face.rgb);
+    }
   }
   std::optional<Eigen::Vector3d> sun;
   if (estimate.sun) sun = estimate.sun->energy;
   update(timestamp_s, S, sun);
   const std::size_t n = estimate.luminance.faces.size();
   for (std::size_t i = 0; i < n; ++i) estimate.luminance.faces[i].rgb = S_[i];
-  if (corners) {
+  if (fitted) {
     for (std::size_t i = 0; i < n; ++i) {
-      for (std::size_t k = 0; k < 3; ++k) estimate.luminance.faces[i].corners[k] = S_[n + 3 * i + k];
+      estimate.luminance.faces[i].coefficients.resize(layers);
+      for (std::size_t k = 0; k < layers; ++k) estimate.luminance.faces[i].coefficients[k] = S_[n + layers * i + k];
     }
   }
   if (estimate.sun) estimate.sun->energy = *sun_energy_;

@@ -155,34 +155,38 @@ void build_band(const Lens& lens, const geom::Dome& dome, const geom::CornerWeig
 // Mass matrices and their inverses from the stored (float) weights, in one fixed order.
 void add_corner_matrices(const geom::Dome& dome, SkyTable& table) {
   const auto faces = static_cast<std::size_t>(dome.face_count());
-  table.corner_mass.assign(faces, Eigen::Matrix3d::Zero());
+  const int layers = geom::layers_per_face(table.basis);
+  table.corner_mass.assign(faces, Eigen::MatrixXd::Zero(layers, layers));
   for (const PixelRun& run : table.runs) {
-    Eigen::Matrix3d& m = table.corner_mass[static_cast<std::size_t>(run.face)];
+    Eigen::MatrixXd& m = table.corner_mass[static_cast<std::size_t>(run.face)];
     for (std::int32_t k = 0; k < run.count; ++k) {
       const std::size_t at = run.weight_offset + static_cast<std::uint32_t>(k);
       const double w = table.weights[at];
       const double l0 = table.corner_weights[2 * at] * kCornerWeightUnit;
       const double l1 = table.corner_weights[2 * at + 1] * kCornerWeightUnit;
-      const Eigen::Vector3d l(l0, l1, 1.0 - l0 - l1);
-      m.noalias() += w * l * l.transpose();
+      const geom::LayerValues phi = geom::layer_values(table.basis, {l0, l1, 1.0 - l0 - l1});
+      const Eigen::Map<const Eigen::VectorXd> v(phi.data(), layers);
+      m.noalias() += w * v * v.transpose();
     }
   }
   table.corner_inverse.resize(faces);
   table.corner_full_mass.resize(faces);
   table.corner_conditioning.resize(faces);
   for (std::size_t i = 0; i < faces; ++i) {
-    table.corner_full_mass[i] = geom::face_quadrature(dome, static_cast<int>(i), kFullMassSubdivisions).mass;
+    table.corner_full_mass[i] =
+        geom::face_quadrature(dome, static_cast<int>(i), kFullMassSubdivisions, table.basis).mass;
     table.corner_conditioning[i] = corner_conditioning(table.corner_mass[i], table.corner_full_mass[i]);
-    table.corner_inverse[i] =
-        table.corner_conditioning[i] > 0.0 ? Eigen::Matrix3d(table.corner_mass[i].inverse()) : Eigen::Matrix3d::Zero();
+    table.corner_inverse[i] = table.corner_conditioning[i] > 0.0 ? Eigen::MatrixXd(table.corner_mass[i].inverse())
+                                                                 : Eigen::MatrixXd::Zero(layers, layers);
   }
 }
 
 }  // namespace
 
-double corner_conditioning(const Eigen::Matrix3d& m, const Eigen::Matrix3d& full) {
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> seen(m, Eigen::EigenvaluesOnly);
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> whole(full, Eigen::EigenvaluesOnly);
+double corner_conditioning(const Eigen::MatrixXd& m, const Eigen::MatrixXd& full) {
+  if (m.rows() == 0 || m.rows() != m.cols() || full.rows() != m.rows() || full.cols() != m.cols()) return 0.0;
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> seen(m, Eigen::EigenvaluesOnly);
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> whole(full, Eigen::EigenvaluesOnly);
   const double low = seen.eigenvalues().minCoeff(), reference = whole.eigenvalues().minCoeff();
   if (!(low > 0.0) || !(reference > 0.0)) return 0.0;
   return low / reference;
@@ -229,7 +233,7 @@ SkyTable build_sky_table(const Lens& lens, const geom::Dome& dome, const cv::Mat
   const int hardware = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const int threads = std::clamp(std::min(hardware, nby / kMinBlockRowsPerThread), 1, kMaxThreads);
   std::optional<geom::CornerWeights> corners;
-  if (options.basis == geom::DomeBasis::Corners) corners.emplace(dome);
+  if (options.basis != geom::DomeBasis::Faces) corners.emplace(dome);
 
   std::vector<Band> bands(static_cast<std::size_t>(threads));
   std::vector<std::exception_ptr> errors(bands.size());
@@ -288,7 +292,7 @@ SkyTable build_sky_table(const Lens& lens, const geom::Dome& dome, const cv::Mat
   for (std::size_t i = 0; i < faces; ++i) {
     table.coverage[i] = table.face_solid_angle[i] / dome.faces()[i].solid_angle;
   }
-  if (table.basis == geom::DomeBasis::Corners) add_corner_matrices(dome, table);
+  if (table.basis != geom::DomeBasis::Faces) add_corner_matrices(dome, table);
   return table;
 }
 

@@ -73,11 +73,13 @@ std::vector<geom::Vec3> face_sample_directions(const geom::Dome& dome, int face,
 // The corners basis needs at least this many samples per face: one direction (the centre)
 // weighs the three corners alike and cannot tell their visibility apart.
 inline constexpr int kMinCornerSamples = 3;
+// The fewest samples per face a basis can resolve: one per layer function (1, 3 or 6).
+inline int min_samples_per_face(geom::DomeBasis basis) { return geom::layers_per_face(basis); }
 
 // A_{j,l} of every layer of every face for a surface with normal n (faces: the exact cosine
-// integral of the face; corners: geom::corner_cosine_integrals), layer-major as the bake stores
-// them. `quadratures` (corners only) from corner_quadratures.
-std::vector<geom::FaceQuadrature> corner_quadratures(const geom::Dome& dome, geom::DomeBasis basis);
+// integral of the face; corners and quadratics: geom::layer_cosine_integrals), layer-major as the
+// bake stores them. `quadratures` (one per face, empty for faces) from face_quadratures.
+std::vector<geom::FaceQuadrature> face_quadratures(const geom::Dome& dome, geom::DomeBasis basis);
 std::vector<double> layer_cosine_integrals(const geom::Dome& dome, geom::DomeBasis basis,
                                            const std::vector<geom::FaceQuadrature>& quadratures, const geom::Vec3& n);
 

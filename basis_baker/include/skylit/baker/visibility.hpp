@@ -13,6 +13,7 @@
 // Two engines, same contract: `raster` (OpenGL ES 3.1 shadow maps, headless EGL) and `raytrace`
 // (Embree 3 on the CPU, the reference).
 #include <array>
+#include <cstddef>
 #include <filesystem>
 #include <memory>
 #include <span>
@@ -25,8 +26,10 @@ namespace skylit::baker {
 
 using geom::Vec3;
 
-// The weights of one sample direction for up to three layers (unused layers: 0).
-using SampleWeights = std::array<float, 3>;
+// An engine weighs up to this many layers in one pass (a bake with more per face runs several).
+inline constexpr std::size_t kEngineLayers = 3;
+// The weights of one sample direction for up to kEngineLayers layers (unused layers: 0).
+using SampleWeights = std::array<float, kEngineLayers>;
 
 class VisibilityEngine {
  public:

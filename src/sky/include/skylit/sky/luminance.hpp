@@ -14,7 +14,10 @@
 //     [S_{i,0} S_{i,1} S_{i,2}]ᵀ = M_i⁻¹ Σ_p w_p λ_p L_p,     M_i = Σ_p w_p λ_p λ_pᵀ
 //
 // over the same pixels as S_i. Corner coefficients may be negative (a linear fit to a sky that
-// is not linear across the face); the blend keeps T in [0, 1].
+// is not linear across the face); the blend keeps T in [0, 1]. A quadratics table fits the six
+// quadratic Bernstein functions φ the same way (M_i = Σ_p w_p φ_p φ_pᵀ, 6×6); a face whose
+// pixels cannot pin six functions down but can pin three gets the linear fit, written in the
+// quadratic functions (geom::corner_to_quadratic), and kFaceFitLinear.
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -35,13 +38,17 @@ enum FaceFlag : std::uint32_t {
   // Corners basis: the pixels do not pin down three corners (a face seen on a sliver, or the
   // sun's exclusion took most of it): all three corners carry the face's mean S_i.
   kFaceCornersFromMean = 1u << 4,
+  // Quadratics basis: the pixels pin down a linear fit but not a quadratic one: the face carries
+  // the linear fit.
+  kFaceFitLinear = 1u << 5,
 };
 
 struct FaceLuminance {
   Eigen::Vector3d rgb = Eigen::Vector3d::Zero();  // S_i, linear, R G B: the face's mean
-  // Corners basis: S_{i,k} at the face's vertex k (DomeFace::vertex[k]), R G B. Unseen and
-  // kFaceCornersFromMean faces have rgb in all three. Empty (zero) for the faces basis.
-  std::array<Eigen::Vector3d, 3> corners{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  // Corners and quadratics bases: the coefficient S_{i,k} of each of the face's functions, R G B
+  // (corners: at the face's vertex k, DomeFace::vertex[k]; quadratics: geom::layer_values'
+  // order). Unseen and kFaceCornersFromMean faces have rgb in all. Empty for the faces basis.
+  std::vector<Eigen::Vector3d> coefficients;
   double coverage = 0;            // fraction of Ω_i the image sees (after exclusions)
   double clipped_fraction = 0;    // solid-angle fraction of the seen part that is clipped
   std::uint32_t flags = 0;
@@ -59,14 +66,16 @@ struct Luminance {
   std::int64_t clipped_pixels = 0;
   int unseen_faces = 0;
   int corners_from_mean = 0;          // seen faces flagged kFaceCornersFromMean
+  int linear_fits = 0;                // seen faces flagged kFaceFitLinear
   bool no_face_seen = false;          // nothing to fill from: every S is 0
 };
 
 struct LuminanceOptions {
   double min_coverage = 0.05;         // below this a face counts as unseen and is filled
-  // Corners basis: the fit is used when the seen pixels' mass matrix keeps at least this share
-  // of a fully seen face's smallest eigenvalue (SkyTable::corner_conditioning); below it the
-  // fit would extrapolate into what the camera does not see, and the face's mean is used.
+  // Corners and quadratics bases: the fit is used when the seen pixels' mass matrix keeps at
+  // least this share of a fully seen face's smallest eigenvalue (SkyTable::corner_conditioning);
+  // below it the fit would extrapolate into what the camera does not see, and the face's mean
+  // (or, for quadratics, the linear fit if that one passes) is used.
   double min_corner_conditioning = 0.25;
   // Corners basis: the eight-lane AVX2/FMA pass where the CPU has it (false: the portable
   // four-lane pass everywhere, e.g. to compare the two). Both agree to float rounding.
@@ -74,7 +83,7 @@ struct LuminanceOptions {
 };
 
 // What the blend takes: one RGB value per layer of a bake with luminance.basis, S_i (faces) or
-// S_{i,k} at layer 3i + k (corners).
+// S_{i,k} at layer 3i + k (corners) or 6i + k (quadratics).
 std::vector<Eigen::Vector3d> layer_radiances(const Luminance& luminance);
 
 // `radiance`: CV_32FC3 BGR, the table's image size. `clipped` (CV_8U, 255 = clipped) and

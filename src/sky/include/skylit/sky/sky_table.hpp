@@ -18,11 +18,12 @@
 // block. A block on a face edge goes wholly to one face, which is why coverage per face is
 // exact only to about the block's size.
 //
-// With the corners basis (geom/dome_basis.hpp) every sample also carries its barycentric
-// coordinates in its face (λ0, λ1 as 16-bit fractions; λ2 = 1 − λ0 − λ1), and the table holds
-// per face the mass matrix of the three hats over its own samples, M = Σ_p w_p λ_p λ_pᵀ, from
-// those same stored coordinates, inverted once here: the luminance pass then fits the corners
-// by least squares with one 3×3 product per face.
+// With the corners or quadratics basis (geom/dome_basis.hpp) every sample also carries its
+// barycentric coordinates in its face (λ0, λ1 as 16-bit fractions; λ2 = 1 − λ0 − λ1), and the
+// table holds per face the mass matrix of the basis' functions φ over its own samples,
+// M = Σ_p w_p φ_p φ_pᵀ (3×3 for corners, 6×6 for quadratics), from those same stored
+// coordinates, inverted once here: the luminance pass then fits the face's functions by least
+// squares with one small product per face.
 #include <array>
 #include <cstdint>
 #include <span>
@@ -56,16 +57,16 @@ struct SkyTable {
   std::vector<double> coverage;        // face_solid_angle / Ω_i, in [0, 1] (up to rounding)
   std::size_t sample_count() const { return weights.size(); }
 
-  // ---- the corners basis only (empty for faces) ----
+  // ---- the corners and quadratics bases only (empty for faces) ----
   geom::DomeBasis basis = geom::DomeBasis::Faces;
   // λ0, λ1 per sample in units of 1/65535 (kCornerWeightUnit), run by run (2 × weights.size()):
   // 4 bytes a sample instead of 8, which the streaming pass feels; the rounding (≤ 7.6e-6) is
   // the same in the pass and in M, so the fit stays consistent.
   std::vector<std::uint16_t> corner_weights;
-  std::vector<Eigen::Matrix3d> corner_mass;     // per face: Σ_p w_p λ_p λ_pᵀ over its samples
-  std::vector<Eigen::Matrix3d> corner_inverse;  // its inverse (zero when singular)
-  // ∫ λ λᵀ dω over the whole face: the mass matrix a camera that sees all of it would have.
-  std::vector<Eigen::Matrix3d> corner_full_mass;
+  std::vector<Eigen::MatrixXd> corner_mass;     // per face: Σ_p w_p φ_p φ_pᵀ over its samples
+  std::vector<Eigen::MatrixXd> corner_inverse;  // its inverse (zero when singular)
+  // ∫ φ φᵀ dω over the whole face: the mass matrix a camera that sees all of it would have.
+  std::vector<Eigen::MatrixXd> corner_full_mass;
   // Smallest eigenvalue of corner_mass over that of corner_full_mass: 1 for a face the image
   // sees whole, → 0 for one seen on a sliver (the fit then extrapolates; see LuminanceOptions).
   std::vector<double> corner_conditioning;
@@ -75,12 +76,12 @@ inline constexpr double kCornerWeightUnit = 1.0 / 65535.0;
 
 struct SkyTableOptions {
   int step = 1;                        // sample every step-th pixel and row (1 = every pixel)
-  geom::DomeBasis basis = geom::DomeBasis::Faces;  // corners: barycentric weights and mass matrices
+  geom::DomeBasis basis = geom::DomeBasis::Faces;  // corners, quadratics: barycentric weights and mass matrices
 };
 
-// λ_min(m) / λ_min(full): how well the samples behind `m` pin down three corner values (see
+// λ_min(m) / λ_min(full): how well the samples behind `m` pin down a face's functions (see
 // SkyTable::corner_conditioning). 0 when m is singular or not positive definite.
-double corner_conditioning(const Eigen::Matrix3d& m, const Eigen::Matrix3d& full);
+double corner_conditioning(const Eigen::MatrixXd& m, const Eigen::MatrixXd& full);
 
 // Pixels whose direction lies below the horizon, outside the lens model's range, or where the
 // mask (CV_8U, image size, 0 = hidden) is 0 are left out. `mask` may be empty; when it is empty
