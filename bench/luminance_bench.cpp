@@ -86,6 +86,22 @@ BENCHMARK(BM_LuminanceCorners)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
+// The quadratics basis: six weighted sums per sample in one scalar pass, and per face the 6×6
+// fit. Arguments: ν, step.
+void BM_LuminanceQuadratics(benchmark::State& state) {
+  const geom::Dome dome(static_cast<int>(state.range(0)));
+  const sky::Lens lens(hd_fisheye());
+  const sky::SkyTable table = sky::build_sky_table(
+      lens, dome, {.step = static_cast<int>(state.range(1)), .basis = geom::DomeBasis::Quadratics});
+  const cv::Mat& frame = clear_sky_frame();
+  for (auto _ : state) {
+    sky::Luminance l = sky::compute_luminance(table, dome, frame, cv::Mat(), cv::Mat());
+    benchmark::DoNotOptimize(l.faces.data());
+  }
+  state.counters["samples"] = static_cast<double>(table.sample_count());
+}
+BENCHMARK(BM_LuminanceQuadratics)->ArgsProduct({{2, 8}, {1, 2, 4}})->Unit(benchmark::kMillisecond)->UseRealTime();
+
 void BM_BuildTable(benchmark::State& state) {
   const geom::Dome dome(static_cast<int>(state.range(0)));
   const sky::Lens lens(hd_fisheye());

@@ -1,5 +1,5 @@
-// End to end with the corners basis: skylit-bake --basis corners, verify, and skylit-shade on a
-// real sky, as a user would run them.
+// End to end with the corners and quadratics bases: skylit-bake --basis corners|quadratics,
+// verify, and skylit-shade on a real sky, as a user would run them.
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -74,6 +74,58 @@ TEST(SkylitCorners, BakeVerifyAndShade) {
     cv::minMaxLoc(T.reshape(1), &lo, &hi);
     EXPECT_GE(lo, 0.0) << plane;
     EXPECT_LE(hi, 1.0) << plane;
+  }
+}
+
+TEST(SkylitQuadratics, BakeVerifyAndShade) {
+  TempDir dir;
+  const std::string site = (kSource / "config" / "sample_site.yaml").string();
+  // Four samples per face cannot resolve six functions: refused, with the fix.
+  const Result refused = run(kBin / "skylit-bake", site + " -o " + (dir / "refused").string() +
+                                                       " --basis quadratics --samples 4 --resolution 24x16 "
+                                                       "--method raytrace -q");
+  EXPECT_EQ(refused.status, 2) << refused.output;
+  EXPECT_NE(refused.output.find("at least 6"), std::string::npos) << refused.output;
+  EXPECT_NE(refused.output.find("--samples 64"), std::string::npos) << refused.output;
+
+  const fs::path bake = dir / "bake";
+  const Result baked = run(kBin / "skylit-bake", site + " -o " + bake.string() +
+                                                     " --basis quadratics --samples 8 --resolution 24x16 "
+                                                     "--method raytrace --no-previews -q");
+  ASSERT_EQ(baked.status, 0) << baked.output;
+  const Result verified = run(kBin / "skylit-bake", "verify " + bake.string());
+  EXPECT_EQ(verified.status, 0) << verified.output;
+  EXPECT_NE(verified.output.find("quadratics basis, 240 layers"), std::string::npos) << verified.output;
+
+  const fs::path calib = kSource / "config" / "sky_camera.yaml";
+  const skylit::sky::Lens lens(skylit::sky::load_calibration(calib));
+  cv::Mat equirect = skylit::sky::read_sky_image(kSource / "data" / "hdri" / "park.exr");
+  const fs::path frame = dir / "park_fisheye.exr";
+  skylit::sky::write_sky_exr(frame, skylit::sky::render_fisheye(lens, equirect, {.supersample = 1}));
+
+  const fs::path out = dir / "out";
+  const Result shaded = run(kBin / "skylit-shade", "--bake " + bake.string() + " --sky-calib " + calib.string() +
+                                                       " --sky " + frame.string() + " -o " + out.string() + " -q");
+  ASSERT_EQ(shaded.status, 0) << shaded.output;
+  const nlohmann::json sky = nlohmann::json::parse(std::ifstream(out / "sky.json"));
+  EXPECT_EQ(sky["basis"], "quadratics");
+  ASSERT_EQ(sky["faces"].size(), 40u);
+  for (const auto& face : sky["faces"]) {
+    ASSERT_EQ(face["quadratics"].size(), 6u);
+    EXPECT_EQ(face["quadratics"][0]["function"], "vertex 0");
+    EXPECT_EQ(face["quadratics"][5]["function"], "edge 20");
+    for (const auto& q : face["quadratics"]) EXPECT_EQ(q["S"].size(), 3u);
+  }
+  for (const char* plane : {"ground", "wall", "roof"}) {
+    const cv::Mat T = skylit::sky::read_sky_image(out / (std::string(plane) + ".exr"));
+    ASSERT_EQ(T.cols, 24);
+    double lo = 0, hi = 0;
+    cv::minMaxLoc(T.reshape(1), &lo, &hi);
+    EXPECT_GE(lo, 0.0) << plane;
+    EXPECT_LE(hi, 1.0) << plane;
+    if (std::string(plane) == "ground") {
+      EXPECT_LT(lo, 0.9);  // the building's shadow under the park's sun
+    }
   }
 }
 

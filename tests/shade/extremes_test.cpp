@@ -63,7 +63,9 @@ struct BakeVariant {
 
 std::vector<BakeVariant> bake_variants() {
   // Compressed hard (4 components) so that the clamp and the bound are exercised.
-  std::vector<BakeVariant> variants{{"faces", 2, geom::DomeBasis::Faces, 4, 4}, {"corners", 2, geom::DomeBasis::Corners, 4, 4}};
+  std::vector<BakeVariant> variants{{"faces", 2, geom::DomeBasis::Faces, 4, 4},
+                                    {"corners", 2, geom::DomeBasis::Corners, 4, 4},
+                                    {"quadratics", 2, geom::DomeBasis::Quadratics, 6, 4}};
   for (const Preset& p : load_presets(default_presets_file())) {
     variants.push_back({"preset_" + p.name, p.bake.frequency, *geom::parse_basis(p.bake.basis), p.bake.samples,
                         p.bake.pca_components > 0 ? p.bake.pca_components : 4});
@@ -345,8 +347,9 @@ TEST_P(ExtremesTest, SunOnADomeVertexAnEdgeTheHorizonAndBelow) {
       expect_finite_unit(o);
       if (mode == sky::SunMode::Off) {
         EXPECT_FALSE(o.estimate.sun);
-        if (GetParam().basis == geom::DomeBasis::Corners && c.visible) {
-          // A 1e4 sun in a linear fit: the corners away from it go negative, T stays in [0, 1].
+        if (GetParam().basis != geom::DomeBasis::Faces && c.visible) {
+          // A 1e4 sun in a linear or quadratic fit: the coefficients away from it go negative, T
+          // stays in [0, 1].
           double lowest = 0;
           for (const auto& face : o.estimate.luminance.faces) {
             for (const Eigen::Vector3d& corner : face.coefficients) lowest = std::min(lowest, corner.minCoeff());
@@ -438,8 +441,9 @@ TEST_P(ExtremesTest, NarrowLensesSeeLessOfTheHorizon) {
     if (face.flags & sky::kFaceUnseen) {
       ++flagged;
       EXPECT_GT(face.rgb.minCoeff(), 0.0);  // filled from the seen neighbours
-      if (GetParam().basis == geom::DomeBasis::Corners) {
-        for (const Eigen::Vector3d& corner : face.coefficients) EXPECT_EQ(corner, face.rgb);  // all three corners
+      if (GetParam().basis != geom::DomeBasis::Faces) {
+        ASSERT_EQ(face.coefficients.size(), static_cast<std::size_t>(geom::layers_per_face(GetParam().basis)));
+        for (const Eigen::Vector3d& c : face.coefficients) EXPECT_EQ(c, face.rgb);  // in every function
       }
     }
   }

@@ -656,12 +656,36 @@ void accumulate_corners(const SkyTable& table, const cv::Mat& radiance, const cv
   }
 }
 
-// The quadratics pass: every sample in double, sanitised as it goes (one scalar pass; the
-// corners' SIMD form has no quadratic counterpart yet).
+// One sample of the quadratics pass in double: excluded (its functions' mass noted) or sanitised.
+inline void quadratic_sample_careful(const float* value, double w, std::uint16_t q0, std::uint16_t q1, bool excluded,
+                                     Sums& s) {
+  const double l0 = q0 * kCornerWeightUnit, l1 = q1 * kCornerWeightUnit;
+  const geom::LayerValues phi = geom::layer_values(geom::DomeBasis::Quadratics, {l0, l1, 1.0 - l0 - l1});
+  const Eigen::Map<const Eigen::Matrix<double, 6, 1>> v(phi.data());
+  if (excluded) {
+    s.excluded = true;
+    s.quadratic_excluded_mass.noalias() += (w * v) * v.transpose();
+    return;
+  }
+  float clean[3] = {value[0], value[1], value[2]};
+  sanitise(clean, s);
+  s.b += w * clean[0];
+  s.g += w * clean[1];
+  s.r += w * clean[2];
+  s.weight += w;
+  s.quadratic.noalias() += (w * v) * Eigen::RowVector3d(clean[2], clean[1], clean[0]);
+}
+
+// The quadratics pass. A run with no excluded sample is summed in kLanes float lanes (the six
+// functions' weighted sums; runs are short, ~100 samples at step 1) and flushed into the face's
+// double sums; if those sums show a NaN, an infinity or a negative value, the run is summed
+// again sample by sample in double, sanitised, as is a run the exclusion mask touches.
 void accumulate_quadratics(const SkyTable& table, const cv::Mat& radiance, const cv::Mat& clipped,
                            const cv::Mat& exclude, std::vector<Sums>& sums, std::int64_t& samples) {
+  constexpr int kLanes = 8;
   const RunLimits limits(table, sums.size());
   const std::ptrdiff_t step = table.step;
+  constexpr float unit = static_cast<float>(kCornerWeightUnit);
   for (const PixelRun& run : table.runs) {
     limits.check(run);
     Sums& s = sums[static_cast<std::size_t>(run.face)];
@@ -670,29 +694,70 @@ void accumulate_quadratics(const SkyTable& table, const cv::Mat& radiance, const
     const std::uint8_t* e = exclude.empty() ? nullptr : exclude.ptr<std::uint8_t>(run.row) + run.col_begin;
     const float* weights = table.weights.data() + run.weight_offset;
     const std::uint16_t* lambda = table.corner_weights.data() + 2 * std::size_t{run.weight_offset};
-    for (std::int32_t k = 0; k < run.count; ++k) {
-      const double w = weights[k];
-      const double l0 = lambda[2 * k] * kCornerWeightUnit, l1 = lambda[2 * k + 1] * kCornerWeightUnit;
-      const geom::LayerValues phi = geom::layer_values(geom::DomeBasis::Quadratics, {l0, l1, 1.0 - l0 - l1});
-      const Eigen::Map<const Eigen::Matrix<double, 6, 1>> v(phi.data());
-      if (e && e[k * step] != 0) {
-        s.excluded = true;
-        s.quadratic_excluded_mass.noalias() += (w * v) * v.transpose();
-        continue;
-      }
-      float value[3] = {pixel[k * 3 * step], pixel[k * 3 * step + 1], pixel[k * 3 * step + 2]};
-      sanitise(value, s);
-      s.b += w * value[0];
-      s.g += w * value[1];
-      s.r += w * value[2];
-      s.weight += w;
-      s.quadratic.noalias() += (w * v) * Eigen::RowVector3d(value[2], value[1], value[0]);
-      if (c && c[k * step] != 0) {
-        s.clipped += w;
-        ++s.clipped_pixels;
+    samples += run.count;
+    if (c) {
+      for (std::int32_t k = 0; k < run.count; ++k) {
+        if (c[k * step] != 0 && !(e && e[k * step] != 0)) {
+          s.clipped += weights[k];
+          ++s.clipped_pixels;
+        }
       }
     }
-    samples += run.count;
+    bool careful = false;
+    if (e) {
+      for (std::int32_t k = 0; k < run.count && !careful; ++k) careful = e[k * step] != 0;
+    }
+    if (!careful) {
+      float acc[6][3][kLanes] = {};
+      float rgbw[4][kLanes] = {};
+      float lowest[kLanes];
+      for (float& x : lowest) x = 0.0f;
+      const auto add = [&](int lane, std::int32_t k) {
+        const float w = weights[k];
+        const float* value = pixel + k * 3 * step;
+        const float l0 = lambda[2 * k] * unit, l1 = lambda[2 * k + 1] * unit, l2 = 1.0f - l0 - l1;
+        const float phi[6] = {l0 * l0, l1 * l1, l2 * l2, 2.0f * l0 * l1, 2.0f * l1 * l2, 2.0f * l2 * l0};
+        const float rgb[3] = {value[2], value[1], value[0]};
+        for (int j = 0; j < 6; ++j) {
+          for (int ch = 0; ch < 3; ++ch) acc[j][ch][lane] += (w * phi[j]) * rgb[ch];
+        }
+        for (int ch = 0; ch < 3; ++ch) {
+          rgbw[ch][lane] += w * value[ch];
+          lowest[lane] = std::min(lowest[lane], value[ch]);
+        }
+        rgbw[3][lane] += w;
+      };
+      std::int32_t k = 0;
+      for (; k + kLanes <= run.count; k += kLanes) {
+        for (int lane = 0; lane < kLanes; ++lane) add(lane, k + lane);
+      }
+      for (int lane = 0; k < run.count; ++k, ++lane) add(lane, k);
+      double flushed[6][3] = {}, totals[4] = {};
+      float low = 0.0f;
+      for (int lane = 0; lane < kLanes; ++lane) {
+        for (int j = 0; j < 6; ++j) {
+          for (int ch = 0; ch < 3; ++ch) flushed[j][ch] += acc[j][ch][lane];
+        }
+        for (int t = 0; t < 4; ++t) totals[t] += rgbw[t][lane];
+        low = std::min(low, lowest[lane]);
+      }
+      // NaN and ±Inf reach the sums; a negative value only `lowest`.
+      careful = !(low >= 0.0f) || !std::isfinite(totals[0] + totals[1] + totals[2]);
+      if (!careful) {
+        for (int j = 0; j < 6; ++j) {
+          for (int ch = 0; ch < 3; ++ch) s.quadratic(j, ch) += flushed[j][ch];
+        }
+        s.b += totals[0];
+        s.g += totals[1];
+        s.r += totals[2];
+        s.weight += totals[3];
+        continue;
+      }
+    }
+    for (std::int32_t k = 0; k < run.count; ++k) {
+      quadratic_sample_careful(pixel + k * 3 * step, weights[k], lambda[2 * k], lambda[2 * k + 1],
+                               e && e[k * step] != 0, s);
+    }
   }
 }
 
