@@ -17,6 +17,12 @@
 //     sky), wall and process CPU time; the plot and the front use --clock (cpu: CPU time over
 //     --cores, which other processes' load does not change; wall).
 //
+// With --sequence, also a sky sequence (an analytic clear sky over time with a passing cloud, one
+// sky per second, a dense reference per frame: study::sequence_reference) run through the live
+// path per setting — smoother (τ) → blend weights → CpuShadowRatios with the change threshold, kept
+// from frame to frame — for the error the ΔS threshold and the smoothing add and the share of
+// frames that re-blend (docs/trade.md, "The sky sequence").
+//
 // Writes OUT/trade.json, OUT/trade.md and OUT/trade.svg (RMS against whole-frame time, the
 // Pareto front marked). Bakes are cached in OUT/bakes (a bake is reused when its folder holds a
 // readable manifest and trade_bake.json).
@@ -52,6 +58,8 @@
 #include "skylit/render/sun_shadow_map.hpp"
 #include "skylit/sky/simulate.hpp"
 #include "skylit/sky/sky_estimate.hpp"
+#include "skylit/sky/sky_smoothing.hpp"
+#include "skylit/sky/solar.hpp"
 #include "study/study.hpp"
 
 namespace {
@@ -112,13 +120,31 @@ struct Setting {
     std::snprintf(text, sizeof text, "%s %s %db%s S%g", bake.name().c_str(), form.name().c_str(), bits,
                   sun ? " sun" : " nosun", skip_threshold);
     std::string s = text;
+    char live[64];
+    std::snprintf(live, sizeof live, " dS%g", change_threshold);
+    s += live;
+    if (smoothing > 0.0) {
+      std::snprintf(live, sizeof live, " tau%g", smoothing);
+      s += live;
+    }
     if (render_scale != 1.0) s += " r" + std::to_string(static_cast<int>(std::lround(render_scale * 100)));
     return s;
   }
 };
 
+// The setting on the sky sequence (--sequence): per frame, the errors of the live path's T
+// (smoother, change threshold) and of a fresh blend of the frame's own estimate (the still-sky
+// path), against the frame's reference; and how many planes re-blended.
+struct SequenceResult {
+  std::vector<double> rms, p99, max, still_rms, still_max;
+  std::vector<int> blended;  // planes whose blend ran, per frame
+  int planes = 0;
+  int sun_redraws = 0;       // frames whose sun visibility was recomputed (the sun moved): they re-blend
+};
+
 struct Result {
   Setting setting;
+  std::optional<SequenceResult> sequence;
   study::Errors error;
   std::map<std::string, double> rms_per_sky;
   std::optional<double> edge_m, edge_deg;  // sunny skies only
@@ -332,6 +358,35 @@ std::string svg_plot(const std::vector<Result>& results, const std::string& titl
   return s.str();
 }
 
+double mean_of(const std::vector<double>& v) {
+  double sum = 0;
+  for (double x : v) sum += x;
+  return v.empty() ? 0.0 : sum / static_cast<double>(v.size());
+}
+double max_of(const std::vector<double>& v) { return v.empty() ? 0.0 : *std::max_element(v.begin(), v.end()); }
+double blend_fraction(const SequenceResult& q) {
+  double runs = 0;
+  for (int b : q.blended) runs += b;
+  return q.blended.empty() || q.planes == 0 ? 0.0 : runs / (static_cast<double>(q.blended.size()) * q.planes);
+}
+
+nlohmann::json sequence_json(const Result& r) {
+  if (!r.sequence) return nullptr;
+  const SequenceResult& q = *r.sequence;
+  return {{"rms", mean_of(q.rms)},
+          {"rms_worst", max_of(q.rms)},
+          {"p99", mean_of(q.p99)},
+          {"p99_worst", max_of(q.p99)},
+          {"max", max_of(q.max)},
+          {"still_rms", mean_of(q.still_rms)},
+          {"still_max", max_of(q.still_max)},
+          {"blend_fraction", blend_fraction(q)},
+          {"sun_redraws", q.sun_redraws},
+          {"frames",
+           {{"rms", q.rms}, {"p99", q.p99}, {"max", q.max}, {"still_rms", q.still_rms}, {"still_max", q.still_max},
+            {"blended_planes", q.blended}, {"planes", q.planes}}}};
+}
+
 nlohmann::json to_json(const Result& r) {
   nlohmann::json per_sky = nlohmann::json::object();
   for (const auto& [sky, rms] : r.rms_per_sky) per_sky[sky] = rms;
@@ -366,14 +421,15 @@ nlohmann::json to_json(const Result& r) {
           {"whole_frame_cpu_ms", r.whole_frame_cpu_ms},
           {"cost_ms", r.cost_ms},
           {"frames_per_second", 1000.0 / r.cost_ms},
-          {"pareto", r.pareto}};
+          {"pareto", r.pareto},
+          {"sequence", sequence_json(r)}};
 }
 
 std::string markdown_table(const std::vector<Result>& results) {
   std::string md =
-      "| # | ν | basis | K | texel scale | form | bits | sun | S thr. | render scale | RMS | p99 | max | edge (m / °) | bake s | "
+      "| # | ν | basis | K | texel scale | form | bits | sun | S thr. | ΔS thr. | smoothing s | render scale | RMS | p99 | max | edge (m / °) | bake s | "
       "bake MB | GPU MB | blend ms wall / CPU | frame ms wall / CPU | cost ms (frames/s) | Pareto |\n"
-      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   int k = 0;
   for (const Result& r : results) {
     const Setting& s = r.setting;
@@ -381,15 +437,31 @@ std::string markdown_table(const std::vector<Result>& results) {
     if (r.edge_m) std::snprintf(edge, sizeof edge, "%.3f / %.3f", *r.edge_m, *r.edge_deg);
     char row[512];
     std::snprintf(row, sizeof row,
-                  "| %d | %d | %s | %d | 1/%d | %s | %d | %s | %g | %g | %.4f | %.4f | %.4f | %s | %.1f | %.2f | %.1f | %.1f / %.1f | "
+                  "| %d | %d | %s | %d | 1/%d | %s | %d | %s | %g | %g | %g | %g | %.4f | %.4f | %.4f | %s | %.1f | %.2f | %.1f | %.1f / %.1f | "
                   "%.1f / %.1f | %.1f (%.0f) | %s |\n",
                   k++, s.bake.frequency, std::string(geom::basis_name(s.bake.basis)).c_str(), s.bake.samples,
-                  s.bake.texel_scale, s.form.name().c_str(), s.bits, s.sun ? "on" : "off", s.skip_threshold, s.render_scale, r.error.rms,
+                  s.bake.texel_scale, s.form.name().c_str(), s.bits, s.sun ? "on" : "off", s.skip_threshold, s.change_threshold, s.smoothing, s.render_scale, r.error.rms,
                   r.error.p99, r.error.max, edge, r.bake_seconds, static_cast<double>(r.bake_bytes) / 1e6,
                   static_cast<double>(r.gpu_bytes) / 1e6, r.blend_ms, r.blend_cpu_ms, r.frame_ms, r.frame_cpu_ms, r.cost_ms,
                   1000.0 / r.cost_ms,
                   r.pareto ? "**yes**" : "");
     md += row;
+  }
+  if (!results.empty() && results.front().sequence) {
+    md += "\nSky sequence (--sequence): error of T against each frame's reference, mean over the frames (worst "
+          "frame); still: a fresh blend of each frame's own estimate; re-blends: share of frames × planes blended.\n\n"
+          "| # | setting | ΔS thr. | smoothing s | RMS mean (worst) | p99 mean (worst) | max | still RMS mean | still max | "
+          "re-blends |\n|---|---|---|---|---|---|---|---|---|---|\n";
+    k = 0;
+    for (const Result& r : results) {
+      const SequenceResult& q = *r.sequence;
+      char row[512];
+      std::snprintf(row, sizeof row, "| %d | %s | %g | %g | %.4f (%.4f) | %.4f (%.4f) | %.4f | %.4f | %.4f | %.0f%% |\n", k++,
+                    r.setting.label().c_str(), r.setting.change_threshold, r.setting.smoothing, mean_of(q.rms), max_of(q.rms),
+                    mean_of(q.p99), max_of(q.p99), max_of(q.max), mean_of(q.still_rms), max_of(q.still_max),
+                    100.0 * blend_fraction(q));
+      md += row;
+    }
   }
   return md;
 }
@@ -430,6 +502,13 @@ struct TradeOptions {
   // frame (the worst frame: the one whose sky changed, on one thread).
   double sky_interval = 0.0;
   bool quick = false;
+  // The sky sequence (--sequence): measures the change threshold and the smoothing.
+  bool sequence = false;
+  int sequence_frames = 60;
+  std::string sequence_start = "2026-11-23T05:00:00Z";
+  double sequence_lat = 34.68, sequence_lon = 135.84;
+  double sequence_cloud = 0.65;
+  int sequence_equirect = 128;
 };
 
 struct SkyData {
@@ -441,6 +520,17 @@ struct SkyData {
 
 int run_trade(TradeOptions o) {
   const auto start = Clock::now();
+  // The sky sequence's settings (--sequence), checked before any work.
+  study::SequenceOptions sequence;
+  sequence.frames = o.sequence_frames;
+  try {
+    sequence.start = sky::parse_utc(o.sequence_start);
+  } catch (const InputError& e) {
+    throw InputError("option --sequence-start: " + std::string(e.what()));
+  }
+  sequence.latitude_deg = o.sequence_lat;
+  sequence.longitude_deg = o.sequence_lon;
+  sequence.cloud = o.sequence_cloud;
   fs::create_directories(o.out_dir);
   const fs::path out(o.out_dir);
 
@@ -634,6 +724,77 @@ int run_trade(TradeOptions o) {
     }
   }
 
+  // The sky estimators per (ν, basis, sun separation), each with its dome (which it keeps by reference).
+  using EstimatorKey = std::tuple<int, geom::DomeBasis, bool>;
+  std::map<int, std::unique_ptr<geom::Dome>> domes;
+  std::map<EstimatorKey, std::unique_ptr<sky::SkyEstimator>> estimators;
+  const auto estimator_for = [&](const Setting& s) -> const sky::SkyEstimator& {
+    auto& estimator = estimators[{s.bake.frequency, s.bake.basis, s.sun}];
+    if (!estimator) {
+      auto& dome = domes[s.bake.frequency];
+      if (!dome) dome = std::make_unique<geom::Dome>(s.bake.frequency);
+      sky::SkyEstimateOptions sky_options;
+      sky_options.sun_mode = s.sun ? sky::SunMode::Auto : sky::SunMode::Off;
+      sky_options.table.basis = s.bake.basis;
+      estimator = std::make_unique<sky::SkyEstimator>(calibration, *dome, sky_options);
+    }
+    return *estimator;
+  };
+
+  // The sky sequence (--sequence): a clear sky over time with a passing cloud; its reference per
+  // resolution and, per estimator, the estimate of every frame (the frames are rendered once).
+  std::map<int, study::SequenceReference> sequence_references;
+  std::map<EstimatorKey, std::vector<sky::SkyEstimate>> sequence_estimates;
+  if (o.sequence) {
+    const auto t = Clock::now();
+    for (int s : scales) {
+      sequence_references[s] = study::sequence_reference(sequence, sites.at(s).site, sites.at(s).mesh, o.sequence_equirect);
+      std::printf("sequence reference 1/%d: %d frames, %.1f s\n", s, sequence.frames, sequence_references[s].seconds);
+      std::fflush(stdout);
+    }
+    for (const Setting& s : settings) (void)estimator_for(s);
+    for (int k = 0; k < sequence.frames; ++k) {
+      const sky::RadianceFrame frame{sky::render_fisheye(lens, study::sequence_sky(sequence, k), {.supersample = o.supersample}),
+                                     cv::Mat()};
+      for (const auto& [key, estimator] : estimators) sequence_estimates[key].push_back(estimator->estimate(frame));
+    }
+    std::printf("sequence: %d skies rendered and estimated (%zu estimators), %.1f s\n", sequence.frames, estimators.size(),
+                seconds_since(t));
+    std::fflush(stdout);
+  }
+  // The sun's visibility over the sequence per (estimator, resolution), as the service keeps it:
+  // recomputed (a new revision) only when the estimated sun moved by more than 0.1 of its angular
+  // radius (service.cpp, sun_moved), the disc of that frame's estimate as an area light.
+  struct SunTrack {
+    std::vector<std::uint64_t> revision;                                   // per frame
+    std::vector<std::shared_ptr<const std::vector<std::vector<float>>>> visibility;  // per frame: per plane
+  };
+  std::map<std::pair<EstimatorKey, int>, SunTrack> sun_tracks;
+  const auto sun_track = [&](const Setting& s, const bake::Manifest& manifest) -> const SunTrack& {
+    const EstimatorKey key{s.bake.frequency, s.bake.basis, s.sun};
+    SunTrack& track = sun_tracks[{key, s.bake.texel_scale}];
+    if (!track.revision.empty()) return track;
+    const scene::Mesh& mesh = sites.at(s.bake.texel_scale).mesh;
+    std::uint64_t revision = 0;
+    std::optional<Eigen::Vector3d> drawn_for;
+    std::shared_ptr<const std::vector<std::vector<float>>> visibility;
+    for (const sky::SkyEstimate& e : sequence_estimates.at(key)) {
+      if (e.sun && (!drawn_for || drawn_for->dot(e.sun->direction) < std::cos(std::max(1e-4, 0.1 * e.sun->angular_radius)))) {
+        auto planes = std::make_shared<std::vector<std::vector<float>>>();
+        for (const auto& record : manifest.planes) {
+          planes->emplace_back(static_cast<std::size_t>(record.plane.width) * record.plane.height);
+          baker::area_light_visibility(mesh, record.plane, e.sun->disc_directions, e.sun->disc_weights, planes->back());
+        }
+        visibility = std::move(planes);
+        drawn_for = e.sun->direction;
+        ++revision;
+      }
+      track.revision.push_back(revision);
+      track.visibility.push_back(visibility);
+    }
+    return track;
+  };
+
   // The compositor's frame time per (bake, sun map, render scale): the headless GL context.
   gpu::HeadlessContext context;
   const sky::CameraCalibration hmd = study::scaled_camera(o.hmd_calib, o.frame_width, o.frame_height);
@@ -707,7 +868,6 @@ int run_trade(TradeOptions o) {
   // Per setting: T for every sky against the reference; the blend's time on the first sky.
   render::BlendWorkers workers(o.threads);
   std::vector<Result> results;
-  std::map<std::tuple<int, geom::DomeBasis, bool>, std::unique_ptr<sky::SkyEstimator>> estimators;
   int index = 0;
   for (const Setting& s : settings) {
     ++index;
@@ -726,14 +886,7 @@ int run_trade(TradeOptions o) {
       if (s.bits == 8) quantise_to_unorm8(basis.back());
       r.layers += basis.back().layers;
     }
-    auto& estimator = estimators[{s.bake.frequency, s.bake.basis, s.sun}];
-    const geom::Dome dome(s.bake.frequency);
-    if (!estimator) {
-      sky::SkyEstimateOptions sky_options;
-      sky_options.sun_mode = s.sun ? sky::SunMode::Auto : sky::SunMode::Off;
-      sky_options.table.basis = s.bake.basis;
-      estimator = std::make_unique<sky::SkyEstimator>(calibration, dome, sky_options);
-    }
+    const sky::SkyEstimator* estimator = &estimator_for(s);
     std::vector<double> diffs;
     double edge_sum = 0;
     int edge_count = 0;
@@ -796,6 +949,54 @@ int run_trade(TradeOptions o) {
       diffs.insert(diffs.end(), sky_diffs.begin(), sky_diffs.end());
     }
     r.error = study::errors_of(std::move(diffs));
+    if (o.sequence) {
+      // The sequence: the live path (smoother → blend weights → CpuShadowRatios with the change
+      // threshold, one per plane, kept from frame to frame as the service keeps them) and the
+      // still-sky path (a fresh blend of the frame's own estimate), both against the reference.
+      const auto& estimates = sequence_estimates.at({s.bake.frequency, s.bake.basis, s.sun});
+      const SunTrack& track = sun_track(s, manifest);
+      const auto& reference = sequence_references.at(s.bake.texel_scale).frames;
+      SequenceResult q;
+      q.planes = static_cast<int>(basis.size());
+      q.sun_redraws = track.revision.empty() ? 0 : static_cast<int>(track.revision.back());
+      sky::SkySmoother smoother(s.smoothing);
+      std::vector<std::unique_ptr<live::CpuShadowRatios>> kept;
+      for (const auto& b : basis) kept.push_back(std::make_unique<live::CpuShadowRatios>(b, s.skip_threshold, s.change_threshold));
+      const auto sun_of = [](const sky::SkyEstimate& e) {
+        return e.sun ? std::optional<render::SunLight>(render::SunLight{e.sun->direction, e.sun->energy}) : std::nullopt;
+      };
+      for (std::size_t k = 0; k < estimates.size(); ++k) {
+        const sky::SkyEstimate smoothed = smoother.smooth(study::sequence_time(sequence, static_cast<int>(k)), estimates[k]);
+        const std::vector<Eigen::Vector3d> S_live = sky::layer_radiances(smoothed.luminance);
+        const std::vector<Eigen::Vector3d> S_still = sky::layer_radiances(estimates[k].luminance);
+        const std::optional<render::SunLight> sun_live = sun_of(smoothed), sun_still = sun_of(estimates[k]);
+        std::vector<double> live_diffs, still_diffs;
+        int blended = 0;
+        for (std::size_t j = 0; j < basis.size(); ++j) {
+          const std::span<const float> visibility =
+              track.visibility[k] ? std::span<const float>((*track.visibility[k])[j]) : std::span<const float>();
+          blended += kept[j]->blend(render::blend_weights(basis[j], S_live, sun_live), visibility, track.revision[k], &workers) ? 1 : 0;
+          live::CpuShadowRatios fresh(basis[j], s.skip_threshold, 0.0);
+          fresh.blend(render::blend_weights(basis[j], S_still, sun_still), visibility, track.revision[k], &workers);
+          const std::vector<float>& live_rgba = *kept[j]->rgba();
+          const std::vector<float>& still_rgba = *fresh.rgba();
+          for (std::size_t x = 0; x < basis[j].texel_count(); ++x) {
+            for (std::size_t ch = 0; ch < 3; ++ch) {
+              live_diffs.push_back(std::abs(live_rgba[4 * x + ch] - reference[k][j][x][static_cast<int>(ch)]));
+              still_diffs.push_back(std::abs(still_rgba[4 * x + ch] - reference[k][j][x][static_cast<int>(ch)]));
+            }
+          }
+        }
+        const study::Errors live_error = study::errors_of(std::move(live_diffs)), still_error = study::errors_of(std::move(still_diffs));
+        q.rms.push_back(live_error.rms);
+        q.p99.push_back(live_error.p99);
+        q.max.push_back(live_error.max);
+        q.still_rms.push_back(still_error.rms);
+        q.still_max.push_back(still_error.max);
+        q.blended.push_back(blended);
+      }
+      r.sequence = std::move(q);
+    }
     if (edge_count > 0) {
       r.edge_m = edge_sum / edge_count;
       r.edge_deg = std::atan2(*r.edge_m, study::kVisitorDistance) * 180.0 / std::numbers::pi;
@@ -815,6 +1016,10 @@ int run_trade(TradeOptions o) {
     }
     std::printf("[%d/%zu] %-44s RMS %.4f p99 %.4f max %.4f | blend %.2f ms frame %.2f ms (%.1f s)\n", index, settings.size(),
                 s.label().c_str(), r.error.rms, r.error.p99, r.error.max, r.blend_ms, r.frame_ms, seconds_since(t_setting));
+    if (r.sequence) {
+      std::printf("    sequence: RMS %.4f (worst %.4f, still %.4f) max %.4f, re-blends %.0f%%\n", mean_of(r.sequence->rms),
+                  max_of(r.sequence->rms), mean_of(r.sequence->still_rms), max_of(r.sequence->max), 100.0 * blend_fraction(*r.sequence));
+    }
     std::fflush(stdout);
     results.push_back(std::move(r));
   }
@@ -838,6 +1043,14 @@ int run_trade(TradeOptions o) {
                               double load[1] = {0};
                               return getloadavg(load, 1) == 1 ? load[0] : -1.0;
                             }()},
+                           {"sequence", o.sequence ? nlohmann::json{{"frames", sequence.frames},
+                                                                     {"interval_s", sequence.interval_s},
+                                                                     {"start", o.sequence_start},
+                                                                     {"latitude_deg", sequence.latitude_deg},
+                                                                     {"longitude_deg", sequence.longitude_deg},
+                                                                     {"cloud", sequence.cloud},
+                                                                     {"equirect_width", o.sequence_equirect}}
+                                                  : nlohmann::json(nullptr)},
                            {"settings", settings_json},
                            {"pareto", front},
                            {"seconds", seconds_since(start)}};
@@ -887,10 +1100,12 @@ int main(int argc, char** argv) {
       ->delimiter(',')
       ->capture_default_str();
   trade->add_option("--change-thresholds", o.change_thresholds,
-                    "ΔS threshold (blend.change_threshold), T units: recorded; a still sky is blended once (docs/trade.md)")
+                    "ΔS threshold (blend.change_threshold), T units: measured on the sky sequence (--sequence); a still "
+                    "sky is blended once")
       ->delimiter(',')
       ->capture_default_str();
-  trade->add_option("--smoothings", o.smoothings, "sky.smoothing, seconds: recorded; no effect on a still sky")
+  trade->add_option("--smoothings", o.smoothings, "sky.smoothing, seconds: measured on the sky sequence (--sequence); no "
+                    "effect on a still sky")
       ->delimiter(',')
       ->capture_default_str();
   trade->add_option("--render-scales", o.render_scales, "the compositor's render scale")->delimiter(',')->capture_default_str();
@@ -918,6 +1133,26 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.0, 3600.0))
       ->capture_default_str();
   trade->add_option("--cores", o.cores, "--clock cpu: the cores the work spreads over")->check(CLI::Range(1, 1024))->capture_default_str();
+  trade->add_flag("--sequence", o.sequence,
+                  "also run every setting over a sky sequence (a clear sky over time with a passing cloud, 1 sky per "
+                  "second) against each frame's reference: the change threshold's and the smoothing's error and re-blends");
+  trade->add_option("--sequence-frames", o.sequence_frames, "skies in the sequence, 1 s apart")
+      ->check(CLI::Range(2, 3600))
+      ->capture_default_str();
+  trade->add_option("--sequence-start", o.sequence_start, "UTC of the first sky (YYYY-MM-DDTHH:MM:SSZ)")->capture_default_str();
+  trade->add_option("--sequence-lat", o.sequence_lat, "latitude of the sequence's sun, degrees north")
+      ->check(CLI::Range(-90.0, 90.0))
+      ->capture_default_str();
+  trade->add_option("--sequence-lon", o.sequence_lon, "longitude of the sequence's sun, degrees east")
+      ->check(CLI::Range(-180.0, 180.0))
+      ->capture_default_str();
+  trade->add_option("--sequence-cloud", o.sequence_cloud,
+                    "depth of the passing cloud: the sun dimmed to 1 − this at the middle of the sequence")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+  trade->add_option("--sequence-equirect", o.sequence_equirect, "width of the equirect of the sequence's reference (sky part)")
+      ->check(CLI::Range(16, 2048))
+      ->capture_default_str();
   trade->add_flag("--quick", o.quick,
                   "a small grid (ν 2, faces and corners, K 8, planes at 1/16, full and pca4, 16 bits, sun on, S 0; "
                   "park and city) in a few minutes; explicit options still apply");

@@ -215,6 +215,139 @@ DenseReference dense_reference(const cv::Mat& equirect, const scene::Site& site,
   return reference;
 }
 
+double sequence_time(const SequenceOptions& options, int frame) { return frame * options.interval_s; }
+
+double sequence_dimming(const SequenceOptions& options, int frame) {
+  const double duration = options.frames * options.interval_s;
+  const double a = 0.25 * duration, b = 0.75 * duration, t = sequence_time(options, frame);
+  if (t <= a || t >= b) return 1.0;
+  return 1.0 - options.cloud * 0.5 * (1.0 - std::cos(2.0 * M_PI * (t - a) / (b - a)));
+}
+
+sky::SkyFunction sequence_sky(const SequenceOptions& options, int frame) {
+  sky::AnalyticSkySettings settings;
+  settings.kind = sky::AnalyticSkySettings::Kind::Clear;
+  settings.turbidity = options.turbidity;
+  settings.latitude_deg = options.latitude_deg;
+  settings.longitude_deg = options.longitude_deg;
+  const auto utc = options.start + std::chrono::seconds(static_cast<long long>(std::lround(sequence_time(options, frame))));
+  sky::SkyFunction clear = sky::analytic_sky(settings, utc);
+  const double d = sequence_dimming(options, frame), sky_scale = 0.7 + 0.3 * d;
+  sky::SkyFunction out;
+  out.sky = [f = std::move(clear.sky), sky_scale](const Vec3& direction) -> Eigen::Vector3d { return sky_scale * f(direction); };
+  out.sun = clear.sun;
+  if (out.sun) out.sun->irradiance *= d;
+  return out;
+}
+
+namespace {
+
+// Σ_p L_p Ω_p max(0, n·ω_p) V(x, ω_p) per texel of every plane, and Σ_p L_p Ω_p max(0, n·ω_p) per
+// plane, over the pixels of `equirect` above the horizon.
+struct ReferenceSums {
+  std::vector<std::vector<Eigen::Vector3d>> visible;
+  std::vector<Eigen::Vector3d> total;
+};
+
+ReferenceSums reference_sums(const cv::Mat& equirect, const scene::Site& site, const scene::Mesh& mesh) {
+  std::vector<Vec3> directions;
+  std::vector<Eigen::Vector3d> weights;
+  for (int row = 0; row < equirect.rows; ++row) {
+    const double solid_angle = sky::equirect_pixel_solid_angle(equirect.cols, equirect.rows, row);
+    for (int col = 0; col < equirect.cols; ++col) {
+      const Vec3 d = sky::equirect_direction(equirect.cols, equirect.rows, col, row);
+      if (d.z() <= 0.0) continue;
+      const cv::Vec3f& l = equirect.at<cv::Vec3f>(row, col);
+      directions.push_back(d);
+      weights.emplace_back(l[2] * solid_angle, l[1] * solid_angle, l[0] * solid_angle);
+    }
+  }
+  ReferenceSums sums;
+  for (const auto& plane : site.planes) {
+    std::vector<Eigen::Vector3d> visible(static_cast<std::size_t>(plane.width) * plane.height);
+    baker::weighted_plane_visibility(mesh, plane, directions, weights, visible);
+    Eigen::Vector3d total = Eigen::Vector3d::Zero();
+    for (std::size_t k = 0; k < directions.size(); ++k) total += std::max(0.0, plane.normal().dot(directions[k])) * weights[k];
+    sums.visible.push_back(std::move(visible));
+    sums.total.push_back(total);
+  }
+  return sums;
+}
+
+// The sun's disc as directions with equal weights: a 9 × 9 grid (odd rows shifted by a quarter step) over the square around it, the
+// points within its angular radius.
+std::vector<Vec3> disc_directions(const sky::SunDisc& sun) {
+  const Vec3 c = sun.direction.normalized();
+  const Vec3 e1 = (std::abs(c.z()) < 0.9 ? c.cross(Vec3::UnitZ()) : c.cross(Vec3::UnitX())).normalized();
+  const Vec3 e2 = c.cross(e1);
+  std::vector<Vec3> out;
+  const double r = std::tan(sun.angular_radius);
+  for (int i = -4; i <= 4; ++i) {
+    for (int j = -4; j <= 4; ++j) {
+      const double x = (i + 0.5 * (j % 2 != 0 ? 0.5 : 0.0)) / 4.5, y = j / 4.5;
+      if (x * x + y * y > 1.0) continue;
+      out.push_back((c + r * (x * e1 + y * e2)).normalized());
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+SequenceReference sequence_reference(const SequenceOptions& options, const scene::Site& site, const scene::Mesh& mesh,
+                                     int equirect_width, double key_interval_s) {
+  SequenceReference reference;
+  const auto t = Clock::now();
+  // Key frames of the sky part: every key_interval_s, and the last frame.
+  const int step = std::max(1, static_cast<int>(std::lround(key_interval_s / options.interval_s)));
+  std::vector<int> keys;
+  for (int k = 0; k < options.frames - 1; k += step) keys.push_back(k);
+  keys.push_back(std::max(0, options.frames - 1));
+  std::vector<ReferenceSums> key_sums;
+  for (int k : keys) {
+    sky::SkyFunction f = sequence_sky(options, k);
+    const double sky_scale = 0.7 + 0.3 * sequence_dimming(options, k);
+    f.sun.reset();
+    const auto unscaled = [g = f.sky, sky_scale](const Vec3& d) -> Eigen::Vector3d { return g(d) / sky_scale; };
+    const cv::Mat equirect = sky::render_equirect({unscaled, std::nullopt}, equirect_width, equirect_width / 2, {.supersample = 2});
+    key_sums.push_back(reference_sums(equirect, site, mesh));
+  }
+  for (int k = 0; k < options.frames; ++k) {
+    std::size_t a = 0;
+    while (a + 1 < keys.size() && keys[a + 1] <= k) ++a;
+    const std::size_t b = std::min(a + 1, keys.size() - 1);
+    const double u = keys[b] == keys[a] ? 0.0 : static_cast<double>(k - keys[a]) / (keys[b] - keys[a]);
+    const double sky_scale = 0.7 + 0.3 * sequence_dimming(options, k);
+    const sky::SkyFunction f = sequence_sky(options, k);
+    std::vector<std::vector<Eigen::Vector3d>> planes;
+    for (std::size_t j = 0; j < site.planes.size(); ++j) {
+      const geom::Plane& plane = site.planes[j];
+      std::vector<Eigen::Vector3d> T(key_sums[a].visible[j].size());
+      Eigen::Vector3d total = sky_scale * ((1 - u) * key_sums[a].total[j] + u * key_sums[b].total[j]);
+      for (std::size_t x = 0; x < T.size(); ++x) T[x] = sky_scale * ((1 - u) * key_sums[a].visible[j][x] + u * key_sums[b].visible[j][x]);
+      if (f.sun && f.sun->direction.z() > 0.0) {
+        const double cosine = std::max(0.0, plane.normal().dot(f.sun->direction.normalized()));
+        if (cosine > 0.0) {
+          const std::vector<Vec3> disc = disc_directions(*f.sun);
+          const std::vector<double> w(disc.size(), 1.0);
+          std::vector<float> v(T.size());
+          baker::area_light_visibility(mesh, plane, disc, w, v);
+          const Eigen::Vector3d e = f.sun->irradiance * cosine;
+          for (std::size_t x = 0; x < T.size(); ++x) T[x] += e * static_cast<double>(v[x]);
+          total += e;
+        }
+      }
+      for (auto& value : T) {
+        for (int c = 0; c < 3; ++c) value[c] = total[c] > 0.0 ? value[c] / total[c] : 1.0;
+      }
+      planes.push_back(std::move(T));
+    }
+    reference.frames.push_back(std::move(planes));
+  }
+  reference.seconds = seconds_since(t);
+  return reference;
+}
+
 sky::CameraCalibration scaled_camera(const fs::path& calibration_file, int width, int height) {
   sky::CameraCalibration c = sky::load_calibration(calibration_file);
   const double s = static_cast<double>(width) / c.image_width;

@@ -16,6 +16,7 @@
 #include "skylit/render/compositor.hpp"
 #include "skylit/scene/site.hpp"
 #include "skylit/sky/calibration.hpp"
+#include "skylit/sky/simulate.hpp"
 
 namespace skylit::study {
 
@@ -72,6 +73,38 @@ struct DenseReference {
 };
 DenseReference dense_reference(const cv::Mat& equirect, const scene::Site& site, const scene::Mesh& mesh,
                                int reference_supersample);
+
+// A sky sequence (skylit-bench trade --sequence, docs/trade.md): an analytic clear sky (the sky
+// simulator's, sky::analytic_sky) over `frames` seconds from `start`, one sky per `interval_s`,
+// with the sun where the solar-position algorithm puts it at (latitude, longitude), and a passing
+// cloud: over the middle half of the sequence the sun's irradiance is dimmed by
+//     d(t) = 1 − cloud · ½ (1 − cos 2π (t − t_a) / (t_b − t_a)),   t_a, t_b = ¼, ¾ of the duration
+// (1 outside), and the sky's radiance by 0.7 + 0.3 d(t), so that S and the sun's share change.
+struct SequenceOptions {
+  int frames = 60;
+  double interval_s = 1.0;
+  std::chrono::sys_seconds start{};
+  double latitude_deg = 34.68, longitude_deg = 135.84;  // Nara: the sample site's temple gate
+  double turbidity = 3.0;
+  double cloud = 0.65;
+};
+double sequence_time(const SequenceOptions& options, int frame);     // seconds from the start
+double sequence_dimming(const SequenceOptions& options, int frame);  // d(t) of the sun, 1 outside the cloud
+sky::SkyFunction sequence_sky(const SequenceOptions& options, int frame);
+
+// The dense reference of every frame of the sequence: T_ref as dense_reference defines it, every
+// pixel of an equirect of the sky (without the disc) above the horizon a light, plus the sun's
+// disc as an area light (a polar grid of directions over its angular radius, equal weights), all
+// ray-cast with Embree. To stay cheap, the sky part (which only follows the slow sun) is
+// ray-cast at key frames `key_interval_s` apart (and the last frame) and its sums interpolated
+// linearly in time between them, times the frame's sky dimming; the sun's disc is ray-cast for
+// every frame. planes[frame][plane][texel] RGB.
+struct SequenceReference {
+  std::vector<std::vector<std::vector<Eigen::Vector3d>>> frames;
+  double seconds = 0;  // the ray casts
+};
+SequenceReference sequence_reference(const SequenceOptions& options, const scene::Site& site, const scene::Mesh& mesh,
+                                     int equirect_width = 128, double key_interval_s = 30.0);
 
 // The compositor benchmark's view: the HMD camera of `calibration_file` scaled to width (same
 // focal length per pixel of width), any height, principal point centred; and a visitor's pose:

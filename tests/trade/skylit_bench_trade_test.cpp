@@ -6,6 +6,7 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -52,7 +53,7 @@ TEST(SkylitBenchTrade, TinyGridWritesTheTableThePlotAndTheParetoFront) {
                           "skip_threshold", "change_threshold", "smoothing", "render_scale", "rms", "p99", "max",
                           "rms_per_sky", "edge_displacement_m", "edge_displacement_deg", "bake_seconds", "bake_bytes",
                           "gpu_bytes", "layers", "skipped_layers", "blend_ms", "blend_cpu_ms", "frame_ms", "frame_cpu_ms",
-                          "whole_frame_ms", "whole_frame_cpu_ms", "cost_ms", "frames_per_second", "pareto"}) {
+                          "whole_frame_ms", "whole_frame_cpu_ms", "cost_ms", "frames_per_second", "pareto", "sequence"}) {
     for (const auto& s : settings) ASSERT_TRUE(s.contains(key)) << key << " missing in " << s.dump();
   }
   for (const auto& s : settings) {
@@ -66,6 +67,7 @@ TEST(SkylitBenchTrade, TinyGridWritesTheTableThePlotAndTheParetoFront) {
     EXPECT_GT(s.at("blend_ms").get<double>(), 0.0);
     EXPECT_TRUE(s.at("edge_displacement_deg").is_number()) << "park has a sun";
     EXPECT_TRUE(s.at("rms_per_sky").contains("park"));
+    EXPECT_TRUE(s.at("sequence").is_null()) << "no --sequence";
   }
   // 8-bit layers take half the GPU memory of half floats; the PCA form less than either.
   const auto find = [&](const std::string& form, int bits) {
@@ -97,6 +99,76 @@ TEST(SkylitBenchTrade, TinyGridWritesTheTableThePlotAndTheParetoFront) {
   EXPECT_EQ(circles, settings.size());
   const std::string md = read_all(out / "trade.md");
   EXPECT_NE(md.find("| Pareto |"), std::string::npos);
+
+  std::error_code ignored;
+  fs::remove_all(out, ignored);
+}
+
+// --sequence on a tiny grid: ΔS thresholds 0 and 0.05, smoothings 0 and 10 s, 24 skies with a
+// passing cloud. Threshold 0 without smoothing blends every frame and is the still-sky path; a
+// large threshold blends fewer and stays within its bound; a long time constant lags the cloud.
+TEST(SkylitBenchTrade, SequenceMeasuresTheChangeThresholdAndTheSmoothing) {
+  const fs::path out = fs::temp_directory_path() / ("skylit_trade_seq_" + std::to_string(std::random_device{}()));
+  const double large = 0.05;
+  const cli_test::Result result = cli_test::run_program(
+      kBin / "skylit-bench",
+      "trade --site " + (kSource / "config/sample_site.yaml").string() + " --calib " +
+          (kSource / "config/sky_camera.yaml").string() + " --hmd-camera " + (kSource / "config/hmd_camera.yaml").string() +
+          " --skies " + (kSource / "data/hdri").string() +
+          " --sky park --frequencies 2 --bases faces --samples 3 --texel-scales 32 --forms full --bits 16 --sun on"
+          " --skip-thresholds 0 --change-thresholds 0,0.05 --smoothings 0,10 --frame-width 160 --frame-height 120"
+          " --frame-repeats 2 --blend-repeats 2 --timing-scale 8 --supersample 1 --sequence --sequence-frames 24 --out " +
+          out.string());
+  ASSERT_EQ(result.status, 0) << result.output;
+  const nlohmann::json doc = nlohmann::json::parse(read_all(out / "trade.json"));
+  ASSERT_TRUE(doc.at("sequence").is_object());
+  EXPECT_EQ(doc.at("sequence").at("frames"), 24);
+  const auto& settings = doc.at("settings");
+  ASSERT_EQ(settings.size(), 4u);
+  const auto find = [&](double change, double smoothing) {
+    for (const auto& s : settings) {
+      if (s.at("change_threshold") == change && s.at("smoothing") == smoothing) return s.at("sequence");
+    }
+    ADD_FAILURE() << change << " " << smoothing;
+    return nlohmann::json();
+  };
+  const nlohmann::json base = find(0.0, 0.0), thresholded = find(large, 0.0), smoothed = find(0.0, 10.0);
+  ASSERT_TRUE(base.is_object() && thresholded.is_object() && smoothed.is_object());
+  for (const auto* q : {&base, &thresholded, &smoothed}) {
+    for (const char* key : {"rms", "rms_worst", "p99", "p99_worst", "max", "still_rms", "still_max", "blend_fraction", "frames"}) {
+      ASSERT_TRUE(q->contains(key)) << key;
+    }
+    ASSERT_EQ(q->at("frames").at("rms").size(), 24u);
+    EXPECT_GT(q->at("rms").get<double>(), 0.0);
+    EXPECT_LE(q->at("rms").get<double>(), q->at("rms_worst").get<double>());
+  }
+  const auto frames = [](const nlohmann::json& q, const char* key) { return q.at("frames").at(key).get<std::vector<double>>(); };
+
+  // Threshold 0, no smoothing: every plane of every frame re-blends, and each frame's error is
+  // the still-sky error of that frame.
+  EXPECT_EQ(base.at("blend_fraction").get<double>(), 1.0);
+  EXPECT_EQ(frames(base, "rms"), frames(base, "still_rms"));
+  EXPECT_EQ(frames(base, "max"), frames(base, "still_max"));
+
+  // A large threshold: fewer re-blends, a larger error, but within the bound it implies: the
+  // kept T is within the threshold of a fresh blend, texel by texel.
+  EXPECT_LT(thresholded.at("blend_fraction").get<double>(), base.at("blend_fraction").get<double>());
+  EXPECT_GE(thresholded.at("rms").get<double>(), base.at("rms").get<double>());
+  const auto rms = frames(thresholded, "rms"), still_rms = frames(thresholded, "still_rms");
+  const auto max = frames(thresholded, "max"), still_max = frames(thresholded, "still_max");
+  for (std::size_t k = 0; k < rms.size(); ++k) {
+    EXPECT_LE(max[k], still_max[k] + large + 1e-4) << "frame " << k;
+    EXPECT_LE(rms[k], still_rms[k] + large + 1e-4) << "frame " << k;
+  }
+  EXPECT_EQ(frames(thresholded, "still_rms"), frames(base, "still_rms"));  // the same skies and estimates
+
+  // A long time constant lags the passing cloud: the error grows, most in the worst frame.
+  EXPECT_EQ(smoothed.at("blend_fraction").get<double>(), 1.0);
+  EXPECT_GT(smoothed.at("rms").get<double>(), 1.2 * base.at("rms").get<double>());
+  EXPECT_GT(smoothed.at("rms_worst").get<double>(), 1.5 * base.at("rms_worst").get<double>());
+
+  const std::string md = read_all(out / "trade.md");
+  EXPECT_NE(md.find("Sky sequence"), std::string::npos);
 
   std::error_code ignored;
   fs::remove_all(out, ignored);
