@@ -387,6 +387,33 @@ TEST_F(CompositorTest, RealPixelsPassUntouchedWhereNothingVirtualIs) {
   EXPECT_GT(cv::countNonZero(building), 3000);  // the building is in view
 }
 
+TEST_F(CompositorTest, ANewSkyReachesTheBuildingOnTheNextFrame) {
+  // The per-vertex sky irradiance is summed on the CPU when the sky changes, not per frame: a
+  // compositor that drew one sky and then another draws exactly what a fresh one draws for the
+  // second (and again for the first), and a change of one layer alone is seen.
+  cv::Mat camera(240, 320, CV_8UC3, cv::Scalar(90, 110, 130));
+  render::CompositeInput input;
+  input.camera = camera;
+  input.pose = hmd_pose();
+  std::vector<Vector3d> bright = uniform_sky(1.0);
+  std::vector<Vector3d> dim = uniform_sky(0.25);
+  dim.front() = Vector3d(2.0, 0.5, 0.0);  // one layer differs from the rest
+  auto linear = [&](render::Compositor& compositor, const std::vector<Vector3d>& sky) {
+    input.sky = sky;
+    compositor.draw(input);
+    return compositor.read_linear();
+  };
+  render::Compositor reused = make();
+  const cv::Mat first = linear(reused, bright);
+  const cv::Mat second = linear(reused, dim);
+  const cv::Mat again = linear(reused, bright);
+  render::Compositor fresh_dim = make();
+  const cv::Mat expected_dim = linear(fresh_dim, dim);
+  EXPECT_EQ(cv::norm(second, expected_dim, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(again, first, cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(first, second, cv::NORM_INF), 0.01);  // the building changed with the sky
+}
+
 TEST_F(CompositorTest, OpacityBlendsTheCompositeTowardsTheCameraImage) {
   // The building and its shadow on the ground (a low sun in the west-south-west), over a random
   // real world: opacity 0 must give the camera image exactly, 0.5 the midpoint of the camera

@@ -26,12 +26,7 @@ namespace {
 namespace fs = std::filesystem;
 using gpu::check_gl_error;
 
-// The transfer texture's row width (texels): a multiple of 4 under every driver's size limit.
-constexpr int kTransferRowTexels = 2048;
-
 // Texture units (match the bindings in the shaders).
-constexpr GLuint kTransferUnit = 0;
-constexpr GLuint kSkyUnit = 1;
 constexpr GLuint kAlbedoUnit = 2;
 constexpr GLuint kSunShadowUnit = 3;
 constexpr GLuint kVirtualRatioUnit = 4;   // 4 .. 11
@@ -238,7 +233,13 @@ struct Compositor::State {
   std::vector<int> virtual_planes;               // bake plane indices, in shader order
   std::vector<int> real_planes;
   int layer_count = 0;
-  int texels_per_vertex = 0;
+  int vertices = 0;
+  // The transfer vectors layer after layer (t_{v,i} at [i · vertex_count + v], finite, ≥ 0), and
+  // the per-vertex sky irradiance E_v = Σ_i S_i t_{v,i} for the sky it was summed for
+  // (irradiance_sky; empty: not yet): summed on the CPU when the sky changes, not per frame.
+  std::vector<float> transfer_by_layer;
+  std::vector<Eigen::Vector3d> irradiance_sky;
+  std::vector<float> vertex_irradiance;          // rgb per vertex
 
   // Building geometry, grouped by material for one draw each.
   struct MaterialDraw {
@@ -249,9 +250,7 @@ struct Compositor::State {
   };
   std::vector<MaterialDraw> draws;
   gpu::VertexArray building_vertices;
-  gpu::Buffer positions, normals, texcoords, indices;
-  gpu::Texture transfer;
-  gpu::Texture sky;
+  gpu::Buffer positions, normals, texcoords, irradiance_values, indices;
   std::vector<gpu::Texture> albedo_textures;
   gpu::Texture white;                            // 1×1 sRGB white: the albedo of untextured materials
   gpu::Texture ones;                             // 1×1 RGBA32F (1,1,1,1): T of a plane without a texture
@@ -286,6 +285,7 @@ struct Compositor::State {
   void upload_building(const scene::Mesh& mesh, std::span<const float> transfer_values);
   void make_targets();
   void upload_camera(const cv::Mat& frame);
+  void update_irradiance(const std::vector<Eigen::Vector3d>& sky_values);
   void draw_building(const CompositeInput& input, const std::vector<Eigen::Vector3d>& sky_values,
                      const PhotometricMatch& photometric);
   void draw_composite(const CompositeInput& input);
@@ -363,28 +363,19 @@ void Compositor::State::check_inputs(const scene::Site& site, const scene::Mesh&
 }
 
 void Compositor::State::upload_building(const scene::Mesh& mesh, std::span<const float> transfer_values) {
-  // Transfer vectors: 4 layers per RGBA32F texel, zero-padded, vertex after vertex, in rows.
-  texels_per_vertex = (layer_count + 3) / 4;
+  // Transfer vectors layer after layer (update_irradiance sums them for every vertex at once).
   const std::size_t vertex_count = mesh.vertex_count();
-  const std::size_t texels = std::max<std::size_t>(1, vertex_count * static_cast<std::size_t>(texels_per_vertex));
-  const std::size_t rows = (texels + kTransferRowTexels - 1) / kTransferRowTexels;
-  GLint max_size = 0;
-  glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
-  if (rows > static_cast<std::size_t>(max_size)) {
-    throw InputError(input_message({}, -1, -1, "",
-                                   "the model's transfer vectors (" + std::to_string(vertex_count) + " vertices × " +
-                                       std::to_string(layer_count) + " layers) do not fit in this GPU's textures",
-                                   "simplify the model or bake with a lower dome frequency"));
-  }
-  std::vector<float> packed(rows * kTransferRowTexels * 4, 0.0f);
+  vertices = static_cast<int>(vertex_count);
+  const auto layers = static_cast<std::size_t>(layer_count);
+  transfer_by_layer.assign(layers * vertex_count, 0.0f);
   for (std::size_t v = 0; v < vertex_count; ++v) {
-    for (int i = 0; i < layer_count; ++i) {
-      const float t = transfer_values[v * static_cast<std::size_t>(layer_count) + static_cast<std::size_t>(i)];
-      packed[(v * static_cast<std::size_t>(texels_per_vertex)) * 4 + static_cast<std::size_t>(i)] = std::isfinite(t) ? std::max(t, 0.0f) : 0.0f;
+    for (std::size_t i = 0; i < layers; ++i) {
+      const float t = transfer_values[v * layers + i];
+      transfer_by_layer[i * vertex_count + v] = std::isfinite(t) ? std::max(t, 0.0f) : 0.0f;
     }
   }
-  transfer = texture_2d(GL_RGBA32F, kTransferRowTexels, static_cast<int>(rows), GL_RGBA, GL_FLOAT, packed.data());
-  sky = texture_2d(GL_RGBA32F, 4 * texels_per_vertex, 1, GL_RGBA, GL_FLOAT, nullptr);
+  vertex_irradiance.assign(3 * vertex_count, 0.0f);
+  irradiance_sky.clear();
 
   // Vertices (texcoords zero when the model has none) and indices grouped by material.
   building_vertices = gpu::make_vertex_array();
@@ -402,6 +393,7 @@ void Compositor::State::upload_building(const scene::Mesh& mesh, std::span<const
   std::vector<Eigen::Vector2f> uv = mesh.texcoords;
   uv.resize(vertex_count, Eigen::Vector2f::Zero());
   attribute(texcoords, 2, 2, uv.front().data(), vertex_count);
+  attribute(irradiance_values, 3, 3, vertex_irradiance.data(), vertex_count);
 
   std::vector<std::uint32_t> grouped;
   grouped.reserve(mesh.indices.size());
@@ -522,6 +514,36 @@ void Compositor::State::upload_camera(const cv::Mat& frame) {
   check_gl_error("Compositor: uploading the camera frame");
 }
 
+void Compositor::State::update_irradiance(const std::vector<Eigen::Vector3d>& sky_values) {
+  if (!irradiance_sky.empty() && irradiance_sky == sky_values) return;
+  // E_v = Σ_i S_i t_{v,i} in float, layer after layer (the order and precision the vertex shader
+  // summed in before), every vertex of a layer at once.
+  const auto count = static_cast<std::size_t>(vertices);
+  std::vector<float> red(count, 0.0f), green(count, 0.0f), blue(count, 0.0f);
+  for (std::size_t i = 0; i < sky_values.size(); ++i) {
+    const auto r = static_cast<float>(sky_values[i].x());
+    const auto g = static_cast<float>(sky_values[i].y());
+    const auto b = static_cast<float>(sky_values[i].z());
+    if (r == 0.0f && g == 0.0f && b == 0.0f) continue;
+    const float* t = transfer_by_layer.data() + i * count;
+    for (std::size_t v = 0; v < count; ++v) {
+      red[v] += t[v] * r;
+      green[v] += t[v] * g;
+      blue[v] += t[v] * b;
+    }
+  }
+  for (std::size_t v = 0; v < count; ++v) {
+    vertex_irradiance[3 * v] = red[v];
+    vertex_irradiance[3 * v + 1] = green[v];
+    vertex_irradiance[3 * v + 2] = blue[v];
+  }
+  glBindBuffer(GL_ARRAY_BUFFER, irradiance_values.get());
+  glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(vertex_irradiance.size() * sizeof(float)),
+                  vertex_irradiance.data());
+  glBindBuffer(GL_ARRAY_BUFFER, 0);
+  irradiance_sky = sky_values;
+}
+
 GLuint Compositor::State::ratio_texture(const CompositeInput& input, int plane) const {
   const auto index = static_cast<std::size_t>(plane);
   if (index < input.shadow_ratios.size() && input.shadow_ratios[index] != 0) return input.shadow_ratios[index];
@@ -530,13 +552,7 @@ GLuint Compositor::State::ratio_texture(const CompositeInput& input, int plane) 
 
 void Compositor::State::draw_building(const CompositeInput& input, const std::vector<Eigen::Vector3d>& sky_values,
                                       const PhotometricMatch& photometric) {
-  // S, padded with zeros to the transfer texture's 4 layers per texel.
-  std::vector<float> sky_texels(16 * static_cast<std::size_t>(texels_per_vertex), 0.0f);
-  for (std::size_t i = 0; i < sky_values.size(); ++i) {
-    for (int c = 0; c < 3; ++c) sky_texels[4 * i + static_cast<std::size_t>(c)] = static_cast<float>(sky_values[i][c]);
-  }
-  glBindTexture(GL_TEXTURE_2D, sky.get());
-  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, 4 * texels_per_vertex, 1, GL_RGBA, GL_FLOAT, sky_texels.data());
+  update_irradiance(sky_values);
 
   // Camera: site → camera → the pinhole's clip space, with image row y at window row y (so that
   // texel row 0 is the image's top row, like every other image here).
@@ -599,8 +615,6 @@ void Compositor::State::draw_building(const CompositeInput& input, const std::ve
   const auto camera = column_major<4>(camera_from_site);
   glUniformMatrix4fv(uniform(program, "clip_from_site"), 1, GL_FALSE, clip.data());
   glUniformMatrix4fv(uniform(program, "camera_from_site"), 1, GL_FALSE, camera.data());
-  glUniform1i(uniform(program, "texels_per_vertex"), texels_per_vertex);
-  glUniform1i(uniform(program, "transfer_row_texels"), kTransferRowTexels);
   set_vec3(uniform(program, "photometric_scale"), finite_nonnegative(photometric.scale, nullptr));
 
   set_vec3(uniform(program, "sun_direction"), sun_direction);
@@ -628,10 +642,6 @@ void Compositor::State::draw_building(const CompositeInput& input, const std::ve
   set_vec3_array(program, "plane_normal", normal);
   set_vec3_array(program, "plane_irradiance", irradiance);
 
-  glActiveTexture(GL_TEXTURE0 + kTransferUnit);
-  glBindTexture(GL_TEXTURE_2D, transfer.get());
-  glActiveTexture(GL_TEXTURE0 + kSkyUnit);
-  glBindTexture(GL_TEXTURE_2D, sky.get());
   for (int j = 0; j < static_cast<int>(virtual_planes.size()); ++j) {
     const GLuint unit = kVirtualRatioUnit + static_cast<GLuint>(j);
     glActiveTexture(GL_TEXTURE0 + unit);

@@ -150,7 +150,8 @@ class Compositor {
   Compositor& operator=(const Compositor&) = delete;
 
   // Draws one frame into linear_texture() and display_texture() (for a display: no read-back,
-  // no wait for the GPU). InputError as composite.
+  // no wait for the GPU). InputError as composite. The building's per-vertex Σ_i S_i t_{v,i} is
+  // summed on the CPU (calling thread) only when input.sky differs from the last frame's.
   void draw(const CompositeInput& input);
   // Draws one frame and reads it back: CV_8UC3 sRGB for an 8-bit camera frame, CV_32FC3 linear
   // for a float one (BGR, the camera's size). InputError for a frame of the wrong size or type,
