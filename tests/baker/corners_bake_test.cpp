@@ -13,6 +13,7 @@
 
 #include "box_scene.hpp"
 #include "../support/box_site.hpp"
+#include "../support/suite_setup.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/baker/visibility.hpp"
@@ -157,19 +158,23 @@ class CornersBake : public ::testing::Test {
     options.samples = 16;
     options.method = "raytrace";
     options.previews = false;
-    options.out_dir = *dir_ / "corners";  // the site's basis
-    run_bake(options, quiet);
-    options.out_dir = *dir_ / "faces";
-    options.basis = geom::DomeBasis::Faces;  // --basis overrides the site
-    run_bake(options, quiet);
+    setup_.run([&] {
+      options.out_dir = *dir_ / "corners";  // the site's basis
+      run_bake(options, quiet);
+      options.out_dir = *dir_ / "faces";
+      options.basis = geom::DomeBasis::Faces;  // --basis overrides the site
+      run_bake(options, quiet);
+    });
     std::fclose(quiet);
   }
+  void SetUp() override { setup_.require(); }
   static void TearDownTestSuite() {
     std::error_code ignored;
     fs::remove_all(*dir_, ignored);
     delete dir_;
   }
   static fs::path* dir_;
+  static inline skylit::test::SuiteSetup setup_;
 };
 fs::path* CornersBake::dir_ = nullptr;
 

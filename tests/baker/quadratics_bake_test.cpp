@@ -7,6 +7,7 @@
 #include <string>
 
 #include "../support/box_site.hpp"
+#include "../support/suite_setup.hpp"
 #include "skylit/bake/format.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/baker/bake_job.hpp"
@@ -34,35 +35,30 @@ class QuadraticsBake : public ::testing::Test {
     options.method = "raytrace";
     options.previews = false;
     options.out_dir = *dir_ / "quadratics";  // the site's basis
-    setup_error_ = new std::string;
-    try {  // a failed bake fails every test (gtest would only skip them)
+    setup_.run([&] {
       run_bake(options, quiet);
       for (const geom::DomeBasis basis : {geom::DomeBasis::Faces, geom::DomeBasis::Corners}) {
         options.out_dir = *dir_ / std::string(geom::basis_name(basis));
         options.basis = basis;
         run_bake(options, quiet);
       }
-    } catch (const std::exception& e) {
-      *setup_error_ = e.what();
-    }
+    });
     std::fclose(quiet);
   }
-  void SetUp() override { ASSERT_TRUE(setup_error_->empty()) << *setup_error_; }
+  void SetUp() override { setup_.require(); }
   static void TearDownTestSuite() {
     std::error_code ignored;
     fs::remove_all(*dir_, ignored);
     delete dir_;
-    delete setup_error_;
   }
   static bake::Manifest manifest(const std::string& name) { return bake::read_manifest(*dir_ / name); }
   static bake::ImageStack plane(const std::string& name, std::size_t j) {
     return bake::read_exr_stack(*dir_ / name / manifest(name).planes[j].file);
   }
   static fs::path* dir_;
-  static std::string* setup_error_;
+  static inline skylit::test::SuiteSetup setup_;
 };
 fs::path* QuadraticsBake::dir_ = nullptr;
-std::string* QuadraticsBake::setup_error_ = nullptr;
 
 TEST_F(QuadraticsBake, TheBakeHasSixLayersPerFaceAndItsASplitsTheCorners) {
   const bake::VerifyReport report = bake::verify(*dir_ / "quadratics");

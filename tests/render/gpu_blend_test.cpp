@@ -18,6 +18,7 @@
 #include "gpu_test_support.hpp"
 #include "../support/gl_suite.hpp"
 #include "../support/box_site.hpp"
+#include "../support/suite_setup.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/render/gpu_blend.hpp"
@@ -401,10 +402,13 @@ class GpuBlendRealBake : public GpuBlend {
     options.method = "raytrace";
     options.previews = false;
     std::FILE* quiet = std::fopen("/dev/null", "w");
-    baker::run_bake(options, quiet);
+    setup_.run([&] {
+      baker::run_bake(options, quiet);
+      manifest_ = new bake::Manifest(bake::read_manifest(*dir_ / "bake"));
+    });
     std::fclose(quiet);
-    manifest_ = new bake::Manifest(bake::read_manifest(*dir_ / "bake"));
   }
+  void SetUp() override { setup_.require(); }
   static void TearDownTestSuite() {
     std::error_code ignored;
     fs::remove_all(*dir_, ignored);
@@ -414,6 +418,7 @@ class GpuBlendRealBake : public GpuBlend {
   }
   static fs::path* dir_;
   static bake::Manifest* manifest_;
+  static inline skylit::test::SuiteSetup setup_;
 };
 fs::path* GpuBlendRealBake::dir_ = nullptr;
 bake::Manifest* GpuBlendRealBake::manifest_ = nullptr;

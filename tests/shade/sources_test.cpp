@@ -23,6 +23,7 @@
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/sky_estimate.hpp"
 #include "../support/sky_paint.hpp"
+#include "../support/suite_setup.hpp"
 
 namespace skylit {
 namespace {
@@ -101,12 +102,15 @@ class SourcesShadeTest : public ::testing::Test {
     options.samples = 4;
     options.method = "raytrace";
     options.previews = false;
-    baker::run_bake(options, quiet);
+    setup_.run([&] {
+      baker::run_bake(options, quiet);
+      manifest_ = new bake::Manifest(bake::read_manifest(*dir_ / "bake"));
+      const scene::Site site = scene::load_site(*dir_ / "site.yaml");
+      mesh_ = new scene::Mesh(scene::load_model(site.model, site.up, site.scale));
+    });
     std::fclose(quiet);
-    manifest_ = new bake::Manifest(bake::read_manifest(*dir_ / "bake"));
-    const scene::Site site = scene::load_site(*dir_ / "site.yaml");
-    mesh_ = new scene::Mesh(scene::load_model(site.model, site.up, site.scale));
   }
+  void SetUp() override { setup_.require(); }
   static void TearDownTestSuite() {
     std::error_code ignored;
     fs::remove_all(*dir_, ignored);
@@ -180,6 +184,7 @@ class SourcesShadeTest : public ::testing::Test {
   }
 
   static fs::path* dir_;
+  static inline skylit::test::SuiteSetup setup_;
   static bake::Manifest* manifest_;
   static scene::Mesh* mesh_;
 };
