@@ -25,6 +25,49 @@ using skylit::cli_test::TempDir;
 
 Result run(const fs::path& program, const std::string& args) { return skylit::cli_test::run_program(program, args); }
 
+// skylit-bake of the sample site at 24×16 texels with `options`, then skylit-bake verify, whose
+// report must name `summary`; the bake's folder.
+fs::path bake_and_verify(const fs::path& dir, const std::string& options, const std::string& summary) {
+  const fs::path bake = dir / "bake";
+  const Result baked = run(kBin / "skylit-bake", (kSource / "config" / "sample_site.yaml").string() + " -o " +
+                                                     bake.string() + " " + options +
+                                                     " --resolution 24x16 --method raytrace --no-previews -q");
+  EXPECT_EQ(baked.status, 0) << baked.output;
+  const Result verified = run(kBin / "skylit-bake", "verify " + bake.string());
+  EXPECT_EQ(verified.status, 0) << verified.output;
+  EXPECT_NE(verified.output.find(summary), std::string::npos) << verified.output;
+  return bake;
+}
+
+// skylit-shade on the park sky (a low sun) seen by the sample sky camera; its output folder.
+fs::path shade_park(const fs::path& bake, const fs::path& dir) {
+  const fs::path calib = kSource / "config" / "sky_camera.yaml";
+  const skylit::sky::Lens lens(skylit::sky::load_calibration(calib));
+  const cv::Mat equirect = skylit::sky::read_sky_image(kSource / "data" / "hdri" / "park.exr");
+  const fs::path frame = dir / "park_fisheye.exr";
+  skylit::sky::write_sky_exr(frame, skylit::sky::render_fisheye(lens, equirect, {.supersample = 1}));
+  const fs::path out = dir / "out";
+  const Result shaded = run(kBin / "skylit-shade", "--bake " + bake.string() + " --sky-calib " + calib.string() +
+                                                       " --sky " + frame.string() + " -o " + out.string() + " -q");
+  EXPECT_EQ(shaded.status, 0) << shaded.output;
+  return out;
+}
+
+// T of every plane of the sample site at 24 texels across and in [0, 1]; the ground's lowest T.
+double check_ratios(const fs::path& out) {
+  double ground = 1.0;
+  for (const char* plane : {"ground", "wall", "roof"}) {
+    const cv::Mat T = skylit::sky::read_sky_image(out / (std::string(plane) + ".exr"));
+    EXPECT_EQ(T.cols, 24) << plane;
+    double lo = 0, hi = 0;
+    cv::minMaxLoc(T.reshape(1), &lo, &hi);
+    EXPECT_GE(lo, 0.0) << plane;
+    EXPECT_LE(hi, 1.0) << plane;
+    if (std::string(plane) == "ground") ground = lo;
+  }
+  return ground;
+}
+
 TEST(SkylitCorners, BakeVerifyAndShade) {
   TempDir dir;
   const std::string site = (kSource / "config" / "sample_site.yaml").string();
@@ -37,26 +80,9 @@ TEST(SkylitCorners, BakeVerifyAndShade) {
   EXPECT_EQ(unknown.status, 2) << unknown.output;
   EXPECT_NE(unknown.output.find("--basis faces, corners or quadratics"), std::string::npos) << unknown.output;
 
-  const fs::path bake = dir / "bake";
-  const Result baked = run(kBin / "skylit-bake", site + " -o " + bake.string() +
-                                                     " --basis corners --samples 4 --resolution 24x16 --method raytrace "
-                                                     "--no-previews -q");
-  ASSERT_EQ(baked.status, 0) << baked.output;
-  const Result verified = run(kBin / "skylit-bake", "verify " + bake.string());
-  EXPECT_EQ(verified.status, 0) << verified.output;
-  EXPECT_NE(verified.output.find("corners basis, 120 layers"), std::string::npos) << verified.output;
+  const fs::path bake = bake_and_verify(dir.path(), "--basis corners --samples 4", "corners basis, 120 layers");
 
-  // The park sky (a low sun) in the sample sky camera.
-  const fs::path calib = kSource / "config" / "sky_camera.yaml";
-  const skylit::sky::Lens lens(skylit::sky::load_calibration(calib));
-  cv::Mat equirect = skylit::sky::read_sky_image(kSource / "data" / "hdri" / "park.exr");
-  const fs::path frame = dir / "park_fisheye.exr";
-  skylit::sky::write_sky_exr(frame, skylit::sky::render_fisheye(lens, equirect, {.supersample = 1}));
-
-  const fs::path out = dir / "out";
-  const Result shaded = run(kBin / "skylit-shade", "--bake " + bake.string() + " --sky-calib " + calib.string() +
-                                                       " --sky " + frame.string() + " -o " + out.string() + " -q");
-  ASSERT_EQ(shaded.status, 0) << shaded.output;
+  const fs::path out = shade_park(bake, dir.path());
   const nlohmann::json sky = nlohmann::json::parse(std::ifstream(out / "sky.json"));
   EXPECT_EQ(sky["basis"], "corners");
   ASSERT_EQ(sky["faces"].size(), 40u);
@@ -67,14 +93,7 @@ TEST(SkylitCorners, BakeVerifyAndShade) {
       EXPECT_EQ(corner["direction"].size(), 3u);
     }
   }
-  for (const char* plane : {"ground", "wall", "roof"}) {
-    const cv::Mat T = skylit::sky::read_sky_image(out / (std::string(plane) + ".exr"));
-    ASSERT_EQ(T.cols, 24);
-    double lo = 0, hi = 0;
-    cv::minMaxLoc(T.reshape(1), &lo, &hi);
-    EXPECT_GE(lo, 0.0) << plane;
-    EXPECT_LE(hi, 1.0) << plane;
-  }
+  check_ratios(out);
 }
 
 TEST(SkylitQuadratics, BakeVerifyAndShade) {
@@ -88,25 +107,9 @@ TEST(SkylitQuadratics, BakeVerifyAndShade) {
   EXPECT_NE(refused.output.find("at least 6"), std::string::npos) << refused.output;
   EXPECT_NE(refused.output.find("--samples 64"), std::string::npos) << refused.output;
 
-  const fs::path bake = dir / "bake";
-  const Result baked = run(kBin / "skylit-bake", site + " -o " + bake.string() +
-                                                     " --basis quadratics --samples 8 --resolution 24x16 "
-                                                     "--method raytrace --no-previews -q");
-  ASSERT_EQ(baked.status, 0) << baked.output;
-  const Result verified = run(kBin / "skylit-bake", "verify " + bake.string());
-  EXPECT_EQ(verified.status, 0) << verified.output;
-  EXPECT_NE(verified.output.find("quadratics basis, 240 layers"), std::string::npos) << verified.output;
+  const fs::path bake = bake_and_verify(dir.path(), "--basis quadratics --samples 8", "quadratics basis, 240 layers");
 
-  const fs::path calib = kSource / "config" / "sky_camera.yaml";
-  const skylit::sky::Lens lens(skylit::sky::load_calibration(calib));
-  cv::Mat equirect = skylit::sky::read_sky_image(kSource / "data" / "hdri" / "park.exr");
-  const fs::path frame = dir / "park_fisheye.exr";
-  skylit::sky::write_sky_exr(frame, skylit::sky::render_fisheye(lens, equirect, {.supersample = 1}));
-
-  const fs::path out = dir / "out";
-  const Result shaded = run(kBin / "skylit-shade", "--bake " + bake.string() + " --sky-calib " + calib.string() +
-                                                       " --sky " + frame.string() + " -o " + out.string() + " -q");
-  ASSERT_EQ(shaded.status, 0) << shaded.output;
+  const fs::path out = shade_park(bake, dir.path());
   const nlohmann::json sky = nlohmann::json::parse(std::ifstream(out / "sky.json"));
   EXPECT_EQ(sky["basis"], "quadratics");
   ASSERT_EQ(sky["faces"].size(), 40u);
@@ -116,17 +119,7 @@ TEST(SkylitQuadratics, BakeVerifyAndShade) {
     EXPECT_EQ(face["quadratics"][5]["function"], "edge 20");
     for (const auto& q : face["quadratics"]) EXPECT_EQ(q["S"].size(), 3u);
   }
-  for (const char* plane : {"ground", "wall", "roof"}) {
-    const cv::Mat T = skylit::sky::read_sky_image(out / (std::string(plane) + ".exr"));
-    ASSERT_EQ(T.cols, 24);
-    double lo = 0, hi = 0;
-    cv::minMaxLoc(T.reshape(1), &lo, &hi);
-    EXPECT_GE(lo, 0.0) << plane;
-    EXPECT_LE(hi, 1.0) << plane;
-    if (std::string(plane) == "ground") {
-      EXPECT_LT(lo, 0.9);  // the building's shadow under the park's sun
-    }
-  }
+  EXPECT_LT(check_ratios(out), 0.9);  // the building's shadow on the ground under the park's sun
 }
 
 }  // namespace

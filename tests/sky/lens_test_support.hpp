@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <numbers>
 #include <string>
 #include <unistd.h>
@@ -108,6 +109,24 @@ inline const SkyTable& sample_table(int frequency, int step) {
     it = cache.emplace(key, build_sky_table(sample_lens(), dome(frequency), options)).first;
   }
   return it->second;
+}
+
+// A frame whose every pixel holds f(site direction of the pixel centre) (f gives R G B; the frame
+// is BGR), 0 where the lens model does not reach.
+template <typename F>
+cv::Mat frame_of(const Lens& lens, F f) {
+  const CameraCalibration& c = lens.calibration();
+  cv::Mat frame(c.image_height, c.image_width, CV_32FC3, cv::Scalar(0, 0, 0));
+  for (int y = 0; y < c.image_height; ++y) {
+    auto* row = frame.ptr<cv::Vec3f>(y);
+    for (int x = 0; x < c.image_width; ++x) {
+      if (const std::optional<Vec3> d = lens.pixel_to_site(Vec2(x, y))) {
+        const Eigen::Vector3d value = f(*d);
+        row[x] = cv::Vec3f(static_cast<float>(value.z()), static_cast<float>(value.y()), static_cast<float>(value.x()));
+      }
+    }
+  }
+  return frame;
 }
 
 }  // namespace skylit::sky::lens_testing

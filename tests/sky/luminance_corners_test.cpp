@@ -19,6 +19,7 @@ namespace skylit::sky {
 namespace {
 
 using lens_testing::dome;
+using lens_testing::frame_of;
 using lens_testing::sample_lens;
 using Rgb = Eigen::Vector3d;
 
@@ -30,22 +31,6 @@ const SkyTable& corners_table(int frequency, int step) {
     it = cache.emplace(key, build_sky_table(sample_lens(), dome(frequency), {step, geom::DomeBasis::Corners})).first;
   }
   return it->second;
-}
-
-template <typename F>
-cv::Mat frame_of(const Lens& lens, F f) {
-  const CameraCalibration& c = lens.calibration();
-  cv::Mat frame(c.image_height, c.image_width, CV_32FC3, cv::Scalar(0, 0, 0));
-  for (int y = 0; y < c.image_height; ++y) {
-    auto* row = frame.ptr<cv::Vec3f>(y);
-    for (int x = 0; x < c.image_width; ++x) {
-      if (const std::optional<Vec3> d = lens.pixel_to_site(Vec2(x, y))) {
-        const Rgb value = f(*d);
-        row[x] = cv::Vec3f(static_cast<float>(value.z()), static_cast<float>(value.y()), static_cast<float>(value.x()));
-      }
-    }
-  }
-  return frame;
 }
 
 // A sky that is linear on every face's flat triangle and continuous across edges: the values

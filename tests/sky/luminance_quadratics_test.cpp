@@ -21,6 +21,7 @@ namespace skylit::sky {
 namespace {
 
 using lens_testing::dome;
+using lens_testing::frame_of;
 using lens_testing::sample_lens;
 using Rgb = Eigen::Vector3d;
 
@@ -33,22 +34,6 @@ const SkyTable& table_of(int frequency, int step, geom::DomeBasis basis) {
 }
 const SkyTable& quadratics_table(int frequency, int step) {
   return table_of(frequency, step, geom::DomeBasis::Quadratics);
-}
-
-template <typename F>
-cv::Mat frame_of(const Lens& lens, F f) {
-  const CameraCalibration& c = lens.calibration();
-  cv::Mat frame(c.image_height, c.image_width, CV_32FC3, cv::Scalar(0, 0, 0));
-  for (int y = 0; y < c.image_height; ++y) {
-    auto* row = frame.ptr<cv::Vec3f>(y);
-    for (int x = 0; x < c.image_width; ++x) {
-      if (const std::optional<Vec3> d = lens.pixel_to_site(Vec2(x, y))) {
-        const Rgb value = f(*d);
-        row[x] = cv::Vec3f(static_cast<float>(value.z()), static_cast<float>(value.y()), static_cast<float>(value.x()));
-      }
-    }
-  }
-  return frame;
 }
 
 // A sky that is quadratic on every face's flat triangle and continuous across edges: Bernstein

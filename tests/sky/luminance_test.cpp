@@ -21,6 +21,7 @@ namespace skylit::sky {
 namespace {
 
 using lens_testing::dome;
+using lens_testing::frame_of;
 using lens_testing::sample_lens;
 using lens_testing::sample_table;
 using Rgb = Eigen::Vector3d;
@@ -32,25 +33,6 @@ cv::Mat constant_frame(const Rgb& rgb) {
   return cv::Mat(1024, 1024, CV_32FC3,
                  cv::Scalar(static_cast<float>(rgb.z()), static_cast<float>(rgb.y()),
                             static_cast<float>(rgb.x())));
-}
-
-// A frame whose every pixel holds f(site direction of the pixel centre) (BGR), 0 where the lens
-// model does not reach.
-template <typename F>
-cv::Mat frame_of(const Lens& lens, F f) {
-  const CameraCalibration& c = lens.calibration();
-  cv::Mat frame(c.image_height, c.image_width, CV_32FC3, cv::Scalar(0, 0, 0));
-  for (int y = 0; y < c.image_height; ++y) {
-    auto* row = frame.ptr<cv::Vec3f>(y);
-    for (int x = 0; x < c.image_width; ++x) {
-      if (const std::optional<Vec3> d = lens.pixel_to_site(Vec2(x, y))) {
-        const Rgb value = f(*d);
-        row[x] = cv::Vec3f(static_cast<float>(value.z()), static_cast<float>(value.y()),
-                           static_cast<float>(value.x()));
-      }
-    }
-  }
-  return frame;
 }
 
 // The plain definition, sample by sample: what compute_luminance must reproduce.
