@@ -260,6 +260,14 @@ int main(int argc, char** argv) {
       pca_bakes[{key, k}] = copy;
     }
   }
+  // --pca-tile: each (bake, plane, K) compressed once, whatever the sky.
+  std::map<std::tuple<BakeKey, std::size_t, int>, skylit::render::BasisImages> tiled_forms;
+  const auto tiled = [&](const BakeKey& key, std::size_t plane, int k,
+                         const skylit::render::BasisImages& full) -> const skylit::render::BasisImages& {
+    auto it = tiled_forms.find({key, plane, k});
+    if (it == tiled_forms.end()) it = tiled_forms.emplace(std::make_tuple(key, plane, k), tiled_pca(full, pca_tile, k)).first;
+    return it->second;
+  };
   nlohmann::json pca_results = nlohmann::json::array();
   std::vector<std::string> pca_rows;
 
@@ -456,7 +464,7 @@ int main(int argc, char** argv) {
         if (sources.empty()) {
           for (const int k : pca_components) {
             const skylit::render::BasisImages pca =
-                pca_tile > 0 ? tiled_pca(basis, pca_tile, k)
+                pca_tile > 0 ? tiled(key_of(c), j, k, basis)
                              : skylit::render::load_basis(pca_bakes.at({key_of(c), k}),
                                                           skylit::bake::read_manifest(pca_bakes.at({key_of(c), k})),
                                                           static_cast<int>(j), skylit::render::BasisForm::Pca);

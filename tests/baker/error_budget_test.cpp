@@ -164,10 +164,10 @@ TEST_F(ErrorBudget, RefusesWhatItCannotDo) {
   bake.frequency = 4;
   EXPECT_THROW(run_error_budget_bake(bake, budget_options(0.1), quiet_), InputError);
   bake.frequency.reset();
-  // The corners basis needs kMinCornerSamples per face: of the reference, and of some candidate.
+  // The corners basis needs min_samples_per_face (3) per face: of the reference, and of some candidate.
   bake.basis = geom::DomeBasis::Corners;
   ErrorBudgetOptions thin_reference = budget_options(0.1);
-  thin_reference.reference_samples = kMinCornerSamples - 1;
+  thin_reference.reference_samples = min_samples_per_face(geom::DomeBasis::Corners) - 1;
   EXPECT_THROW(run_error_budget_bake(bake, thin_reference, quiet_), InputError);
   bake.basis.reset();
   // … also when the basis comes from the site's dome.basis: only one-sample candidates is refused.
@@ -218,9 +218,9 @@ TEST_F(ErrorBudget, CornersBasisBakesAndMeasuresCorners) {
 
   // ν ∈ {2, 4} × samples ∈ {1, 4}: the one-sample candidates are skipped.
   ASSERT_EQ(report.skipped.size(), 2u);
-  for (const CandidateResult& c : report.skipped) EXPECT_LT(c.samples, kMinCornerSamples);
+  for (const CandidateResult& c : report.skipped) EXPECT_LT(c.samples, min_samples_per_face(geom::DomeBasis::Corners));
   ASSERT_TRUE(report.picked.has_value());
-  for (const CandidateResult& c : report.tried) EXPECT_GE(c.samples, kMinCornerSamples);
+  for (const CandidateResult& c : report.tried) EXPECT_GE(c.samples, min_samples_per_face(geom::DomeBasis::Corners));
   const CandidateResult& picked = report.tried[*report.picked];
   EXPECT_EQ(picked.frequency, 2);
   EXPECT_EQ(picked.samples, 4);
@@ -255,7 +255,7 @@ TEST_F(ErrorBudget, CandidateLayersCountTheBasisLayers) {
     EXPECT_EQ(corners[i].layers, geom::layers_per_face(geom::DomeBasis::Corners) * faces[i].layers);
   }
   EXPECT_EQ(min_samples_per_face(geom::DomeBasis::Faces), 1);
-  EXPECT_EQ(min_samples_per_face(geom::DomeBasis::Corners), kMinCornerSamples);
+  EXPECT_EQ(min_samples_per_face(geom::DomeBasis::Corners), 3);
 }
 
 }  // namespace

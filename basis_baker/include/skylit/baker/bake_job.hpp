@@ -70,10 +70,8 @@ void compress_bake(const std::filesystem::path& bake_dir, const bake::PcaOptions
 // The sample directions of dome face `face`: its centre for samples == 1, else stratified.
 std::vector<geom::Vec3> face_sample_directions(const geom::Dome& dome, int face, int samples);
 
-// The corners basis needs at least this many samples per face: one direction (the centre)
-// weighs the three corners alike and cannot tell their visibility apart.
-inline constexpr int kMinCornerSamples = 3;
-// The fewest samples per face a basis can resolve: one per layer function (1, 3 or 6).
+// The fewest samples per face a basis can resolve: one per layer function (1, 3 or 6). One
+// direction (the centre) weighs a face's functions alike and cannot tell their visibility apart.
 inline int min_samples_per_face(geom::DomeBasis basis) { return geom::layers_per_face(basis); }
 
 // A_{j,l} of every layer of every face for a surface with normal n (faces: the exact cosine

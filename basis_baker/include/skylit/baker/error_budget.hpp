@@ -59,7 +59,7 @@ struct ErrorBudgetReport {
   std::vector<std::string> skies;        // the test skies, by name
   std::vector<CandidateResult> tried;    // cheapest first; stops at the first within budget
   // Candidates not baked: fewer samples per face than the basis needs (min_samples_per_face,
-  // bake_job.hpp: kMinCornerSamples for corners); cheapest first.
+  // bake_job.hpp: min_samples_per_face); cheapest first.
   std::vector<CandidateResult> skipped;
   std::optional<std::size_t> picked;     // into `tried`
   std::string verdict;                   // "picked ν=…, samples=… (B basis): RMS … ≤ E (…); …"
