@@ -14,7 +14,7 @@
 #include "skylit/base/error.hpp"
 #include "skylit/gpu/gl.hpp"
 #include "skylit/gpu/window_context.hpp"
-#include "virtual_display.hpp"
+#include "../support/virtual_display.hpp"
 
 namespace skylit::gpu {
 namespace {

@@ -8,6 +8,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "../cli/cli_support.hpp"
+#include "../support/virtual_display.hpp"
 #include "live_fixture.hpp"
 #include "skylit/base/error.hpp"
 
@@ -49,15 +50,17 @@ TEST(ServiceConfig, DisplaySection) {
 }
 
 TEST(SkylitLive, AStereoHmdDisplayUnderXvfbAndItsRecording) {
-  if (cli_test::run_program("command", "-v xvfb-run").status != 0) GTEST_SKIP() << "xvfb-run is not installed";
+  const gpu::test::VirtualDisplay xvfb("320x240x24");
+  if (xvfb.display().empty()) GTEST_SKIP() << "Xvfb is not installed (apt install xvfb)";
+  const gpu::test::ScopedEnv display("DISPLAY", xvfb.display().c_str());
+  const gpu::test::ScopedEnv wayland("WAYLAND_DISPLAY", nullptr);
   RigOptions options;
   options.extra = "display:\n  profile: small_hmd.yaml\n  mode: stereo\n";
   const Rig rig(options);
   write_small_hmd(rig.dir() / "small_hmd.yaml");
   const fs::path video = rig.dir() / "live.avi";
   const cli_test::Result result = cli_test::run_program(
-      "xvfb-run", "-a -s '-screen 0 320x240x24' " + (cli_test::kBin / "skylit-live").string() + " " +
-                      rig.config_file().string() + " --frames 6 --record " + video.string());
+      cli_test::kBin / "skylit-live", rig.config_file().string() + " --frames 6 --record " + video.string());
   ASSERT_EQ(result.status, 0) << result.output;
   EXPECT_NE(result.output.find("in a window"), std::string::npos) << result.output;
   EXPECT_NE(result.output.find("6 frames composited"), std::string::npos) << result.output;
@@ -72,14 +75,15 @@ TEST(SkylitLive, AStereoHmdDisplayUnderXvfbAndItsRecording) {
 }
 
 TEST(SkylitLive, AnUnknownMonitorIsRefusedWithTheMonitorsPresent) {
-  if (cli_test::run_program("command", "-v xvfb-run").status != 0) GTEST_SKIP() << "xvfb-run is not installed";
+  const gpu::test::VirtualDisplay xvfb("320x240x24");
+  if (xvfb.display().empty()) GTEST_SKIP() << "Xvfb is not installed (apt install xvfb)";
+  const gpu::test::ScopedEnv display("DISPLAY", xvfb.display().c_str());
+  const gpu::test::ScopedEnv wayland("WAYLAND_DISPLAY", nullptr);
   RigOptions options;
   options.extra = "display:\n  profile: small_hmd.yaml\n  monitor: No Such HMD\n";
   const Rig rig(options);
   write_small_hmd(rig.dir() / "small_hmd.yaml");
-  const cli_test::Result result = cli_test::run_program(
-      "xvfb-run", "-a -s '-screen 0 320x240x24' " + (cli_test::kBin / "skylit-live").string() + " " +
-                      rig.config_file().string() + " --frames 2");
+  const cli_test::Result result = cli_test::run_program(cli_test::kBin / "skylit-live", rig.config_file().string() + " --frames 2");
   EXPECT_EQ(result.status, 2) << result.output;
   EXPECT_NE(result.output.find("no monitor named 'No Such HMD'; monitors present: 'screen'"), std::string::npos)
       << result.output;

@@ -15,6 +15,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "../cli/cli_support.hpp"
+#include "../support/virtual_display.hpp"
 #include "live_fixture.hpp"
 
 namespace skylit::live_test {
@@ -100,13 +101,14 @@ TEST(SkylitLive, SigtermEndsItCleanlyWithAReadableRecording) {
 }
 
 TEST(SkylitLive, AWindowedRunUnderXvfbShowsTheFrames) {
-  if (cli_test::run_program("command", "-v xvfb-run").status != 0) GTEST_SKIP() << "xvfb-run is not installed";
+  const gpu::test::VirtualDisplay xvfb("320x240x24");
+  if (xvfb.display().empty()) GTEST_SKIP() << "Xvfb is not installed (apt install xvfb)";
+  const gpu::test::ScopedEnv display("DISPLAY", xvfb.display().c_str());
+  const gpu::test::ScopedEnv wayland("WAYLAND_DISPLAY", nullptr);
   RigOptions options;
   options.extra = "output:\n  window: true\n";
   const Rig rig(options);
-  const cli_test::Result result = cli_test::run_program(
-      "xvfb-run", "-a -s '-screen 0 320x240x24' " + (cli_test::kBin / "skylit-live").string() + " " +
-                      rig.config_file().string() + " --frames 10");
+  const cli_test::Result result = cli_test::run_program(cli_test::kBin / "skylit-live", rig.config_file().string() + " --frames 10");
   EXPECT_EQ(result.status, 0) << result.output;
   EXPECT_NE(result.output.find("in a window"), std::string::npos) << result.output;
   EXPECT_NE(result.output.find("10 frames composited"), std::string::npos) << result.output;

@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
-#include "../gpu/virtual_display.hpp"
+#include "../support/virtual_display.hpp"
 #include "skylit/gpu/window_context.hpp"
 #include "skylit/render/hmd_distortion.hpp"
 #include "skylit/render/hmd_profile.hpp"

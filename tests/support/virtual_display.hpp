@@ -1,6 +1,7 @@
 #pragma once
 // For window tests: a virtual X display (Xvfb) started by the test, and environment variables
-// set for a scope. Shared by tests/gpu and tests/render.
+// set for a scope. Each test starts its own server on a free display number, so tests that run in
+// parallel never share or race for one (xvfb-run -a does: it picks a number before taking it).
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -39,10 +40,12 @@ class ScopedEnv {
 };
 
 // Xvfb on a free display number (it writes the number to a pipe: -displayfd); stopped on
-// destruction. display() is empty when Xvfb is not installed or does not start.
+// destruction. display() is empty when Xvfb is not installed or does not start. -noreset: by
+// default the server resets when its last client leaves, and a client that connects during the
+// reset (slow on a loaded machine) is refused.
 class VirtualDisplay {
  public:
-  VirtualDisplay() {
+  explicit VirtualDisplay(const std::string& screen = "640x480x24") {
     int fds[2];
     if (::pipe(fds) != 0) return;
     pid_ = ::fork();
@@ -54,7 +57,7 @@ class VirtualDisplay {
         ::dup2(null, 2);
       }
       const std::string fd = std::to_string(fds[1]);
-      ::execlp("Xvfb", "Xvfb", "-displayfd", fd.c_str(), "-screen", "0", "640x480x24", "-nolisten", "tcp",
+      ::execlp("Xvfb", "Xvfb", "-displayfd", fd.c_str(), "-screen", "0", screen.c_str(), "-nolisten", "tcp", "-noreset",
                static_cast<char*>(nullptr));
       ::_exit(127);
     }
