@@ -111,55 +111,6 @@ const std::vector<Config> kConfigs{
 using BakeKey = std::tuple<int, int, skylit::geom::DomeBasis>;
 BakeKey key_of(const Config& c) { return {c.frequency, c.samples, c.basis}; }
 
-// Clustered PCA, measured before it is built into the bake and the blend: the plane cut into
-// tiles of tile × tile texels, each compressed on its own to K components (bake::compress_pca)
-// and decompressed, B̂_l = A_l (μ + Σ_k P_{l,k} E_k) per tile, rounded to half floats. The result
-// is a full-form basis that blends to what a per-tile PCA blend (K + 1 layers per tile) would.
-skylit::render::BasisImages tiled_pca(const skylit::render::BasisImages& full, int tile, int components) {
-  skylit::render::BasisImages out = full;
-  const int n = full.layers;
-  for (int y0 = 0; y0 < full.height; y0 += tile) {
-    for (int x0 = 0; x0 < full.width; x0 += tile) {
-      skylit::bake::ImageStack stack;
-      stack.width = std::min(tile, full.width - x0);
-      stack.height = std::min(tile, full.height - y0);
-      stack.layers = n;
-      const auto texels = static_cast<std::size_t>(stack.width * stack.height);
-      stack.data.resize(texels * static_cast<std::size_t>(n));
-      const auto at = [&](int l, int x, int y) {
-        return static_cast<std::size_t>(l) * full.texel_count() + static_cast<std::size_t>((y0 + y) * full.width + x0 + x);
-      };
-      for (int l = 0; l < n; ++l) {
-        for (int y = 0; y < stack.height; ++y) {
-          for (int x = 0; x < stack.width; ++x) {
-            stack.data[static_cast<std::size_t>(l) * texels + static_cast<std::size_t>(y * stack.width + x)] =
-                skylit::render::half_to_float(full.half[at(l, x, y)]);
-          }
-        }
-      }
-      skylit::bake::PcaOptions options;
-      options.components = std::min(components, static_cast<int>(texels));
-      const skylit::bake::PcaBasis pca = skylit::bake::compress_pca(stack, full.unoccluded, options);
-      const int k = pca.components;
-      for (int l = 0; l < n; ++l) {
-        const double a = full.unoccluded[static_cast<std::size_t>(l)];
-        for (int y = 0; y < stack.height; ++y) {
-          for (int x = 0; x < stack.width; ++x) {
-            const std::size_t t = static_cast<std::size_t>(y * stack.width + x);
-            double f = pca.images.data[t];
-            for (int c = 0; c < k; ++c) {
-              f += pca.coefficients[static_cast<std::size_t>(l * k + c)] *
-                   pca.images.data[static_cast<std::size_t>(c + 1) * texels + t];
-            }
-            out.half[at(l, x, y)] = skylit::render::float_to_half(static_cast<float>(a * f));  // may be < 0, as in the PCA blend
-          }
-        }
-      }
-    }
-  }
-  return out;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -204,7 +155,7 @@ int main(int argc, char** argv) {
   double pca_correlation = 0.0;
   int pca_tile = 0;
   app.add_option("--pca-tile", pca_tile,
-                 "--pca: clustered PCA measured, each tile of N×N texels its own K components (0: the whole plane)")
+                 "--pca: clustered PCA, each tile of N×N texels its own K components (0: the whole plane)")
       ->check(CLI::Range(0, 4096));
   app.add_option("--pca-sky-correlation", pca_correlation, "--pca: the sky prior's correlation angle, degrees (0: none)");
   app.add_flag("--pictures", dump, "write T | reference | 5×|difference| per sky, setting and plane as PNG");
@@ -245,29 +196,22 @@ int main(int argc, char** argv) {
     bake_seconds[key] = seconds_since(t);
     bakes[key] = dir;
   }
-  // The PCA forms: a copy of each bake per K, compressed as skylit-bake compress does it.
+  // The PCA forms: a copy of each bake per K, compressed as skylit-bake compress does it (with
+  // --pca-tile, clustered).
   std::map<std::pair<BakeKey, int>, fs::path> pca_bakes;
   for (const auto& [key, dir] : bakes) {
     for (const int k : pca_components) {
-      if (pca_tile > 0) break;  // tiled: compressed in memory, per plane
-      const fs::path copy = dir.string() + "_pca" + std::to_string(k);
+      const fs::path copy = dir.string() + "_pca" + std::to_string(k) + (pca_tile > 0 ? "_tile" + std::to_string(pca_tile) : "");
       fs::remove_all(copy);
       fs::copy(dir, copy, fs::copy_options::recursive);
       skylit::bake::PcaOptions pca;
       pca.components = k;
       pca.sky_correlation_deg = pca_correlation;
+      pca.tile = pca_tile;
       skylit::baker::compress_bake(copy, pca, stderr);
       pca_bakes[{key, k}] = copy;
     }
   }
-  // --pca-tile: each (bake, plane, K) compressed once, whatever the sky.
-  std::map<std::tuple<BakeKey, std::size_t, int>, skylit::render::BasisImages> tiled_forms;
-  const auto tiled = [&](const BakeKey& key, std::size_t plane, int k,
-                         const skylit::render::BasisImages& full) -> const skylit::render::BasisImages& {
-    auto it = tiled_forms.find({key, plane, k});
-    if (it == tiled_forms.end()) it = tiled_forms.emplace(std::make_tuple(key, plane, k), tiled_pca(full, pca_tile, k)).first;
-    return it->second;
-  };
   nlohmann::json pca_results = nlohmann::json::array();
   std::vector<std::string> pca_rows;
 
@@ -464,13 +408,11 @@ int main(int argc, char** argv) {
         if (sources.empty()) {
           for (const int k : pca_components) {
             const skylit::render::BasisImages pca =
-                pca_tile > 0 ? tiled(key_of(c), j, k, basis)
-                             : skylit::render::load_basis(pca_bakes.at({key_of(c), k}),
-                                                          skylit::bake::read_manifest(pca_bakes.at({key_of(c), k})),
-                                                          static_cast<int>(j), skylit::render::BasisForm::Pca);
+                skylit::render::load_basis(pca_bakes.at({key_of(c), k}), skylit::bake::read_manifest(pca_bakes.at({key_of(c), k})),
+                                           static_cast<int>(j), skylit::render::BasisForm::Pca);
             const auto pw = skylit::render::blend_weights(pca, S, sun);
             std::vector<float> T_pca(T.size());
-            skylit::render::blend_cpu(pca, pw, pw.sun.isZero() ? std::span<const float>() : std::span<const float>(visibility),
+            skylit::render::blend_cpu(pca, pw, pw.sun.isZero(0) ? std::span<const float>() : std::span<const float>(visibility),
                                       T_pca);
             for (std::size_t x = 0; x < basis.texel_count(); ++x) {
               for (int ch = 0; ch < 3; ++ch) {

@@ -4,7 +4,8 @@
 // then a channel without light is 1 and T is clamped to [0, 1], as blend_cpu does. One
 // invocation per texel. The basis array holds one layer per slice (R16F, R8) or four, one per
 // colour channel (RGBA16F, RGBA8); the CPU lists the slices to read with the weights of their
-// layers, so that one fetch and three dot products add up to four layers.
+// layers, so that one fetch and three dot products add up to four layers. A tiled (clustered
+// PCA) basis has a weight list per tile over the same slices: entries t·slice_count … of tile t.
 precision highp float;
 precision highp int;
 precision highp sampler2D;
@@ -30,7 +31,9 @@ layout(std430, binding = 0) readonly buffer Slices {
   Slice slices[];
 };
 
-uniform int slice_count;   // entries of `slices` to sum
+uniform int slice_count;   // entries of `slices` to sum (per tile)
+uniform int tile_size;     // texels per side of a tile (clustered PCA); 0: one tile, the plane
+uniform int tiles_x;       // tiles per row of tiles (row-major tile index)
 uniform vec3 sun_weight;   // w_sun
 uniform bool use_sun;      // add w_sun V (false: no sun term, V is not read)
 uniform bvec3 no_light;    // channels whose T is 1
@@ -44,6 +47,11 @@ void main() {
   ivec2 size = imageSize(shadow_ratio);
   if (texel.x >= size.x || texel.y >= size.y) return;
 
+  // This texel's tile (0 for an untiled basis): its weights are the slice_count entries from
+  // `base`, over the same slices as every other tile's.
+  int tile = tile_size > 0 ? (texel.y / tile_size) * tiles_x + texel.x / tile_size : 0;
+  int base = tile * slice_count;
+
   // Four fetches are issued before their sums: a single one in flight per invocation leaves
   // the memory idle while it waits (measured on an H100: one 512² plane of 640 layers took 5×
   // its bandwidth floor). The sums still run in slice order. An R16F or R8 slice reads
@@ -51,18 +59,20 @@ void main() {
   vec3 sum = vec3(0.0);
   int k = 0;
   for (; k + 4 <= slice_count; k += 4) {
-    vec4 b0 = texelFetch(basis, ivec3(texel, slices[k].index.x), 0);
-    vec4 b1 = texelFetch(basis, ivec3(texel, slices[k + 1].index.x), 0);
-    vec4 b2 = texelFetch(basis, ivec3(texel, slices[k + 2].index.x), 0);
-    vec4 b3 = texelFetch(basis, ivec3(texel, slices[k + 3].index.x), 0);
-    sum += vec3(dot(slices[k].red, b0), dot(slices[k].green, b0), dot(slices[k].blue, b0));
-    sum += vec3(dot(slices[k + 1].red, b1), dot(slices[k + 1].green, b1), dot(slices[k + 1].blue, b1));
-    sum += vec3(dot(slices[k + 2].red, b2), dot(slices[k + 2].green, b2), dot(slices[k + 2].blue, b2));
-    sum += vec3(dot(slices[k + 3].red, b3), dot(slices[k + 3].green, b3), dot(slices[k + 3].blue, b3));
+    int s = base + k;
+    vec4 b0 = texelFetch(basis, ivec3(texel, slices[s].index.x), 0);
+    vec4 b1 = texelFetch(basis, ivec3(texel, slices[s + 1].index.x), 0);
+    vec4 b2 = texelFetch(basis, ivec3(texel, slices[s + 2].index.x), 0);
+    vec4 b3 = texelFetch(basis, ivec3(texel, slices[s + 3].index.x), 0);
+    sum += vec3(dot(slices[s].red, b0), dot(slices[s].green, b0), dot(slices[s].blue, b0));
+    sum += vec3(dot(slices[s + 1].red, b1), dot(slices[s + 1].green, b1), dot(slices[s + 1].blue, b1));
+    sum += vec3(dot(slices[s + 2].red, b2), dot(slices[s + 2].green, b2), dot(slices[s + 2].blue, b2));
+    sum += vec3(dot(slices[s + 3].red, b3), dot(slices[s + 3].green, b3), dot(slices[s + 3].blue, b3));
   }
   for (; k < slice_count; ++k) {
-    vec4 b = texelFetch(basis, ivec3(texel, slices[k].index.x), 0);
-    sum += vec3(dot(slices[k].red, b), dot(slices[k].green, b), dot(slices[k].blue, b));
+    int s = base + k;
+    vec4 b = texelFetch(basis, ivec3(texel, slices[s].index.x), 0);
+    sum += vec3(dot(slices[s].red, b), dot(slices[s].green, b), dot(slices[s].blue, b));
   }
   if (use_sun) {
     // blend_cpu rejects a V outside [0, 1]; here it is clamped (NaN to 0).

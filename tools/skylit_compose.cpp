@@ -167,7 +167,7 @@ int run(const Options& o) {
     const skylit::render::BasisImages basis = skylit::render::load_basis(o.bake_dir, manifest, static_cast<int>(j));
     blenders.push_back(std::make_unique<skylit::render::GpuBlender>(basis, blend_options));
     const skylit::render::BlendWeights weights = skylit::render::blend_weights(basis, S, sun);
-    blenders.back()->blend(weights, weights.sun.isZero() ? nullptr : &shadow_map.visibility(static_cast<int>(j)));
+    blenders.back()->blend(weights, weights.sun.isZero(0) ? nullptr : &shadow_map.visibility(static_cast<int>(j)));
     ratios.push_back(blenders.back()->shadow_ratio_texture());
   }
 

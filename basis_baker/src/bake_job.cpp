@@ -255,7 +255,7 @@ void check_pca_input(const std::optional<bake::PcaOptions>& options) {
     bake::check_pca_options(*options);
   } catch (const std::invalid_argument& e) {
     throw InputError(std::string(e.what()) + ". Fix: give --pca-components K (>= 1), --pca-variance F (0 < F <= 1) "
-                     "or --pca-max-error E (> 0)");
+                     "or --pca-max-error E (> 0), and --pca-tile N of 0 (the whole plane) or at least 2 texels");
   }
 }
 
@@ -278,14 +278,24 @@ void write_pca_form(const fs::path& out_dir, const bake::Manifest& manifest, bak
   r.rms_error = pca.rms_error;
   r.variance_kept = pca.variance_kept;
   r.sky_correlation_deg = options.sky_correlation_deg;
+  r.tile = pca.tile;
   bake::write_exr_stack(out_dir / r.file, pca.images, bake::pca_layer_names(pca.components));
-  const std::size_t shape[] = {static_cast<std::size_t>(pca.source_layers), static_cast<std::size_t>(pca.components)};
-  bake::write_npy(out_dir / r.coefficients, pca.coefficients, shape);
+  const auto n = static_cast<std::size_t>(pca.source_layers), k = static_cast<std::size_t>(pca.components);
+  if (pca.tile > 0) {
+    const std::size_t shape[] = {static_cast<std::size_t>(pca.tile_count()), n, k};
+    bake::write_npy(out_dir / r.coefficients, pca.coefficients, shape);
+  } else {
+    const std::size_t shape[] = {n, k};
+    bake::write_npy(out_dir / r.coefficients, pca.coefficients, shape);
+  }
   if (log) {
+    const std::string tiles = pca.tile > 0 ? " in each of " + std::to_string(pca.tile_count()) + " tiles of " +
+                                                 std::to_string(pca.tile) + "x" + std::to_string(pca.tile) + " texels"
+                                           : "";
     std::fprintf(log,
-                 "skylit-bake: plane '%s': PCA keeps K = %d component(s) of %d layers (%.2f%% of the variance), "
+                 "skylit-bake: plane '%s': PCA keeps K = %d component(s) of %d layers%s (%.2f%% of the variance), "
                  "so the blend reads %d layers instead of %d; |T - T_full| <= %.4f (RMS %.5f of the fractions), in %.1f s\n",
-                 record.plane.name.c_str(), pca.components, pca.source_layers, 100.0 * pca.variance_kept,
+                 record.plane.name.c_str(), pca.components, pca.source_layers, tiles.c_str(), 100.0 * pca.variance_kept,
                  pca.components + 1, pca.source_layers, pca.max_error, pca.rms_error, seconds_since(start));
   }
   record.pca = std::move(r);

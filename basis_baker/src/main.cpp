@@ -91,6 +91,8 @@ int main(int argc, char** argv) {
     to->add_option("--pca-max-error", pca.max_error, "... with |T - T_full| at most E for every sky (E > 0)");
     to->add_option("--pca-sky-correlation", pca.sky_correlation_deg,
                    "components for skies whose radiance correlates over this many degrees (0: plain PCA)");
+    to->add_option("--pca-tile", pca.tile,
+                   "clustered PCA: each tile of N x N texels gets its own components (0: the whole plane)");
   };
   add_pca_options(&app);
 

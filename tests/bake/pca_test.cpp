@@ -271,6 +271,97 @@ TEST(Pca, BadOptionsAreRefusedByName) {
   EXPECT_NE(message(negative_prior).find("pca.sky_correlation_deg"), std::string::npos);
   const std::vector<double> short_a(3, 0.1);
   EXPECT_THROW(compress_pca(stack, short_a, pca_components(1)), std::invalid_argument);
+  PcaOptions one_texel = pca_components(1);
+  one_texel.tile = 1;
+  EXPECT_NE(message(one_texel).find("pca.tile"), std::string::npos);
+  one_texel.tile = -4;
+  EXPECT_NE(message(one_texel).find("pca.tile"), std::string::npos);
+}
+
+// Tiled: F_l ≈ μ_t + Σ_k P_{t,l,k} E_k within tile t, from the stored images and coefficients.
+double tiled_reconstruction_error(const ImageStack& stack, const std::vector<double>& a, const PcaBasis& pca) {
+  double worst = 0.0;
+  const int k = pca.components, n = stack.layers;
+  for (int l = 0; l < n; ++l) {
+    if (a[static_cast<std::size_t>(l)] == 0.0) continue;
+    for (int y = 0; y < stack.height; ++y) {
+      for (int x = 0; x < stack.width; ++x) {
+        const int t = (y / pca.tile) * pca.tiles_x() + x / pca.tile;
+        const std::size_t at = static_cast<std::size_t>(y) * static_cast<std::size_t>(stack.width) + static_cast<std::size_t>(x);
+        double f = pca.images.layer(0)[at];
+        for (int c = 0; c < k; ++c) {
+          f += static_cast<double>(pca.coefficients[static_cast<std::size_t>((t * n + l) * k + c)]) * pca.images.layer(c + 1)[at];
+        }
+        const double truth = as_half(stack.layer(l)[at]) / static_cast<double>(static_cast<float>(a[static_cast<std::size_t>(l)]));
+        worst = std::max(worst, std::abs(f - truth));
+      }
+    }
+  }
+  return worst;
+}
+
+// Each tile of 20 × 20 texels is of rank 2 in directions of its own: the whole plane is of rank 2
+// per tile times the tiles, so one set of components needs many, and tiles need two each.
+TEST(Pca, TilesOfLowRankComeBackWithTheirOwnComponents) {
+  const int n = 24, width = 50, height = 36, tile = 20;  // 3 × 2 tiles, the last column and row narrower
+  const std::vector<double> a = solid_angles(n);
+  ImageStack stack = low_rank_stack(n, width, height, 2, a, 11);
+  // Different directions per tile: stitch tiles from stacks of other seeds.
+  for (int t = 1; t < 6; ++t) {
+    const ImageStack other = low_rank_stack(n, width, height, 2, a, 11 + static_cast<std::uint32_t>(t));
+    for (int l = 0; l < n; ++l) {
+      for (int y = 0; y < height; ++y) {
+        for (int x = 0; x < width; ++x) {
+          if ((y / tile) * 3 + x / tile != t) continue;
+          const std::size_t at = static_cast<std::size_t>(y * width + x);
+          stack.layer(l)[at] = other.layer(l)[at];
+        }
+      }
+    }
+  }
+  PcaOptions options = pca_max_error(2e-3);
+  options.tile = tile;
+  const PcaBasis tiled = compress_pca(stack, a, options);
+  EXPECT_EQ(tiled.tile, tile);
+  EXPECT_EQ(tiled.tile_count(), 6);
+  EXPECT_EQ(tiled.components, 2);
+  EXPECT_EQ(tiled.images.layers, 3);
+  EXPECT_EQ(tiled.coefficients.size(), static_cast<std::size_t>(6 * n * 2));
+  EXPECT_LE(tiled.max_error, 2e-3);
+  EXPECT_GT(tiled.variance_kept, 0.9999);
+  EXPECT_NEAR(tiled_reconstruction_error(stack, a, tiled), tiled.max_error, 1e-5);
+  const PcaBasis whole = compress_pca(stack, a, pca_max_error(2e-3));
+  std::printf("measured: 6 tiles of rank 2: K = %d tiled, K = %d for the whole plane\n", tiled.components,
+              whole.components);
+  EXPECT_GE(whole.components, 10);
+  // With K fixed, tiles fit better than one set for the whole plane.
+  PcaOptions two = pca_components(2);
+  const double whole_error = compress_pca(stack, a, two).max_error;
+  two.tile = tile;
+  EXPECT_LT(compress_pca(stack, a, two).max_error, 0.1 * whole_error);
+}
+
+TEST(Pca, EveryTileGetsTheLargestKAnyTileNeeds) {
+  // Moving shadows touch the tiles unevenly, and some need more components for the bound than
+  // others; all are given the same K, and none does worse than the bound.
+  const int n = 40;
+  const std::vector<double> a = solid_angles(n);
+  const ImageStack stack = moving_shadows(n, 48, 48, a);
+  PcaOptions options = pca_max_error(0.1);
+  options.tile = 16;
+  const PcaBasis tiled = compress_pca(stack, a, options);
+  EXPECT_EQ(tiled.tile_count(), 9);
+  EXPECT_LE(tiled.max_error, 0.1);
+  EXPECT_NEAR(tiled_reconstruction_error(stack, a, tiled), tiled.max_error, 1e-5);
+  // At that K the whole plane in one set of components does worse.
+  PcaOptions same_k = pca_components(tiled.components);
+  const PcaBasis whole = compress_pca(stack, a, same_k);
+  std::printf("measured: moving shadows, K = %d: max error %.4f in 9 tiles, %.4f for the whole plane\n",
+              tiled.components, tiled.max_error, whole.max_error);
+  EXPECT_LT(tiled.max_error, whole.max_error);
+  // A tile as large as the plane is no tiling.
+  options.tile = 48;
+  EXPECT_EQ(compress_pca(stack, a, options).tile, 0);
 }
 
 }  // namespace

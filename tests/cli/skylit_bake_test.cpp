@@ -375,6 +375,29 @@ TEST(SkylitBake, SampleSiteConfigBakes) {
 
 namespace {
 
+TEST(SkylitBake, ClusteredPcaStoresComponentsPerTile) {
+  TempDir dir;
+  const Result r = run((kSource / "config" / "sample_site.yaml").string() + " -o " + (dir / "bake").string() +
+                       " --frequency 2 --samples 4 --method raytrace --resolution 16x8 --no-previews"
+                       " --pca-components 3 --pca-tile 6");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("tiles of 6x6 texels"), std::string::npos) << r.output;
+  ASSERT_EQ(run("verify " + (dir / "bake").string()).status, 0);
+  const auto m = skylit::bake::read_manifest(dir / "bake");
+  for (const auto& p : m.planes) {
+    ASSERT_TRUE(p.pca.has_value()) << p.plane.name;
+    EXPECT_EQ(p.pca->tile, 6) << p.plane.name;
+    EXPECT_EQ(p.pca->components, 3) << p.plane.name;
+  }
+  // Compressed again without tiles: one set for the whole plane.
+  ASSERT_EQ(run("compress " + (dir / "bake").string() + " --pca-components 3").status, 0);
+  for (const auto& p : skylit::bake::read_manifest(dir / "bake").planes) EXPECT_EQ(p.pca->tile, 0) << p.plane.name;
+  const Result bad = run("compress " + (dir / "bake").string() + " --pca-components 3 --pca-tile 1");
+  EXPECT_EQ(bad.status, 2) << bad.output;
+  EXPECT_NE(bad.output.find("pca.tile"), std::string::npos) << bad.output;
+  EXPECT_NE(bad.output.find("--pca-tile"), std::string::npos) << bad.output;
+}
+
 TEST(SkylitBake, PresetSetsTheBakeAndAnUnknownOneListsTheValidNames) {
   // config/presets.yaml's fast preset: ν=2, corners, 16 samples, a PCA form with 8 components;
   // --samples given too overrides the preset's.

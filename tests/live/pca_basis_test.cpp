@@ -33,11 +33,13 @@ void write_config_with_bake(const Rig& rig, const fs::path& bake_dir, const std:
 }
 
 // A copy of the tests' bake beside the rig, with each plane's PCA form added.
-fs::path compressed_bake(const Rig& rig) {
+// tile > 0: clustered PCA, each tile of tile × tile texels with its own components.
+fs::path compressed_bake(const Rig& rig, int tile = 0) {
   const fs::path copy = rig.dir() / "bake";
   fs::copy(BakedSite::get().dir / "bake", copy, fs::copy_options::recursive);
   bake::PcaOptions options;
   options.variance = 0.999;
+  options.tile = tile;
   baker::compress_bake(copy, options, nullptr);
   return copy;
 }
@@ -86,11 +88,12 @@ TEST(LivePcaBasis, LeanFormBlendsOnlyTheShadowedLayers) {
   }
 }
 
-TEST(LivePcaBasis, CompressedBakeBlendsItsPcaFormWithinItsMaxError) {
+// The service on a compressed bake (tile > 0: clustered) with the blend on `device`.
+void expect_service_blends_the_pca_form(int tile, const std::string& device) {
   RigOptions rig_options;
   const Rig rig(rig_options);
-  const fs::path bake_dir = compressed_bake(rig);
-  write_config_with_bake(rig, bake_dir, "blend:\n  device: cpu\n  basis: pca\n");
+  const fs::path bake_dir = compressed_bake(rig, tile);
+  write_config_with_bake(rig, bake_dir, "blend:\n  device: " + device + "\n  basis: pca\n");
   const live::LiveConfig config = rig.config();
   ASSERT_EQ(config.blend.basis, live::BlendSettings::Basis::Pca);
   live::ServiceOptions options = quiet_options();
@@ -117,6 +120,9 @@ TEST(LivePcaBasis, CompressedBakeBlendsItsPcaFormWithinItsMaxError) {
     EXPECT_EQ(plane["layers"], record.pca->components + 1);
     EXPECT_EQ(plane["source_layers"], manifest.faces.size());
     EXPECT_EQ(plane["max_error"], record.pca->max_error);
+    // A tile as large as the plane is no tiling.
+    const bool cut = tile > 0 && (tile < record.plane.width || tile < record.plane.height);
+    EXPECT_EQ(record.pca->tile, cut ? tile : 0) << record.plane.name;
     std::printf("measured: plane '%s': PCA form of %d + 1 layers for %zu, max_error %.4g\n", record.plane.name.c_str(),
                 record.pca->components, manifest.faces.size(), record.pca->max_error);
   }
@@ -197,10 +203,16 @@ TEST(LivePcaBasis, CompressedBakeBlendsItsPcaFormWithinItsMaxError) {
     worst = std::max(worst, nearest);
     ++compared;
   }
-  std::printf("measured: blend.basis pca: %d frames, max |service − direct with the PCA form's T| %d codes\n", compared, worst);
+  std::printf("measured: blend.basis pca, tile %d, %s: %d frames, max |service − direct with the PCA form's T| %d codes\n",
+              tile, device.c_str(), compared, worst);
   EXPECT_GT(compared, 4);
   EXPECT_LE(worst, 2);
 }
+
+TEST(LivePcaBasis, CompressedBakeBlendsItsPcaFormWithinItsMaxError) { expect_service_blends_the_pca_form(0, "cpu"); }
+
+// Clustered PCA on the GPU path: tiles of 16 texels, each with its own weights.
+TEST(LivePcaBasis, TiledPcaFormBlendsOnTheGpuWithinItsMaxError) { expect_service_blends_the_pca_form(16, "gpu"); }
 
 TEST(LivePcaBasis, BakeWithoutPcaFormIsRefusedNamingTheFieldAndTheFix) {
   const Rig rig;

@@ -50,7 +50,7 @@ Sky random_sky(std::size_t layers, std::size_t texels, std::mt19937& rng) {
 std::vector<float> blend(const BasisImages& basis, const Sky& sky) {
   const BlendWeights w = blend_weights(basis, sky.S, sky.sun);
   std::vector<float> T(3 * basis.texel_count());
-  blend_cpu(basis, w, w.sun.isZero() ? std::span<const float>() : std::span<const float>(sky.visibility), T);
+  blend_cpu(basis, w, w.sun.isZero(0) ? std::span<const float>() : std::span<const float>(sky.visibility), T);
   return T;
 }
 
@@ -69,8 +69,15 @@ bake::Manifest compressed_bake(const fs::path& dir, const bake::PcaOptions& opti
   return bake::read_manifest(dir);
 }
 
+bake::PcaOptions tiled(bake::PcaOptions options, int tile) {
+  options.tile = tile;
+  return options;
+}
+
 TEST(PcaBlend, StaysWithinTheReportedBoundOfTheFullBlend) {
-  for (const bake::PcaOptions& options : {pca_components(6), pca_max_error(0.01)}) {
+  // Tiles of 3 texels cut both planes (8 × 6 and 5 × 4) with narrower tiles at the edges.
+  for (const bake::PcaOptions& options :
+       {pca_components(6), pca_max_error(0.01), tiled(pca_components(2), 3), tiled(pca_max_error(0.01), 3)}) {
     TempDir dir;
     const bake::Manifest m = compressed_bake(dir.path(), options);
     const bake::VerifyReport report = bake::verify(dir.path());
@@ -89,6 +96,8 @@ TEST(PcaBlend, StaysWithinTheReportedBoundOfTheFullBlend) {
       const BasisImages pca = load_basis(dir.path(), m, static_cast<int>(j), BasisForm::Pca);
       ASSERT_TRUE(pca.compressed());
       EXPECT_EQ(pca.layers, record.components + 1);
+      EXPECT_EQ(pca.tile, options.tile);
+      EXPECT_EQ(record.tile, options.tile);
       EXPECT_EQ(pca.source_layers(), full.layers);
       double worst = 0.0;
       for (int trial = 0; trial < 20; ++trial) {
@@ -101,10 +110,26 @@ TEST(PcaBlend, StaysWithinTheReportedBoundOfTheFullBlend) {
         std::vector<double> reference(T.size());
         blend_reference(pca, sky.S, sky.sun, sky.sun ? std::span<const float>(sky.visibility) : std::span<const float>(),
                         reference);
-        for (std::size_t k = 0; k < T.size(); ++k) ASSERT_NEAR(T[k], reference[k], 1e-5);
+        // Tolerance: float rounding of the weights and of the sum, (K + 3) units of 2^-24 of the
+        // sum of the terms' magnitudes (tiles of 3 × 3 texels have near-degenerate components
+        // whose terms cancel), and at least 1e-5.
+        const BlendWeights w = blend_weights(pca, sky.S, sky.sun);
+        const double sun_bound = w.sun.cwiseAbs().maxCoeff();
+        for (std::size_t k = 0; k < T.size(); ++k) {
+          const std::size_t texel = k / 3;
+          const int tile = pca.tile_of(static_cast<int>(texel % static_cast<std::size_t>(pca.width)),
+                                       static_cast<int>(texel / static_cast<std::size_t>(pca.width)));
+          double magnitude = sun_bound;
+          for (int l = 0; l < pca.layers; ++l) {
+            const float b = half_to_float(pca.half[static_cast<std::size_t>(l) * pca.texel_count() + texel]);
+            magnitude += std::abs(static_cast<double>(w.face[static_cast<std::size_t>(tile * pca.layers + l)][static_cast<int>(k % 3)]) * b);
+          }
+          const double tolerance = std::max(1e-5, (pca.layers + 3) * std::ldexp(magnitude, -24));
+          ASSERT_NEAR(T[k], reference[k], tolerance) << "sum of |terms| " << magnitude << ", texel " << texel << " of tile " << tile;
+        }
       }
-      std::printf("measured: plane '%s', K = %d of %d: max |T_pca - T_full| = %.4f over 20 skies (bound %.4f)\n",
-                  pca.name.c_str(), record.components, full.layers, worst, record.max_error);
+      std::printf("measured: plane '%s', K = %d of %d, tile %d: max |T_pca - T_full| = %.4f over 20 skies (bound %.4f)\n",
+                  pca.name.c_str(), record.components, full.layers, options.tile, worst, record.max_error);
       // Float sums of K + 1 and n terms add a little rounding on top of the bound.
       EXPECT_LE(worst, record.max_error + 1e-5);
     }
@@ -152,6 +177,26 @@ TEST(PcaBlend, MissingFormAndBrokenFilesAreNamed) {
   EXPECT_NO_THROW(load_basis(dir.path(), m, 1));
 }
 
+TEST(PcaBlend, ATiledFormWhoseManifestLostItsTileIsRefusedByShape) {
+  TempDir dir;
+  const bake::Manifest m = compressed_bake(dir.path(), tiled(pca_components(2), 3));
+  ASSERT_EQ(m.planes[0].pca->tile, 3);
+  const std::string npy = m.planes[0].pca->coefficients;
+  bake::Manifest untiled = m;
+  untiled.planes[0].pca->tile = 0;
+  bake::write_manifest(dir.path(), untiled);
+  const bake::VerifyReport report = bake::verify(dir.path());
+  EXPECT_FALSE(report.ok);
+  ASSERT_FALSE(report.problems.empty());
+  EXPECT_NE(report.problems.front().find(npy), std::string::npos) << report.problems.front();
+  try {
+    load_basis(dir.path(), untiled, 0, BasisForm::Pca);
+    FAIL() << "coefficients of 6 tiles were read as one";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("(layers × components)"), std::string::npos) << e.what();
+  }
+}
+
 TEST(PcaBlend, CompressRefusesBadOptionsAndForeignDirectories) {
   TempDir dir;
   bake::test::write_synthetic_bake(dir.path());
@@ -162,9 +207,12 @@ TEST(PcaBlend, CompressRefusesBadOptionsAndForeignDirectories) {
 class PcaGpuBlend : public skylit::test::GlSuite {};
 
 TEST_F(PcaGpuBlend, MatchesTheCpuBlendOfTheSameForm) {
+  for (const int tile : {0, 3}) {
+  SCOPED_TRACE("tile " + std::to_string(tile));
   TempDir dir;
-  const bake::Manifest m = compressed_bake(dir.path(), pca_components(6));
+  const bake::Manifest m = compressed_bake(dir.path(), tiled(pca_components(6), tile));
   const BasisImages pca = load_basis(dir.path(), m, 0, BasisForm::Pca);
+  EXPECT_EQ(pca.tile, tile);
   std::mt19937 rng(9);
   const Sky sky = random_sky(static_cast<std::size_t>(pca.source_layers()), pca.texel_count(), rng);
   const BlendWeights w = blend_weights(pca, sky.S, sky.sun);
@@ -186,6 +234,7 @@ TEST_F(PcaGpuBlend, MatchesTheCpuBlendOfTheSameForm) {
     FAIL() << "8-bit storage of a PCA basis was accepted";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("half"), std::string::npos) << e.what();
+  }
   }
 }
 

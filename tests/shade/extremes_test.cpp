@@ -59,13 +59,16 @@ struct BakeVariant {
   geom::DomeBasis basis = geom::DomeBasis::Faces;
   int samples = 4;
   int pca_components = 4;  // the PCA form stored beside the full one
+  int pca_tile = 0;        // clustered PCA: tiles of this many texels (0: the whole plane)
 };
 
 std::vector<BakeVariant> bake_variants() {
   // Compressed hard (4 components) so that the clamp and the bound are exercised.
   std::vector<BakeVariant> variants{{"faces", 2, geom::DomeBasis::Faces, 4, 4},
                                     {"corners", 2, geom::DomeBasis::Corners, 4, 4},
-                                    {"quadratics", 2, geom::DomeBasis::Quadratics, 6, 4}};
+                                    {"quadratics", 2, geom::DomeBasis::Quadratics, 6, 4},
+                                    // Tiles of 6 texels: 4 × 4 on the ground, 2 × 2 (the last narrower) on the wall.
+                                    {"faces_tiled_pca", 2, geom::DomeBasis::Faces, 4, 4, 6}};
   for (const Preset& p : load_presets(default_presets_file())) {
     variants.push_back({"preset_" + p.name, p.bake.frequency, *geom::parse_basis(p.bake.basis), p.bake.samples,
                         p.bake.pca_components > 0 ? p.bake.pca_components : 4});
@@ -104,7 +107,7 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
   static void expect_gpu_blends(const render::BasisImages& basis, const render::BlendWeights& w,
                                 std::span<const float> visibility, std::span<const float> expected, std::size_t plane) {
     std::optional<render::test::VisibilityTexture> sun;
-    if (!w.sun.isZero()) sun.emplace(basis.width, basis.height, visibility);
+    if (!w.sun.isZero(0)) sun.emplace(basis.width, basis.height, visibility);
     const bool negative = std::any_of(basis.half.begin(), basis.half.end(), [](std::uint16_t h) { return (h & 0x8000u) && (h & 0x7FFFu); });
     std::vector<render::BasisStorage> storages{render::BasisStorage::Half};
     if (!negative) storages.insert(storages.end(), {render::BasisStorage::Unorm8, render::BasisStorage::Eac11});
@@ -115,8 +118,9 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
       ASSERT_EQ(T.size(), expected.size());
       Eigen::Vector3d magnitude = w.sun.cwiseAbs().cast<double>(), quantisation = Eigen::Vector3d::Zero();
       for (const int i : w.active) {
-        const auto k = static_cast<std::size_t>(i);
-        const Eigen::Vector3d wi = w.face[k].cwiseAbs().cast<double>();
+        // A tiled basis has a weight per tile and layer; the layer's bounds are per layer.
+        const auto k = static_cast<std::size_t>(i) % static_cast<std::size_t>(basis.layers);
+        const Eigen::Vector3d wi = w.face[static_cast<std::size_t>(i)].cwiseAbs().cast<double>();
         magnitude += wi * blender.layer_max()[k];
         if (storage == render::BasisStorage::Unorm8) quantisation += wi * blender.layer_max()[k] / 510.0;
         if (storage == render::BasisStorage::Eac11) quantisation += wi * blender.eac_error()[k];
@@ -150,6 +154,7 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
     // The PCA form beside the full one: every case checks it too.
     bake::PcaOptions pca;
     pca.components = v.pca_components;
+    pca.tile = v.pca_tile;
     baker::compress_bake(bake_dir(), pca, quiet);
     std::fclose(quiet);
     return manifests_.emplace(v.name, bake::read_manifest(bake_dir())).first->second;
@@ -198,7 +203,7 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
       o.weights.push_back(render::blend_weights(basis, S, sun));
       std::vector<float> T(basis.texel_count() * 3);
       render::blend_cpu(basis, o.weights.back(),
-                        o.weights.back().sun.isZero() ? std::span<const float>() : std::span<const float>(visibility), T);
+                        o.weights.back().sun.isZero(0) ? std::span<const float>() : std::span<const float>(visibility), T);
       // The PCA form: within its bound of the full blend, max |F − F̂| times Σ_l |α_l|
       // (α_l = S_l A_l / D: at most 1 for faces, more where corner coefficients are negative).
       const render::BasisImages pca =
@@ -206,7 +211,7 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
       const render::BlendWeights pca_weights = render::blend_weights(pca, S, sun);
       std::vector<float> T_pca(T.size());
       render::blend_cpu(pca, pca_weights,
-                        pca_weights.sun.isZero() ? std::span<const float>() : std::span<const float>(visibility), T_pca);
+                        pca_weights.sun.isZero(0) ? std::span<const float>() : std::span<const float>(visibility), T_pca);
       for (int c = 0; c < 3; ++c) {
         if (o.weights.back().no_light[static_cast<std::size_t>(c)]) continue;
         double alpha = 0.0;
@@ -224,7 +229,7 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
       const render::BlendWeights lean_weights = render::blend_weights(lean, S, sun);
       std::vector<float> T_lean(T.size());
       render::blend_cpu(lean, lean_weights,
-                        lean_weights.sun.isZero() ? std::span<const float>() : std::span<const float>(visibility), T_lean);
+                        lean_weights.sun.isZero(0) ? std::span<const float>() : std::span<const float>(visibility), T_lean);
       for (std::size_t k = 0; k < T.size(); ++k) {
         EXPECT_TRUE(std::isfinite(T_lean[k]) && T_lean[k] >= 0.0f && T_lean[k] <= 1.0f) << "plane " << j;
         // Within the tolerance times Σ|α| (1 for faces; corners' negative coefficients raise it).

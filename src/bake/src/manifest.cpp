@@ -310,6 +310,7 @@ json to_json(const Manifest& m) {
                   {"rms_error", r.pca->rms_error},
                   {"variance_kept", r.pca->variance_kept},
                   {"sky_correlation_deg", r.pca->sky_correlation_deg}};
+      if (r.pca->tile > 0) p["pca"]["tile"] = r.pca->tile;
     }
     planes.push_back(std::move(p));
   }
@@ -412,6 +413,7 @@ Manifest manifest_from_json(const json& j, const fs::path& source) {
         record.sky_correlation_deg =
             to_double(src, pca["sky_correlation_deg"], join(pfield, "sky_correlation_deg"));
       }
+      if (pca.contains("tile")) record.tile = to_int(src, pca["tile"], join(pfield, "tile"), 0);
       r.pca = std::move(record);
     }
     m.planes.push_back(std::move(r));

@@ -2,10 +2,15 @@
 #include "skylit/bake/pca.hpp"
 
 #include <algorithm>
+#include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <exception>
+#include <mutex>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 #include <Eigen/Eigenvalues>
 #include <Imath/half.h>
@@ -48,6 +53,10 @@ void check_pca_options(const PcaOptions& options) {
   if (options.max_error && !(*options.max_error > 0.0 && std::isfinite(*options.max_error))) {
     throw std::invalid_argument("pca.max_error: " + std::to_string(*options.max_error) + " is not a finite value > 0");
   }
+  if (options.tile < 0 || options.tile == 1) {
+    throw std::invalid_argument("pca.tile: " + std::to_string(options.tile) +
+                                " is not 0 (the whole plane) or a tile of at least 2 texels");
+  }
 }
 
 std::vector<std::string> pca_layer_names(int components) {
@@ -60,18 +69,19 @@ std::vector<std::string> pca_layer_names(int components) {
   return names;
 }
 
-PcaBasis compress_pca(const ImageStack& stack, std::span<const double> unoccluded, const PcaOptions& options,
-                      std::span<const Vec3> directions) {
-  check_pca_options(options);
+namespace {
+
+// The components of one region (the whole plane, or one tile of it), and the sums of squares
+// before and after (to combine tiles' variance fractions).
+struct RegionPca {
+  PcaBasis pca;
+  double centred_squares = 0.0;
+  double residual_squares = 0.0;
+};
+
+RegionPca compress_region(const ImageStack& stack, std::span<const double> unoccluded, const PcaOptions& options,
+                          std::span<const Vec3> directions) {
   const std::size_t texels = static_cast<std::size_t>(stack.width) * static_cast<std::size_t>(stack.height);
-  if (stack.width <= 0 || stack.height <= 0 || stack.layers < 0 ||
-      stack.data.size() != texels * static_cast<std::size_t>(stack.layers)) {
-    throw std::invalid_argument("compress_pca: the stack's size does not match its data");
-  }
-  if (unoccluded.size() != static_cast<std::size_t>(stack.layers)) {
-    throw std::invalid_argument("compress_pca: " + std::to_string(unoccluded.size()) + " unoccluded values for " +
-                                std::to_string(stack.layers) + " layers");
-  }
 
   // The fractions F_l of the layers with light, from B rounded to half floats as the bake
   // stores it: the full blend the compressed one is measured against reads those.
@@ -207,7 +217,150 @@ PcaBasis compress_pca(const ImageStack& stack, std::span<const double> unocclude
   pca.max_error = now.max_abs;
   pca.rms_error = rows > 0 ? std::sqrt(now.sum_squares / (static_cast<double>(rows) * static_cast<double>(cols))) : 0.0;
   pca.variance_kept = centred.sum_squares > 0.0 ? 1.0 - now.sum_squares / centred.sum_squares : 1.0;
+  return RegionPca{std::move(pca), centred.sum_squares, now.sum_squares};
+}
+
+// Layers of `stack` over texels [x0, x0 + w) × [y0, y0 + h).
+ImageStack crop(const ImageStack& stack, int x0, int y0, int w, int h) {
+  ImageStack out;
+  out.width = w;
+  out.height = h;
+  out.layers = stack.layers;
+  out.data.resize(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * static_cast<std::size_t>(stack.layers));
+  for (int l = 0; l < stack.layers; ++l) {
+    const std::span<const float> in = stack.layer(l);
+    const std::span<float> to = out.layer(l);
+    for (int y = 0; y < h; ++y) {
+      const auto from = in.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(y0 + y) * static_cast<std::size_t>(stack.width) +
+                                                                 static_cast<std::size_t>(x0));
+      std::copy(from, from + w, to.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(y) * static_cast<std::size_t>(w)));
+    }
+  }
+  return out;
+}
+
+// Runs body(t) for t in [0, count) on the machine's threads.
+template <typename Body>
+void for_each_parallel(int count, const Body& body) {
+  const int threads = std::max(1, std::min(count, static_cast<int>(std::thread::hardware_concurrency())));
+  std::atomic<int> next{0};
+  std::exception_ptr failure;
+  std::mutex failure_mutex;
+  std::vector<std::thread> pool;
+  for (int i = 0; i < threads; ++i) {
+    pool.emplace_back([&] {
+      for (int t = next++; t < count; t = next++) {
+        try {
+          body(t);
+        } catch (...) {
+          const std::lock_guard lock(failure_mutex);
+          if (!failure) failure = std::current_exception();
+        }
+      }
+    });
+  }
+  for (std::thread& thread : pool) thread.join();
+  if (failure) std::rethrow_exception(failure);
+}
+
+PcaBasis compress_tiles(const ImageStack& stack, std::span<const double> unoccluded, const PcaOptions& options,
+                        std::span<const Vec3> directions) {
+  PcaBasis pca;
+  pca.width = stack.width;
+  pca.height = stack.height;
+  pca.source_layers = stack.layers;
+  pca.tile = options.tile;
+  const int tiles_x = pca.tiles_x(), tiles = pca.tile_count();
+  const auto region = [&](int t) {
+    const int x0 = (t % tiles_x) * options.tile, y0 = (t / tiles_x) * options.tile;
+    return std::array<int, 4>{x0, y0, std::min(options.tile, stack.width - x0), std::min(options.tile, stack.height - y0)};
+  };
+  PcaOptions each = options;
+  each.tile = 0;
+  std::vector<RegionPca> parts(static_cast<std::size_t>(tiles));
+  const auto compress_tile = [&](int t, const PcaOptions& o) {
+    const auto [x0, y0, w, h] = region(t);
+    parts[static_cast<std::size_t>(t)] = compress_region(crop(stack, x0, y0, w, h), unoccluded, o, directions);
+  };
+  for_each_parallel(tiles, [&](int t) { compress_tile(t, each); });
+  // One K for every tile: the tiles that met the criteria with fewer are compressed again to
+  // K, which only lowers their error (a tile whose rank is below K keeps fewer, padded with zeros).
+  int k = 0;
+  for (const RegionPca& part : parts) k = std::max(k, part.pca.components);
+  PcaOptions at_k = each;
+  at_k.components = std::max(k, 1);
+  std::vector<int> short_tiles;
+  for (int t = 0; t < tiles; ++t) {
+    if (parts[static_cast<std::size_t>(t)].pca.components < k) short_tiles.push_back(t);
+  }
+  for_each_parallel(static_cast<int>(short_tiles.size()), [&](int i) { compress_tile(short_tiles[static_cast<std::size_t>(i)], at_k); });
+
+  pca.components = k;
+  pca.images.width = stack.width;
+  pca.images.height = stack.height;
+  pca.images.layers = k + 1;
+  pca.images.data.assign(static_cast<std::size_t>(stack.width) * static_cast<std::size_t>(stack.height) *
+                             static_cast<std::size_t>(k + 1),
+                         0.0f);
+  const auto n = static_cast<std::size_t>(stack.layers);
+  pca.coefficients.assign(static_cast<std::size_t>(tiles) * n * static_cast<std::size_t>(k), 0.0f);
+  double centred = 0.0, residual = 0.0;
+  for (int t = 0; t < tiles; ++t) {
+    const RegionPca& part = parts[static_cast<std::size_t>(t)];
+    const auto [x0, y0, w, h] = region(t);
+    for (int layer = 0; layer <= part.pca.components; ++layer) {
+      const std::span<const float> from = part.pca.images.layer(layer);
+      const std::span<float> to = pca.images.layer(layer);
+      for (int y = 0; y < h; ++y) {
+        std::copy_n(from.begin() + static_cast<std::ptrdiff_t>(y) * w, w,
+                    to.begin() + static_cast<std::ptrdiff_t>(y0 + y) * stack.width + x0);
+      }
+    }
+    const auto kt = static_cast<std::size_t>(part.pca.components);
+    for (std::size_t l = 0; l < n; ++l) {
+      for (std::size_t c = 0; c < kt; ++c) {
+        pca.coefficients[(static_cast<std::size_t>(t) * n + l) * static_cast<std::size_t>(k) + c] = part.pca.coefficients[l * kt + c];
+      }
+    }
+    pca.max_error = std::max(pca.max_error, part.pca.max_error);
+    centred += part.centred_squares;
+    residual += part.residual_squares;
+    for (std::size_t r = 0; r < part.pca.eigenvalues.size(); ++r) {
+      if (pca.eigenvalues.size() <= r) pca.eigenvalues.push_back(0.0);
+      pca.eigenvalues[r] += part.pca.eigenvalues[r];
+    }
+  }
+  std::size_t lit = 0;
+  for (const double a : unoccluded) lit += a > 0.0 ? 1 : 0;
+  const double values = static_cast<double>(lit) * static_cast<double>(stack.width) * static_cast<double>(stack.height);
+  pca.rms_error = values > 0.0 ? std::sqrt(residual / values) : 0.0;
+  pca.variance_kept = centred > 0.0 ? 1.0 - residual / centred : 1.0;
   return pca;
+}
+
+}  // namespace
+
+PcaBasis compress_pca(const ImageStack& stack, std::span<const double> unoccluded, const PcaOptions& options,
+                      std::span<const Vec3> directions) {
+  check_pca_options(options);
+  const std::size_t texels = static_cast<std::size_t>(stack.width) * static_cast<std::size_t>(stack.height);
+  if (stack.width <= 0 || stack.height <= 0 || stack.layers < 0 ||
+      stack.data.size() != texels * static_cast<std::size_t>(stack.layers)) {
+    throw std::invalid_argument("compress_pca: the stack's size does not match its data");
+  }
+  if (unoccluded.size() != static_cast<std::size_t>(stack.layers)) {
+    throw std::invalid_argument("compress_pca: " + std::to_string(unoccluded.size()) + " unoccluded values for " +
+                                std::to_string(stack.layers) + " layers");
+  }
+  if (options.sky_correlation_deg > 0.0 && directions.size() != static_cast<std::size_t>(stack.layers)) {
+    throw std::invalid_argument("compress_pca: a sky prior needs one direction per layer");
+  }
+  if (options.tile > 0 && (options.tile < stack.width || options.tile < stack.height)) {
+    return compress_tiles(stack, unoccluded, options, directions);
+  }
+  PcaOptions whole = options;
+  whole.tile = 0;
+  return compress_region(stack, unoccluded, whole, directions).pca;
 }
 
 }  // namespace skylit::bake

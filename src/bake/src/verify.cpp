@@ -203,7 +203,8 @@ class Checker {
     }
   }
 
-  // The PCA form beside a plane: K + 1 layers named as pca_layer_names, coefficients [n, K].
+  // The PCA form beside a plane: K + 1 layers named as pca_layer_names, coefficients [n, K]
+  // ([tiles, n, K] for clustered PCA).
   void check_pca(const Manifest& m, const std::set<std::string>& present) {
     for (const PlaneRecord& r : m.planes) {
       if (!r.pca) continue;
@@ -227,8 +228,15 @@ class Checker {
           problem(e.what());
         }
       }
-      check_array(r.pca->coefficients, {m.layer_count(), static_cast<std::size_t>(std::max(r.pca->components, 0))},
-                  "(layers × components)", present);
+      if (r.pca->tile == 1) problem(label + ".tile is 1; a tile holds at least 2 × 2 texels. " + kRebake);
+      const auto components = static_cast<std::size_t>(std::max(r.pca->components, 0));
+      if (r.pca->tile > 0) {
+        const auto tiles = static_cast<std::size_t>(r.pca->tiles_x(r.plane.width)) *
+                           static_cast<std::size_t>(r.pca->tiles_y(r.plane.height));
+        check_array(r.pca->coefficients, {tiles, m.layer_count(), components}, "(tiles × layers × components)", present);
+      } else {
+        check_array(r.pca->coefficients, {m.layer_count(), components}, "(layers × components)", present);
+      }
     }
   }
 

@@ -33,13 +33,16 @@ CpuShadowRatios::CpuShadowRatios(const render::BasisImages& basis, double skip_t
 
 bool CpuShadowRatios::unchanged_since_last(const render::BlendWeights& weights, std::uint64_t sun_revision) const {
   if (!has_result_ || weights.no_light != last_no_light_ || weights.face.size() != last_face_.size()) return false;
-  const bool sun_now = !weights.sun.isZero();
-  const bool sun_then = !last_sun_.isZero();
+  const bool sun_now = !weights.sun.isZero(0);
+  const bool sun_then = !last_sun_.isZero(0);
   if (sun_now && sun_then && sun_revision != last_sun_revision_) return false;
   // The largest change of T any texel can see, per channel (B ≤ layer_max, V ≤ 1).
+  // A tiled basis (clustered PCA) has a set of weights per tile; summed over every tile, the
+  // bound is looser than a texel's own tile needs, never tighter.
   Eigen::Vector3d bound = (weights.sun - last_sun_).cwiseAbs().cast<double>();
   for (std::size_t i = 0; i < weights.face.size(); ++i) {
-    bound += (weights.face[i] - last_face_[i]).cwiseAbs().cast<double>() * static_cast<double>(layer_max_[i]);
+    bound += (weights.face[i] - last_face_[i]).cwiseAbs().cast<double>() *
+             static_cast<double>(layer_max_[i % layer_max_.size()]);
   }
   return bound.maxCoeff() <= change_threshold_;
 }
@@ -55,7 +58,8 @@ bool CpuShadowRatios::blend(const render::BlendWeights& weights, std::span<const
   std::vector<double> contribution(active);
   for (std::size_t a = 0; a < active; ++a) {
     const auto i = static_cast<std::size_t>(weights.active[a]);
-    contribution[a] = static_cast<double>(weights.face[i].cwiseAbs().maxCoeff()) * static_cast<double>(layer_max_[i]);
+    contribution[a] =
+        static_cast<double>(weights.face[i].cwiseAbs().maxCoeff()) * static_cast<double>(layer_max_[i % layer_max_.size()]);
   }
   std::vector<std::size_t> order(active);
   std::iota(order.begin(), order.end(), std::size_t{0});
@@ -81,7 +85,7 @@ bool CpuShadowRatios::blend(const render::BlendWeights& weights, std::span<const
 
   render::BlendOptions options;
   options.workers = workers;
-  const bool use_sun = !weights.sun.isZero();
+  const bool use_sun = !weights.sun.isZero(0);
   render::blend_cpu(basis_, used, use_sun ? sun_visibility : std::span<const float>(), rgb_, options);
   auto rgba = std::make_shared<std::vector<float>>(4 * basis_.texel_count(), 1.0f);
   for (std::size_t k = 0; k < basis_.texel_count(); ++k) std::copy_n(rgb_.data() + 3 * k, 3, rgba->data() + 4 * k);

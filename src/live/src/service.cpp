@@ -1096,7 +1096,7 @@ std::int64_t Service::run() {
           }
           ++s.plane_views[j].blends_on_return;
         } else {
-          ran = blenders[j]->blend(weights, weights.sun.isZero() || !sun_map ? nullptr : &sun_map->map().visibility(static_cast<int>(j)));
+          ran = blenders[j]->blend(weights, weights.sun.isZero(0) || !sun_map ? nullptr : &sun_map->map().visibility(static_cast<int>(j)));
           if (!sky_changed) ++s.plane_views[j].blends_on_return;
         }
         ++(ran ? s.counters.blends_run : s.counters.blends_skipped);

@@ -126,20 +126,36 @@ BasisImages load_pca_form(const fs::path& bake_dir, const bake::Manifest& manife
                                        " (mean, pc_001 …)",
                                    "compress the bake again: skylit-bake compress " + bake_dir.string() + " --pca-…"));
   }
+  // Clustered PCA: one projection per tile, [tiles, n, K] coefficients.
+  const auto tiles = static_cast<std::size_t>(pca.tiles_x(record.plane.width)) *
+                     static_cast<std::size_t>(pca.tiles_y(record.plane.height));
   std::vector<std::size_t> shape;
   const std::vector<float> coefficients = bake::read_npy(bake_dir / pca.coefficients, &shape);
-  if (shape.size() != 2 || shape[0] != n || shape[1] != static_cast<std::size_t>(k)) {
-    throw InputError(input_message(bake_dir / pca.coefficients, -1, -1, "shape",
-                                   "is not [" + std::to_string(n) + ", " + std::to_string(k) + "] (layers × components)",
+  const std::vector<std::size_t> expected_shape =
+      pca.tile > 0 ? std::vector<std::size_t>{tiles, n, static_cast<std::size_t>(k)}
+                   : std::vector<std::size_t>{n, static_cast<std::size_t>(k)};
+  if (shape != expected_shape) {
+    // Appended piecewise: GCC 12 warns falsely (-Wrestrict) on "[" + std::string.
+    std::string expected_text = "is not [";
+    if (pca.tile > 0) expected_text += std::to_string(tiles) + ", ";
+    expected_text += std::to_string(n) + ", " + std::to_string(k);
+    expected_text += pca.tile > 0 ? "] (tiles × layers × components)" : "] (layers × components)";
+    throw InputError(input_message(bake_dir / pca.coefficients, -1, -1, "shape", expected_text,
                                    "compress the bake again: skylit-bake compress " + bake_dir.string() + " --pca-…"));
   }
   BasisImages basis = basis_of(record, manifest, std::move(stack));
-  basis.projection.resize(static_cast<Eigen::Index>(n), k + 1);
-  for (std::size_t l = 0; l < n; ++l) {
-    const auto a = static_cast<float>(record.unoccluded[l]);
-    const auto row = static_cast<Eigen::Index>(l);
-    basis.projection(row, 0) = a;
-    for (int c = 0; c < k; ++c) basis.projection(row, c + 1) = a * coefficients[l * static_cast<std::size_t>(k) + static_cast<std::size_t>(c)];
+  basis.tile = pca.tile;
+  const auto stored = static_cast<Eigen::Index>(k + 1);
+  basis.projection.resize(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(tiles) * stored);
+  for (std::size_t t = 0; t < tiles; ++t) {
+    for (std::size_t l = 0; l < n; ++l) {
+      const auto a = static_cast<float>(record.unoccluded[l]);
+      const auto row = static_cast<Eigen::Index>(l);
+      const Eigen::Index column = static_cast<Eigen::Index>(t) * stored;
+      const float* p = coefficients.data() + (t * n + l) * static_cast<std::size_t>(k);
+      basis.projection(row, column) = a;
+      for (int c = 0; c < k; ++c) basis.projection(row, column + c + 1) = a * p[c];
+    }
   }
   for (std::size_t i = 0; i < basis.half.size(); ++i) {
     if ((basis.half[i] & 0x7c00u) == 0x7c00u) {

@@ -39,9 +39,15 @@ void check_basis(const BasisImages& basis) {
                          " layers of " + std::to_string(basis.width) + "x" + std::to_string(basis.height),
               "load the basis with load_basis");
   }
-  if (basis.compressed() && basis.projection.cols() != basis.layers) {
+  if (basis.tile < 0 || (basis.tile > 0 && !basis.compressed())) {
+    bad_input(field + ".tile", std::to_string(basis.tile) + (basis.tile < 0 ? " is negative" : " without a projection"),
+              "load the basis with load_basis");
+  }
+  const Eigen::Index projected = static_cast<Eigen::Index>(basis.tile_count()) * basis.layers;
+  if (basis.compressed() && basis.projection.cols() != projected) {
     bad_input(field + ".projection",
-              std::to_string(basis.projection.cols()) + " columns for " + std::to_string(basis.layers) + " stored layers",
+              std::to_string(basis.projection.cols()) + " columns for " + std::to_string(basis.layers) +
+                  " stored layers in " + std::to_string(basis.tile_count()) + " tile(s)",
               "load the basis with load_basis");
   }
   if (basis.compressed() && !basis.projection.allFinite()) {
@@ -175,19 +181,23 @@ BlendWeights weights_for_terms(const BasisImages& basis, std::span<const Eigen::
     if (!w.no_light[static_cast<std::size_t>(c)]) inverse[c] = 1.0 / w.denominator[c];
   }
   if (basis.compressed()) {
-    // u_k = Σ_l w_l projection(l, k), in double: the weights of the mean and eigen-images.
-    std::vector<Eigen::Vector3d> u(static_cast<std::size_t>(basis.layers), Eigen::Vector3d::Zero());
+    // u_k = Σ_l w_l projection(l, k), in double: the weights of the mean and eigen-images (of
+    // every tile, for a tiled basis).
+    const Eigen::Index columns = basis.projection.cols();
+    Eigen::MatrixXd w_rows = Eigen::MatrixXd::Zero(3, static_cast<Eigen::Index>(layers));
     for (std::size_t i = 0; i < layers; ++i) {
       if (basis.unoccluded[i] == 0.0) continue;
-      const Eigen::Vector3d wi = S[i].cwiseProduct(inverse);
-      for (int k = 0; k < basis.layers; ++k) {
-        u[static_cast<std::size_t>(k)] += wi * static_cast<double>(basis.projection(static_cast<Eigen::Index>(i), k));
-      }
+      w_rows.col(static_cast<Eigen::Index>(i)) = S[i].cwiseProduct(inverse);
     }
+    const Eigen::MatrixXd projected = w_rows * basis.projection.cast<double>();  // 3 × columns
+    std::vector<Eigen::Vector3d> u(static_cast<std::size_t>(columns));
+    for (Eigen::Index k = 0; k < columns; ++k) u[static_cast<std::size_t>(k)] = projected.col(k);
     w.face.assign(u.size(), Eigen::Vector3f::Zero());
     for (std::size_t k = 0; k < u.size(); ++k) {
       w.face[k] = u[k].cast<float>();
-      if (!w.face[k].isZero()) w.active.push_back(static_cast<int>(k));
+      // Exactly zero: Eigen's isZero() without a precision treats |w| ≤ 1e-5 as zero, and an
+      // eigen-image's weight may be that small and still move T by as much.
+      if (!w.face[k].isZero(0)) w.active.push_back(static_cast<int>(k));
     }
     set_source_weights(w, terms, inverse);
     return w;
@@ -197,7 +207,7 @@ BlendWeights weights_for_terms(const BasisImages& basis, std::span<const Eigen::
     // A face the plane cannot see (A = 0, hence B = 0) costs nothing, whatever its S.
     if (basis.unoccluded[i] == 0.0) continue;
     w.face[i] = S[i].cwiseProduct(inverse).cast<float>();
-    if (!w.face[i].isZero()) w.active.push_back(static_cast<int>(i));
+    if (!w.face[i].isZero(0)) w.active.push_back(static_cast<int>(i));
   }
   set_source_weights(w, terms, inverse);
   return w;
@@ -229,7 +239,7 @@ namespace {
 void check_weights(const BasisImages& basis, const BlendWeights& weights, const BlendOptions& options) {
   check_basis(basis);
   check_options(options);
-  const std::size_t layers = static_cast<std::size_t>(basis.layers);
+  const std::size_t layers = static_cast<std::size_t>(basis.layers) * static_cast<std::size_t>(basis.tile_count());
   if (weights.face.size() != layers) {
     bad_input("weights.face", std::to_string(weights.face.size()) + " weights for the " + std::to_string(layers) +
                                   " layers of plane '" + basis.name + "'",
@@ -237,7 +247,7 @@ void check_weights(const BasisImages& basis, const BlendWeights& weights, const 
   }
   int previous = -1;
   for (const int i : weights.active) {
-    if (i <= previous || i >= basis.layers) {
+    if (i <= previous || static_cast<std::size_t>(i) >= layers) {
       bad_input("weights.active", "layer " + std::to_string(i) + " is out of order or out of range",
                 "compute the weights with blend_weights for this basis");
     }
@@ -252,31 +262,40 @@ void check_weights(const BasisImages& basis, const BlendWeights& weights, const 
 BlendStats run_blend(const BasisImages& basis, const BlendWeights& weights,
                      std::span<const float* const> source_visibility, std::span<const float> source_weights,
                      std::span<float> out, const BlendOptions& options, const std::string& visibility_field) {
-  std::vector<float> packed;  // w_r, w_g, w_b per active layer, in the kernel's order
-  packed.reserve(3 * weights.active.size());
+  // One job per tile (one for an untiled basis): its active layers and their weights.
+  const int tiles = basis.tile_count();
+  const auto layers = static_cast<std::size_t>(basis.layers);
+  std::vector<std::vector<int>> active(static_cast<std::size_t>(tiles));
+  std::vector<std::vector<float>> packed(static_cast<std::size_t>(tiles));  // w_r, w_g, w_b per active layer
   for (const int i : weights.active) {
+    const std::size_t t = static_cast<std::size_t>(i) / layers;
     const Eigen::Vector3f& wi = weights.face[static_cast<std::size_t>(i)];
-    packed.insert(packed.end(), {wi.x(), wi.y(), wi.z()});
+    active[t].push_back(static_cast<int>(static_cast<std::size_t>(i) % layers));
+    packed[t].insert(packed[t].end(), {wi.x(), wi.y(), wi.z()});
   }
-  detail::BlendJob job;
-  job.half = basis.half.data();
-  job.layer_stride = basis.texel_count();
-  job.active = weights.active;
-  job.weights = packed;
-  job.source_visibility = source_visibility;
-  job.source_weights = source_weights;
-  for (int c = 0; c < 3; ++c) job.no_light[c] = weights.no_light[static_cast<std::size_t>(c)];
-  job.out = out.data();
+  std::vector<detail::BlendJob> jobs(static_cast<std::size_t>(tiles));
+  for (std::size_t t = 0; t < jobs.size(); ++t) {
+    detail::BlendJob& job = jobs[t];
+    job.half = basis.half.data();
+    job.layer_stride = basis.texel_count();
+    job.active = active[t];
+    job.weights = packed[t];
+    job.source_visibility = source_visibility;
+    job.source_weights = source_weights;
+    for (int c = 0; c < 3; ++c) job.no_light[c] = weights.no_light[static_cast<std::size_t>(c)];
+    job.out = out.data();
+  }
 
   const auto kernel = options.use_simd && detail::cpu_has_avx2_f16c_fma() ? detail::blend_range_avx2
                                                                           : detail::blend_range_portable;
   // Threads claim chunks of a few blocks from a shared counter: a thread that the OS sets aside
   // (a busy machine) holds up one chunk, not a fixed share of the plane. Within a chunk the
   // kernel prefetches across blocks. A texel's sum never depends on who computes it, so the
-  // results are identical for any thread count.
+  // results are identical for any thread count. A tiled basis is split by tile instead, each
+  // tile's rows summed with its own weights.
   const std::size_t texels = basis.texel_count();
   const std::size_t chunk = detail::kChunkBlocks * detail::kBlockTexels;
-  const std::size_t chunks = (texels + chunk - 1) / chunk;
+  const std::size_t chunks = basis.tile > 0 ? static_cast<std::size_t>(tiles) : (texels + chunk - 1) / chunk;
   std::optional<BlendWorkers> own;
   BlendWorkers* workers = options.workers;
   if (!workers) {
@@ -285,9 +304,22 @@ BlendStats run_blend(const BasisImages& basis, const BlendWeights& weights,
     workers = &own.emplace(static_cast<int>(std::max<std::size_t>(1, std::min(wanted, chunks))));
   }
   std::vector<detail::RangeStats> stats(static_cast<std::size_t>(workers->size()));
-  workers->run(chunks, [&](std::size_t c, int worker) {
-    kernel(job, c * chunk, std::min(texels, (c + 1) * chunk), stats[static_cast<std::size_t>(worker)]);
-  });
+  if (basis.tile > 0) {
+    const auto width = static_cast<std::size_t>(basis.width);
+    const auto tile = static_cast<std::size_t>(basis.tile);
+    const auto tiles_x = static_cast<std::size_t>(basis.tiles_x());
+    workers->run(chunks, [&](std::size_t t, int worker) {
+      const std::size_t x0 = (t % tiles_x) * tile, y0 = (t / tiles_x) * tile;
+      const std::size_t x1 = std::min(width, x0 + tile), y1 = std::min(static_cast<std::size_t>(basis.height), y0 + tile);
+      for (std::size_t y = y0; y < y1; ++y) {
+        kernel(jobs[t], y * width + x0, y * width + x1, stats[static_cast<std::size_t>(worker)]);
+      }
+    });
+  } else {
+    workers->run(chunks, [&](std::size_t c, int worker) {
+      kernel(jobs[0], c * chunk, std::min(texels, (c + 1) * chunk), stats[static_cast<std::size_t>(worker)]);
+    });
+  }
 
   detail::RangeStats total;
   for (const detail::RangeStats& s : stats) {
@@ -309,7 +341,9 @@ BlendStats run_blend(const BasisImages& basis, const BlendWeights& weights,
 // Σ_l S_l projection(l, k).
 std::vector<double> dome_sums(const BasisImages& basis, std::span<const Eigen::Vector3d> S) {
   const std::size_t texels = basis.texel_count();
-  std::vector<Eigen::Vector3d> coefficient(static_cast<std::size_t>(basis.layers), Eigen::Vector3d::Zero());
+  const auto layers = static_cast<std::size_t>(basis.layers);
+  // coefficient[t · layers + i]: stored layer i within tile t.
+  std::vector<Eigen::Vector3d> coefficient(layers * static_cast<std::size_t>(basis.tile_count()), Eigen::Vector3d::Zero());
   for (std::size_t i = 0; i < coefficient.size(); ++i) {
     if (!basis.compressed()) {
       coefficient[i] = S[i];
@@ -320,11 +354,14 @@ std::vector<double> dome_sums(const BasisImages& basis, std::span<const Eigen::V
     }
   }
   std::vector<double> sum(3 * texels, 0.0);
-  for (std::size_t i = 0; i < static_cast<std::size_t>(basis.layers); ++i) {
+  const auto width = static_cast<std::size_t>(std::max(basis.width, 1));
+  for (std::size_t i = 0; i < layers; ++i) {
     const std::uint16_t* layer = basis.half.data() + i * texels;
     for (std::size_t k = 0; k < texels; ++k) {
       const double b = half_to_float(layer[k]);
-      for (int c = 0; c < 3; ++c) sum[3 * k + static_cast<std::size_t>(c)] += coefficient[i][c] * b;
+      const auto tile = static_cast<std::size_t>(basis.tile_of(static_cast<int>(k % width), static_cast<int>(k / width)));
+      const Eigen::Vector3d& a = coefficient[tile * layers + i];
+      for (int c = 0; c < 3; ++c) sum[3 * k + static_cast<std::size_t>(c)] += a[c] * b;
     }
   }
   return sum;
@@ -339,11 +376,11 @@ BlendStats blend_cpu(const BasisImages& basis, const BlendWeights& weights, std:
     bad_input("weights.sources", std::to_string(weights.sources.size()) + " separated sources for one visibility image",
               "blend several sources with blend_cpu_sources, one V per source");
   }
-  check_sizes(basis, sun_visibility, out.size(), !weights.sun.isZero());
+  check_sizes(basis, sun_visibility, out.size(), !weights.sun.isZero(0));
   // Without a sun weight V changes nothing: skip reading it.
   std::vector<const float*> visibility;
   std::vector<float> source_weights;
-  if (!sun_visibility.empty() && !weights.sun.isZero()) {
+  if (!sun_visibility.empty() && !weights.sun.isZero(0)) {
     visibility.push_back(sun_visibility.data());
     source_weights = {weights.sun.x(), weights.sun.y(), weights.sun.z()};
   }
@@ -355,14 +392,14 @@ BlendStats blend_cpu_sources(const BasisImages& basis, const BlendWeights& weigh
                              const BlendOptions& options) {
   check_weights(basis, weights, options);
   std::vector<Eigen::Vector3f> sources = weights.sources;
-  if (sources.empty() && !weights.sun.isZero()) sources.push_back(weights.sun);
+  if (sources.empty() && !weights.sun.isZero(0)) sources.push_back(weights.sun);
   const std::size_t texels = basis.texel_count();
   if (out.size() != 3 * texels) {
     bad_input("out", "has " + std::to_string(out.size()) + " values; plane '" + basis.name + "' needs " +
                          std::to_string(3 * texels) + " (3 per texel)",
               "size it width x height x 3");
   }
-  const bool all_zero = std::all_of(sources.begin(), sources.end(), [](const Eigen::Vector3f& w) { return w.isZero(); });
+  const bool all_zero = std::all_of(sources.begin(), sources.end(), [](const Eigen::Vector3f& w) { return w.isZero(0); });
   if (source_visibility.size() != sources.size() && !(source_visibility.empty() && all_zero)) {
     bad_input("source_visibility", std::to_string(source_visibility.size()) + " visibility image(s) for " +
                                        std::to_string(sources.size()) + " separated source(s)",
@@ -375,7 +412,7 @@ BlendStats blend_cpu_sources(const BasisImages& basis, const BlendWeights& weigh
     if (!sources[k].allFinite()) bad_input("weights.sources[" + std::to_string(k) + "]", "is not finite",
                                            "compute the weights with blend_weights_sources");
     // Without a weight V changes nothing: skip reading it.
-    if (sources[k].isZero()) continue;
+    if (sources[k].isZero(0)) continue;
     const std::span<const float> v = source_visibility[k];
     if (v.size() != texels) {
       bad_input(field, "has " + std::to_string(v.size()) + " values; plane '" + basis.name + "' has " +
@@ -394,7 +431,7 @@ void blend_reference(const BasisImages& basis, std::span<const Eigen::Vector3d> 
   // use S directly, over every layer.
   const BlendWeights weights = blend_weights(basis, S, sun, options);
   const Eigen::Vector3d sun_term = sun_on_plane(basis, sun);
-  check_sizes(basis, sun_visibility, out.size(), !weights.sun.isZero());
+  check_sizes(basis, sun_visibility, out.size(), !weights.sun.isZero(0));
   for (const float v : sun_visibility) {
     if (!(v >= 0.0f && v <= 1.0f)) bad_visibility();
   }
@@ -434,7 +471,7 @@ void blend_reference_sources(const BasisImages& basis, std::span<const Eigen::Ve
   for (std::size_t k = 0; k < sources.size(); ++k) {
     terms.push_back(source_on_plane(basis, sources[k], source_field(k)));
     const std::span<const float> v = source_visibility[k];
-    if (v.empty() && terms.back().isZero()) continue;
+    if (v.empty() && terms.back().isZero(0)) continue;
     if (v.size() != texels) {
       bad_input("source_visibility[" + std::to_string(k) + "]",
                 "has " + std::to_string(v.size()) + " values for " + std::to_string(texels) + " texels",

@@ -36,6 +36,9 @@ void check_basis(const BasisImages& basis) {
                          " layers of " + std::to_string(basis.width) + "x" + std::to_string(basis.height),
               "load the basis with load_basis");
   }
+  if (basis.tile < 0) {
+    bad_input(field + ".tile", std::to_string(basis.tile) + " is negative", "load the basis with load_basis");
+  }
 }
 
 void check_threshold(double value, const std::string& field) {
@@ -92,6 +95,9 @@ GLint max_integer(GLenum name) {
 GpuBlender::GpuBlender(const BasisImages& basis, const GpuBlendOptions& options)
     : options_(options), name_(basis.name), width_(basis.width), height_(basis.height), layers_(basis.layers) {
   check_basis(basis);
+  tile_ = basis.tile;
+  tiles_x_ = basis.tiles_x();
+  tile_count_ = basis.tile_count();
   check_threshold(options.skip_threshold, "skip_threshold");
   check_threshold(options.change_threshold, "change_threshold");
   const bool eac = options_.storage == BasisStorage::Eac11;
@@ -109,6 +115,16 @@ GpuBlender::GpuBlender(const BasisImages& basis, const GpuBlendOptions& options)
                              std::to_string(height_) + " texels; this driver's textures hold " +
                              std::to_string(max_size) + " per side (GL_MAX_TEXTURE_SIZE)");
   }
+  // One weight entry per tile and slice (tiled basis): the weight buffer must hold them all.
+  const std::size_t weight_bytes =
+      sizeof(SliceWeights) * static_cast<std::size_t>(slices_) * static_cast<std::size_t>(tile_count_);
+  const GLint max_block = max_integer(GL_MAX_SHADER_STORAGE_BLOCK_SIZE);
+  if (max_block > 0 && weight_bytes > static_cast<std::size_t>(max_block)) {
+    throw std::runtime_error("GPU blend: plane '" + name_ + "' needs " + std::to_string(weight_bytes) +
+                             " bytes of weights (" + std::to_string(tile_count_) + " tiles x " +
+                             std::to_string(slices_) + " slices); this driver's storage blocks hold " +
+                             std::to_string(max_block) + " (GL_MAX_SHADER_STORAGE_BLOCK_SIZE): compress with larger tiles");
+  }
   program_ = load_blend_program(options_);
   glUseProgram(program_.get());
   GLint group_size[3] = {0, 0, 0};
@@ -119,6 +135,10 @@ GpuBlender::GpuBlender(const BasisImages& basis, const GpuBlendOptions& options)
   sun_weight_location_ = uniform_location(program_.get(), "sun_weight");
   use_sun_location_ = uniform_location(program_.get(), "use_sun");
   no_light_location_ = uniform_location(program_.get(), "no_light");
+  tile_size_location_ = uniform_location(program_.get(), "tile_size");
+  tiles_x_location_ = uniform_location(program_.get(), "tiles_x");
+  glUniform1i(tile_size_location_, tile_);
+  glUniform1i(tiles_x_location_, tiles_x_);
 
   // The basis, one slice at a time: a layer, or four in the channels of a texel (the last
   // slice padded with zeros). 8-bit layers are scaled by their maximum on the way. A plane
@@ -231,8 +251,7 @@ GpuBlender::GpuBlender(const BasisImages& basis, const GpuBlendOptions& options)
 
   weight_buffer_ = gpu::make_buffer();
   glBindBuffer(GL_SHADER_STORAGE_BUFFER, weight_buffer_.get());
-  glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(sizeof(SliceWeights) * static_cast<std::size_t>(slices_)),
-               nullptr, GL_DYNAMIC_DRAW);
+  glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(weight_bytes), nullptr, GL_DYNAMIC_DRAW);
   gpu::check_gl_error("GPU blend: setting up plane '" + name_ + "'");
 }
 
@@ -245,29 +264,37 @@ std::size_t GpuBlender::basis_bytes() const {
 
 bool GpuBlender::unchanged_since_last(const BlendWeights& weights, const SunVisibilityTexture* sun) const {
   if (!has_result_ || weights.no_light != last_no_light_) return false;
-  const bool sun_now = !weights.sun.isZero();
-  const bool sun_then = !last_sun_.isZero();
+  const bool sun_now = !weights.sun.isZero(0);
+  const bool sun_then = !last_sun_.isZero(0);
   const GLuint texture = sun_now ? sun->texture : 0;
   const std::uint64_t revision = sun_now ? sun->revision : 0;
   if (sun_now && sun_then && (texture != last_sun_texture_ || revision != last_sun_revision_)) return false;
-  // The largest change of T any texel can see, per channel (B ≤ layer_max, V ≤ 1).
+  // The largest change of T any texel can see, per channel (B ≤ layer_max, V ≤ 1); summed over
+  // every tile's weights, which bounds the change in any one tile.
   Eigen::Vector3d bound = (weights.sun - last_sun_).cwiseAbs().cast<double>();
+  const std::size_t layers = static_cast<std::size_t>(layers_);
   for (std::size_t i = 0; i < weights.face.size(); ++i) {
-    bound += (weights.face[i] - last_face_[i]).cwiseAbs().cast<double>() * static_cast<double>(layer_max_[i]);
+    bound += (weights.face[i] - last_face_[i]).cwiseAbs().cast<double>() * static_cast<double>(layer_max_[i % layers]);
   }
   return bound.maxCoeff() <= options_.change_threshold;
 }
 
 bool GpuBlender::blend(const BlendWeights& weights, const SunVisibilityTexture* sun) {
   const std::size_t layers = static_cast<std::size_t>(layers_);
-  if (weights.face.size() != layers) {
-    bad_input("weights.face", std::to_string(weights.face.size()) + " weights for the " + std::to_string(layers) +
-                                  " layers of plane '" + name_ + "'",
+  const std::size_t tiles = static_cast<std::size_t>(tile_count_);
+  const std::size_t weight_count = layers * tiles;  // face[t · layers + i]: layer i within tile t
+  if (weights.face.size() != weight_count) {
+    bad_input("weights.face", std::to_string(weights.face.size()) + " weights for the " + std::to_string(weight_count) +
+                                  " layers" +
+                                  (tile_ > 0 ? " (" + std::to_string(layers) + " in each of " + std::to_string(tiles) +
+                                                   " tiles)"
+                                             : std::string()) +
+                                  " of plane '" + name_ + "'",
               "compute the weights with blend_weights for this basis");
   }
   int previous = -1;
   for (const int i : weights.active) {
-    if (i <= previous || i >= layers_) {
+    if (i <= previous || static_cast<std::size_t>(i) >= weight_count) {
       bad_input("weights.active", "layer " + std::to_string(i) + " is out of order or out of range",
                 "compute the weights with blend_weights for this basis");
     }
@@ -277,7 +304,7 @@ bool GpuBlender::blend(const BlendWeights& weights, const SunVisibilityTexture* 
     if (!w.allFinite()) bad_input("weights.face", "holds a value that is not finite", "compute the weights with blend_weights");
   }
   if (!weights.sun.allFinite()) bad_input("weights.sun", "is not finite", "compute the weights with blend_weights");
-  const bool use_sun = !weights.sun.isZero();
+  const bool use_sun = !weights.sun.isZero(0);
   if (use_sun) {
     if (sun == nullptr || sun->texture == 0) {
       bad_input("sun_visibility", "is missing but the sun lights plane '" + name_ + "'",
@@ -293,12 +320,14 @@ bool GpuBlender::blend(const BlendWeights& weights, const SunVisibilityTexture* 
   if (unchanged_since_last(weights, sun)) return false;
 
   // skip_threshold: leave out the layers of least possible contribution while their bounds add
-  // up to no more than the threshold; the rest are summed in ascending layer (slice) order.
+  // up to no more than the threshold; the rest are summed in ascending layer (slice) order. A
+  // tiled basis weighs (tile, layer) pairs: face index i is layer i % layers of tile i / layers.
   const std::size_t active = weights.active.size();
   std::vector<double> contribution(active);
   for (std::size_t a = 0; a < active; ++a) {
     const auto i = static_cast<std::size_t>(weights.active[a]);
-    contribution[a] = static_cast<double>(weights.face[i].cwiseAbs().maxCoeff()) * static_cast<double>(layer_max_[i]);
+    contribution[a] =
+        static_cast<double>(weights.face[i].cwiseAbs().maxCoeff()) * static_cast<double>(layer_max_[i % layers]);
   }
   std::vector<std::size_t> order(active);
   std::iota(order.begin(), order.end(), std::size_t{0});
@@ -310,32 +339,48 @@ bool GpuBlender::blend(const BlendWeights& weights, const SunVisibilityTexture* 
     candidates += contribution[a];
     keep[a] = false;
   }
-  // A slice is read when one of its layers is kept; then all its active layers are summed (they
-  // come with the fetch), and only the layers of unread slices count as skipped.
+  // A slice is read when one of its layers is kept (in any tile); then all its active layers are
+  // summed (they come with the fetch), and only the layers of unread slices count as skipped.
+  // Every tile reads the same slices, in ascending order: tile t's weights are entries
+  // t · read … (t + 1) · read − 1 (zero for a layer the tile does not weigh).
   const bool scaled = options_.storage != BasisStorage::Half;  // layers stored as B / max_i
-  std::vector<SliceWeights> slices;
+  const int per_slice = layers_per_slice_;
   std::vector<bool> slice_read(static_cast<std::size_t>(slices_), false);
   for (std::size_t a = 0; a < active; ++a) {
-    if (keep[a]) slice_read[static_cast<std::size_t>(weights.active[a] / layers_per_slice_)] = true;
+    const int layer = weights.active[a] % layers_;
+    if (keep[a]) slice_read[static_cast<std::size_t>(layer / per_slice)] = true;
   }
+  std::vector<int> position(static_cast<std::size_t>(slices_), -1);  // in each tile's list
+  std::vector<SliceWeights> tile_slices;                              // one tile's list, weights 0
+  for (int slice = 0; slice < slices_; ++slice) {
+    if (!slice_read[static_cast<std::size_t>(slice)]) continue;
+    position[static_cast<std::size_t>(slice)] = static_cast<int>(tile_slices.size());
+    tile_slices.push_back(SliceWeights{{}, {}, {}, {slice, 0, 0, 0}});
+  }
+  const std::size_t read = tile_slices.size();
+  std::vector<SliceWeights> slices;
+  slices.reserve(read * tiles);
+  for (std::size_t t = 0; t < tiles; ++t) slices.insert(slices.end(), tile_slices.begin(), tile_slices.end());
   double skipped = 0.0;
   int skipped_count = 0;
   int summed = 0;
   for (std::size_t a = 0; a < active; ++a) {
-    const int i = weights.active[a];
-    const int slice = i / layers_per_slice_;
-    if (!slice_read[static_cast<std::size_t>(slice)]) {
+    const auto i = static_cast<std::size_t>(weights.active[a]);
+    const std::size_t tile = i / layers;
+    const std::size_t layer = i % layers;
+    const std::size_t slice = layer / static_cast<std::size_t>(per_slice);
+    if (!slice_read[slice]) {
       skipped += contribution[a];
       ++skipped_count;
       continue;
     }
-    if (slices.empty() || slices.back().index[0] != slice) slices.push_back(SliceWeights{{}, {}, {}, {slice, 0, 0, 0}});
-    const std::size_t c = static_cast<std::size_t>(i % layers_per_slice_);
-    const float scale = scaled ? layer_max_[static_cast<std::size_t>(i)] : 1.0f;
-    const Eigen::Vector3f& w = weights.face[static_cast<std::size_t>(i)];
-    slices.back().red[c] = w.x() * scale;
-    slices.back().green[c] = w.y() * scale;
-    slices.back().blue[c] = w.z() * scale;
+    SliceWeights& entry = slices[tile * read + static_cast<std::size_t>(position[slice])];
+    const std::size_t c = layer % static_cast<std::size_t>(per_slice);
+    const float scale = scaled ? layer_max_[layer] : 1.0f;
+    const Eigen::Vector3f& w = weights.face[i];
+    entry.red[c] = w.x() * scale;
+    entry.green[c] = w.y() * scale;
+    entry.blue[c] = w.z() * scale;
     ++summed;
   }
 
@@ -346,7 +391,7 @@ bool GpuBlender::blend(const BlendWeights& weights, const SunVisibilityTexture* 
                     slices.data());
   }
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, weight_buffer_.get());
-  glUniform1i(slice_count_location_, static_cast<GLint>(slices.size()));
+  glUniform1i(slice_count_location_, static_cast<GLint>(read));
   glUniform3f(sun_weight_location_, weights.sun.x(), weights.sun.y(), weights.sun.z());
   glUniform1i(use_sun_location_, use_sun ? 1 : 0);
   glUniform3i(no_light_location_, weights.no_light[0] ? 1 : 0, weights.no_light[1] ? 1 : 0, weights.no_light[2] ? 1 : 0);
@@ -371,7 +416,7 @@ bool GpuBlender::blend(const BlendWeights& weights, const SunVisibilityTexture* 
   last_sun_texture_ = use_sun ? sun->texture : 0;
   last_sun_revision_ = use_sun ? sun->revision : 0;
   summed_layers_ = summed;
-  summed_slices_ = static_cast<int>(slices.size());
+  summed_slices_ = static_cast<int>(read);
   skipped_layers_ = skipped_count;
   skipped_bound_ = skipped;
   return true;

@@ -49,12 +49,17 @@ struct FaceRecord {
 // The PCA form of a plane's basis (pca.hpp), when the bake stores one beside the full form.
 struct PcaRecord {
   std::string file;                       // half-float EXR: layers "mean.Y", "pc_001.Y", …
-  std::string coefficients;               // float32 .npy [layer_count, components]: P_{l,k}
+  // float32 .npy [layer_count, components]: P_{l,k}; tiled, [tiles, layer_count, components]
+  std::string coefficients;
   int components = 0;                     // K
+  int tile = 0;                           // clustered PCA: tile × tile texels per tile (0: untiled)
   double max_error = 0.0;                 // max |F − F̂| (pca.hpp): bounds |T − T_full|
   double rms_error = 0.0;
   double variance_kept = 1.0;
   double sky_correlation_deg = 0.0;       // the sky prior it was made with (0: none; pca.hpp)
+  // Tiles across and down for a plane of width × height texels (1 × 1 untiled).
+  int tiles_x(int width) const { return tile > 0 ? (width + tile - 1) / tile : 1; }
+  int tiles_y(int height) const { return tile > 0 ? (height + tile - 1) / tile : 1; }
 };
 
 struct PlaneRecord {

@@ -32,6 +32,13 @@ struct PcaOptions {
   // correlated as exp(−θ²/2σ²) over the angle θ between their directions (σ this, degrees).
   // 0: every layer alike (plain PCA of the fractions). Needs the layers' directions.
   double sky_correlation_deg = 0.0;
+  // Clustered PCA: the plane cut into tiles of tile × tile texels (row-major from texel (0, 0);
+  // the last column and row of tiles may be narrower), each compressed on its own. A shadow
+  // touches few tiles, so a tile's fractions need far fewer components than the whole plane's.
+  // Every tile gets the same K (the largest any tile needs for the criteria above, so that the
+  // blend reads K + 1 layers everywhere); its mean and eigen-images fill its region of the K + 1
+  // images. 0: the whole plane, one set of components.
+  int tile = 0;
 };
 
 // std::invalid_argument naming the field for an option out of range or none given.
@@ -42,17 +49,24 @@ struct PcaBasis {
   int height = 0;
   int source_layers = 0;              // n: the layers of the full basis
   int components = 0;                 // K
+  int tile = 0;                       // PcaOptions::tile (0: untiled)
   // K + 1 images, layer-major as ImageStack: the mean fraction μ, then E_1 … E_K, each scaled
-  // so that its largest |value| is 1 (half floats keep their precision).
+  // so that its largest |value| is 1 (half floats keep their precision); tiled, each tile's own
+  // in its region.
   ImageStack images;
-  // P_{l,k}: source_layers × components, row-major; zero rows for layers without light.
+  // P_{l,k}: source_layers × components, row-major; zero rows for layers without light. Tiled:
+  // tiles × source_layers × components, P_{t,l,k} at (t · source_layers + l) · components + k.
   std::vector<float> coefficients;
   // Measured on the stored form (images rounded to half floats, as the blend reads them) against
   // the full basis rounded the same way: |F_l(x) − F̂_l(x)| over layers with light and texels.
   double max_error = 0.0;
   double rms_error = 0.0;
   double variance_kept = 1.0;         // fraction of the total variance of the F_l
-  std::vector<double> eigenvalues;    // of the fractions' covariance, descending (for reports)
+  std::vector<double> eigenvalues;    // of the fractions' covariance, descending (for reports;
+                                      // tiled: summed over the tiles, rank by rank)
+  int tiles_x() const { return tile > 0 ? (width + tile - 1) / tile : 1; }
+  int tiles_y() const { return tile > 0 ? (height + tile - 1) / tile : 1; }
+  int tile_count() const { return tiles_x() * tiles_y(); }
 };
 
 // The components of `stack` (the full basis, B in steradians) with A per layer `unoccluded`.

@@ -54,6 +54,17 @@ struct BasisImages {
   // unshadowed ones onto a layer of ones with A_l. Empty (0 rows) for the full form, whose layers
   // are the basis itself. `unoccluded` has n values either way.
   Eigen::MatrixXf projection;
+  // Clustered PCA (bake/pca.hpp, PcaOptions::tile): the plane is cut into tiles of tile × tile
+  // texels, row-major from texel (0, 0) (the last column and row of tiles may be narrower), and
+  // each tile has its own mean and eigen-images, stored in its region of the `layers` images,
+  // and its own projection: columns t·layers … (t+1)·layers − 1 of `projection` map the weights
+  // onto tile t's layers. 0: one tile, the whole plane (every other form).
+  int tile = 0;
+  int tiles_x() const { return tile > 0 ? (width + tile - 1) / tile : 1; }
+  int tiles_y() const { return tile > 0 ? (height + tile - 1) / tile : 1; }
+  int tile_count() const { return tiles_x() * tiles_y(); }
+  // The tile that texel (col, row) belongs to.
+  int tile_of(int col, int row) const { return tile > 0 ? (row / tile) * tiles_x() + col / tile : 0; }
   bool compressed() const { return projection.rows() > 0; }
   // n: the layers S and A are given for (the dome's), whichever form is stored.
   int source_layers() const { return compressed() ? static_cast<int>(projection.rows()) : layers; }
@@ -92,9 +103,10 @@ struct BlendOptions {
 
 struct BlendWeights {
   // w_i per stored layer (RGB); zero for skipped faces. For a PCA basis these are the weights of
-  // its mean and eigen-images (either sign).
+  // its mean and eigen-images (either sign). A tiled basis (BasisImages::tile) has a set per
+  // tile: face[t · layers + k] weighs stored layer k within tile t (tile_count() · layers in all).
   std::vector<Eigen::Vector3f> face;
-  std::vector<int> active;             // layers with a non-zero weight, ascending
+  std::vector<int> active;             // indices into `face` with a non-zero weight, ascending
   Eigen::Vector3f sun = Eigen::Vector3f::Zero();   // w_sun (RGB), zero without a sun term
   // w_k (RGB) of every separated source, in the order given (sources[0] == sun); one entry or
   // none from blend_weights. blend_cpu reads `sun` only (and refuses more than one source here);

@@ -5,6 +5,9 @@
 //   T(x) = Σ_{i active} w_i B_i(x) + w_sun V(x)   per colour channel, fp32, in layer order,
 //   then a channel without light is 1 and T is clamped to [0, 1].
 //
+// A tiled (clustered PCA) basis (BasisImages::tile) sums, at each texel, its tile's weights
+// (weights.face[t · layers + i]) over one slice list shared by all tiles (see skip_threshold below).
+//
 // Two savings, both settings (docs/live.md, "GPU blend"), both bounded in units of T (T is the
 // fraction of the plane's unoccluded irradiance D = Σ_k S_k A_k + E_sun c, so a bound of 0.01
 // means one per cent of full light):
@@ -15,6 +18,9 @@
 //                     faces basis, whose weights are >= 0, T only gets darker). 0: only layers
 //                     that add nothing anywhere (c_i = 0). With packed layers a texture slice
 //                     is read when any of its four layers is kept, and then all four are summed.
+//                     Tiled: each (tile, layer) weight is a candidate with c = max|w| · max_x B
+//                     (the layer's maximum over the whole plane), and a slice is read for every
+//                     tile when any tile keeps any of its layers.
 //   change_threshold  a blend is skipped, the last T kept, while the weights differ from those
 //                     of the last blend that ran by at most this much in T:
 //                     Σ_i |Δw_{i,c}| max_x B_i(x) + |Δw_sun,c| ≤ change_threshold for every c
@@ -107,6 +113,7 @@ class GpuBlender {
   int height() const { return height_; }
   int layers() const { return layers_; }
   int slices() const { return slices_; }   // of the texture array: layers, or layers / 4 rounded up
+  int tile_count() const { return tile_count_; }   // BasisImages::tile_count(): 1 when untiled
   const GpuBlendOptions& options() const { return options_; }
   // max_x |B_i(x)| per layer (0 for a layer that is zero everywhere): the R8 scale and the bound
   // behind both thresholds.
@@ -117,7 +124,9 @@ class GpuBlender {
   // Bytes of the basis texture array as stored (what one blend reads at most).
   std::size_t basis_bytes() const;
 
-  // About the last blend that ran.
+  // About the last blend that ran. A tiled basis counts per tile: summed_layers, skipped_layers
+  // and skipped_bound are over (tile, layer) weights, i.e. over weights.face entries; summed_slices
+  // is per texel (every tile reads the same slices).
   int summed_layers() const { return summed_layers_; }      // layers summed (packed: in the slices read)
   int summed_slices() const { return summed_slices_; }      // texture slices read
   int skipped_layers() const { return skipped_layers_; }    // active layers left out by skip_threshold
@@ -133,6 +142,9 @@ class GpuBlender {
   int layers_ = 0;
   int layers_per_slice_ = 1;
   int slices_ = 0;
+  int tile_ = 0;         // BasisImages::tile (0: untiled)
+  int tiles_x_ = 1;
+  int tile_count_ = 1;
   int group_size_x_ = 8;
   int group_size_y_ = 8;
   std::vector<float> layer_max_;
@@ -145,6 +157,8 @@ class GpuBlender {
   GLint sun_weight_location_ = -1;
   GLint use_sun_location_ = -1;
   GLint no_light_location_ = -1;
+  GLint tile_size_location_ = -1;
+  GLint tiles_x_location_ = -1;
 
   // The weights and inputs of the last blend that ran (for change_threshold).
   bool has_result_ = false;
