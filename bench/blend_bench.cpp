@@ -14,14 +14,29 @@
 // the same planes again and again, as a live service does when they fit in the last-level cache.
 //
 //   blend_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+//               [--pca K] [--pca-tiles 0,64] [--pca-frequencies 2,8] [--pca-size 512] [--pca-repeats 9] [--pca-only]
+//
+// --pca K (default 0: off) adds, after the benchmarks, the table "PCA forms": per ν in
+// --pca-frequencies (default 2, 8: the 40- and 640-face cases above) one plane of --pca-size²
+// blended by blend_cpu (default options: all hardware threads, SIMD where the CPU has it; warm:
+// the same plane again and again), in its full form (10ν² layers) beside its PCA form
+// (BasisImages::projection) with K + 1 stored layers, untiled and tiled (clustered PCA,
+// BasisImages::tile = T for each T > 0 in --pca-tiles). Median and minimum of --pca-repeats calls
+// after two warm-up calls. Synthetic PCA form: K + 1 half layers, the mean in [0.3, 0.7] and K
+// eigen-images in [-1, 1]; projection n × (tile_count · (K + 1)), column t · (K + 1) = A_l (tile t's
+// mean) and A_l · [-0.1, 0.1] elsewhere, so that T stays near [0, 1]. --pca-only skips the
+// benchmarks (and the bandwidth measurements) and prints only that table.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <memory>
 #include <numbers>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -123,9 +138,11 @@ struct Scene {
   std::vector<BlendWeights> weights;
   std::vector<float> visibility;
   std::size_t basis_bytes = 0;
+  std::vector<Eigen::Vector3d> S;  // the sky, one RGB value per layer
+  skylit::render::SunLight sun;
 };
 
-Scene make_scene(int layers, int planes) {
+Scene make_scene(int layers, int planes, int side = kSide) {
   Scene scene;
   std::uint64_t state = 0x9e3779b97f4a7c15ull * static_cast<std::uint64_t>(layers);
   const auto next = [&state] {  // xorshift64*: fast, and good enough for texel values
@@ -143,8 +160,8 @@ Scene make_scene(int layers, int planes) {
   for (int j = 0; j < planes; ++j) {
     BasisImages basis;
     basis.name = "plane" + std::to_string(j);
-    basis.width = kSide;
-    basis.height = kSide;
+    basis.width = side;
+    basis.height = side;
     basis.layers = layers;
     for (int i = 0; i < layers; ++i) basis.unoccluded.push_back(omega * (0.2 + 0.8 * next()));
     basis.half.resize(basis.texel_count() * static_cast<std::size_t>(layers));
@@ -159,9 +176,180 @@ Scene make_scene(int layers, int planes) {
     scene.basis_bytes += basis.half.size() * sizeof(std::uint16_t);
     scene.planes.push_back(std::move(basis));
   }
-  scene.visibility.resize(static_cast<std::size_t>(kSide) * kSide);
+  scene.visibility.resize(static_cast<std::size_t>(side) * static_cast<std::size_t>(side));
   for (float& v : scene.visibility) v = next() < 0.3 ? 0.0f : 1.0f;
+  scene.S = std::move(S);
+  scene.sun = sun;
   return scene;
+}
+
+// --pca and its companions (see the header); taken out of argv before Google Benchmark sees it.
+struct PcaSettings {
+  int components = 0;  // K; 0: no PCA table
+  std::vector<int> tiles{0, 64};
+  std::vector<int> frequencies{2, 8};
+  int size = kSide;
+  int repeats = 9;
+  bool only = false;
+};
+
+[[noreturn]] void pca_usage(const std::string& problem) {
+  std::fprintf(stderr,
+               "blend_bench: %s\nusage: blend_bench [benchmark options] [--pca K] [--pca-tiles 0,64] "
+               "[--pca-frequencies 2,8] [--pca-size 512] [--pca-repeats 9] [--pca-only]\n",
+               problem.c_str());
+  std::exit(2);
+}
+
+int pca_integer(const std::string& text, const std::string& option, int least) {
+  try {
+    std::size_t used = 0;
+    const int value = std::stoi(text, &used);
+    if (used == text.size() && value >= least) return value;
+  } catch (const std::exception&) {
+  }
+  pca_usage("option " + option + " needs integers >= " + std::to_string(least) + ", got '" + text + "'");
+}
+
+std::vector<int> pca_list(const std::string& text, const std::string& option, int least) {
+  std::vector<int> values;
+  std::stringstream stream(text);
+  std::string part;
+  while (std::getline(stream, part, ',')) values.push_back(pca_integer(part, option, least));
+  if (values.empty()) pca_usage("option " + option + " needs a list");
+  return values;
+}
+
+// Reads the --pca options and removes them from argv (argc updated).
+PcaSettings parse_pca(int& argc, char** argv) {
+  PcaSettings s;
+  int kept = 1;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    const auto value = [&]() -> std::string {
+      if (i + 1 >= argc) pca_usage("option " + arg + " needs a value");
+      return argv[++i];
+    };
+    if (arg == "--pca") {
+      s.components = pca_integer(value(), arg, 0);
+    } else if (arg == "--pca-tiles") {
+      s.tiles = pca_list(value(), arg, 0);
+    } else if (arg == "--pca-frequencies") {
+      s.frequencies = pca_list(value(), arg, 1);
+    } else if (arg == "--pca-size") {
+      s.size = pca_integer(value(), arg, 1);
+    } else if (arg == "--pca-repeats") {
+      s.repeats = pca_integer(value(), arg, 1);
+    } else if (arg == "--pca-only") {
+      s.only = true;
+    } else {
+      argv[kept++] = argv[i];
+    }
+  }
+  argc = kept;
+  argv[argc] = nullptr;
+  return s;
+}
+
+// xorshift64*, for the synthetic PCA layers.
+struct Random {
+  std::uint64_t state;
+  double next() {
+    state ^= state >> 12;
+    state ^= state << 25;
+    state ^= state >> 27;
+    return static_cast<double>((state * 0x2545f4914f6cdd1dull) >> 11) * 0x1p-53;
+  }
+};
+
+// The PCA form of a plane whose n source layers have the solid angles `unoccluded` (synthetic,
+// see the header): `components` + 1 stored layers, tiles of `tile` texels (0: untiled).
+BasisImages synthetic_pca_basis(int side, const std::vector<double>& unoccluded, int components, int tile,
+                                std::uint64_t seed) {
+  Random random{seed};
+  BasisImages basis;
+  basis.name = "synthetic-pca";
+  basis.width = side;
+  basis.height = side;
+  basis.layers = components + 1;
+  basis.tile = tile;
+  basis.unoccluded = unoccluded;
+  basis.half.resize(basis.texel_count() * static_cast<std::size_t>(basis.layers));
+  for (int i = 0; i < basis.layers; ++i) {
+    std::uint16_t* layer = basis.half.data() + static_cast<std::size_t>(i) * basis.texel_count();
+    for (std::size_t k = 0; k < basis.texel_count(); ++k) {
+      const double value = i == 0 ? 0.3 + 0.4 * random.next() : 2.0 * random.next() - 1.0;
+      layer[k] = skylit::render::float_to_half(static_cast<float>(value));
+    }
+  }
+  const auto n = static_cast<Eigen::Index>(unoccluded.size());
+  const auto stored = static_cast<Eigen::Index>(basis.layers);
+  basis.projection.resize(n, static_cast<Eigen::Index>(basis.tile_count()) * stored);
+  for (Eigen::Index l = 0; l < n; ++l) {
+    const double a = unoccluded[static_cast<std::size_t>(l)];
+    for (Eigen::Index c = 0; c < basis.projection.cols(); ++c) {
+      const double p = c % stored == 0 ? 1.0 : 0.2 * random.next() - 0.1;
+      basis.projection(l, c) = static_cast<float>(a * p);
+    }
+  }
+  return basis;
+}
+
+double median_of(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  const std::size_t n = values.size();
+  return n % 2 == 1 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+}
+
+// The table "PCA forms" (see the header), on stdout.
+void pca_table(const PcaSettings& settings) {
+  std::printf("\nPCA forms: blend_cpu per plane of %d² (default options: all hardware threads, %s; warm), "
+              "median and minimum of %d calls:\n\n",
+              settings.size, skylit::render::blend_simd_available() ? "avx2" : "portable", settings.repeats);
+  std::printf("| form | ν (n layers) | stored layers | basis bytes | median | min | median / full |\n");
+  std::printf("|---|---|---|---|---|---|---|\n");
+  std::fflush(stdout);
+  std::vector<int> tiles{0};
+  for (const int tile : settings.tiles) {
+    if (std::find(tiles.begin(), tiles.end(), tile) == tiles.end()) tiles.push_back(tile);
+  }
+  for (const int frequency : settings.frequencies) {
+    const int layers = 10 * frequency * frequency;
+    const Scene scene = make_scene(layers, 1, settings.size);
+    const BasisImages& full = scene.planes.front();
+    std::vector<BasisImages> forms;
+    for (const int tile : tiles) {
+      forms.push_back(synthetic_pca_basis(settings.size, full.unoccluded, settings.components, tile,
+                                          0xca5e0000ull + static_cast<std::uint64_t>(frequency)));
+    }
+    std::vector<float> out(3 * full.texel_count());
+    double full_median = 0.0;
+    for (std::size_t f = 0; f <= forms.size(); ++f) {
+      const BasisImages& basis = f == 0 ? full : forms[f - 1];
+      const BlendWeights weights = skylit::render::blend_weights(basis, scene.S, scene.sun);
+      const auto call = [&] { return skylit::render::blend_cpu(basis, weights, scene.visibility, out); };
+      for (int w = 0; w < 2; ++w) benchmark::DoNotOptimize(call());
+      std::vector<double> seconds;
+      for (int r = 0; r < settings.repeats; ++r) {
+        const auto start = Clock::now();
+        benchmark::DoNotOptimize(call());
+        seconds.push_back(std::chrono::duration<double>(Clock::now() - start).count());
+        benchmark::ClobberMemory();
+      }
+      const double median = median_of(seconds);
+      if (f == 0) full_median = median;
+      const std::string name =
+          f == 0 ? std::string("full")
+                 : "PCA K=" + std::to_string(settings.components) +
+                       (basis.tile > 0 ? ", tile " + std::to_string(basis.tile) + " (" +
+                                             std::to_string(basis.tile_count()) + " tiles)"
+                                       : std::string(", untiled"));
+      std::printf("| %s | %d (%d) | %d | %.1f MiB | %.3f ms | %.3f ms | %.3f× |\n", name.c_str(), frequency, layers,
+                  basis.layers, static_cast<double>(basis.half.size() * sizeof(std::uint16_t)) / 1048576.0, median * 1e3,
+                  *std::min_element(seconds.begin(), seconds.end()) * 1e3, median / full_median);
+      std::fflush(stdout);
+    }
+  }
 }
 
 struct Setup {
@@ -211,6 +399,12 @@ void blend_planes(benchmark::State& state, const Setup& setup) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  const PcaSettings pca = parse_pca(argc, argv);
+  if (pca.only) {
+    if (pca.components == 0) pca_usage("--pca-only needs --pca K > 0");
+    pca_table(pca);
+    return 0;
+  }
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
 
@@ -269,5 +463,6 @@ int main(int argc, char** argv) {
   }
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
+  if (pca.components > 0) pca_table(pca);
   return 0;
 }

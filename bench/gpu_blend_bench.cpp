@@ -5,6 +5,7 @@
 //
 //   gpu_blend_bench [--size 512] [--repeats 9] [--batch 20] [--frequencies 2,4,8] [--planes 1,4,16]
 //                   [--storage r16f,r8,eac] [--layout packed,single] [--no-check] [--shader-dir DIR]
+//                   [--pca K] [--pca-tiles 0,64]
 //
 // Layouts: packed = four layers per texel (RGBA16F / RGBA8 arrays; two in RG11 EAC), single = one
 // (R16F / R8 / R11 EAC).
@@ -13,6 +14,14 @@
 // --repeats calls after a second of warm-up calls. "Sustained" times --batch calls issued back to back
 // (as a frame loop does) and divides by --batch; medians of --repeats such batches. The check table compares each storage's T (RGBA32F
 // output) with blend_cpu on one plane. Builds without CMake: bench/gpu_standalone.sh.
+//
+// --pca K (default 0: off) adds the table "PCA forms": per ν and plane count, the full basis
+// (RGBA16F packed, as above) beside its PCA form (BasisImages::projection) with K + 1 stored layers,
+// untiled (tile 0 in --pca-tiles) and tiled (clustered PCA, BasisImages::tile = T for each T > 0 in
+// --pca-tiles). Synthetic PCA form: K + 1 half layers, the mean in [0.3, 0.7] and K eigen-images in
+// [-1, 1]; projection n × (tile_count · (K + 1)), column t · (K + 1) = A_l (tile t's mean) and
+// A_l · [-0.1, 0.1] elsewhere, so that T stays near [0, 1]. Half storage, packed layout only (the
+// eigen-images are negative). The check table adds each PCA form against blend_cpu.
 #include <EGL/egl.h>
 #include <GLES3/gl31.h>
 #include <GLES2/gl2ext.h>
@@ -56,12 +65,15 @@ struct Settings {
   std::vector<bool> packed{true, false};
   bool check = true;
   std::string shader_dir;
+  int pca = 0;                       // K eigen-images of the PCA forms; 0: no PCA table
+  std::vector<int> pca_tiles{0, 64};  // 0: untiled
 };
 
 [[noreturn]] void usage(const std::string& problem) {
   std::fprintf(stderr,
                "gpu_blend_bench: %s\nusage: gpu_blend_bench [--size N] [--repeats N] [--batch N] [--frequencies 2,4,8] "
-               "[--planes 1,4,16] [--storage r16f,r8,eac] [--layout packed,single] [--no-check] [--shader-dir DIR]\n",
+               "[--planes 1,4,16] [--storage r16f,r8,eac] [--layout packed,single] [--no-check] [--shader-dir DIR] "
+               "[--pca K] [--pca-tiles 0,64]\n",
                problem.c_str());
   std::exit(2);
 }
@@ -82,6 +94,16 @@ int positive(const std::string& text, const std::string& option) {
   } catch (const std::exception&) {
   }
   usage("option " + option + " needs positive integers, got '" + text + "'");
+}
+
+int non_negative(const std::string& text, const std::string& option) {
+  try {
+    std::size_t used = 0;
+    const int value = std::stoi(text, &used);
+    if (used == text.size() && value >= 0) return value;
+  } catch (const std::exception&) {
+  }
+  usage("option " + option + " needs integers >= 0, got '" + text + "'");
 }
 
 Settings parse(int argc, char** argv) {
@@ -129,6 +151,11 @@ Settings parse(int argc, char** argv) {
       s.check = false;
     } else if (arg == "--shader-dir") {
       s.shader_dir = value();
+    } else if (arg == "--pca") {
+      s.pca = non_negative(value(), arg);
+    } else if (arg == "--pca-tiles") {
+      s.pca_tiles.clear();
+      for (const std::string& t : split(value())) s.pca_tiles.push_back(non_negative(t, arg));
     } else {
       usage("unknown option '" + arg + "'");
     }
@@ -296,10 +323,43 @@ BasisImages synthetic_basis(int size, int layers, std::uint64_t seed) {
   return basis;
 }
 
+// The PCA form of a plane whose n source layers have the solid angles `unoccluded` (synthetic,
+// see the header): `components` + 1 stored layers, tiles of `tile` texels (0: untiled).
+BasisImages synthetic_pca_basis(int size, const std::vector<double>& unoccluded, int components, int tile,
+                                std::uint64_t seed) {
+  Random random{seed};
+  BasisImages basis;
+  basis.name = "synthetic-pca";
+  basis.width = size;
+  basis.height = size;
+  basis.layers = components + 1;
+  basis.tile = tile;
+  basis.unoccluded = unoccluded;
+  basis.half.resize(basis.texel_count() * static_cast<std::size_t>(basis.layers));
+  for (int i = 0; i < basis.layers; ++i) {
+    std::uint16_t* layer = basis.half.data() + static_cast<std::size_t>(i) * basis.texel_count();
+    for (std::size_t k = 0; k < basis.texel_count(); ++k) {
+      const double value = i == 0 ? 0.3 + 0.4 * random.next() : 2.0 * random.next() - 1.0;
+      layer[k] = skylit::render::float_to_half(static_cast<float>(value));
+    }
+  }
+  const auto n = static_cast<Eigen::Index>(unoccluded.size());
+  const auto stored = static_cast<Eigen::Index>(basis.layers);
+  basis.projection.resize(n, static_cast<Eigen::Index>(basis.tile_count()) * stored);
+  for (Eigen::Index l = 0; l < n; ++l) {
+    const double a = unoccluded[static_cast<std::size_t>(l)];
+    for (Eigen::Index c = 0; c < basis.projection.cols(); ++c) {
+      const double p = c % stored == 0 ? 1.0 : 0.2 * random.next() - 0.1;
+      basis.projection(l, c) = static_cast<float>(a * p);
+    }
+  }
+  return basis;
+}
+
 BlendWeights sky_weights(const BasisImages& basis, std::uint64_t seed) {
   Random random{seed};
   std::vector<Eigen::Vector3d> S;
-  for (int i = 0; i < basis.layers; ++i) S.emplace_back(0.2 + random.next(), 0.3 + random.next(), 0.5 + random.next());
+  for (int i = 0; i < basis.source_layers(); ++i) S.emplace_back(0.2 + random.next(), 0.3 + random.next(), 0.5 + random.next());
   return skylit::render::blend_weights(basis, S, std::nullopt);
 }
 
@@ -330,12 +390,25 @@ int main(int argc, char** argv) {
                 settings.size);
     std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
     struct Check {
-      BasisStorage storage;
-      bool packed;
+      std::string basis;
       int frequency;
       double max_difference;
     };
     std::vector<Check> checks;
+    // max |T_gpu - T_cpu| over one plane, RGBA32F output.
+    const auto compare_with_cpu = [](const BasisImages& basis, const GpuBlendOptions& options, const BlendWeights& weights) {
+      GpuBlendOptions exact = options;
+      exact.output = ShadowRatioFormat::Float;
+      GpuBlender blender(basis, exact);
+      blender.blend(weights);
+      const std::vector<float> gpu = blender.read_back();
+      std::vector<float> cpu(3 * basis.texel_count());
+      skylit::render::blend_cpu(basis, weights, {}, cpu);
+      double worst = 0;
+      for (std::size_t k = 0; k < cpu.size(); ++k) worst = std::max(worst, std::abs(static_cast<double>(gpu[k]) - cpu[k]));
+      return worst;
+    };
+    std::vector<std::string> pca_rows;  // the "PCA forms" table, printed after the others
     for (const int frequency : settings.frequencies) {
       const int layers = 10 * frequency * frequency;
       const BasisImages basis = synthetic_basis(settings.size, layers, 0x5EED0000ULL + static_cast<std::uint64_t>(frequency));
@@ -369,27 +442,98 @@ int main(int argc, char** argv) {
           std::fflush(stdout);
         }
         blenders.clear();
-        if (settings.check) {
-          GpuBlendOptions exact = options;
-          exact.output = ShadowRatioFormat::Float;
-          GpuBlender blender(basis, exact);
-          blender.blend(weights);
-          const std::vector<float> gpu = blender.read_back();
-          std::vector<float> cpu(3 * basis.texel_count());
-          skylit::render::blend_cpu(basis, weights, {}, cpu);
-          double worst = 0;
-          for (std::size_t k = 0; k < cpu.size(); ++k) worst = std::max(worst, std::abs(static_cast<double>(gpu[k]) - cpu[k]));
-          checks.push_back({storage, packed, frequency, worst});
-        }
+        if (settings.check) checks.push_back({storage_name(storage, packed), frequency, compare_with_cpu(basis, options, weights)});
       }
+      }
+      if (settings.pca > 0) {
+        // The full basis and its PCA forms: untiled, then each tile size > 0 of --pca-tiles. Same
+        // seed for each, so that they store the same K + 1 layers and differ in the projection.
+        std::vector<int> tiles{0};
+        for (const int tile : settings.pca_tiles) {
+          if (std::find(tiles.begin(), tiles.end(), tile) == tiles.end()) tiles.push_back(tile);
+        }
+        std::vector<BasisImages> pca_forms;
+        for (const int tile : tiles) {
+          pca_forms.push_back(synthetic_pca_basis(settings.size, basis.unoccluded, settings.pca, tile,
+                                                  0xCA5E0000ULL + static_cast<std::uint64_t>(frequency)));
+        }
+        struct Form {
+          std::string name;
+          const BasisImages* basis;
+          BlendWeights weights;
+          std::vector<Timing> per_call;   // per plane count
+          std::vector<Timing> sustained;  // per plane count
+          std::size_t bytes = 0;          // of one plane's basis texture array
+          int slices = 0;
+        };
+        std::vector<Form> forms;
+        forms.push_back({"full", &basis, weights, {}, {}, 0, 0});
+        for (const BasisImages& pca : pca_forms) {
+          const std::string name = "PCA K=" + std::to_string(settings.pca) +
+                                   (pca.tile > 0 ? ", tile " + std::to_string(pca.tile) + " (" +
+                                                       std::to_string(pca.tile_count()) + " tiles)"
+                                                 : ", untiled");
+          forms.push_back({name, &pca, sky_weights(pca, 17), {}, {}, 0, 0});
+        }
+        GpuBlendOptions options;
+        options.storage = BasisStorage::Half;
+        options.pack_layers = true;
+        options.shader_dir = settings.shader_dir;
+        for (Form& form : forms) {
+          std::vector<std::unique_ptr<GpuBlender>> blenders;
+          for (const int planes : settings.planes) {
+            while (static_cast<int>(blenders.size()) < planes) {
+              blenders.push_back(std::make_unique<GpuBlender>(*form.basis, options));
+            }
+            const auto call = [&] {
+              for (int j = 0; j < planes; ++j) {
+                blenders[static_cast<std::size_t>(j)]->invalidate();
+                blenders[static_cast<std::size_t>(j)]->blend(form.weights);
+              }
+            };
+            form.per_call.push_back(time_it(timer, settings.repeats, call));
+            form.sustained.push_back(time_it(timer, settings.repeats, call, settings.batch, std::chrono::milliseconds(0)));
+            form.bytes = blenders.front()->basis_bytes();
+            form.slices = blenders.front()->slices();
+          }
+          blenders.clear();
+          if (settings.check && form.basis != &basis) {
+            checks.push_back({form.name + " (RGBA16F)", frequency, compare_with_cpu(*form.basis, options, form.weights)});
+          }
+        }
+        for (std::size_t p = 0; p < settings.planes.size(); ++p) {
+          const int planes = settings.planes[p];
+          const auto time_of = [](const Timing& t) { return t.gpu_s ? *t.gpu_s : t.wall_s; };
+          const double full = time_of(forms.front().per_call[p]);
+          const double full_sustained = time_of(forms.front().sustained[p]);
+          for (const Form& form : forms) {
+            const Timing& t = form.per_call[p];
+            const double sustained = time_of(form.sustained[p]);
+            char gpu_text[32] = "n/a";
+            if (t.gpu_s) std::snprintf(gpu_text, sizeof gpu_text, "%.3f ms", *t.gpu_s * 1e3);
+            char row[512];
+            std::snprintf(row, sizeof row, "| %s | %d (%d) | %d (%d slices) | %d | %.1f MiB | %.3f ms | %s | %.3f ms | %.3f× | %.3f× |",
+                          form.name.c_str(), frequency, layers, form.basis->layers, form.slices, planes,
+                          static_cast<double>(planes) * static_cast<double>(form.bytes) / (1 << 20), t.wall_s * 1e3,
+                          gpu_text, sustained * 1e3, time_of(t) / full, sustained / full_sustained);
+            pca_rows.emplace_back(row);
+          }
+        }
       }
     }
     if (!checks.empty()) {
       std::printf("\nmax |T_gpu - T_cpu| on one plane (RGBA32F output, blend_cpu reference):\n\n");
       std::printf("| basis | ν | max abs difference |\n|---|---|---|\n");
-      for (const Check& c : checks) {
-        std::printf("| %s | %d | %.3g |\n", storage_name(c.storage, c.packed), c.frequency, c.max_difference);
-      }
+      for (const Check& c : checks) std::printf("| %s | %d | %.3g |\n", c.basis.c_str(), c.frequency, c.max_difference);
+    }
+    if (!pca_rows.empty()) {
+      std::printf("\nPCA forms (RGBA16F, 4 layers/texel; every plane blended once per call, all layers active; "
+                  "time = GPU time where the driver has a timer, else wall time; ratios to the full basis):\n\n");
+      std::printf("| form | ν (n layers) | stored layers | planes of %d² | basis read | wall | GPU | sustained | "
+                  "time / full | sustained / full |\n",
+                  settings.size);
+      std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
+      for (const std::string& row : pca_rows) std::printf("%s\n", row.c_str());
     }
     std::printf("\nfloor = basis bytes / the faster copy bandwidth (read + written); time = GPU time where the "
                 "driver has a timer, else wall time\n");

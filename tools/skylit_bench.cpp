@@ -89,21 +89,31 @@ struct BakeKey {
 struct Form {
   render::BasisForm form = render::BasisForm::Full;
   int components = 0;  // Pca
+  int tile = 0;        // Pca: clustered, tiles of this many texels of the bake's planes (0: none)
   std::string name() const {
-    return form == render::BasisForm::Pca ? "pca" + std::to_string(components)
-           : form == render::BasisForm::Lean ? "lean"
-                                             : "full";
+    if (form == render::BasisForm::Pca) {
+      return "pca" + std::to_string(components) + (tile > 0 ? "t" + std::to_string(tile) : "");
+    }
+    return form == render::BasisForm::Lean ? "lean" : "full";
   }
 };
 
 Form parse_form(const std::string& text) {
-  if (text == "full") return {render::BasisForm::Full, 0};
-  if (text == "lean") return {render::BasisForm::Lean, 0};
-  if (text.rfind("pca", 0) == 0 && text.size() > 3) {
-    const int k = std::stoi(text.substr(3));
-    if (k > 0) return {render::BasisForm::Pca, k};
+  if (text == "full") return {render::BasisForm::Full, 0, 0};
+  if (text == "lean") return {render::BasisForm::Lean, 0, 0};
+  // pcaK or pcaKtN (clustered: tiles of N texels).
+  int k = 0, tile = 0, used = 0;
+  if (std::sscanf(text.c_str(), "pca%d%n", &k, &used) == 1 && k > 0) {
+    if (static_cast<std::size_t>(used) == text.size()) return {render::BasisForm::Pca, k, 0};
+    int more = 0;
+    if (std::sscanf(text.c_str() + used, "t%d%n", &tile, &more) == 1 && tile >= 2 &&
+        static_cast<std::size_t>(used + more) == text.size()) {
+      return {render::BasisForm::Pca, k, tile};
+    }
   }
-  throw InputError("option --forms: got '" + text + "'. Fix: full, lean or pcaK (e.g. pca8)");
+  throw InputError("option --forms: got '" + text +
+                   "'. Fix: full, lean, pcaK (e.g. pca8) or pcaKtN (clustered PCA, tiles of N texels of the bake's "
+                   "planes, N >= 2; e.g. pca16t8)");
 }
 
 struct Setting {
@@ -190,8 +200,16 @@ void quantise_to_unorm8(render::BasisImages& basis) {
 
 // The same basis at width × height texels, nearest texel: the blend's cost depends on the texels
 // and the layers, not on their values, so a coarse bake upsampled times the blend of a fine one.
+// A tiled basis (clustered PCA) is scaled by a whole factor, its tiles with it, so that every
+// texel keeps its tile.
 render::BasisImages upsampled(const render::BasisImages& b, int width, int height) {
+  if (b.tile > 0) {
+    const int factor = std::max(1, static_cast<int>(std::lround(static_cast<double>(width) / b.width)));
+    width = b.width * factor;
+    height = b.height * factor;
+  }
   render::BasisImages out = b;
+  if (b.tile > 0) out.tile = b.tile * (width / b.width);
   out.width = width;
   out.height = height;
   out.half.assign(static_cast<std::size_t>(b.layers) * width * height, 0);
@@ -548,7 +566,7 @@ int run_trade(TradeOptions o) {
   // The grid, and the settings it cannot have (corners with fewer than 3 samples; 8-bit PCA).
   std::vector<Setting> settings;
   std::set<BakeKey> bake_keys;
-  std::set<std::pair<BakeKey, int>> pca_keys;
+  std::set<std::tuple<BakeKey, int, int>> pca_keys;  // bake, K, tile
   for (int f : o.frequencies) {
     for (const std::string& b : o.bases) {
       const auto basis = geom::parse_basis(b);
@@ -570,7 +588,7 @@ int run_trade(TradeOptions o) {
                       for (double render_scale : o.render_scales) {
                         settings.push_back({key, form, bits, sun == "on", skip, change, smoothing, render_scale});
                         bake_keys.insert(key);
-                        if (form.form == render::BasisForm::Pca) pca_keys.insert({key, form.components});
+                        if (form.form == render::BasisForm::Pca) pca_keys.insert({key, form.components, form.tile});
                       }
                     }
                   }
@@ -668,16 +686,16 @@ int run_trade(TradeOptions o) {
     bakes[key] = dir;
   }
   // PCA forms: a copy of the bake per K, compressed as skylit-bake compress does it.
-  std::map<std::pair<BakeKey, int>, fs::path> pca_bakes;
-  std::map<std::pair<BakeKey, int>, double> pca_seconds;
-  for (const auto& [key, k] : pca_keys) {
-    const fs::path copy = bakes.at(key).string() + "_pca" + std::to_string(k);
+  std::map<std::tuple<BakeKey, int, int>, fs::path> pca_bakes;
+  std::map<std::tuple<BakeKey, int, int>, double> pca_seconds;
+  for (const auto& [key, k, tile] : pca_keys) {
+    const fs::path copy = bakes.at(key).string() + "_pca" + std::to_string(k) + (tile > 0 ? "t" + std::to_string(tile) : "");
     const fs::path stamp = copy / "trade_pca.json";
     bool cached = false;
     if (fs::exists(stamp)) {
       try {
         (void)bake::read_manifest(copy);
-        pca_seconds[{key, k}] = nlohmann::json::parse(read_file(stamp)).at("seconds").get<double>();
+        pca_seconds[{key, k, tile}] = nlohmann::json::parse(read_file(stamp)).at("seconds").get<double>();
         cached = true;
       } catch (const std::exception&) {
         cached = false;
@@ -689,14 +707,15 @@ int run_trade(TradeOptions o) {
       fs::remove(copy / "trade_bake.json");
       bake::PcaOptions pca;
       pca.components = k;
+      pca.tile = tile;
       const auto t = Clock::now();
       baker::compress_bake(copy, pca, quiet);
-      pca_seconds[{key, k}] = seconds_since(t);
-      write_file_atomic(stamp, nlohmann::json{{"seconds", pca_seconds[{key, k}]}}.dump() + "\n");
-      std::printf("PCA %s K=%d: %.1f s\n", key.name().c_str(), k, pca_seconds[{key, k}]);
+      pca_seconds[{key, k, tile}] = seconds_since(t);
+      write_file_atomic(stamp, nlohmann::json{{"seconds", pca_seconds[{key, k, tile}]}}.dump() + "\n");
+      std::printf("PCA %s K=%d tile %d: %.1f s\n", key.name().c_str(), k, tile, pca_seconds[{key, k, tile}]);
       std::fflush(stdout);
     }
-    pca_bakes[{key, k}] = copy;
+    pca_bakes[{key, k, tile}] = copy;
   }
   std::fclose(quiet);
 
@@ -875,9 +894,9 @@ int run_trade(TradeOptions o) {
     Result r;
     r.setting = s;
     const bool pca = s.form.form == render::BasisForm::Pca;
-    const fs::path bake_dir = pca ? pca_bakes.at({s.bake, s.form.components}) : bakes.at(s.bake);
+    const fs::path bake_dir = pca ? pca_bakes.at({s.bake, s.form.components, s.form.tile}) : bakes.at(s.bake);
     const bake::Manifest manifest = bake::read_manifest(bake_dir);
-    r.bake_seconds = bake_seconds.at(s.bake) + (pca ? pca_seconds.at({s.bake, s.form.components}) : 0.0);
+    r.bake_seconds = bake_seconds.at(s.bake) + (pca ? pca_seconds.at({s.bake, s.form.components, s.form.tile}) : 0.0);
     r.bake_bytes = directory_bytes(bake_dir);
     const SiteData& site = sites.at(s.bake.texel_scale);
     std::vector<render::BasisImages> basis;
@@ -924,7 +943,7 @@ int run_trade(TradeOptions o) {
           const geom::Plane& full = sites.at(s.bake.texel_scale).full_planes[j];
           const int width = std::max(4, full.width / o.timing_scale), height = std::max(4, full.height / o.timing_scale);
           const render::BasisImages fine = upsampled(basis[j], width, height);
-          const std::vector<float> fine_visibility = upsampled(visibility, basis[j].width, basis[j].height, width, height);
+          const std::vector<float> fine_visibility = upsampled(visibility, basis[j].width, basis[j].height, fine.width, fine.height);
           r.gpu_bytes += static_cast<std::uint64_t>((fine.layers + 3) / 4) * 4 * fine.texel_count() * (s.bits == 8 ? 1u : 2u);
           live::CpuShadowRatios timed(fine, s.skip_threshold, 0.0);
           render::BlendWeights nudged = w;
@@ -1093,7 +1112,7 @@ int main(int argc, char** argv) {
   trade->add_option("--bases", o.bases, "faces, corners")->delimiter(',')->capture_default_str();
   trade->add_option("--samples", o.samples, "samples per face")->delimiter(',')->capture_default_str();
   trade->add_option("--texel-scales", o.texel_scales, "plane resolution divisors (1: the site's)")->delimiter(',')->capture_default_str();
-  trade->add_option("--forms", o.forms, "full, lean, pcaK")->delimiter(',')->capture_default_str();
+  trade->add_option("--forms", o.forms, "full, lean, pcaK, pcaKtN (clustered PCA, tiles of N texels)")->delimiter(',')->capture_default_str();
   trade->add_option("--bits", o.bits, "layer bit depth: 16 (half), 8 (unorm8; not with PCA)")->delimiter(',')->capture_default_str();
   trade->add_option("--sun", o.sun, "sun separation: on, off")->delimiter(',')->capture_default_str();
   trade->add_option("--skip-thresholds", o.skip_thresholds, "S threshold (blend.skip_threshold), T units")

@@ -150,9 +150,11 @@ int main(int argc, char** argv) {
       if (!app.count("--samples")) options.samples = preset.bake.samples;
       if (!pca.components && !pca.variance && !pca.max_error && preset.bake.pca_components > 0) {
         pca.components = preset.bake.pca_components;
+        if (!app.count("--pca-tile")) pca.tile = preset.bake.pca_tile;
       }
-      spdlog::info("preset {} ({}): frequency {}, basis {}, samples {}, PCA components {}", preset.name, presets_file,
-                   frequency, basis, options.samples, pca.components ? std::to_string(*pca.components) : "none");
+      spdlog::info("preset {} ({}): frequency {}, basis {}, samples {}, PCA components {}{}", preset.name, presets_file,
+                   frequency, basis, options.samples, pca.components ? std::to_string(*pca.components) : "none",
+                   pca.tile > 0 ? " in tiles of " + std::to_string(pca.tile) + " texels" : "");
     }
     options.pca = want_pca();
     if (frequency != 0 || app.count("--frequency")) options.frequency = frequency;

@@ -77,6 +77,13 @@ TEST(Presets, ABadFieldIsNamed) {
                          "  live: {basis: pca, storage: eac}\n";
   message = error_of([&] { (void)load_presets(file); });
   EXPECT_NE(message.find("live.storage"), std::string::npos) << message;
+  std::ofstream(file) << "quick:\n  bake: {frequency: 2, basis: faces, samples: 4, pca_components: 4, pca_tile: 1}\n"
+                         "  live: {basis: pca}\n";
+  message = error_of([&] { (void)load_presets(file); });
+  EXPECT_NE(message.find("quick.bake.pca_tile"), std::string::npos) << message;
+  std::ofstream(file) << "quick:\n  bake: {frequency: 2, basis: faces, samples: 4, pca_components: 4, pca_tile: 64}\n"
+                         "  live: {basis: pca}\n";
+  EXPECT_EQ(load_presets(file).front().bake.pca_tile, 64);
   fs::remove(file);
 }
 

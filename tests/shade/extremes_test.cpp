@@ -71,7 +71,7 @@ std::vector<BakeVariant> bake_variants() {
                                     {"faces_tiled_pca", 2, geom::DomeBasis::Faces, 4, 4, 6}};
   for (const Preset& p : load_presets(default_presets_file())) {
     variants.push_back({"preset_" + p.name, p.bake.frequency, *geom::parse_basis(p.bake.basis), p.bake.samples,
-                        p.bake.pca_components > 0 ? p.bake.pca_components : 4});
+                        p.bake.pca_components > 0 ? p.bake.pca_components : 4, p.bake.pca_tile});
   }
   return variants;
 }

@@ -11,7 +11,7 @@ namespace {
 
 constexpr const char* kDocs = "see docs/presets.md";
 constexpr std::array<std::string_view, 2> kPresetKeys{"bake", "live"};
-constexpr std::array<std::string_view, 4> kBakeKeys{"frequency", "basis", "samples", "pca_components"};
+constexpr std::array<std::string_view, 5> kBakeKeys{"frequency", "basis", "samples", "pca_components", "pca_tile"};
 constexpr std::array<std::string_view, 7> kLiveKeys{"basis", "storage", "skip_threshold", "change_threshold",
                                                    "smoothing", "sun", "render_scale"};
 constexpr std::array<std::string_view, 3> kBases{"faces", "corners", "quadratics"};
@@ -48,6 +48,13 @@ std::vector<Preset> load_presets(const std::filesystem::path& file) {
     if (auto n = YamlReader::optional(bake, "pca_components")) {
       p.bake.pca_components = static_cast<int>(r.integer(n, at + "bake.pca_components", 0, 4096,
                                                          "principal components stored, 0 for none"));
+    }
+    if (auto n = YamlReader::optional(bake, "pca_tile")) {
+      p.bake.pca_tile = static_cast<int>(r.integer(n, at + "bake.pca_tile", 0, 1 << 20,
+                                                   "texels per side of a clustered-PCA tile, 0 for one set per plane"));
+      if (p.bake.pca_tile == 1) {
+        r.fail(bake["pca_tile"], at + "bake.pca_tile", "a tile holds at least 2 × 2 texels", "use 0 or e.g. 64");
+      }
     }
     const YAML::Node live = r.require(node, "live", at + "live", "the live service's settings");
     r.expect_map(live, at + "live", kDocs);

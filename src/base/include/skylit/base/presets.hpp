@@ -19,6 +19,7 @@ struct BakePreset {
   std::string basis = "faces";   // faces | corners
   int samples = 16;
   int pca_components = 0;        // 0: no PCA form stored
+  int pca_tile = 0;              // clustered PCA: tiles of this many texels (0: one set per plane)
 };
 
 struct LivePreset {
