@@ -507,7 +507,7 @@ struct TradeOptions {
   std::vector<double> render_scales{1.0};
   int frame_width = 640, frame_height = 480;
   int blend_repeats = 9, frame_repeats = 30;
-  int supersample = 2, reference_supersample = 1;
+  int supersample = 2, reference_supersample = 4;
   int threads = 2;
   int timing_scale = 1;
   // The whole-frame time the plot and the Pareto front use: "cpu", the process CPU time per frame
