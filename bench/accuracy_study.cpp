@@ -389,12 +389,12 @@ int main(int argc, char** argv) {
         const auto w = skylit::render::blend_weights(basis, S, sun);
         std::vector<float> T(basis.texel_count() * 3);
         skylit::render::blend_cpu(basis, w, w.sun.isZero() ? std::span<const float>() : std::span<const float>(visibility), T);
+        std::vector<skylit::render::SunLight> lights;
+        std::vector<std::vector<float>> source_visibility(sources.size());
+        std::vector<std::span<const float>> views;
         if (!sources.empty()) {
           // The CPU blend with every source: T = (Σ S B + Σ_k E_k c_k V_k) / (Σ S A + Σ_k E_k c_k).
           const Vec3 normal = manifest.planes[j].plane.normal();
-          std::vector<skylit::render::SunLight> lights;
-          std::vector<std::vector<float>> source_visibility(sources.size());
-          std::vector<std::span<const float>> views;
           for (std::size_t k = 0; k < sources.size(); ++k) {
             lights.push_back({sources[k].direction, sources[k].energy});
             if (normal.dot(sources[k].direction) < -1e-6) continue;  // faces away: zero weight, no V needed
@@ -405,15 +405,19 @@ int main(int argc, char** argv) {
           for (const auto& v : source_visibility) views.emplace_back(v);
           skylit::render::blend_cpu_sources(basis, skylit::render::blend_weights_sources(basis, S, lights), views, T);
         }
-        if (sources.empty()) {
+        {
           for (const int k : pca_components) {
             const skylit::render::BasisImages pca =
                 skylit::render::load_basis(pca_bakes.at({key_of(c), k}), skylit::bake::read_manifest(pca_bakes.at({key_of(c), k})),
                                            static_cast<int>(j), skylit::render::BasisForm::Pca);
-            const auto pw = skylit::render::blend_weights(pca, S, sun);
             std::vector<float> T_pca(T.size());
-            skylit::render::blend_cpu(pca, pw, pw.sun.isZero(0) ? std::span<const float>() : std::span<const float>(visibility),
-                                      T_pca);
+            if (sources.empty()) {
+              const auto pw = skylit::render::blend_weights(pca, S, sun);
+              skylit::render::blend_cpu(pca, pw, pw.sun.isZero(0) ? std::span<const float>() : std::span<const float>(visibility),
+                                        T_pca);
+            } else {
+              skylit::render::blend_cpu_sources(pca, skylit::render::blend_weights_sources(pca, S, lights), views, T_pca);
+            }
             for (std::size_t x = 0; x < basis.texel_count(); ++x) {
               for (int ch = 0; ch < 3; ++ch) {
                 const std::size_t at = x * 3 + static_cast<std::size_t>(ch);
