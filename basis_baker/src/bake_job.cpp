@@ -241,8 +241,8 @@ void log_footprint(const bake::PlaneRecord& record, const bake::ImageStack& stac
                                         : 0.0;
   std::fprintf(log,
                "skylit-bake: plane '%s': %d of %d layers hold a shadow (%d the plane cannot see, %d unshadowed): the "
-               "lean form blends %d layers, %.1f MiB instead of %.1f MiB; cropped to their shadows the shadowed layers "
-               "would hold %.0f%% of their texels (%.1f MiB)\n",
+               "lean form blends %d layers, %.1f MiB instead of %.1f MiB; the cropped form (each shadowed layer cut to the "
+               "rectangle it shadows) keeps %.0f%% of their texels, %.1f MiB\n",
                record.plane.name.c_str(), f.shadowed, stack.layers, f.dark, f.unshadowed, f.needed_layers(),
                layer_mib * f.needed_layers(), layer_mib * stack.layers, 100.0 * cropped,
                static_cast<double>(f.shadowed_texels) * 2.0 / kMiB + (f.unshadowed > 0 ? layer_mib : 0.0));

@@ -242,9 +242,31 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
         }
         EXPECT_LE(std::abs(T_lean[k] - T[k]), 1e-3 * alpha + 1e-5) << "plane " << j << " value " << k;
       }
-      // The same three forms blended on the GPU, in every storage each can take.
+      // The cropped form: the lean one with each shadowed layer cropped to its rectangle. Outside
+      // it B is within the tolerance of A, so the same bound holds against the full form.
+      const render::BasisImages cropped =
+          render::load_basis(bake_dir(), m, static_cast<int>(j), render::BasisForm::Cropped);
+      EXPECT_LE(cropped.half.size(), lean.half.size());
+      const render::BlendWeights cropped_weights = render::blend_weights(cropped, S, sun);
+      std::vector<float> T_cropped(T.size());
+      render::blend_cpu(cropped, cropped_weights,
+                        cropped_weights.sun.isZero(0) ? std::span<const float>() : std::span<const float>(visibility),
+                        T_cropped);
+      for (std::size_t k = 0; k < T.size(); ++k) {
+        EXPECT_TRUE(std::isfinite(T_cropped[k]) && T_cropped[k] >= 0.0f && T_cropped[k] <= 1.0f) << "plane " << j;
+        const auto c = k % 3;
+        double alpha = 1.0;
+        if (!o.weights.back().no_light[c]) {
+          alpha = 0.0;
+          for (std::size_t l = 0; l < S.size(); ++l) alpha += std::abs(S[l][static_cast<Eigen::Index>(c)] * m.planes[j].unoccluded[l]);
+          alpha /= o.weights.back().denominator[static_cast<Eigen::Index>(c)];
+        }
+        EXPECT_LE(std::abs(T_cropped[k] - T[k]), 1e-3 * alpha + 1e-5) << "plane " << j << " value " << k;
+      }
+      // The same forms blended on the GPU, in every storage each can take.
       expect_gpu_blends(basis, o.weights.back(), visibility, T, j);
       expect_gpu_blends(lean, lean_weights, visibility, T_lean, j);
+      expect_gpu_blends(cropped, cropped_weights, visibility, T_cropped, j);
       expect_gpu_blends(pca, pca_weights, visibility, T_pca, j);
       o.lean_layers.push_back(lean.layers);
       o.T.push_back(std::move(T));

@@ -70,7 +70,9 @@ BasisImages basis_of(const bake::PlaneRecord& record, const bake::Manifest& mani
 
 // Keeps the layers that hold a shadow, one layer of ones for the unshadowed ones' constant light,
 // nothing for the layers the plane cannot see; `projection` maps the dome's weights onto them.
-void make_lean(BasisImages& basis) {
+// crop: each shadowed layer keeps only the rectangle it shadows (outside it B = A, the fill), the
+// layer of ones nothing (fill 1).
+void make_lean(BasisImages& basis, bool crop) {
   bake::ImageStackHalf stack;
   stack.width = basis.width;
   stack.height = basis.height;
@@ -98,6 +100,26 @@ void make_lean(BasisImages& basis) {
     }
   }
   basis.layers = kept;
+  if (!crop) return;
+  std::vector<std::uint16_t> rectangles;
+  int k = 0;
+  for (int l = 0; l < static_cast<int>(footprint.layers.size()); ++l) {
+    const bake::LayerFootprint& f = footprint.layers[static_cast<std::size_t>(l)];
+    if (f.kind != bake::LayerFootprint::Kind::Shadowed) continue;
+    // The fill is A rounded to half, as the full form stores an unshadowed texel's B.
+    LayerCrop c{f.col, f.row, f.cols, f.rows, rectangles.size(),
+                half_to_float(float_to_half(static_cast<float>(basis.unoccluded[static_cast<std::size_t>(l)])))};
+    const std::uint16_t* layer = basis.half.data() + static_cast<std::size_t>(k) * texels;
+    for (int r = 0; r < c.rows; ++r) {
+      const std::uint16_t* from = layer + static_cast<std::size_t>(c.row + r) * static_cast<std::size_t>(basis.width) +
+                                  static_cast<std::size_t>(c.col);
+      rectangles.insert(rectangles.end(), from, from + c.cols);
+    }
+    basis.crops.push_back(c);
+    ++k;
+  }
+  if (footprint.unshadowed > 0) basis.crops.push_back(LayerCrop{0, 0, 0, 0, rectangles.size(), 1.0f});
+  basis.half = std::move(rectangles);
 }
 
 BasisImages load_pca_form(const fs::path& bake_dir, const bake::Manifest& manifest, int plane) {
@@ -243,7 +265,7 @@ BasisImages load_basis(const fs::path& bake_dir, const bake::Manifest& manifest,
 
   BasisImages basis = basis_of(record, manifest, std::move(stack));
   check_values(file, basis);
-  if (form == BasisForm::Lean) make_lean(basis);
+  if (form == BasisForm::Lean || form == BasisForm::Cropped) make_lean(basis, form == BasisForm::Cropped);
   return basis;
 }
 

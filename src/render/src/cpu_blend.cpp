@@ -34,7 +34,28 @@ void check_basis(const BasisImages& basis) {
                          std::to_string(basis.layers),
               "load the basis with load_basis");
   }
-  if (basis.half.size() != basis.texel_count() * static_cast<std::size_t>(basis.layers)) {
+  if (basis.cropped()) {
+    if (basis.crops.size() != static_cast<std::size_t>(basis.layers) || basis.tile > 0) {
+      bad_input(field + ".crops", std::to_string(basis.crops.size()) + " rectangles for " + std::to_string(basis.layers) +
+                                      " layers" + (basis.tile > 0 ? " of a tiled basis" : ""),
+                "load the basis with load_basis(…, BasisForm::Cropped)");
+    }
+    std::size_t expected = 0;
+    for (const LayerCrop& c : basis.crops) {
+      const bool inside = c.col >= 0 && c.row >= 0 && c.cols >= 0 && c.rows >= 0 && c.col + c.cols <= basis.width &&
+                          c.row + c.rows <= basis.height;
+      if (!inside || c.offset != expected || !std::isfinite(c.fill)) {
+        bad_input(field + ".crops", "a rectangle lies outside the plane, out of order or with a fill that is not finite",
+                  "load the basis with load_basis(…, BasisForm::Cropped)");
+      }
+      expected += static_cast<std::size_t>(c.cols) * static_cast<std::size_t>(c.rows);
+    }
+    if (basis.half.size() != expected) {
+      bad_input(field, "holds " + std::to_string(basis.half.size()) + " values for rectangles of " +
+                           std::to_string(expected) + " texels",
+                "load the basis with load_basis(…, BasisForm::Cropped)");
+    }
+  } else if (basis.half.size() != basis.texel_count() * static_cast<std::size_t>(basis.layers)) {
     bad_input(field, "holds " + std::to_string(basis.half.size()) + " values for " + std::to_string(basis.layers) +
                          " layers of " + std::to_string(basis.width) + "x" + std::to_string(basis.height),
               "load the basis with load_basis");
@@ -147,6 +168,35 @@ void set_source_weights(BlendWeights& w, const std::vector<Eigen::Vector3d>& ter
 
 bool blend_simd_available() { return detail::cpu_has_avx2_f16c_fma(); }
 
+float BasisImages::value(int layer, int col, int row) const {
+  if (!cropped()) {
+    return half_to_float(half[static_cast<std::size_t>(layer) * texel_count() +
+                              static_cast<std::size_t>(row) * static_cast<std::size_t>(width) + static_cast<std::size_t>(col)]);
+  }
+  const LayerCrop& c = crops[static_cast<std::size_t>(layer)];
+  if (!c.contains(col, row)) return c.fill;
+  return half_to_float(half[c.offset + static_cast<std::size_t>(row - c.row) * static_cast<std::size_t>(c.cols) +
+                            static_cast<std::size_t>(col - c.col)]);
+}
+
+BasisImages uncropped(const BasisImages& basis) {
+  if (!basis.cropped()) return basis;
+  BasisImages out = basis;
+  out.crops.clear();
+  out.half.assign(basis.texel_count() * static_cast<std::size_t>(basis.layers), 0);
+  for (int k = 0; k < basis.layers; ++k) {
+    const LayerCrop& c = basis.crops[static_cast<std::size_t>(k)];
+    std::uint16_t* layer = out.half.data() + static_cast<std::size_t>(k) * basis.texel_count();
+    std::fill_n(layer, basis.texel_count(), float_to_half(c.fill));
+    for (int r = 0; r < c.rows; ++r) {
+      std::copy_n(basis.half.data() + c.offset + static_cast<std::size_t>(r) * static_cast<std::size_t>(c.cols), c.cols,
+                  layer + static_cast<std::size_t>(c.row + r) * static_cast<std::size_t>(basis.width) + static_cast<std::size_t>(c.col));
+    }
+  }
+  return out;
+}
+
+
 namespace {
 
 // The weights for separated terms already on the plane (E_k c_k per source, in order).
@@ -258,6 +308,90 @@ void check_weights(const BasisImages& basis, const BlendWeights& weights, const 
   }
 }
 
+// The cropped form's blend, a row of the plane at a time (its three accumulators stay in L1):
+// each active layer adds its fill everywhere (summed once into the row's start value) and
+// w·(B − fill) over its rectangle's span of the row; then the separated terms, the channels
+// without light, the clamp. Rows go to threads in chunks; a texel's sum is the same for any split.
+BlendStats run_cropped(const BasisImages& basis, const detail::BlendJob& job, const BlendOptions& options,
+                       const std::string& visibility_field) {
+  const auto width = static_cast<std::size_t>(basis.width);
+  const std::size_t active = job.active.size();
+  float base[3] = {0.0f, 0.0f, 0.0f};
+  for (std::size_t a = 0; a < active; ++a) {
+    const float fill = basis.crops[static_cast<std::size_t>(job.active[a])].fill;
+    for (int c = 0; c < 3; ++c) base[c] += job.weights[3 * a + static_cast<std::size_t>(c)] * fill;
+  }
+  constexpr int kRowsPerChunk = 8;
+  const auto rows = static_cast<std::size_t>(basis.height);
+  const std::size_t chunks = (rows + kRowsPerChunk - 1) / kRowsPerChunk;
+  std::optional<BlendWorkers> own;
+  BlendWorkers* workers = options.workers;
+  if (!workers) {
+    const std::size_t wanted = options.threads > 0 ? static_cast<std::size_t>(options.threads)
+                                                   : std::max(1u, std::thread::hardware_concurrency());
+    workers = &own.emplace(static_cast<int>(std::max<std::size_t>(1, std::min(wanted, std::max<std::size_t>(chunks, 1)))));
+  }
+  std::vector<detail::RangeStats> stats(static_cast<std::size_t>(workers->size()));
+  workers->run(chunks, [&](std::size_t chunk, int worker) {
+    detail::RangeStats& s = stats[static_cast<std::size_t>(worker)];
+    std::vector<float> acc(3 * width);
+    float* r = acc.data();
+    float* g = r + width;
+    float* b = g + width;
+    for (std::size_t y = chunk * kRowsPerChunk; y < std::min(rows, (chunk + 1) * kRowsPerChunk); ++y) {
+      std::fill_n(r, width, base[0]);
+      std::fill_n(g, width, base[1]);
+      std::fill_n(b, width, base[2]);
+      for (std::size_t a = 0; a < active; ++a) {
+        const LayerCrop& c = basis.crops[static_cast<std::size_t>(job.active[a])];
+        if (static_cast<int>(y) < c.row || static_cast<int>(y) >= c.row + c.rows || c.cols == 0) continue;
+        const std::uint16_t* from = job.half + c.offset + (y - static_cast<std::size_t>(c.row)) * static_cast<std::size_t>(c.cols);
+        const float wr = job.weights[3 * a], wg = job.weights[3 * a + 1], wb = job.weights[3 * a + 2];
+        const auto x0 = static_cast<std::size_t>(c.col);
+        for (std::size_t x = 0; x < static_cast<std::size_t>(c.cols); ++x) {
+          const float d = detail::half_bits_to_float(from[x]) - c.fill;
+          r[x0 + x] += wr * d;
+          g[x0 + x] += wg * d;
+          b[x0 + x] += wb * d;
+        }
+      }
+      for (std::size_t k = 0; k < job.source_visibility.size(); ++k) {
+        const float* v = job.source_visibility[k] + y * width;
+        const float* ws = job.source_weights.data() + 3 * k;
+        for (std::size_t x = 0; x < width; ++x) {
+          s.bad_visibility |= !(v[x] >= 0.0f && v[x] <= 1.0f);
+          r[x] += ws[0] * v[x];
+          g[x] += ws[1] * v[x];
+          b[x] += ws[2] * v[x];
+        }
+      }
+      float* to = job.out + 3 * y * width;
+      for (std::size_t x = 0; x < width; ++x) {
+        for (int c = 0; c < 3; ++c) {
+          const float t = job.no_light[c] ? 1.0f : acc[static_cast<std::size_t>(c) * width + x];
+          s.max_t = t > s.max_t ? t : s.max_t;  // NaN compares false: ignored
+          s.min_t = t < s.min_t ? t : s.min_t;
+          s.clamped += static_cast<std::int64_t>((t > 1.0f) | !(t >= 0.0f));
+          to[3 * x + static_cast<std::size_t>(c)] = t > 1.0f ? 1.0f : (t >= 0.0f ? t : 0.0f);
+        }
+      }
+    }
+  });
+  detail::RangeStats total;
+  for (const detail::RangeStats& s : stats) {
+    total.max_t = std::max(total.max_t, s.max_t);
+    total.min_t = std::min(total.min_t, s.min_t);
+    total.clamped += s.clamped;
+    total.bad_visibility |= s.bad_visibility;
+  }
+  if (total.bad_visibility) bad_visibility(visibility_field);
+  BlendStats result;
+  result.max_above_one = std::max(0.0f, total.max_t - 1.0f);
+  result.max_below_zero = std::max(0.0f, -total.min_t);
+  result.clamped = total.clamped;
+  return result;
+}
+
 // The threaded blend: the active layers, then each separated term (V_k, w_k: 3 floats each).
 BlendStats run_blend(const BasisImages& basis, const BlendWeights& weights,
                      std::span<const float* const> source_visibility, std::span<const float> source_weights,
@@ -286,6 +420,7 @@ BlendStats run_blend(const BasisImages& basis, const BlendWeights& weights,
     job.out = out.data();
   }
 
+  if (basis.cropped()) return run_cropped(basis, jobs[0], options, visibility_field);
   const auto kernel = options.use_simd && detail::cpu_has_avx2_f16c_fma() ? detail::blend_range_avx2
                                                                           : detail::blend_range_portable;
   // Threads claim chunks of a few blocks from a shared counter: a thread that the OS sets aside
@@ -356,9 +491,8 @@ std::vector<double> dome_sums(const BasisImages& basis, std::span<const Eigen::V
   std::vector<double> sum(3 * texels, 0.0);
   const auto width = static_cast<std::size_t>(std::max(basis.width, 1));
   for (std::size_t i = 0; i < layers; ++i) {
-    const std::uint16_t* layer = basis.half.data() + i * texels;
     for (std::size_t k = 0; k < texels; ++k) {
-      const double b = half_to_float(layer[k]);
+      const double b = basis.value(static_cast<int>(i), static_cast<int>(k % width), static_cast<int>(k / width));
       const auto tile = static_cast<std::size_t>(basis.tile_of(static_cast<int>(k % width), static_cast<int>(k / width)));
       const Eigen::Vector3d& a = coefficient[tile * layers + i];
       for (int c = 0; c < 3; ++c) sum[3 * k + static_cast<std::size_t>(c)] += a[c] * b;

@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <numeric>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -94,10 +95,13 @@ GLint max_integer(GLenum name) {
 
 GpuBlender::GpuBlender(const BasisImages& basis, const GpuBlendOptions& options)
     : options_(options), name_(basis.name), width_(basis.width), height_(basis.height), layers_(basis.layers) {
-  check_basis(basis);
-  tile_ = basis.tile;
-  tiles_x_ = basis.tiles_x();
-  tile_count_ = basis.tile_count();
+  // A cropped basis is blended from whole layers (its fill outside the rectangles).
+  std::optional<BasisImages> expanded;
+  const BasisImages& whole = basis.cropped() ? expanded.emplace(uncropped(basis)) : basis;
+  check_basis(whole);
+  tile_ = whole.tile;
+  tiles_x_ = whole.tiles_x();
+  tile_count_ = whole.tile_count();
   check_threshold(options.skip_threshold, "skip_threshold");
   check_threshold(options.change_threshold, "change_threshold");
   const bool eac = options_.storage == BasisStorage::Eac11;
@@ -143,7 +147,7 @@ GpuBlender::GpuBlender(const BasisImages& basis, const GpuBlendOptions& options)
   // The basis, one slice at a time: a layer, or four in the channels of a texel (the last
   // slice padded with zeros). 8-bit layers are scaled by their maximum on the way. A plane
   // without layers still gets a slice, never read, since a texture array cannot be empty.
-  const std::size_t texels = basis.texel_count();
+  const std::size_t texels = whole.texel_count();
   const bool unorm8 = options_.storage == BasisStorage::Unorm8;
   const std::size_t channels = static_cast<std::size_t>(layers_per_slice_);
   const GLenum internal_format =
@@ -182,7 +186,7 @@ GpuBlender::GpuBlender(const BasisImages& basis, const GpuBlendOptions& options)
     for (std::size_t c = 0; c < channels; ++c) {
       const int i = slice * layers_per_slice_ + static_cast<int>(c);
       if (i >= layers_) break;
-      const std::uint16_t* layer = basis.half.data() + static_cast<std::size_t>(i) * texels;
+      const std::uint16_t* layer = whole.half.data() + static_cast<std::size_t>(i) * texels;
       halves_to_floats(std::span<const std::uint16_t>(layer, texels), values);
       // max |B|: a PCA basis has eigen-images of either sign, which 8-bit layers cannot hold.
       float top = 0.0f;

@@ -34,8 +34,18 @@ using geom::Vec3;
 
 class BlendWorkers;
 
+// A stored layer cropped to the rectangle of texels where it differs from a constant: inside,
+// its values row by row at half[offset …] (cols × rows of them); outside, `fill` (BasisForm::Cropped).
+struct LayerCrop {
+  int col = 0, row = 0, cols = 0, rows = 0;
+  std::size_t offset = 0;
+  float fill = 0.0f;
+  bool contains(int c, int r) const { return c >= col && c < col + cols && r >= row && r < row + rows; }
+};
+
 // The basis images of one plane, as the bake stores them: layer-major IEEE half floats,
-// half[(layer * height + row) * width + col] = B_{j,i} (steradians).
+// half[(layer * height + row) * width + col] = B_{j,i} (steradians); or, cropped, each layer's
+// rectangle after the one before (`crops`).
 struct BasisImages {
   std::string name;
   int width = 0;
@@ -66,6 +76,12 @@ struct BasisImages {
   // The tile that texel (col, row) belongs to.
   int tile_of(int col, int row) const { return tile > 0 ? (row / tile) * tiles_x() + col / tile : 0; }
   bool compressed() const { return projection.rows() > 0; }
+  // The cropped form (BasisForm::Cropped): one entry per stored layer; `half` holds only their
+  // rectangles. Empty: every layer whole, texel_count() values each.
+  std::vector<LayerCrop> crops;
+  bool cropped() const { return !crops.empty(); }
+  // Stored layer k at texel (col, row), as a float, whichever way it is stored.
+  float value(int layer, int col, int row) const;
   // n: the layers S and A are given for (the dome's), whichever form is stored.
   int source_layers() const { return compressed() ? static_cast<int>(projection.rows()) : layers; }
   std::size_t texel_count() const { return static_cast<std::size_t>(width) * height; }
@@ -77,12 +93,21 @@ struct BasisImages {
 //         the unshadowed layers' constant light; layers the plane cannot see are left out. T
 //         changes by at most 1e-3 (the footprint's tolerance), the blend reads fewer layers;
 //   Pca   its principal components (stored when the bake was made or compressed with --pca-*;
-//         InputError otherwise).
-enum class BasisForm { Full, Lean, Pca };
+//         InputError otherwise);
+//   Cropped  the lean form with each shadowed layer cropped to the rectangle it shadows (outside
+//         it B = A, its `fill`), the layer of ones to nothing: the CPU blend reads only the
+//         rectangles (bake/footprint.hpp: at ν = 8 the sample site's ground keeps 43% of its
+//         shadowed layers' texels). Outside its rectangle a layer's B is within the footprint's
+//         tolerance of A, so T is within 10⁻³ of the full form's, as Lean's.
+enum class BasisForm { Full, Lean, Pca, Cropped };
 
 // Reads plane `plane` (an index into manifest.planes) of a verified bake, in the form asked for.
 BasisImages load_basis(const std::filesystem::path& bake_dir, const bake::Manifest& manifest, int plane,
                        BasisForm form = BasisForm::Full);
+
+// A cropped basis with every layer whole again (the fill outside its rectangle), for consumers
+// that read whole layers (the GPU blend); any other basis as it is.
+BasisImages uncropped(const BasisImages& basis);
 
 struct SunLight {
   Vec3 direction = Vec3::UnitZ();                    // unit, site frame, towards the sun
