@@ -1,6 +1,6 @@
 // skylit-bench trade: the trade table of the sky stage (issue 6). Sweeps a grid of settings — the
 // bake's (dome frequency ν, basis faces/corners, samples per face, plane resolution), the stored
-// form (full, lean, PCA with K components; 16- or 8-bit layers) and the live service's (sun
+// form (full, lean, cropped, PCA with K components; 16- or 8-bit layers) and the live service's (sun
 // separation, S threshold = blend.skip_threshold, ΔS threshold = blend.change_threshold,
 // smoothing) — over the sample site and real equirect skies, and reports per setting:
 //
@@ -28,6 +28,7 @@
 // readable manifest and trade_bake.json).
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
@@ -94,13 +95,14 @@ struct Form {
     if (form == render::BasisForm::Pca) {
       return "pca" + std::to_string(components) + (tile > 0 ? "t" + std::to_string(tile) : "");
     }
-    return form == render::BasisForm::Lean ? "lean" : "full";
+    return form == render::BasisForm::Lean ? "lean" : form == render::BasisForm::Cropped ? "cropped" : "full";
   }
 };
 
 Form parse_form(const std::string& text) {
   if (text == "full") return {render::BasisForm::Full, 0, 0};
   if (text == "lean") return {render::BasisForm::Lean, 0, 0};
+  if (text == "cropped") return {render::BasisForm::Cropped, 0, 0};
   // pcaK or pcaKtN (clustered: tiles of N texels).
   int k = 0, tile = 0, used = 0;
   if (std::sscanf(text.c_str(), "pca%d%n", &k, &used) == 1 && k > 0) {
@@ -112,7 +114,7 @@ Form parse_form(const std::string& text) {
     }
   }
   throw InputError("option --forms: got '" + text +
-                   "'. Fix: full, lean, pcaK (e.g. pca8) or pcaKtN (clustered PCA, tiles of N texels of the bake's "
+                   "'. Fix: full, lean, cropped, pcaK (e.g. pca8) or pcaKtN (clustered PCA, tiles of N texels of the bake's "
                    "planes, N >= 2; e.g. pca16t8)");
 }
 
@@ -182,27 +184,64 @@ std::uint64_t directory_bytes(const fs::path& dir) {
 }
 
 // 8-bit layers as the GPU blend stores them (gpu_blend.cpp): per layer, B ≈ top · round(255 B / top) / 255.
+// A cropped basis stays cropped: the GPU blend expands it to whole layers (the fill, as a half,
+// outside each rectangle) and quantises those, so the top is over the rectangle and the fill
+// (where the rectangle leaves texels to it), and the fill is quantised as the texels it covers.
 void quantise_to_unorm8(render::BasisImages& basis) {
   const std::size_t texels = basis.texel_count();
-  std::vector<float> values(texels);
+  std::vector<float> values;
   for (int layer = 0; layer < basis.layers; ++layer) {
-    const std::span<std::uint16_t> halves(basis.half.data() + static_cast<std::size_t>(layer) * texels, texels);
+    render::LayerCrop* crop = basis.cropped() ? &basis.crops.at(static_cast<std::size_t>(layer)) : nullptr;
+    const std::size_t offset = crop ? crop->offset : static_cast<std::size_t>(layer) * texels;
+    const std::size_t count = crop ? static_cast<std::size_t>(crop->cols) * static_cast<std::size_t>(crop->rows) : texels;
+    const std::span<std::uint16_t> halves(basis.half.data() + offset, count);
+    values.resize(count);
     render::halves_to_floats(halves, values);
     float top = 0.0f;
     for (float v : values) top = std::max(top, v);
+    const bool has_fill = crop && count < texels;
+    const float fill = has_fill ? render::half_to_float(render::float_to_half(crop->fill)) : 0.0f;
+    if (has_fill) top = std::max(top, fill);
     if (top <= 0.0f) continue;
-    for (std::size_t k = 0; k < texels; ++k) {
-      const float q = std::round(std::clamp(values[k] / top * 255.0f, 0.0f, 255.0f));
-      halves[k] = render::float_to_half(top * q / 255.0f);
-    }
+    const auto quantised = [top](float v) { return top * std::round(std::clamp(v / top * 255.0f, 0.0f, 255.0f)) / 255.0f; };
+    for (std::size_t k = 0; k < count; ++k) halves[k] = render::float_to_half(quantised(values[k]));
+    if (has_fill) crop->fill = render::half_to_float(render::float_to_half(quantised(fill)));
   }
 }
 
 // The same basis at width × height texels, nearest texel: the blend's cost depends on the texels
 // and the layers, not on their values, so a coarse bake upsampled times the blend of a fine one.
 // A tiled basis (clustered PCA) is scaled by a whole factor, its tiles with it, so that every
-// texel keeps its tile.
+// texel keeps its tile. A cropped basis stays cropped: each rectangle scaled with the plane (its
+// values nearest texel, as a whole layer's), the fills kept.
 render::BasisImages upsampled(const render::BasisImages& b, int width, int height) {
+  if (b.cropped()) {
+    render::BasisImages out = b;
+    out.width = width;
+    out.height = height;
+    out.half.clear();
+    const auto scaled = [](int at, int to, int from) { return static_cast<int>(static_cast<std::int64_t>(at) * to / from); };
+    const auto scaled_up = [](int at, int to, int from) {
+      return static_cast<int>((static_cast<std::int64_t>(at) * to + from - 1) / from);
+    };
+    for (int layer = 0; layer < b.layers; ++layer) {
+      const render::LayerCrop& c = b.crops[static_cast<std::size_t>(layer)];
+      render::LayerCrop& f = out.crops[static_cast<std::size_t>(layer)];
+      f.col = scaled(c.col, width, b.width);
+      f.row = scaled(c.row, height, b.height);
+      f.cols = c.cols > 0 && c.rows > 0 ? scaled_up(c.col + c.cols, width, b.width) - f.col : 0;
+      f.rows = c.cols > 0 && c.rows > 0 ? scaled_up(c.row + c.rows, height, b.height) - f.row : 0;
+      f.offset = out.half.size();
+      for (int row = f.row; row < f.row + f.rows; ++row) {
+        for (int col = f.col; col < f.col + f.cols; ++col) {
+          // Nearest texel of the coarse layer: a fine texel at the rectangle's edge may fall
+          // just outside the coarse rectangle, where the layer is its fill.
+          out.half.push_back(render::float_to_half(b.value(layer, col * b.width / width, row * b.height / height)));
+        }
+      }
+    }
+    return out;
+  }
   if (b.tile > 0) {
     const int factor = std::max(1, static_cast<int>(std::lround(static_cast<double>(width) / b.width)));
     width = b.width * factor;
@@ -944,6 +983,7 @@ int run_trade(TradeOptions o) {
           const int width = std::max(4, full.width / o.timing_scale), height = std::max(4, full.height / o.timing_scale);
           const render::BasisImages fine = upsampled(basis[j], width, height);
           const std::vector<float> fine_visibility = upsampled(visibility, basis[j].width, basis[j].height, fine.width, fine.height);
+          // Whole layers: the GPU blend expands a cropped basis on upload (as lean's).
           r.gpu_bytes += static_cast<std::uint64_t>((fine.layers + 3) / 4) * 4 * fine.texel_count() * (s.bits == 8 ? 1u : 2u);
           live::CpuShadowRatios timed(fine, s.skip_threshold, 0.0);
           render::BlendWeights nudged = w;
@@ -1112,7 +1152,7 @@ int main(int argc, char** argv) {
   trade->add_option("--bases", o.bases, "faces, corners")->delimiter(',')->capture_default_str();
   trade->add_option("--samples", o.samples, "samples per face")->delimiter(',')->capture_default_str();
   trade->add_option("--texel-scales", o.texel_scales, "plane resolution divisors (1: the site's)")->delimiter(',')->capture_default_str();
-  trade->add_option("--forms", o.forms, "full, lean, pcaK, pcaKtN (clustered PCA, tiles of N texels)")->delimiter(',')->capture_default_str();
+  trade->add_option("--forms", o.forms, "full, lean, cropped, pcaK, pcaKtN (clustered PCA, tiles of N texels)")->delimiter(',')->capture_default_str();
   trade->add_option("--bits", o.bits, "layer bit depth: 16 (half), 8 (unorm8; not with PCA)")->delimiter(',')->capture_default_str();
   trade->add_option("--sun", o.sun, "sun separation: on, off")->delimiter(',')->capture_default_str();
   trade->add_option("--skip-thresholds", o.skip_thresholds, "S threshold (blend.skip_threshold), T units")

@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include "../../src/live/src/cpu_shadow_ratios.hpp"
 #include "live_fixture.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/base/error.hpp"
@@ -86,6 +87,52 @@ TEST(LivePcaBasis, LeanFormBlendsOnlyTheShadowedLayers) {
     std::printf("measured: plane '%s': lean form of %d layers for %zu\n", manifest.planes[j].plane.name.c_str(),
                 lean.layers, manifest.layer_count());
   }
+}
+
+// blend.basis cropped: the lean form, each shadowed layer cropped to the rectangle it shadows;
+// the CPU blend reads only the rectangles, with the lean form's layers, bounds and T.
+TEST(LivePcaBasis, CroppedFormBlendsOnTheCpuAsTheLeanForm) {
+  RigOptions rig_options;
+  const Rig rig(rig_options);
+  write_config_with_bake(rig, BakedSite::get().dir / "bake", "blend:\n  device: cpu\n  basis: cropped\n");
+  const live::LiveConfig config = rig.config();
+  ASSERT_EQ(config.blend.basis, live::BlendSettings::Basis::Cropped);
+  live::ServiceOptions options = quiet_options();
+  options.frames = 10;
+  RunningService running(config, options);
+  running.join();
+  ASSERT_EQ(running.error(), "");
+  const nlohmann::json status = running.status();
+  EXPECT_EQ(status["blend"]["basis"], "cropped") << status["blend"].dump(2);
+  const bake::Manifest manifest = bake::read_manifest(BakedSite::get().dir / "bake");
+  ASSERT_EQ(status["blend"]["planes"].size(), manifest.planes.size());
+  const std::vector<Eigen::Vector3d> S(manifest.layer_count(), Eigen::Vector3d(0.9, 1.0, 1.2));
+  for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
+    SCOPED_TRACE(manifest.planes[j].plane.name);
+    const nlohmann::json& plane = status["blend"]["planes"][j];
+    const fs::path bake_dir = BakedSite::get().dir / "bake";
+    const render::BasisImages lean = render::load_basis(bake_dir, manifest, static_cast<int>(j), render::BasisForm::Lean);
+    const render::BasisImages cropped = render::load_basis(bake_dir, manifest, static_cast<int>(j), render::BasisForm::Cropped);
+    EXPECT_EQ(plane["layers"], lean.layers);
+    EXPECT_EQ(cropped.layers, lean.layers);
+    EXPECT_LE(cropped.half.size(), lean.half.size());
+    // The bounds the thresholds use: the same per layer, read from the rectangles and fills.
+    live::CpuShadowRatios lean_ratios(lean, 0.0, 0.0), cropped_ratios(cropped, 0.0, 0.0);
+    ASSERT_EQ(cropped_ratios.layer_max().size(), lean_ratios.layer_max().size());
+    for (std::size_t k = 0; k < lean_ratios.layer_max().size(); ++k) {
+      EXPECT_NEAR(cropped_ratios.layer_max()[k], lean_ratios.layer_max()[k], 1e-3 * std::max(1.0f, lean_ratios.layer_max()[k]))
+          << "layer " << k;
+    }
+    // And the same T.
+    ASSERT_TRUE(lean_ratios.blend(render::blend_weights(lean, S, std::nullopt), {}, 1, nullptr));
+    ASSERT_TRUE(cropped_ratios.blend(render::blend_weights(cropped, S, std::nullopt), {}, 1, nullptr));
+    EXPECT_LE(largest_difference(*lean_ratios.rgba(), *cropped_ratios.rgba()), 1e-3);
+    std::printf("measured: plane '%s': cropped form of %d layers, %zu of the lean form's %zu values\n",
+                manifest.planes[j].plane.name.c_str(), cropped.layers, cropped.half.size(), lean.half.size());
+  }
+  // Any storage: the GPU blend expands the rectangles to whole layers of values >= 0.
+  write_config_with_bake(rig, BakedSite::get().dir / "bake", "blend:\n  device: gpu\n  storage: unorm8\n  basis: cropped\n");
+  EXPECT_EQ(load_error(rig.config_file(), false), "");
 }
 
 // The service on a compressed bake (tile > 0: clustered) with the blend on `device`.

@@ -1,4 +1,4 @@
-// skylit-bench trade on a tiny grid (one bake, two forms, two bit depths; the park sky; planes at
+// skylit-bench trade on a tiny grid (one bake, five forms, two bit depths; the park sky; planes at
 // 1/32; a 160×120 frame): every field of trade.json, the plot, and a Pareto front that is
 // exactly the non-dominated settings.
 #include <filesystem>
@@ -38,7 +38,7 @@ TEST(SkylitBenchTrade, TinyGridWritesTheTableThePlotAndTheParetoFront) {
       "trade --site " + (kSource / "config/sample_site.yaml").string() + " --calib " +
           (kSource / "config/sky_camera.yaml").string() + " --hmd-camera " + (kSource / "config/hmd_camera.yaml").string() +
           " --skies " + (kSource / "data/hdri").string() +
-          " --sky park --frequencies 2 --bases faces --samples 3 --texel-scales 32 --forms full,lean,pca2,pca2t4 --bits 16,8"
+          " --sky park --frequencies 2 --bases faces --samples 3 --texel-scales 32 --forms full,lean,cropped,pca2,pca2t4 --bits 16,8"
           " --sun on --skip-thresholds 0,0.01 --frame-width 160 --frame-height 120 --frame-repeats 3 --blend-repeats 2"
           " --timing-scale 8 --supersample 1 --out " +
           out.string());
@@ -47,9 +47,9 @@ TEST(SkylitBenchTrade, TinyGridWritesTheTableThePlotAndTheParetoFront) {
 
   const nlohmann::json doc = nlohmann::json::parse(read_all(out / "trade.json"));
   const auto& settings = doc.at("settings");
-  // full and lean at 16 and 8 bits, pca2 and pca2t4 (clustered) at 16 bits only; two S
-  // thresholds: 12 settings.
-  ASSERT_EQ(settings.size(), 12u);
+  // full, lean and cropped at 16 and 8 bits, pca2 and pca2t4 (clustered) at 16 bits only; two S
+  // thresholds: 16 settings.
+  ASSERT_EQ(settings.size(), 16u);
   for (const char* key : {"label", "frequency", "basis", "samples", "texel_scale", "form", "bits", "sun_separation",
                           "skip_threshold", "change_threshold", "smoothing", "render_scale", "rms", "p99", "max",
                           "rms_per_sky", "edge_displacement_m", "edge_displacement_deg", "bake_seconds", "bake_bytes",
@@ -80,6 +80,14 @@ TEST(SkylitBenchTrade, TinyGridWritesTheTableThePlotAndTheParetoFront) {
   };
   EXPECT_EQ(find("full", 16).at("gpu_bytes").get<double>(), 2 * find("full", 8).at("gpu_bytes").get<double>());
   EXPECT_LT(find("pca2", 16).at("gpu_bytes").get<double>(), find("full", 8).at("gpu_bytes").get<double>());
+  // The cropped form is the lean one read only inside its rectangles: the same T (within 1e-3),
+  // the same layers, and the same GPU memory (the GPU blend expands it to whole layers).
+  for (const int bits : {16, 8}) {
+    SCOPED_TRACE(bits);
+    EXPECT_NEAR(find("cropped", bits).at("rms").get<double>(), find("lean", bits).at("rms").get<double>(), 1e-3);
+    EXPECT_EQ(find("cropped", bits).at("gpu_bytes").get<double>(), find("lean", bits).at("gpu_bytes").get<double>());
+    EXPECT_EQ(find("cropped", bits).at("layers"), find("lean", bits).at("layers"));
+  }
   // Clustered PCA reads as many layers as the plain form of the same K.
   EXPECT_EQ(find("pca2t4", 16).at("layers"), find("pca2", 16).at("layers"));
   std::printf("measured: park, K = 2: RMS %.4f for one set per plane, %.4f with tiles of 4 texels\n",

@@ -15,7 +15,7 @@ constexpr std::array<std::string_view, 5> kBakeKeys{"frequency", "basis", "sampl
 constexpr std::array<std::string_view, 7> kLiveKeys{"basis", "storage", "skip_threshold", "change_threshold",
                                                    "smoothing", "sun", "render_scale"};
 constexpr std::array<std::string_view, 3> kBases{"faces", "corners", "quadratics"};
-constexpr std::array<std::string_view, 3> kForms{"full", "lean", "pca"};
+constexpr std::array<std::string_view, 4> kForms{"full", "lean", "pca", "cropped"};
 constexpr std::array<std::string_view, 3> kStorages{"half", "unorm8", "eac"};
 constexpr std::array<std::string_view, 2> kSunModes{"auto", "off"};
 

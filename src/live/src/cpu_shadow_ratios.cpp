@@ -20,11 +20,21 @@ CpuShadowRatios::CpuShadowRatios(const render::BasisImages& basis, double skip_t
   }
   const std::size_t texels = basis.texel_count();
   layer_max_.assign(static_cast<std::size_t>(basis.layers), 0.0f);
-  std::vector<float> values(texels);
+  std::vector<float> values;
   for (std::size_t i = 0; i < layer_max_.size(); ++i) {
-    render::halves_to_floats(std::span<const std::uint16_t>(basis.half.data() + i * texels, texels), values);
-    // max |B|: a PCA basis has eigen-images of either sign.
+    // A whole layer, or (cropped) the layer's rectangle, its fill holding everywhere else.
+    std::size_t offset = i * texels;
+    std::size_t count = texels;
     float top = 0.0f;
+    if (basis.cropped()) {
+      const render::LayerCrop& crop = basis.crops.at(i);
+      offset = crop.offset;
+      count = static_cast<std::size_t>(crop.cols) * static_cast<std::size_t>(crop.rows);
+      if (count < texels) top = std::abs(crop.fill) > top ? std::abs(crop.fill) : top;
+    }
+    values.resize(count);
+    render::halves_to_floats(std::span<const std::uint16_t>(basis.half.data() + offset, count), values);
+    // max |B|: a PCA basis has eigen-images of either sign.
     for (const float b : values) top = std::abs(b) > top ? std::abs(b) : top;  // NaN compares false: ignored
     layer_max_[i] = top;
   }

@@ -26,7 +26,13 @@ constexpr std::array<std::string_view, 7> kSkyKeys{"calibration", "source", "res
 constexpr std::array<std::string_view, 2> kCameraKeys{"calibration", "source"};
 constexpr std::array<std::string_view, 7> kBlendKeys{"device",         "threads",          "storage",    "basis",
                                                      "skip_threshold", "change_threshold", "cull_planes"};
-constexpr std::array<std::string_view, 3> kBasisForms{"full", "lean", "pca"};
+constexpr std::array<std::string_view, 4> kBasisForms{"full", "lean", "pca", "cropped"};
+BlendSettings::Basis parse_basis(std::string_view name) {
+  return name == "pca"       ? BlendSettings::Basis::Pca
+         : name == "lean"    ? BlendSettings::Basis::Lean
+         : name == "cropped" ? BlendSettings::Basis::Cropped
+                             : BlendSettings::Basis::Full;
+}
 constexpr std::array<std::string_view, 1> kTrackingKeys{"fade_s"};
 constexpr std::array<std::string_view, 3> kBlendDevices{"auto", "cpu", "gpu"};
 constexpr std::array<std::string_view, 2> kRecordKeys{"path", "fps"};
@@ -81,9 +87,7 @@ LiveConfig load_live_config(const std::filesystem::path& file) {
     c.preset = name;
     c.sky.sun = found->live.sun;
     c.sky.smoothing = found->live.smoothing;
-    c.blend.basis = found->live.basis == "pca"    ? BlendSettings::Basis::Pca
-                    : found->live.basis == "lean" ? BlendSettings::Basis::Lean
-                                                  : BlendSettings::Basis::Full;
+    c.blend.basis = parse_basis(found->live.basis);
     c.blend.storage = parse_storage(found->live.storage);
     c.render.scale = found->live.render_scale;
     c.blend.skip_threshold = found->live.skip_threshold;
@@ -164,7 +168,7 @@ LiveConfig load_live_config(const std::filesystem::path& file) {
     if (auto n = YamlReader::optional(blend, "storage")) c.blend.storage = parse_storage(r.choice(n, "blend.storage", kStorages));
     if (auto n = YamlReader::optional(blend, "basis")) {
       const std::string form(r.choice(n, "blend.basis", kBasisForms));
-      c.blend.basis = form == "pca" ? BlendSettings::Basis::Pca : form == "lean" ? BlendSettings::Basis::Lean : BlendSettings::Basis::Full;
+      c.blend.basis = parse_basis(form);
     }
     if (c.blend.basis == BlendSettings::Basis::Pca && c.blend.storage != BlendSettings::Storage::Half) {
       // A PCA form's eigen-images take either sign; 8-bit and EAC layers store [0, 1] only.

@@ -600,6 +600,7 @@ Service::Service(const LiveConfig& config, const ServiceOptions& options) : stat
     }
     const render::BasisForm form = config.blend.basis == BlendSettings::Basis::Pca    ? render::BasisForm::Pca
                                    : config.blend.basis == BlendSettings::Basis::Lean ? render::BasisForm::Lean
+                                   : config.blend.basis == BlendSettings::Basis::Cropped ? render::BasisForm::Cropped
                                                                                     : render::BasisForm::Full;
     s.bases.push_back(render::load_basis(config.bake, s.manifest, static_cast<int>(j), form));
   }
@@ -1333,6 +1334,7 @@ nlohmann::json Service::State::status_report() const {
   blend_json["setting"] = blend_device_name(config.blend.device);
   blend_json["basis"] = config.blend.basis == BlendSettings::Basis::Pca    ? "pca"
                         : config.blend.basis == BlendSettings::Basis::Lean ? "lean"
+                        : config.blend.basis == BlendSettings::Basis::Cropped ? "cropped"
                                                                           : "full";
   nlohmann::json planes_json = nlohmann::json::array();
   for (std::size_t k = 0; k < bases.size() && k < manifest.planes.size(); ++k) {

@@ -117,6 +117,17 @@ void blend_range_portable(const BlendJob& job, std::size_t begin, std::size_t en
   }
 }
 
+void add_span_portable(const std::uint16_t* __restrict from, std::size_t count, float fill, const float* weights,
+                       float* __restrict r, float* __restrict g, float* __restrict b) {
+  const float wr = weights[0], wg = weights[1], wb = weights[2];
+  for (std::size_t x = 0; x < count; ++x) {
+    const float d = half_bits_to_float(from[x]) - fill;
+    r[x] += wr * d;
+    g[x] += wg * d;
+    b[x] += wb * d;
+  }
+}
+
 #if SKYLIT_HAVE_X86
 
 bool cpu_has_avx2_f16c_fma() {
@@ -304,9 +315,29 @@ __attribute__((target("avx2,f16c"))) void halves_to_floats_avx2(const std::uint1
   for (std::size_t k = vectors; k < n; ++k) out[k] = half_bits_to_float(in[k]);
 }
 
+__attribute__((target("avx2,f16c,fma"))) void add_span_avx2(const std::uint16_t* from, std::size_t count, float fill,
+                                                            const float* weights, float* r, float* g, float* b) {
+  const __m256 fill8 = _mm256_set1_ps(fill);
+  const __m256 wr = _mm256_set1_ps(weights[0]), wg = _mm256_set1_ps(weights[1]), wb = _mm256_set1_ps(weights[2]);
+  const std::size_t vectors = count & ~std::size_t{7};
+  for (std::size_t k = 0; k < vectors; k += 8) {
+    const __m256 d = _mm256_sub_ps(_mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(from + k))), fill8);
+    _mm256_storeu_ps(r + k, _mm256_fmadd_ps(wr, d, _mm256_loadu_ps(r + k)));
+    _mm256_storeu_ps(g + k, _mm256_fmadd_ps(wg, d, _mm256_loadu_ps(g + k)));
+    _mm256_storeu_ps(b + k, _mm256_fmadd_ps(wb, d, _mm256_loadu_ps(b + k)));
+  }
+  add_span_portable(from + vectors, count - vectors, fill, weights, r + vectors, g + vectors, b + vectors);
+}
+
 #else  // not x86: only the portable kernel exists
 
+void add_span_avx2(const std::uint16_t* from, std::size_t count, float fill, const float* weights, float* r, float* g,
+                   float* b) {
+  add_span_portable(from, count, fill, weights, r, g, b);
+}
+
 bool cpu_has_avx2_f16c_fma() { return false; }
+
 
 void blend_range_avx2(const BlendJob& job, std::size_t begin, std::size_t end, RangeStats& stats) {
   blend_range_portable(job, begin, end, stats);

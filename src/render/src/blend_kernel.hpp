@@ -43,6 +43,13 @@ void blend_range_portable(const BlendJob& job, std::size_t begin, std::size_t en
 void blend_range_avx2(const BlendJob& job, std::size_t begin, std::size_t end, RangeStats& stats);
 void halves_to_floats_avx2(const std::uint16_t* in, float* out, std::size_t n);
 
+// The cropped form's inner loop (cpu_blend.cpp): r, g, b[x] += w · (B[x] − fill) over a span of
+// `count` halves of one row; the AVX2 variant with F16C conversion and FMA.
+void add_span_portable(const std::uint16_t* from, std::size_t count, float fill, const float* weights, float* r,
+                       float* g, float* b);
+void add_span_avx2(const std::uint16_t* from, std::size_t count, float fill, const float* weights, float* r, float* g,
+                   float* b);
+
 bool cpu_has_avx2_f16c_fma();
 
 // Exact half → float (render::half_to_float), inline for the kernels. Moves exponent and

@@ -308,10 +308,11 @@ void check_weights(const BasisImages& basis, const BlendWeights& weights, const 
   }
 }
 
-// The cropped form's blend, a row of the plane at a time (its three accumulators stay in L1):
-// each active layer adds its fill everywhere (summed once into the row's start value) and
-// w·(B − fill) over its rectangle's span of the row; then the separated terms, the channels
-// without light, the clamp. Rows go to threads in chunks; a texel's sum is the same for any split.
+// The cropped form's blend, a band of rows at a time (their accumulators stay in L1/L2): each
+// active layer adds its fill everywhere (summed once into the band's start value), then
+// w·(B − fill) over its rectangle's part of the band, read in one sequential run; then the
+// separated terms, the channels without light, the clamp. Bands go to threads; per texel the
+// layers are summed in the same order whatever the split.
 BlendStats run_cropped(const BasisImages& basis, const detail::BlendJob& job, const BlendOptions& options,
                        const std::string& visibility_field) {
   const auto width = static_cast<std::size_t>(basis.width);
@@ -321,9 +322,11 @@ BlendStats run_cropped(const BasisImages& basis, const detail::BlendJob& job, co
     const float fill = basis.crops[static_cast<std::size_t>(job.active[a])].fill;
     for (int c = 0; c < 3; ++c) base[c] += job.weights[3 * a + static_cast<std::size_t>(c)] * fill;
   }
-  constexpr int kRowsPerChunk = 8;
+  const auto add_span = options.use_simd && detail::cpu_has_avx2_f16c_fma() ? detail::add_span_avx2 : detail::add_span_portable;
+  // Rows per band: three float accumulators of about 24 KiB in all.
+  const std::size_t band = std::max<std::size_t>(1, 2048 / std::max<std::size_t>(width, 1));
   const auto rows = static_cast<std::size_t>(basis.height);
-  const std::size_t chunks = (rows + kRowsPerChunk - 1) / kRowsPerChunk;
+  const std::size_t chunks = (rows + band - 1) / band;
   std::optional<BlendWorkers> own;
   BlendWorkers* workers = options.workers;
   if (!workers) {
@@ -334,46 +337,44 @@ BlendStats run_cropped(const BasisImages& basis, const detail::BlendJob& job, co
   std::vector<detail::RangeStats> stats(static_cast<std::size_t>(workers->size()));
   workers->run(chunks, [&](std::size_t chunk, int worker) {
     detail::RangeStats& s = stats[static_cast<std::size_t>(worker)];
-    std::vector<float> acc(3 * width);
+    const std::size_t y0 = chunk * band, y1 = std::min(rows, y0 + band), count = (y1 - y0) * width;
+    std::vector<float> acc(3 * count);
     float* r = acc.data();
-    float* g = r + width;
-    float* b = g + width;
-    for (std::size_t y = chunk * kRowsPerChunk; y < std::min(rows, (chunk + 1) * kRowsPerChunk); ++y) {
-      std::fill_n(r, width, base[0]);
-      std::fill_n(g, width, base[1]);
-      std::fill_n(b, width, base[2]);
-      for (std::size_t a = 0; a < active; ++a) {
-        const LayerCrop& c = basis.crops[static_cast<std::size_t>(job.active[a])];
-        if (static_cast<int>(y) < c.row || static_cast<int>(y) >= c.row + c.rows || c.cols == 0) continue;
-        const std::uint16_t* from = job.half + c.offset + (y - static_cast<std::size_t>(c.row)) * static_cast<std::size_t>(c.cols);
-        const float wr = job.weights[3 * a], wg = job.weights[3 * a + 1], wb = job.weights[3 * a + 2];
-        const auto x0 = static_cast<std::size_t>(c.col);
-        for (std::size_t x = 0; x < static_cast<std::size_t>(c.cols); ++x) {
-          const float d = detail::half_bits_to_float(from[x]) - c.fill;
-          r[x0 + x] += wr * d;
-          g[x0 + x] += wg * d;
-          b[x0 + x] += wb * d;
-        }
+    float* g = r + count;
+    float* b = g + count;
+    std::fill_n(r, count, base[0]);
+    std::fill_n(g, count, base[1]);
+    std::fill_n(b, count, base[2]);
+    for (std::size_t a = 0; a < active; ++a) {
+      const LayerCrop& c = basis.crops[static_cast<std::size_t>(job.active[a])];
+      const std::size_t from_row = std::max(y0, static_cast<std::size_t>(c.row));
+      const std::size_t to_row = std::min(y1, static_cast<std::size_t>(c.row + c.rows));
+      if (from_row >= to_row || c.cols == 0) continue;
+      const auto cols = static_cast<std::size_t>(c.cols);
+      const std::uint16_t* from = job.half + c.offset + (from_row - static_cast<std::size_t>(c.row)) * cols;
+      for (std::size_t y = from_row; y < to_row; ++y, from += cols) {
+        const std::size_t at = (y - y0) * width + static_cast<std::size_t>(c.col);
+        add_span(from, cols, c.fill, &job.weights[3 * a], r + at, g + at, b + at);
       }
-      for (std::size_t k = 0; k < job.source_visibility.size(); ++k) {
-        const float* v = job.source_visibility[k] + y * width;
-        const float* ws = job.source_weights.data() + 3 * k;
-        for (std::size_t x = 0; x < width; ++x) {
-          s.bad_visibility |= !(v[x] >= 0.0f && v[x] <= 1.0f);
-          r[x] += ws[0] * v[x];
-          g[x] += ws[1] * v[x];
-          b[x] += ws[2] * v[x];
-        }
+    }
+    for (std::size_t k = 0; k < job.source_visibility.size(); ++k) {
+      const float* v = job.source_visibility[k] + y0 * width;
+      const float* ws = job.source_weights.data() + 3 * k;
+      for (std::size_t x = 0; x < count; ++x) {
+        s.bad_visibility |= !(v[x] >= 0.0f && v[x] <= 1.0f);
+        r[x] += ws[0] * v[x];
+        g[x] += ws[1] * v[x];
+        b[x] += ws[2] * v[x];
       }
-      float* to = job.out + 3 * y * width;
-      for (std::size_t x = 0; x < width; ++x) {
-        for (int c = 0; c < 3; ++c) {
-          const float t = job.no_light[c] ? 1.0f : acc[static_cast<std::size_t>(c) * width + x];
-          s.max_t = t > s.max_t ? t : s.max_t;  // NaN compares false: ignored
-          s.min_t = t < s.min_t ? t : s.min_t;
-          s.clamped += static_cast<std::int64_t>((t > 1.0f) | !(t >= 0.0f));
-          to[3 * x + static_cast<std::size_t>(c)] = t > 1.0f ? 1.0f : (t >= 0.0f ? t : 0.0f);
-        }
+    }
+    float* to = job.out + 3 * y0 * width;
+    for (std::size_t x = 0; x < count; ++x) {
+      for (int c = 0; c < 3; ++c) {
+        const float t = job.no_light[c] ? 1.0f : acc[static_cast<std::size_t>(c) * count + x];
+        s.max_t = t > s.max_t ? t : s.max_t;  // NaN compares false: ignored
+        s.min_t = t < s.min_t ? t : s.min_t;
+        s.clamped += static_cast<std::int64_t>((t > 1.0f) | !(t >= 0.0f));
+        to[3 * x + static_cast<std::size_t>(c)] = t > 1.0f ? 1.0f : (t >= 0.0f ? t : 0.0f);
       }
     }
   });

@@ -30,7 +30,8 @@
 //     device: auto | cpu | gpu          # where T is blended (auto: cpu on a software GL renderer)
 //     threads: 2                        # cpu: blend threads (0: all hardware threads)
 //     storage: half | unorm8 | eac      # gpu: how the basis is stored
-//     basis: full | lean | pca          # every layer; only those that hold a shadow; the PCA form
+//     basis: full | lean | pca | cropped  # every layer; only those that hold a shadow; the PCA
+//                                       # form; lean with each layer cropped to what it shadows
 //     skip_threshold: 0                 # T units (docs/live.md, "Blend"); both devices
 //     change_threshold: 0.002
 //     cull_planes: true                 # blend only the planes the current view can see
@@ -91,8 +92,10 @@ struct BlendSettings {
   Storage storage = Storage::Half;
   // blend.basis: full (every layer), lean (the layers that hold a shadow and one of ones, T
   // within 1e-3; docs/baker.md) or pca (each plane's PCA form, K + 1 layers, docs/bake-format.md;
-  // the bake must have one: skylit-bake compress).
-  enum class Basis { Full, Lean, Pca };
+  // the bake must have one: skylit-bake compress) or cropped (lean with each shadowed layer
+  // cropped to the rectangle it shadows: the CPU blend reads only the rectangles; the GPU blend
+  // expands it to whole layers; any storage).
+  enum class Basis { Full, Lean, Pca, Cropped };
   Basis basis = Basis::Full;
   double skip_threshold = 0.0;
   double change_threshold = 0.002;
