@@ -89,6 +89,45 @@ TEST(CroppedBlend, EqualsTheBlendOfWholeLayersOnEveryTexel) {
   }
 }
 
+// A plane wide enough that the blend cuts it into several bands of rows (32 Ki texels each), with
+// rectangles across the bands' borders and overlapping in every way four layers can.
+TEST(CroppedBlend, SeveralBandsAndOverlappingSpansBlendAsWholeLayers) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  std::uniform_int_distribution<int> col(0, 1023), row(0, 99);
+  BasisImages b;
+  b.name = "bands";
+  b.width = 1024;
+  b.height = 100;
+  b.layers = 9;
+  std::vector<Eigen::Vector3d> S;
+  for (int l = 0; l < b.layers; ++l) {
+    const float a = 0.0625f * static_cast<float>(1 + l % 3);  // exact in half floats
+    b.unoccluded.push_back(a);
+    S.emplace_back(1.0 + l, 0.5 * l, 2.0);
+    const int c0 = col(rng), c1 = col(rng), r0 = row(rng), r1 = row(rng);
+    LayerCrop c{std::min(c0, c1), std::min(r0, r1), std::abs(c1 - c0) + 1, std::abs(r1 - r0) + 1, b.half.size(), a};
+    for (int k = 0; k < c.cols * c.rows; ++k) b.half.push_back(float_to_half(a * unit(rng)));
+    b.crops.push_back(c);
+  }
+  const BasisImages whole = uncropped(b);
+  const BlendWeights w = blend_weights(b, S, std::nullopt);
+  std::vector<float> T_whole(3 * whole.texel_count());
+  blend_cpu(whole, blend_weights(whole, S, std::nullopt), {}, T_whole);
+  for (const int threads : {1, 2}) {
+    for (const bool simd : {true, false}) {
+      BlendOptions options;
+      options.threads = threads;
+      options.use_simd = simd;
+      std::vector<float> T(T_whole.size());
+      blend_cpu(b, w, {}, T, options);
+      for (std::size_t k = 0; k < T.size(); ++k) {
+        ASSERT_NEAR(T[k], T_whole[k], 2e-6) << "value " << k << ", " << threads << " thread(s), simd " << simd;
+      }
+    }
+  }
+}
+
 TEST(CroppedBlend, AChannelWithoutLightIsOneAndBadVisibilityIsRefused) {
   const BasisImages cropped = cropped_basis(5);
   std::vector<Eigen::Vector3d> S = sky();

@@ -117,14 +117,19 @@ void blend_range_portable(const BlendJob& job, std::size_t begin, std::size_t en
   }
 }
 
-void add_span_portable(const std::uint16_t* __restrict from, std::size_t count, float fill, const float* weights,
-                       float* __restrict r, float* __restrict g, float* __restrict b) {
-  const float wr = weights[0], wg = weights[1], wb = weights[2];
+void add_spans_portable(const std::uint16_t* const* from, const float* fills, const float* weights, int layers,
+                        std::size_t count, float* __restrict r, float* __restrict g, float* __restrict b) {
   for (std::size_t x = 0; x < count; ++x) {
-    const float d = half_bits_to_float(from[x]) - fill;
-    r[x] += wr * d;
-    g[x] += wg * d;
-    b[x] += wb * d;
+    float sr = r[x], sg = g[x], sb = b[x];
+    for (int j = 0; j < layers; ++j) {
+      const float d = half_bits_to_float(from[j][x]) - fills[j];
+      sr += weights[3 * j] * d;
+      sg += weights[3 * j + 1] * d;
+      sb += weights[3 * j + 2] * d;
+    }
+    r[x] = sr;
+    g[x] = sg;
+    b[x] = sb;
   }
 }
 
@@ -315,25 +320,55 @@ __attribute__((target("avx2,f16c"))) void halves_to_floats_avx2(const std::uint1
   for (std::size_t k = vectors; k < n; ++k) out[k] = half_bits_to_float(in[k]);
 }
 
-__attribute__((target("avx2,f16c,fma"))) void add_span_avx2(const std::uint16_t* from, std::size_t count, float fill,
-                                                            const float* weights, float* r, float* g, float* b) {
-  const __m256 fill8 = _mm256_set1_ps(fill);
-  const __m256 wr = _mm256_set1_ps(weights[0]), wg = _mm256_set1_ps(weights[1]), wb = _mm256_set1_ps(weights[2]);
+// Up to four layers per pass: the accumulators are loaded and stored once per pass (one layer per
+// pass is bound by its three stores per texel).
+template <int L>
+__attribute__((target("avx2,f16c,fma"))) inline void add_spans_avx2_n(const std::uint16_t* const* from, const float* fills,
+                                                                  const float* weights, std::size_t count, float* r,
+                                                                  float* g, float* b) {
+  __m256 wr[L], wg[L], wb[L], fill[L];
+  for (int j = 0; j < L; ++j) {
+    wr[j] = _mm256_set1_ps(weights[3 * j]);
+    wg[j] = _mm256_set1_ps(weights[3 * j + 1]);
+    wb[j] = _mm256_set1_ps(weights[3 * j + 2]);
+    fill[j] = _mm256_set1_ps(fills[j]);
+  }
   const std::size_t vectors = count & ~std::size_t{7};
   for (std::size_t k = 0; k < vectors; k += 8) {
-    const __m256 d = _mm256_sub_ps(_mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(from + k))), fill8);
-    _mm256_storeu_ps(r + k, _mm256_fmadd_ps(wr, d, _mm256_loadu_ps(r + k)));
-    _mm256_storeu_ps(g + k, _mm256_fmadd_ps(wg, d, _mm256_loadu_ps(g + k)));
-    _mm256_storeu_ps(b + k, _mm256_fmadd_ps(wb, d, _mm256_loadu_ps(b + k)));
+    __m256 ar = _mm256_loadu_ps(r + k), ag = _mm256_loadu_ps(g + k), ab = _mm256_loadu_ps(b + k);
+    for (int j = 0; j < L; ++j) {
+      const __m256 d =
+          _mm256_sub_ps(_mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(from[j] + k))), fill[j]);
+      ar = _mm256_fmadd_ps(wr[j], d, ar);
+      ag = _mm256_fmadd_ps(wg[j], d, ag);
+      ab = _mm256_fmadd_ps(wb[j], d, ab);
+    }
+    _mm256_storeu_ps(r + k, ar);
+    _mm256_storeu_ps(g + k, ag);
+    _mm256_storeu_ps(b + k, ab);
   }
-  add_span_portable(from + vectors, count - vectors, fill, weights, r + vectors, g + vectors, b + vectors);
+  const std::uint16_t* tail[4];
+  for (int j = 0; j < L; ++j) tail[j] = from[j] + vectors;
+  add_spans_portable(tail, fills, weights, L, count - vectors, r + vectors, g + vectors, b + vectors);
+}
+
+__attribute__((target("avx2,f16c,fma"))) void add_spans_avx2(const std::uint16_t* const* from, const float* fills,
+                                                             const float* weights, int layers, std::size_t count,
+                                                             float* r, float* g, float* b) {
+  switch (layers) {
+    case 1: add_spans_avx2_n<1>(from, fills, weights, count, r, g, b); break;
+    case 2: add_spans_avx2_n<2>(from, fills, weights, count, r, g, b); break;
+    case 3: add_spans_avx2_n<3>(from, fills, weights, count, r, g, b); break;
+    case 4: add_spans_avx2_n<4>(from, fills, weights, count, r, g, b); break;
+    default: add_spans_portable(from, fills, weights, layers, count, r, g, b); break;
+  }
 }
 
 #else  // not x86: only the portable kernel exists
 
-void add_span_avx2(const std::uint16_t* from, std::size_t count, float fill, const float* weights, float* r, float* g,
-                   float* b) {
-  add_span_portable(from, count, fill, weights, r, g, b);
+void add_spans_avx2(const std::uint16_t* const* from, const float* fills, const float* weights, int layers,
+                    std::size_t count, float* r, float* g, float* b) {
+  add_spans_portable(from, fills, weights, layers, count, r, g, b);
 }
 
 bool cpu_has_avx2_f16c_fma() { return false; }

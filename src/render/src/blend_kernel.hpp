@@ -43,12 +43,14 @@ void blend_range_portable(const BlendJob& job, std::size_t begin, std::size_t en
 void blend_range_avx2(const BlendJob& job, std::size_t begin, std::size_t end, RangeStats& stats);
 void halves_to_floats_avx2(const std::uint16_t* in, float* out, std::size_t n);
 
-// The cropped form's inner loop (cpu_blend.cpp): r, g, b[x] += w · (B[x] − fill) over a span of
-// `count` halves of one row; the AVX2 variant with F16C conversion and FMA.
-void add_span_portable(const std::uint16_t* from, std::size_t count, float fill, const float* weights, float* r,
-                       float* g, float* b);
-void add_span_avx2(const std::uint16_t* from, std::size_t count, float fill, const float* weights, float* r, float* g,
-                   float* b);
+// The cropped form's inner loop (cpu_blend.cpp): r, g, b[x] += Σ_j w_j · (B_j[x] − fill_j) over a
+// run of `count` texels of one row that `layers` layers (up to 4 per call in the AVX2 variant,
+// which converts with F16C and adds with FMA) all cover; from[j] points at layer j's halves
+// for the run, weights holds 3 per layer. Per texel the layers are added in order j = 0, 1, …
+void add_spans_portable(const std::uint16_t* const* from, const float* fills, const float* weights, int layers,
+                        std::size_t count, float* r, float* g, float* b);
+void add_spans_avx2(const std::uint16_t* const* from, const float* fills, const float* weights, int layers,
+                    std::size_t count, float* r, float* g, float* b);
 
 bool cpu_has_avx2_f16c_fma();
 

@@ -308,10 +308,11 @@ void check_weights(const BasisImages& basis, const BlendWeights& weights, const 
   }
 }
 
-// The cropped form's blend, a band of rows at a time (their accumulators stay in L1/L2): each
+// The cropped form's blend, a band of rows at a time (their accumulators stay in L2): each
 // active layer adds its fill everywhere (summed once into the band's start value), then
-// w·(B − fill) over its rectangle's part of the band, read in one sequential run; then the
-// separated terms, the channels without light, the clamp. Bands go to threads; per texel the
+// w·(B − fill) over its rectangle's span of each row, four layers per pass where their spans
+// overlap (detail::add_spans_avx2); then the separated terms, the channels without light, the
+// clamp. Bands go to threads; per texel the
 // layers are summed in the same order whatever the split.
 BlendStats run_cropped(const BasisImages& basis, const detail::BlendJob& job, const BlendOptions& options,
                        const std::string& visibility_field) {
@@ -322,9 +323,10 @@ BlendStats run_cropped(const BasisImages& basis, const detail::BlendJob& job, co
     const float fill = basis.crops[static_cast<std::size_t>(job.active[a])].fill;
     for (int c = 0; c < 3; ++c) base[c] += job.weights[3 * a + static_cast<std::size_t>(c)] * fill;
   }
-  const auto add_span = options.use_simd && detail::cpu_has_avx2_f16c_fma() ? detail::add_span_avx2 : detail::add_span_portable;
-  // Rows per band: three float accumulators of about 24 KiB in all.
-  const std::size_t band = std::max<std::size_t>(1, 2048 / std::max<std::size_t>(width, 1));
+  const auto add_spans = options.use_simd && detail::cpu_has_avx2_f16c_fma() ? detail::add_spans_avx2 : detail::add_spans_portable;
+  // Rows per band: accumulators for 32 Ki texels (384 KiB, in L2), so that each layer's part of
+  // a band is a long sequential run (2 Ki and 8 Ki texels measured 1.5× and 1.25× slower).
+  const std::size_t band = std::max<std::size_t>(1, std::size_t{32768} / std::max<std::size_t>(width, 1));
   const auto rows = static_cast<std::size_t>(basis.height);
   const std::size_t chunks = (rows + band - 1) / band;
   std::optional<BlendWorkers> own;
@@ -345,16 +347,57 @@ BlendStats run_cropped(const BasisImages& basis, const detail::BlendJob& job, co
     std::fill_n(r, count, base[0]);
     std::fill_n(g, count, base[1]);
     std::fill_n(b, count, base[2]);
-    for (std::size_t a = 0; a < active; ++a) {
-      const LayerCrop& c = basis.crops[static_cast<std::size_t>(job.active[a])];
-      const std::size_t from_row = std::max(y0, static_cast<std::size_t>(c.row));
-      const std::size_t to_row = std::min(y1, static_cast<std::size_t>(c.row + c.rows));
-      if (from_row >= to_row || c.cols == 0) continue;
-      const auto cols = static_cast<std::size_t>(c.cols);
-      const std::uint16_t* from = job.half + c.offset + (from_row - static_cast<std::size_t>(c.row)) * cols;
-      for (std::size_t y = from_row; y < to_row; ++y, from += cols) {
-        const std::size_t at = (y - y0) * width + static_cast<std::size_t>(c.col);
-        add_span(from, cols, c.fill, &job.weights[3 * a], r + at, g + at, b + at);
+    // Four active layers at a time (in order), row by row through the band: each layer's rows
+    // are stored back to back, so four sequential runs of halves that the memory's prefetchers
+    // follow. A row is cut where any of the four spans starts or ends, and each piece adds the
+    // layers that cover it in one pass (the accumulators loaded and stored once per pass).
+    for (std::size_t a0 = 0; a0 < active; a0 += 4) {
+      for (std::size_t y = y0; y < y1; ++y) {
+        struct Span {
+          std::size_t begin, end;
+          const std::uint16_t* values;  // at `begin`
+          float fill;
+          const float* weights;
+        };
+        Span spans[4];
+        int n = 0;
+        std::size_t cuts[8];
+        int cut_count = 0;
+        for (std::size_t a = a0; a < std::min(active, a0 + 4); ++a) {
+          const LayerCrop& c = basis.crops[static_cast<std::size_t>(job.active[a])];
+          if (static_cast<int>(y) < c.row || static_cast<int>(y) >= c.row + c.rows || c.cols == 0) continue;
+          const auto cols = static_cast<std::size_t>(c.cols);
+          spans[n] = Span{static_cast<std::size_t>(c.col), static_cast<std::size_t>(c.col) + cols,
+                          job.half + c.offset + (y - static_cast<std::size_t>(c.row)) * cols, c.fill, &job.weights[3 * a]};
+          cuts[cut_count++] = spans[n].begin;
+          cuts[cut_count++] = spans[n].end;
+          ++n;
+        }
+        if (n == 0) continue;
+        for (int k = 1; k < cut_count; ++k) {  // insertion sort of at most 8 (std::sort trips GCC 12's -Warray-bounds)
+          const std::size_t v = cuts[k];
+          int at = k;
+          for (; at > 0 && cuts[at - 1] > v; --at) cuts[at] = cuts[at - 1];
+          cuts[at] = v;
+        }
+        for (int k = 0; k + 1 < cut_count; ++k) {
+          const std::size_t p = cuts[k], q = cuts[k + 1];
+          if (p == q) continue;
+          const std::uint16_t* from[4];
+          float fills[4];
+          float w[12];
+          int m = 0;
+          for (int j = 0; j < n; ++j) {
+            if (spans[j].begin > p || spans[j].end < q) continue;
+            from[m] = spans[j].values + (p - spans[j].begin);
+            fills[m] = spans[j].fill;
+            std::copy_n(spans[j].weights, 3, w + 3 * m);
+            ++m;
+          }
+          if (m == 0) continue;
+          const std::size_t at = (y - y0) * width + p;
+          add_spans(from, fills, w, m, q - p, r + at, g + at, b + at);
+        }
       }
     }
     for (std::size_t k = 0; k < job.source_visibility.size(); ++k) {
