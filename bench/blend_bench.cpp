@@ -47,6 +47,7 @@
 #include <benchmark/benchmark.h>
 
 #include "skylit/render/blend_workers.hpp"
+#include "synthetic_pca.hpp"
 #include "skylit/render/cpu_blend.hpp"
 
 namespace {
@@ -263,38 +264,6 @@ struct Random {
   }
 };
 
-// The PCA form of a plane whose n source layers have the solid angles `unoccluded` (synthetic,
-// see the header): `components` + 1 stored layers, tiles of `tile` texels (0: untiled).
-BasisImages synthetic_pca_basis(int side, const std::vector<double>& unoccluded, int components, int tile,
-                                std::uint64_t seed) {
-  Random random{seed};
-  BasisImages basis;
-  basis.name = "synthetic-pca";
-  basis.width = side;
-  basis.height = side;
-  basis.layers = components + 1;
-  basis.tile = tile;
-  basis.unoccluded = unoccluded;
-  basis.half.resize(basis.texel_count() * static_cast<std::size_t>(basis.layers));
-  for (int i = 0; i < basis.layers; ++i) {
-    std::uint16_t* layer = basis.half.data() + static_cast<std::size_t>(i) * basis.texel_count();
-    for (std::size_t k = 0; k < basis.texel_count(); ++k) {
-      const double value = i == 0 ? 0.3 + 0.4 * random.next() : 2.0 * random.next() - 1.0;
-      layer[k] = skylit::render::float_to_half(static_cast<float>(value));
-    }
-  }
-  const auto n = static_cast<Eigen::Index>(unoccluded.size());
-  const auto stored = static_cast<Eigen::Index>(basis.layers);
-  basis.projection.resize(n, static_cast<Eigen::Index>(basis.tile_count()) * stored);
-  for (Eigen::Index l = 0; l < n; ++l) {
-    const double a = unoccluded[static_cast<std::size_t>(l)];
-    for (Eigen::Index c = 0; c < basis.projection.cols(); ++c) {
-      const double p = c % stored == 0 ? 1.0 : 0.2 * random.next() - 0.1;
-      basis.projection(l, c) = static_cast<float>(a * p);
-    }
-  }
-  return basis;
-}
 
 double median_of(std::vector<double> values) {
   std::sort(values.begin(), values.end());
@@ -342,7 +311,7 @@ void pca_table(const PcaSettings& settings) {
     const BasisImages& full = scene.planes.front();
     std::vector<BasisImages> forms;
     for (const int tile : tiles) {
-      forms.push_back(synthetic_pca_basis(settings.size, full.unoccluded, settings.components, tile,
+      forms.push_back(skylit::bench::synthetic_pca_basis(settings.size, full.unoccluded, settings.components, tile,
                                           0xca5e0000ull + static_cast<std::uint64_t>(frequency)));
     }
     // The cropped form at the share the sample site's ground keeps at ν = 8 (43% of the texels).

@@ -42,6 +42,7 @@
 #include "skylit/gpu/egl_context.hpp"
 #include "skylit/gpu/gl.hpp"
 #include "skylit/gpu/shader.hpp"
+#include "synthetic_pca.hpp"
 #include "skylit/render/cpu_blend.hpp"
 #include "skylit/render/gpu_blend.hpp"
 
@@ -323,38 +324,6 @@ BasisImages synthetic_basis(int size, int layers, std::uint64_t seed) {
   return basis;
 }
 
-// The PCA form of a plane whose n source layers have the solid angles `unoccluded` (synthetic,
-// see the header): `components` + 1 stored layers, tiles of `tile` texels (0: untiled).
-BasisImages synthetic_pca_basis(int size, const std::vector<double>& unoccluded, int components, int tile,
-                                std::uint64_t seed) {
-  Random random{seed};
-  BasisImages basis;
-  basis.name = "synthetic-pca";
-  basis.width = size;
-  basis.height = size;
-  basis.layers = components + 1;
-  basis.tile = tile;
-  basis.unoccluded = unoccluded;
-  basis.half.resize(basis.texel_count() * static_cast<std::size_t>(basis.layers));
-  for (int i = 0; i < basis.layers; ++i) {
-    std::uint16_t* layer = basis.half.data() + static_cast<std::size_t>(i) * basis.texel_count();
-    for (std::size_t k = 0; k < basis.texel_count(); ++k) {
-      const double value = i == 0 ? 0.3 + 0.4 * random.next() : 2.0 * random.next() - 1.0;
-      layer[k] = skylit::render::float_to_half(static_cast<float>(value));
-    }
-  }
-  const auto n = static_cast<Eigen::Index>(unoccluded.size());
-  const auto stored = static_cast<Eigen::Index>(basis.layers);
-  basis.projection.resize(n, static_cast<Eigen::Index>(basis.tile_count()) * stored);
-  for (Eigen::Index l = 0; l < n; ++l) {
-    const double a = unoccluded[static_cast<std::size_t>(l)];
-    for (Eigen::Index c = 0; c < basis.projection.cols(); ++c) {
-      const double p = c % stored == 0 ? 1.0 : 0.2 * random.next() - 0.1;
-      basis.projection(l, c) = static_cast<float>(a * p);
-    }
-  }
-  return basis;
-}
 
 BlendWeights sky_weights(const BasisImages& basis, std::uint64_t seed) {
   Random random{seed};
@@ -454,7 +423,7 @@ int main(int argc, char** argv) {
         }
         std::vector<BasisImages> pca_forms;
         for (const int tile : tiles) {
-          pca_forms.push_back(synthetic_pca_basis(settings.size, basis.unoccluded, settings.pca, tile,
+          pca_forms.push_back(skylit::bench::synthetic_pca_basis(settings.size, basis.unoccluded, settings.pca, tile,
                                                   0xCA5E0000ULL + static_cast<std::uint64_t>(frequency)));
         }
         struct Form {

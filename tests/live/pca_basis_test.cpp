@@ -63,18 +63,24 @@ double largest_difference(const std::vector<float>& a, const std::vector<float>&
 }
 
 // blend.basis lean: the layers that hold a shadow, and one of ones for the unshadowed light.
-TEST(LivePcaBasis, LeanFormBlendsOnlyTheShadowedLayers) {
+// Ten frames of the service on the tests' bake with `blend` (YAML) in its config; its status.
+nlohmann::json status_of_ten_frames(const std::string& blend, live::BlendSettings::Basis expected) {
   RigOptions rig_options;
   const Rig rig(rig_options);
-  write_config_with_bake(rig, BakedSite::get().dir / "bake", "blend:\n  device: cpu\n  basis: lean\n");
+  write_config_with_bake(rig, BakedSite::get().dir / "bake", blend);
   const live::LiveConfig config = rig.config();
-  ASSERT_EQ(config.blend.basis, live::BlendSettings::Basis::Lean);
+  EXPECT_EQ(config.blend.basis, expected);
   live::ServiceOptions options = quiet_options();
   options.frames = 10;
   RunningService running(config, options);
   running.join();
-  ASSERT_EQ(running.error(), "");
-  const nlohmann::json status = running.status();
+  EXPECT_EQ(running.error(), "");
+  return running.status();
+}
+
+TEST(LivePcaBasis, LeanFormBlendsOnlyTheShadowedLayers) {
+  const nlohmann::json status =
+      status_of_ten_frames("blend:\n  device: cpu\n  basis: lean\n", live::BlendSettings::Basis::Lean);
   EXPECT_EQ(status["blend"]["basis"], "lean") << status["blend"].dump(2);
   const bake::Manifest manifest = bake::read_manifest(BakedSite::get().dir / "bake");
   ASSERT_EQ(status["blend"]["planes"].size(), manifest.planes.size());
@@ -92,17 +98,8 @@ TEST(LivePcaBasis, LeanFormBlendsOnlyTheShadowedLayers) {
 // blend.basis cropped: the lean form, each shadowed layer cropped to the rectangle it shadows;
 // the CPU blend reads only the rectangles, with the lean form's layers, bounds and T.
 TEST(LivePcaBasis, CroppedFormBlendsOnTheCpuAsTheLeanForm) {
-  RigOptions rig_options;
-  const Rig rig(rig_options);
-  write_config_with_bake(rig, BakedSite::get().dir / "bake", "blend:\n  device: cpu\n  basis: cropped\n");
-  const live::LiveConfig config = rig.config();
-  ASSERT_EQ(config.blend.basis, live::BlendSettings::Basis::Cropped);
-  live::ServiceOptions options = quiet_options();
-  options.frames = 10;
-  RunningService running(config, options);
-  running.join();
-  ASSERT_EQ(running.error(), "");
-  const nlohmann::json status = running.status();
+  const nlohmann::json status =
+      status_of_ten_frames("blend:\n  device: cpu\n  basis: cropped\n", live::BlendSettings::Basis::Cropped);
   EXPECT_EQ(status["blend"]["basis"], "cropped") << status["blend"].dump(2);
   const bake::Manifest manifest = bake::read_manifest(BakedSite::get().dir / "bake");
   ASSERT_EQ(status["blend"]["planes"].size(), manifest.planes.size());
@@ -131,6 +128,8 @@ TEST(LivePcaBasis, CroppedFormBlendsOnTheCpuAsTheLeanForm) {
                 manifest.planes[j].plane.name.c_str(), cropped.layers, cropped.half.size(), lean.half.size());
   }
   // Any storage: the GPU blend expands the rectangles to whole layers of values >= 0.
+  RigOptions rig_options;
+  const Rig rig(rig_options);
   write_config_with_bake(rig, BakedSite::get().dir / "bake", "blend:\n  device: gpu\n  storage: unorm8\n  basis: cropped\n");
   EXPECT_EQ(load_error(rig.config_file(), false), "");
 }

@@ -222,47 +222,40 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
               << "plane " << j << " texel " << k << " channel " << c;
         }
       }
-      // The lean form: only the layers that hold a shadow; within the footprint's tolerance (1e-3).
+      // A form within the footprint's tolerance (1e-3) of the full one: blended, finite, in
+      // [0, 1] and within the tolerance times Σ|α| (1 for faces; corners' negative coefficients
+      // raise it) of T.
+      const auto blend_within_tolerance = [&](const render::BasisImages& form, render::BlendWeights& weights) {
+        weights = render::blend_weights(form, S, sun);
+        std::vector<float> T_form(T.size());
+        render::blend_cpu(form, weights, weights.sun.isZero(0) ? std::span<const float>() : std::span<const float>(visibility),
+                          T_form);
+        for (std::size_t k = 0; k < T.size(); ++k) {
+          EXPECT_TRUE(std::isfinite(T_form[k]) && T_form[k] >= 0.0f && T_form[k] <= 1.0f) << "plane " << j;
+          const auto c = k % 3;
+          double alpha = 1.0;
+          if (!o.weights.back().no_light[c]) {
+            alpha = 0.0;
+            for (std::size_t l = 0; l < S.size(); ++l) alpha += std::abs(S[l][static_cast<Eigen::Index>(c)] * m.planes[j].unoccluded[l]);
+            alpha /= o.weights.back().denominator[static_cast<Eigen::Index>(c)];
+          }
+          EXPECT_LE(std::abs(T_form[k] - T[k]), 1e-3 * alpha + 1e-5) << "plane " << j << " value " << k;
+        }
+        return T_form;
+      };
+      // The lean form: only the layers that hold a shadow.
       const render::BasisImages lean =
           render::load_basis(bake_dir(), m, static_cast<int>(j), render::BasisForm::Lean);
       EXPECT_LE(lean.layers, basis.layers);
-      const render::BlendWeights lean_weights = render::blend_weights(lean, S, sun);
-      std::vector<float> T_lean(T.size());
-      render::blend_cpu(lean, lean_weights,
-                        lean_weights.sun.isZero(0) ? std::span<const float>() : std::span<const float>(visibility), T_lean);
-      for (std::size_t k = 0; k < T.size(); ++k) {
-        EXPECT_TRUE(std::isfinite(T_lean[k]) && T_lean[k] >= 0.0f && T_lean[k] <= 1.0f) << "plane " << j;
-        // Within the tolerance times Σ|α| (1 for faces; corners' negative coefficients raise it).
-        const auto c = k % 3;
-        double alpha = 1.0;
-        if (!o.weights.back().no_light[c]) {
-          alpha = 0.0;
-          for (std::size_t l = 0; l < S.size(); ++l) alpha += std::abs(S[l][static_cast<Eigen::Index>(c)] * m.planes[j].unoccluded[l]);
-          alpha /= o.weights.back().denominator[static_cast<Eigen::Index>(c)];
-        }
-        EXPECT_LE(std::abs(T_lean[k] - T[k]), 1e-3 * alpha + 1e-5) << "plane " << j << " value " << k;
-      }
+      render::BlendWeights lean_weights;
+      const std::vector<float> T_lean = blend_within_tolerance(lean, lean_weights);
       // The cropped form: the lean one with each shadowed layer cropped to its rectangle. Outside
       // it B is within the tolerance of A, so the same bound holds against the full form.
       const render::BasisImages cropped =
           render::load_basis(bake_dir(), m, static_cast<int>(j), render::BasisForm::Cropped);
       EXPECT_LE(cropped.half.size(), lean.half.size());
-      const render::BlendWeights cropped_weights = render::blend_weights(cropped, S, sun);
-      std::vector<float> T_cropped(T.size());
-      render::blend_cpu(cropped, cropped_weights,
-                        cropped_weights.sun.isZero(0) ? std::span<const float>() : std::span<const float>(visibility),
-                        T_cropped);
-      for (std::size_t k = 0; k < T.size(); ++k) {
-        EXPECT_TRUE(std::isfinite(T_cropped[k]) && T_cropped[k] >= 0.0f && T_cropped[k] <= 1.0f) << "plane " << j;
-        const auto c = k % 3;
-        double alpha = 1.0;
-        if (!o.weights.back().no_light[c]) {
-          alpha = 0.0;
-          for (std::size_t l = 0; l < S.size(); ++l) alpha += std::abs(S[l][static_cast<Eigen::Index>(c)] * m.planes[j].unoccluded[l]);
-          alpha /= o.weights.back().denominator[static_cast<Eigen::Index>(c)];
-        }
-        EXPECT_LE(std::abs(T_cropped[k] - T[k]), 1e-3 * alpha + 1e-5) << "plane " << j << " value " << k;
-      }
+      render::BlendWeights cropped_weights;
+      const std::vector<float> T_cropped = blend_within_tolerance(cropped, cropped_weights);
       // The same forms blended on the GPU, in every storage each can take.
       expect_gpu_blends(basis, o.weights.back(), visibility, T, j);
       expect_gpu_blends(lean, lean_weights, visibility, T_lean, j);

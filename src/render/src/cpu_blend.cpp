@@ -308,6 +308,24 @@ void check_weights(const BasisImages& basis, const BlendWeights& weights, const 
   }
 }
 
+// The threads' statistics as one BlendStats; InputError naming `visibility_field` when a thread
+// met a V outside [0, 1].
+BlendStats merged_stats(const std::vector<detail::RangeStats>& stats, const std::string& visibility_field) {
+  detail::RangeStats total;
+  for (const detail::RangeStats& s : stats) {
+    total.max_t = std::max(total.max_t, s.max_t);
+    total.min_t = std::min(total.min_t, s.min_t);
+    total.clamped += s.clamped;
+    total.bad_visibility |= s.bad_visibility;
+  }
+  if (total.bad_visibility) bad_visibility(visibility_field);
+  BlendStats result;
+  result.max_above_one = std::max(0.0f, total.max_t - 1.0f);
+  result.max_below_zero = std::max(0.0f, -total.min_t);
+  result.clamped = total.clamped;
+  return result;
+}
+
 // The cropped form's blend, a band of rows at a time (their accumulators stay in L2): each
 // active layer adds its fill everywhere (summed once into the band's start value), then
 // w·(B − fill) over its rectangle's span of each row, four layers per pass where their spans
@@ -421,19 +439,7 @@ BlendStats run_cropped(const BasisImages& basis, const detail::BlendJob& job, co
       }
     }
   });
-  detail::RangeStats total;
-  for (const detail::RangeStats& s : stats) {
-    total.max_t = std::max(total.max_t, s.max_t);
-    total.min_t = std::min(total.min_t, s.min_t);
-    total.clamped += s.clamped;
-    total.bad_visibility |= s.bad_visibility;
-  }
-  if (total.bad_visibility) bad_visibility(visibility_field);
-  BlendStats result;
-  result.max_above_one = std::max(0.0f, total.max_t - 1.0f);
-  result.max_below_zero = std::max(0.0f, -total.min_t);
-  result.clamped = total.clamped;
-  return result;
+  return merged_stats(stats, visibility_field);
 }
 
 // The threaded blend: the active layers, then each separated term (V_k, w_k: 3 floats each).
@@ -500,19 +506,7 @@ BlendStats run_blend(const BasisImages& basis, const BlendWeights& weights,
     });
   }
 
-  detail::RangeStats total;
-  for (const detail::RangeStats& s : stats) {
-    total.max_t = std::max(total.max_t, s.max_t);
-    total.min_t = std::min(total.min_t, s.min_t);
-    total.clamped += s.clamped;
-    total.bad_visibility |= s.bad_visibility;
-  }
-  if (total.bad_visibility) bad_visibility(visibility_field);
-  BlendStats result;
-  result.max_above_one = std::max(0.0f, total.max_t - 1.0f);
-  result.max_below_zero = std::max(0.0f, -total.min_t);
-  result.clamped = total.clamped;
-  return result;
+  return merged_stats(stats, visibility_field);
 }
 
 // Σ_i S_i B_i per texel and channel (RGB interleaved) over every stored layer, in double: the

@@ -1,0 +1,52 @@
+#pragma once
+// A synthetic PCA form for the blend benchmarks (blend_bench, gpu_blend_bench): header-only, so
+// that the GPU bench's standalone build (bench/gpu_standalone.sh) needs no further source.
+#include <cstdint>
+#include <vector>
+
+#include "skylit/render/cpu_blend.hpp"
+
+namespace skylit::bench {
+
+// The PCA form of a plane of side × side texels whose n source layers have the solid angles
+// `unoccluded`: `components` + 1 stored layers (the mean in [0.3, 0.7], eigen-images in [−1, 1]),
+// tiles of `tile` texels (0: untiled); each tile's projection A_l · (1, [−0.1, 0.1] …), so that
+// T stays near [0, 1].
+inline render::BasisImages synthetic_pca_basis(int side, const std::vector<double>& unoccluded, int components, int tile,
+                                               std::uint64_t seed) {
+  std::uint64_t state = seed ^ 0x9e3779b97f4a7c15ull;
+  const auto next = [&state] {  // xorshift64*, uniform in [0, 1)
+    state ^= state >> 12;
+    state ^= state << 25;
+    state ^= state >> 27;
+    return static_cast<double>((state * 0x2545f4914f6cdd1dull) >> 11) * 0x1p-53;
+  };
+  render::BasisImages basis;
+  basis.name = "synthetic-pca";
+  basis.width = side;
+  basis.height = side;
+  basis.layers = components + 1;
+  basis.tile = tile;
+  basis.unoccluded = unoccluded;
+  basis.half.resize(basis.texel_count() * static_cast<std::size_t>(basis.layers));
+  for (int i = 0; i < basis.layers; ++i) {
+    std::uint16_t* layer = basis.half.data() + static_cast<std::size_t>(i) * basis.texel_count();
+    for (std::size_t k = 0; k < basis.texel_count(); ++k) {
+      const double value = i == 0 ? 0.3 + 0.4 * next() : 2.0 * next() - 1.0;
+      layer[k] = render::float_to_half(static_cast<float>(value));
+    }
+  }
+  const auto n = static_cast<Eigen::Index>(unoccluded.size());
+  const auto stored = static_cast<Eigen::Index>(basis.layers);
+  basis.projection.resize(n, static_cast<Eigen::Index>(basis.tile_count()) * stored);
+  for (Eigen::Index l = 0; l < n; ++l) {
+    const double a = unoccluded[static_cast<std::size_t>(l)];
+    for (Eigen::Index c = 0; c < basis.projection.cols(); ++c) {
+      const double p = c % stored == 0 ? 1.0 : 0.2 * next() - 0.1;
+      basis.projection(l, c) = static_cast<float>(a * p);
+    }
+  }
+  return basis;
+}
+
+}  // namespace skylit::bench
