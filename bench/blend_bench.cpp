@@ -253,17 +253,6 @@ PcaSettings parse_pca(int& argc, char** argv) {
   return s;
 }
 
-// xorshift64*, for the synthetic PCA layers.
-struct Random {
-  std::uint64_t state;
-  double next() {
-    state ^= state >> 12;
-    state ^= state << 25;
-    state ^= state >> 27;
-    return static_cast<double>((state * 0x2545f4914f6cdd1dull) >> 11) * 0x1p-53;
-  }
-};
-
 
 double median_of(std::vector<double> values) {
   std::sort(values.begin(), values.end());

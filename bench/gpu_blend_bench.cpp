@@ -289,16 +289,7 @@ Bandwidth copy_bandwidth(const GpuTimer& timer, int repeats, const std::string& 
   return b;
 }
 
-// xorshift64*: fast enough for 168 M values.
-struct Random {
-  std::uint64_t state;
-  double next() {
-    state ^= state >> 12;
-    state ^= state << 25;
-    state ^= state >> 27;
-    return static_cast<double>((state * 0x2545F4914F6CDD1DULL) >> 11) * 0x1p-53;
-  }
-};
+using skylit::bench::Random;
 
 // A plane of `layers` faces of a hemisphere, B = A·f with f = 0 (shadow), 1 (open sky) or
 // between; every A > 0, so that every layer is active.

@@ -1,6 +1,7 @@
 #pragma once
-// A synthetic PCA form for the blend benchmarks (blend_bench, gpu_blend_bench): header-only, so
-// that the GPU bench's standalone build (bench/gpu_standalone.sh) needs no further source.
+// A random generator and a synthetic PCA form for the blend benchmarks (blend_bench,
+// gpu_blend_bench): header-only, so that the GPU bench's standalone build
+// (bench/gpu_standalone.sh) needs no further source.
 #include <cstdint>
 #include <vector>
 
@@ -8,19 +9,25 @@
 
 namespace skylit::bench {
 
+// xorshift64*, uniform in [0, 1): fast enough for the hundreds of millions of synthetic values.
+struct Random {
+  std::uint64_t state;
+  double next() {
+    state ^= state >> 12;
+    state ^= state << 25;
+    state ^= state >> 27;
+    return static_cast<double>((state * 0x2545f4914f6cdd1dull) >> 11) * 0x1p-53;
+  }
+};
+
 // The PCA form of a plane of side × side texels whose n source layers have the solid angles
 // `unoccluded`: `components` + 1 stored layers (the mean in [0.3, 0.7], eigen-images in [−1, 1]),
 // tiles of `tile` texels (0: untiled); each tile's projection A_l · (1, [−0.1, 0.1] …), so that
 // T stays near [0, 1].
 inline render::BasisImages synthetic_pca_basis(int side, const std::vector<double>& unoccluded, int components, int tile,
                                                std::uint64_t seed) {
-  std::uint64_t state = seed ^ 0x9e3779b97f4a7c15ull;
-  const auto next = [&state] {  // xorshift64*, uniform in [0, 1)
-    state ^= state >> 12;
-    state ^= state << 25;
-    state ^= state >> 27;
-    return static_cast<double>((state * 0x2545f4914f6cdd1dull) >> 11) * 0x1p-53;
-  };
+  Random random{seed};
+  const auto next = [&random] { return random.next(); };
   render::BasisImages basis;
   basis.name = "synthetic-pca";
   basis.width = side;

@@ -1096,6 +1096,7 @@ int run_trade(TradeOptions o) {
                            {"skies", sky_names},
                            {"blend_threads", o.threads},
                            {"timing_scale", o.timing_scale},
+                           {"reference_supersample", o.reference_supersample},
                            {"clock", o.clock},
                            {"cores", o.cores},
                            {"load_1min_at_end", [] {

@@ -46,6 +46,8 @@ TEST(SkylitBenchTrade, TinyGridWritesTheTableThePlotAndTheParetoFront) {
   EXPECT_NE(result.output.find("bake 1/1"), std::string::npos) << result.output;  // progress
 
   const nlohmann::json doc = nlohmann::json::parse(read_all(out / "trade.json"));
+  // The reference integrates the continuous sky unless told otherwise (4 × 4 sub-directions).
+  EXPECT_EQ(doc.at("reference_supersample"), 4);
   const auto& settings = doc.at("settings");
   // full, lean and cropped at 16 and 8 bits, pca2 and pca2t4 (clustered) at 16 bits only; two S
   // thresholds: 16 settings.
