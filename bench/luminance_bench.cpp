@@ -52,14 +52,14 @@ void BM_Luminance(benchmark::State& state) {
 }
 BENCHMARK(BM_Luminance)->ArgsProduct({{2, 8}, {1, 2, 4}})->Unit(benchmark::kMillisecond)->UseRealTime();
 
-// The corners basis: three weighted sums per sample, and per face the 3×3 fit. Arguments: ν,
-// step, the sun's exclusion mask (which recomputes the mass of the faces it touches), and the
-// AVX2 pass (1, where the CPU has it) or the portable one (0).
-void BM_LuminanceCorners(benchmark::State& state) {
+// A fitted basis: its weighted sums per sample, and per face the fit. Arguments: ν, step, the
+// sun's exclusion mask (which recomputes the mass of the faces it touches), and the AVX2 pass (1,
+// where the CPU has it) or the portable one (0).
+void run_fitted_pass(benchmark::State& state, geom::DomeBasis basis) {
   const geom::Dome dome(static_cast<int>(state.range(0)));
   const sky::Lens lens(hd_fisheye());
-  const sky::SkyTable table = sky::build_sky_table(
-      lens, dome, {.step = static_cast<int>(state.range(1)), .basis = geom::DomeBasis::Corners});
+  const sky::SkyTable table =
+      sky::build_sky_table(lens, dome, {.step = static_cast<int>(state.range(1)), .basis = basis});
   const cv::Mat& frame = clear_sky_frame();
   cv::Mat exclude;
   if (state.range(2)) {
@@ -77,6 +77,9 @@ void BM_LuminanceCorners(benchmark::State& state) {
   state.counters["samples"] = static_cast<double>(table.sample_count());
   state.counters["runs"] = static_cast<double>(table.runs.size());
 }
+
+// The corners basis: three weighted sums per sample and a 3×3 fit per face.
+void BM_LuminanceCorners(benchmark::State& state) { run_fitted_pass(state, geom::DomeBasis::Corners); }
 BENCHMARK(BM_LuminanceCorners)
     ->ArgsProduct({{2, 8}, {1, 2, 4}, {0}, {1}})
     ->Args({2, 1, 1, 1})
@@ -86,21 +89,17 @@ BENCHMARK(BM_LuminanceCorners)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
-// The quadratics basis: six weighted sums per sample in one scalar pass, and per face the 6×6
-// fit. Arguments: ν, step.
-void BM_LuminanceQuadratics(benchmark::State& state) {
-  const geom::Dome dome(static_cast<int>(state.range(0)));
-  const sky::Lens lens(hd_fisheye());
-  const sky::SkyTable table = sky::build_sky_table(
-      lens, dome, {.step = static_cast<int>(state.range(1)), .basis = geom::DomeBasis::Quadratics});
-  const cv::Mat& frame = clear_sky_frame();
-  for (auto _ : state) {
-    sky::Luminance l = sky::compute_luminance(table, dome, frame, cv::Mat(), cv::Mat());
-    benchmark::DoNotOptimize(l.faces.data());
-  }
-  state.counters["samples"] = static_cast<double>(table.sample_count());
-}
-BENCHMARK(BM_LuminanceQuadratics)->ArgsProduct({{2, 8}, {1, 2, 4}})->Unit(benchmark::kMillisecond)->UseRealTime();
+// The quadratics basis: six monomial sums per sample (the same lanes as the corners and three
+// more) and a 6×6 fit per face.
+void BM_LuminanceQuadratics(benchmark::State& state) { run_fitted_pass(state, geom::DomeBasis::Quadratics); }
+BENCHMARK(BM_LuminanceQuadratics)
+    ->ArgsProduct({{2, 8}, {1, 2, 4}, {0}, {1}})
+    ->Args({2, 1, 1, 1})
+    ->Args({8, 1, 1, 1})
+    ->Args({2, 1, 0, 0})
+    ->Args({8, 1, 0, 0})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 void BM_BuildTable(benchmark::State& state) {
   const geom::Dome dome(static_cast<int>(state.range(0)));

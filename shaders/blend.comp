@@ -2,10 +2,18 @@
 // Shadow ratios of one plane (render/gpu_blend.hpp): per texel
 //     T = Σ_i w_i B_i + w_sun V     per colour channel, fp32,
 // then a channel without light is 1 and T is clamped to [0, 1], as blend_cpu does. One
-// invocation per texel. The basis array holds one layer per slice (R16F, R8) or four, one per
-// colour channel (RGBA16F, RGBA8); the CPU lists the slices to read with the weights of their
-// layers, so that one fetch and three dot products add up to four layers. A tiled (clustered
-// PCA) basis has a weight list per tile over the same slices: entries t·slice_count … of tile t.
+// invocation per texel. The basis array holds one layer per slice (R16F, R8, R11 EAC) or
+// several, one per colour channel (RGBA16F, RGBA8: four; RG11 EAC: two); the CPU lists the
+// slices to read with the weights of their layers, so that one fetch and three dot products add
+// up to four layers. A tiled (clustered PCA) basis has a weight list per tile over the same
+// slices: entries t·slice_count … of tile t.
+//
+// Paged (a cropped basis): the array is an atlas of pages of tile_size × tile_size texels, each
+// holding up to four layers over one tile of the plane. Tile t's record gives its constant (the
+// weighted fills of the summed layers that have no page in the tile), which the sum starts from,
+// and its entries of `slices`: range.y entries from range.x, each naming its page's array layer
+// (index.x) and the page's corner in it (index.yz); the texel reads its offset from the tile's
+// corner there. Unpaged, index.yz is 0 and every texel reads its own texel of the slice.
 precision highp float;
 precision highp int;
 precision highp sampler2D;
@@ -19,21 +27,31 @@ precision highp image2D;
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
-// The weights of a slice's layers (times their scale for 8-bit storage), one vec4 per colour
-// channel with a layer per component (unused components 0), and the slice's index.
+// The weights of a slice's layers (times their scale for 8-bit and EAC storage), one vec4 per
+// colour channel with a layer per component (unused components 0), and where to read the slice.
 struct Slice {
   vec4 red;
   vec4 green;
   vec4 blue;
-  ivec4 index;  // x
+  ivec4 index;  // x: array layer; yz: the page's corner in it (paged; 0 otherwise)
 };
 layout(std430, binding = 0) readonly buffer Slices {
   Slice slices[];
 };
 
-uniform int slice_count;   // entries of `slices` to sum (per tile)
-uniform int tile_size;     // texels per side of a tile (clustered PCA); 0: one tile, the plane
+// Paged: per tile of the plane, the start of its sum and its entries of `slices`.
+struct TileRange {
+  vec4 constant;  // rgb: Σ w_k fill_k over the summed layers without a page in the tile
+  ivec4 range;    // x: first entry, y: entry count
+};
+layout(std430, binding = 1) readonly buffer Tiles {
+  TileRange tiles[];
+};
+
+uniform int slice_count;   // entries of `slices` to sum (per tile; unpaged)
+uniform int tile_size;     // texels per side of a tile (clustered PCA, or a page); 0: one tile, the plane
 uniform int tiles_x;       // tiles per row of tiles (row-major tile index)
+uniform bool paged;        // a cropped basis in pages (the tile records say what to read)
 uniform vec3 sun_weight;   // w_sun
 uniform bool use_sun;      // add w_sun V (false: no sun term, V is not read)
 uniform bvec3 no_light;    // channels whose T is 1
@@ -47,31 +65,39 @@ void main() {
   ivec2 size = imageSize(shadow_ratio);
   if (texel.x >= size.x || texel.y >= size.y) return;
 
-  // This texel's tile (0 for an untiled basis): its weights are the slice_count entries from
-  // `base`, over the same slices as every other tile's.
+  // This texel's tile (0 for an untiled basis): unpaged, its weights are the slice_count entries
+  // from `base`, over the same slices as every other tile's; paged, the tile's record says.
   int tile = tile_size > 0 ? (texel.y / tile_size) * tiles_x + texel.x / tile_size : 0;
   int base = tile * slice_count;
+  int count = slice_count;
+  vec3 sum = vec3(0.0);
+  ivec2 at = texel;  // where in a slice (paged: added to the page's corner)
+  if (paged) {
+    base = tiles[tile].range.x;
+    count = tiles[tile].range.y;
+    sum = tiles[tile].constant.xyz;
+    at = texel - (texel / tile_size) * tile_size;
+  }
 
   // Four fetches are issued before their sums: a single one in flight per invocation leaves
   // the memory idle while it waits (measured on an H100: one 512² plane of 640 layers took 5×
   // its bandwidth floor). The sums still run in slice order. An R16F or R8 slice reads
   // (b, 0, 0, 1): its weights sit in x alone.
-  vec3 sum = vec3(0.0);
   int k = 0;
-  for (; k + 4 <= slice_count; k += 4) {
+  for (; k + 4 <= count; k += 4) {
     int s = base + k;
-    vec4 b0 = texelFetch(basis, ivec3(texel, slices[s].index.x), 0);
-    vec4 b1 = texelFetch(basis, ivec3(texel, slices[s + 1].index.x), 0);
-    vec4 b2 = texelFetch(basis, ivec3(texel, slices[s + 2].index.x), 0);
-    vec4 b3 = texelFetch(basis, ivec3(texel, slices[s + 3].index.x), 0);
+    vec4 b0 = texelFetch(basis, ivec3(slices[s].index.yz + at, slices[s].index.x), 0);
+    vec4 b1 = texelFetch(basis, ivec3(slices[s + 1].index.yz + at, slices[s + 1].index.x), 0);
+    vec4 b2 = texelFetch(basis, ivec3(slices[s + 2].index.yz + at, slices[s + 2].index.x), 0);
+    vec4 b3 = texelFetch(basis, ivec3(slices[s + 3].index.yz + at, slices[s + 3].index.x), 0);
     sum += vec3(dot(slices[s].red, b0), dot(slices[s].green, b0), dot(slices[s].blue, b0));
     sum += vec3(dot(slices[s + 1].red, b1), dot(slices[s + 1].green, b1), dot(slices[s + 1].blue, b1));
     sum += vec3(dot(slices[s + 2].red, b2), dot(slices[s + 2].green, b2), dot(slices[s + 2].blue, b2));
     sum += vec3(dot(slices[s + 3].red, b3), dot(slices[s + 3].green, b3), dot(slices[s + 3].blue, b3));
   }
-  for (; k < slice_count; ++k) {
+  for (; k < count; ++k) {
     int s = base + k;
-    vec4 b = texelFetch(basis, ivec3(texel, slices[s].index.x), 0);
+    vec4 b = texelFetch(basis, ivec3(slices[s].index.yz + at, slices[s].index.x), 0);
     sum += vec3(dot(slices[s].red, b), dot(slices[s].green, b), dot(slices[s].blue, b));
   }
   if (use_sun) {

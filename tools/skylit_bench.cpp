@@ -56,6 +56,7 @@
 #include "skylit/render/blend_workers.hpp"
 #include "skylit/render/compositor.hpp"
 #include "skylit/render/cpu_blend.hpp"
+#include "skylit/render/gpu_blend.hpp"
 #include "skylit/render/sun_shadow_map.hpp"
 #include "skylit/sky/simulate.hpp"
 #include "skylit/sky/sky_estimate.hpp"
@@ -184,8 +185,8 @@ std::uint64_t directory_bytes(const fs::path& dir) {
 }
 
 // 8-bit layers as the GPU blend stores them (gpu_blend.cpp): per layer, B ≈ top · round(255 B / top) / 255.
-// A cropped basis stays cropped: the GPU blend expands it to whole layers (the fill, as a half,
-// outside each rectangle) and quantises those, so the top is over the rectangle and the fill
+// A cropped basis stays cropped: the GPU blend's pages hold the fill (as a half) outside each
+// rectangle and quantise it with the rectangle, so the top is over the rectangle and the fill
 // (where the rectangle leaves texels to it), and the fill is quantised as the texels it covers.
 void quantise_to_unorm8(render::BasisImages& basis) {
   const std::size_t texels = basis.texel_count();
@@ -983,8 +984,12 @@ int run_trade(TradeOptions o) {
           const int width = std::max(4, full.width / o.timing_scale), height = std::max(4, full.height / o.timing_scale);
           const render::BasisImages fine = upsampled(basis[j], width, height);
           const std::vector<float> fine_visibility = upsampled(visibility, basis[j].width, basis[j].height, fine.width, fine.height);
-          // Whole layers: the GPU blend expands a cropped basis on upload (as lean's).
-          r.gpu_bytes += static_cast<std::uint64_t>((fine.layers + 3) / 4) * 4 * fine.texel_count() * (s.bits == 8 ? 1u : 2u);
+          // What the GPU blend allocates for the plane at this resolution (packed layers): whole
+          // layers, or a cropped basis's pages (upsampled keeps it cropped).
+          render::GpuBlendOptions gpu_options;
+          gpu_options.storage = s.bits == 8 ? render::BasisStorage::Unorm8 : render::BasisStorage::Half;
+          gpu_options.pack_layers = true;
+          r.gpu_bytes += static_cast<std::uint64_t>(render::gpu_basis_bytes(fine, gpu_options));
           live::CpuShadowRatios timed(fine, s.skip_threshold, 0.0);
           render::BlendWeights nudged = w;
           for (auto& f : nudged.face) f *= 1.0001f;

@@ -83,11 +83,11 @@ TEST(SkylitBenchTrade, TinyGridWritesTheTableThePlotAndTheParetoFront) {
   EXPECT_EQ(find("full", 16).at("gpu_bytes").get<double>(), 2 * find("full", 8).at("gpu_bytes").get<double>());
   EXPECT_LT(find("pca2", 16).at("gpu_bytes").get<double>(), find("full", 8).at("gpu_bytes").get<double>());
   // The cropped form is the lean one read only inside its rectangles: the same T (within 1e-3),
-  // the same layers, and the same GPU memory (the GPU blend expands it to whole layers).
+  // the same layers, and less GPU memory (the GPU blend keeps its rectangles, in pages).
   for (const int bits : {16, 8}) {
     SCOPED_TRACE(bits);
     EXPECT_NEAR(find("cropped", bits).at("rms").get<double>(), find("lean", bits).at("rms").get<double>(), 1e-3);
-    EXPECT_EQ(find("cropped", bits).at("gpu_bytes").get<double>(), find("lean", bits).at("gpu_bytes").get<double>());
+    EXPECT_LT(find("cropped", bits).at("gpu_bytes").get<double>(), find("lean", bits).at("gpu_bytes").get<double>());
     EXPECT_EQ(find("cropped", bits).at("layers"), find("lean", bits).at("layers"));
   }
   // Clustered PCA reads as many layers as the plain form of the same K.

@@ -187,9 +187,11 @@ void accumulate_run(const float* pixel, std::ptrdiff_t stride, const std::uint8_
   sums.clipped_pixels += run.clipped_pixels;
 }
 
-// ---- the corners basis ----
+// ---- the corners and quadratics bases ----
 //
-// Per sample the products w·L, w·λ0·L and w·λ1·L (R G B), in float vectors of kWidth lanes
+// Per sample the products w·L, w·λ0·L and w·λ1·L (R G B), for quadratics also w·λ0²·L, w·λ1²·L
+// and w·λ0·λ1·L (the six Bernstein functions' sums follow from these at the flush), in float
+// vectors of kWidth lanes
 // (GCC's vector extension: four lanes on SSE2 or NEON, eight where the CPU has AVX2 and FMA),
 // kWidth samples per vector in structure-of-arrays form: one vector per channel, no lane wasted.
 // The pass runs in the table's row-major order (the frame streams through the cache); a face's
@@ -236,17 +238,21 @@ struct Vec<8> {
 };
 
 // A face's float sums between flushes, lane by lane (the portable pass fills the first four).
+// Corners: w·L, w·λ0·L, w·λ1·L, each B G R. Quadratics add w·λ0²·L, w·λ1²·L and w·λ0·λ1·L: with
+// λ2 = 1 − λ0 − λ1 these monomials give the six Bernstein functions' sums exactly (flush_into).
+// λ stay in units of kCornerWeightUnit until the flush.
+template <bool kQuadratic>
 struct FaceLanes {
-  // w·L, w·λ0·L, w·λ1·L, each B G R; λ in units of kCornerWeightUnit.
-  alignas(32) float sum[9][kMaxWidth] = {};
+  static constexpr int kRows = kQuadratic ? 18 : 9;
+  alignas(32) float sum[kRows][kMaxWidth] = {};
   alignas(32) float lowest[kMaxWidth] = {};  // the smallest value seen: the test for negatives
   std::int32_t samples = 0;
 
   // Into the double sums; false (and nothing added) when a value was NaN, infinite or negative
   // or a float sum overflowed: the face is then summed again value by value.
   bool flush_into(Sums& sums) const {
-    double total[9];
-    for (int k = 0; k < 9; ++k) {
+    double total[kRows];
+    for (int k = 0; k < kRows; ++k) {
       double t = 0;
       for (const float v : sum[k]) t += v;
       total[k] = t;
@@ -257,8 +263,25 @@ struct FaceLanes {
     sums.b += total[0];
     sums.g += total[1];
     sums.r += total[2];
-    sums.corner0 += kCornerWeightUnit * Eigen::Vector3d(total[5], total[4], total[3]);
-    sums.corner1 += kCornerWeightUnit * Eigen::Vector3d(total[8], total[7], total[6]);
+    if constexpr (kQuadratic) {
+      // φ = λ0², λ1², λ2², 2λ0λ1, 2λ1λ2, 2λ2λ0 (geom::layer_values) with λ2 = 1 − λ0 − λ1, from
+      // the monomials' sums; channel c (R G B) is lane row 2 − c.
+      constexpr double u = kCornerWeightUnit, u2 = kCornerWeightUnit * kCornerWeightUnit;
+      for (int c = 0; c < 3; ++c) {
+        const int lane = 2 - c;
+        const double m = total[lane], m0 = u * total[3 + lane], m1 = u * total[6 + lane];
+        const double m00 = u2 * total[9 + lane], m11 = u2 * total[12 + lane], m01 = u2 * total[15 + lane];
+        sums.quadratic(0, c) += m00;
+        sums.quadratic(1, c) += m11;
+        sums.quadratic(2, c) += m - 2.0 * (m0 + m1) + m00 + 2.0 * m01 + m11;
+        sums.quadratic(3, c) += 2.0 * m01;
+        sums.quadratic(4, c) += 2.0 * (m1 - m01 - m11);
+        sums.quadratic(5, c) += 2.0 * (m0 - m00 - m01);
+      }
+    } else {
+      sums.corner0 += kCornerWeightUnit * Eigen::Vector3d(total[5], total[4], total[3]);
+      sums.corner1 += kCornerWeightUnit * Eigen::Vector3d(total[8], total[7], total[6]);
+    }
     return true;
   }
 };
@@ -289,7 +312,7 @@ template <class Vector>
 }
 
 // One face's sums in registers while a run is added.
-template <int kWidth>
+template <int kWidth, bool kQuadratic>
 struct CornerLanes {
   using V = Vec<kWidth>;
   using Float = typename V::Float;
@@ -300,9 +323,13 @@ struct CornerLanes {
   Float sum_b, sum_g, sum_r;  // w·L
   Float c0_b, c0_g, c0_r;     // w·λ0·L
   Float c1_b, c1_g, c1_r;     // w·λ1·L
+  // Quadratics only (unused, and dropped by the compiler, for corners):
+  Float q00_b, q00_g, q00_r;  // w·λ0²·L
+  Float q11_b, q11_g, q11_r;  // w·λ1²·L
+  Float q01_b, q01_g, q01_r;  // w·λ0·λ1·L
   Float lowest;
 
-  [[gnu::always_inline]] explicit CornerLanes(const FaceLanes& f) {
+  [[gnu::always_inline]] explicit CornerLanes(const FaceLanes<kQuadratic>& f) {
     load_vector(sum_b, f.sum[0]);
     load_vector(sum_g, f.sum[1]);
     load_vector(sum_r, f.sum[2]);
@@ -312,9 +339,20 @@ struct CornerLanes {
     load_vector(c1_b, f.sum[6]);
     load_vector(c1_g, f.sum[7]);
     load_vector(c1_r, f.sum[8]);
+    if constexpr (kQuadratic) {
+      load_vector(q00_b, f.sum[9]);
+      load_vector(q00_g, f.sum[10]);
+      load_vector(q00_r, f.sum[11]);
+      load_vector(q11_b, f.sum[12]);
+      load_vector(q11_g, f.sum[13]);
+      load_vector(q11_r, f.sum[14]);
+      load_vector(q01_b, f.sum[15]);
+      load_vector(q01_g, f.sum[16]);
+      load_vector(q01_r, f.sum[17]);
+    }
     load_vector(lowest, f.lowest);
   }
-  [[gnu::always_inline]] void store(FaceLanes& f) const {
+  [[gnu::always_inline]] void store(FaceLanes<kQuadratic>& f) const {
     store_vector(f.sum[0], sum_b);
     store_vector(f.sum[1], sum_g);
     store_vector(f.sum[2], sum_r);
@@ -324,6 +362,17 @@ struct CornerLanes {
     store_vector(f.sum[6], c1_b);
     store_vector(f.sum[7], c1_g);
     store_vector(f.sum[8], c1_r);
+    if constexpr (kQuadratic) {
+      store_vector(f.sum[9], q00_b);
+      store_vector(f.sum[10], q00_g);
+      store_vector(f.sum[11], q00_r);
+      store_vector(f.sum[12], q11_b);
+      store_vector(f.sum[13], q11_g);
+      store_vector(f.sum[14], q11_r);
+      store_vector(f.sum[15], q01_b);
+      store_vector(f.sum[16], q01_g);
+      store_vector(f.sum[17], q01_r);
+    }
     store_vector(f.lowest, lowest);
   }
 
@@ -377,8 +426,10 @@ struct CornerLanes {
       load_vector(w, weights);
       load_vector(pairs, lambda);
     }
-    const Float w0 = w * __builtin_convertvector(Int(pairs & 0xffffu), Float);
-    const Float w1 = w * __builtin_convertvector(Int(pairs >> 16), Float);
+    const Float l0 = __builtin_convertvector(Int(pairs & 0xffffu), Float);
+    const Float l1 = __builtin_convertvector(Int(pairs >> 16), Float);
+    const Float w0 = w * l0;
+    const Float w1 = w * l1;
     lowest = b < lowest ? b : lowest;
     lowest = g < lowest ? g : lowest;
     lowest = r < lowest ? r : lowest;
@@ -391,6 +442,18 @@ struct CornerLanes {
     c1_b += w1 * b;
     c1_g += w1 * g;
     c1_r += w1 * r;
+    if constexpr (kQuadratic) {
+      const Float w00 = w0 * l0, w11 = w1 * l1, w01 = w0 * l1;
+      q00_b += w00 * b;
+      q00_g += w00 * g;
+      q00_r += w00 * r;
+      q11_b += w11 * b;
+      q11_g += w11 * g;
+      q11_r += w11 * r;
+      q01_b += w01 * b;
+      q01_g += w01 * g;
+      q01_r += w01 * r;
+    }
   }
 
   // A run without masks: whole groups of kWidth samples, then the rest in a group whose other
@@ -442,12 +505,35 @@ struct CornerLanes {
   return false;
 }
 
-inline void add_excluded_mass(Eigen::Matrix3d& m, double w, double l0, double l1) {
-  const Eigen::Vector3d l(l0, l1, 1.0 - l0 - l1);
-  m.noalias() += w * l * l.transpose();
+// A sample the mask excludes: its functions' mass, to be taken from the face's.
+template <bool kQuadratic>
+inline void add_excluded_sample(Sums& sums, double w, double l0, double l1) {
+  sums.excluded = true;
+  if constexpr (kQuadratic) {
+    const geom::LayerValues phi = geom::layer_values(geom::DomeBasis::Quadratics, {l0, l1, 1.0 - l0 - l1});
+    const Eigen::Map<const Eigen::Matrix<double, 6, 1>> v(phi.data());
+    sums.quadratic_excluded_mass.noalias() += (w * v) * v.transpose();
+  } else {
+    const Eigen::Vector3d l(l0, l1, 1.0 - l0 - l1);
+    sums.excluded_mass.noalias() += w * l * l.transpose();
+  }
+}
+
+// A sample's value (R G B, sanitised) into the sums of the basis's functions; Σ w L apart.
+template <bool kQuadratic>
+inline void add_function_sums(Sums& sums, double w, double l0, double l1, const Eigen::Vector3d& rgb) {
+  if constexpr (kQuadratic) {
+    const geom::LayerValues phi = geom::layer_values(geom::DomeBasis::Quadratics, {l0, l1, 1.0 - l0 - l1});
+    const Eigen::Map<const Eigen::Matrix<double, 6, 1>> v(phi.data());
+    sums.quadratic.noalias() += (w * v) * rgb.transpose();
+  } else {
+    sums.corner0 += (w * l0) * rgb;
+    sums.corner1 += (w * l1) * rgb;
+  }
 }
 
 // The careful pass of one run: every value sanitised, double sums straight into `sums`.
+template <bool kQuadratic>
 void corner_run_careful(const float* pixel, std::ptrdiff_t stride, const std::uint8_t* clipped,
                         const std::uint8_t* exclude, std::ptrdiff_t mask_stride, const float* weights,
                         const std::uint16_t* lambda, std::int32_t count, Sums& sums) {
@@ -455,8 +541,7 @@ void corner_run_careful(const float* pixel, std::ptrdiff_t stride, const std::ui
     const double w = weights[k];
     const double l0 = lambda[2 * k] * kCornerWeightUnit, l1 = lambda[2 * k + 1] * kCornerWeightUnit;
     if (exclude && exclude[k * mask_stride] != 0) {
-      sums.excluded = true;
-      add_excluded_mass(sums.excluded_mass, w, l0, l1);
+      add_excluded_sample<kQuadratic>(sums, w, l0, l1);
       continue;
     }
     float value[3] = {pixel[k * stride], pixel[k * stride + 1], pixel[k * stride + 2]};
@@ -466,8 +551,7 @@ void corner_run_careful(const float* pixel, std::ptrdiff_t stride, const std::ui
     sums.g += w * value[1];
     sums.r += w * value[2];
     sums.weight += w;
-    sums.corner0 += (w * l0) * rgb;
-    sums.corner1 += (w * l1) * rgb;
+    add_function_sums<kQuadratic>(sums, w, l0, l1, rgb);
     if (clipped && clipped[k * mask_stride] != 0) {
       sums.clipped += w;
       ++sums.clipped_pixels;
@@ -479,6 +563,7 @@ void corner_run_careful(const float* pixel, std::ptrdiff_t stride, const std::ui
 // straight into `sums`, Σ w included. False, with nothing added, at a NaN, infinite or negative
 // value. `clipped` and `exclude` are null where the run has none. `run_weight`: Σ w of all its
 // samples (the part of face_solid_angle that the fast sums do not cover).
+template <bool kQuadratic>
 bool add_masked_corner_run(const RunData& d, std::ptrdiff_t stride, const std::uint8_t* clipped,
                            const std::uint8_t* exclude, std::ptrdiff_t mask_stride, Sums& sums,
                            double& run_weight) {
@@ -489,8 +574,7 @@ bool add_masked_corner_run(const RunData& d, std::ptrdiff_t stride, const std::u
     const double l0 = d.lambda[2 * k] * kCornerWeightUnit, l1 = d.lambda[2 * k + 1] * kCornerWeightUnit;
     all += w;
     if (exclude && exclude[k * mask_stride] != 0) {
-      run.excluded = true;
-      add_excluded_mass(run.excluded_mass, w, l0, l1);
+      add_excluded_sample<kQuadratic>(run, w, l0, l1);
       continue;
     }
     const float* value = d.pixel + k * stride;
@@ -503,8 +587,7 @@ bool add_masked_corner_run(const RunData& d, std::ptrdiff_t stride, const std::u
     run.g += w * value[1];
     run.r += w * value[2];
     run.weight += w;
-    run.corner0 += (w * l0) * rgb;
-    run.corner1 += (w * l1) * rgb;
+    add_function_sums<kQuadratic>(run, w, l0, l1, rgb);
     if (clipped && clipped[k * mask_stride] != 0) {
       run.clipped += w;
       ++run.clipped_pixels;
@@ -516,11 +599,13 @@ bool add_masked_corner_run(const RunData& d, std::ptrdiff_t stride, const std::u
   sums.weight += run.weight;
   sums.corner0 += run.corner0;
   sums.corner1 += run.corner1;
+  sums.quadratic += run.quadratic;
   sums.clipped += run.clipped;
   sums.clipped_pixels += run.clipped_pixels;
   if (run.excluded) {
     sums.excluded = true;
     sums.excluded_mass += run.excluded_mass;
+    sums.quadratic_excluded_mass += run.quadratic_excluded_mass;
   }
   run_weight = all;
   return true;
@@ -528,21 +613,22 @@ bool add_masked_corner_run(const RunData& d, std::ptrdiff_t stride, const std::u
 
 // What the corners pass works on. Per face: the double sums, the float lane sums, the weight of
 // its runs that a mask touched, and whether it must be summed again value by value.
+template <bool kQuadratic>
 struct CornersPass {
   const SkyTable& table;
   const cv::Mat& radiance;
   const cv::Mat& clipped;  // may be empty
   const cv::Mat& exclude;  // may be empty
   std::vector<Sums>& sums;
-  std::vector<FaceLanes>& lanes;
+  std::vector<FaceLanes<kQuadratic>>& lanes;
   std::vector<double>& masked_weight;
   std::vector<std::uint8_t>& careful;
 };
 
 // The fast pass, always inlined: it takes the instruction set of its caller
 // (fast_corner_pass_avx2 or fast_corner_pass_portable). Returns the samples visited.
-template <int kWidth>
-[[gnu::always_inline]] inline std::int64_t fast_corner_pass(const CornersPass& p) {
+template <int kWidth, bool kQuadratic>
+[[gnu::always_inline]] inline std::int64_t fast_corner_pass(const CornersPass<kQuadratic>& p) {
   // Everything the loop reads from the table and the frames in locals: the lane sums' stores
   // (memcpy) may alias anything, and would make the compiler read them again for every run.
   const SkyTable& table = p.table;
@@ -560,7 +646,7 @@ template <int kWidth>
   const DataEnds ends{reinterpret_cast<const float*>(p.radiance.dataend), weights + table.weights.size(),
                       lambda + table.corner_weights.size()};
   Sums* const sums = p.sums.data();
-  FaceLanes* const face_lanes = p.lanes.data();
+  FaceLanes<kQuadratic>* const face_lanes = p.lanes.data();
   double* const masked_weight = p.masked_weight.data();
   std::uint8_t* const careful = p.careful.data();
   const PixelRun* const runs_end = table.runs.data() + table.runs.size();
@@ -581,15 +667,15 @@ template <int kWidth>
     if (e && !any_set(e, run->count, step)) e = nullptr;
     if (c || e) [[unlikely]] {
       double run_weight = 0;
-      if (add_masked_corner_run(d, stride, c, e, step, sums[face], run_weight)) {
+      if (add_masked_corner_run<kQuadratic>(d, stride, c, e, step, sums[face], run_weight)) {
         masked_weight[face] += run_weight;
       } else {
         careful[face] = 1;
       }
       continue;
     }
-    FaceLanes& stored = face_lanes[face];
-    CornerLanes<kWidth> lanes(stored);
+    FaceLanes<kQuadratic>& stored = face_lanes[face];
+    CornerLanes<kWidth, kQuadratic> lanes(stored);
     if (step == 1) {
       lanes.template add_run<true>(d, stride, ends);
     } else {
@@ -599,34 +685,39 @@ template <int kWidth>
     stored.samples += run->count;
     if (stored.samples >= kFlushAdditions * kWidth) {
       if (!stored.flush_into(sums[face])) careful[face] = 1;
-      stored = FaceLanes{};
+      stored = FaceLanes<kQuadratic>{};
     }
   }
   return samples;
 }
 
-std::int64_t fast_corner_pass_portable(const CornersPass& p) { return fast_corner_pass<4>(p); }
+template <bool kQuadratic>
+std::int64_t fast_corner_pass_portable(const CornersPass<kQuadratic>& p) {
+  return fast_corner_pass<4, kQuadratic>(p);
+}
 
 #if SKYLIT_SKY_X86
 // Three-operand instructions, single-instruction blends and fused multiply-adds (so the sums
 // agree with the portable pass to float rounding, not bit for bit); eight lanes at step 1, four
 // where the step skips pixels (the lanes are then filled one by one and the runs are short).
-__attribute__((target("avx2,fma"))) std::int64_t fast_corner_pass_avx2(const CornersPass& p) {
-  return p.table.step == 1 ? fast_corner_pass<8>(p) : fast_corner_pass<4>(p);
+template <bool kQuadratic>
+__attribute__((target("avx2,fma"))) std::int64_t fast_corner_pass_avx2(const CornersPass<kQuadratic>& p) {
+  return p.table.step == 1 ? fast_corner_pass<8, kQuadratic>(p) : fast_corner_pass<4, kQuadratic>(p);
 }
 bool cpu_has_avx2_fma() { return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"); }
 #endif
 
-// The corners pass: the fast pass, then the faces it could not take value by value. A face whose
-// fast sums show a NaN, an infinity or a negative value (or overflow) is summed again, all of
-// it, in a second pass that visits its runs only.
-void accumulate_corners(const SkyTable& table, const cv::Mat& radiance, const cv::Mat& clipped,
-                        const cv::Mat& exclude, bool use_simd, std::vector<Sums>& sums, std::int64_t& samples) {
+// The corners and quadratics passes: the fast pass, then the faces it could not take value by
+// value. A face whose fast sums show a NaN, an infinity or a negative value (or overflow) is
+// summed again, all of it, in a second pass that visits its runs only.
+template <bool kQuadratic>
+void accumulate_fitted(const SkyTable& table, const cv::Mat& radiance, const cv::Mat& clipped,
+                       const cv::Mat& exclude, bool use_simd, std::vector<Sums>& sums, std::int64_t& samples) {
   const std::size_t n = sums.size();
-  std::vector<FaceLanes> lanes(n);
+  std::vector<FaceLanes<kQuadratic>> lanes(n);
   std::vector<double> masked_weight(n, 0.0);
   std::vector<std::uint8_t> careful(n, 0);
-  const CornersPass pass{table, radiance, clipped, exclude, sums, lanes, masked_weight, careful};
+  const CornersPass<kQuadratic> pass{table, radiance, clipped, exclude, sums, lanes, masked_weight, careful};
 #if SKYLIT_SKY_X86
   samples += use_simd && cpu_has_avx2_fma() ? fast_corner_pass_avx2(pass) : fast_corner_pass_portable(pass);
 #else
@@ -648,116 +739,12 @@ void accumulate_corners(const SkyTable& table, const cv::Mat& radiance, const cv
   for (const PixelRun& run : table.runs) {
     const auto face = static_cast<std::size_t>(run.face);
     if (!careful[face]) continue;
-    corner_run_careful(radiance.ptr<float>(run.row) + 3 * std::ptrdiff_t{run.col_begin}, 3 * step,
-                       clipped.empty() ? nullptr : clipped.ptr<std::uint8_t>(run.row) + run.col_begin,
-                       exclude.empty() ? nullptr : exclude.ptr<std::uint8_t>(run.row) + run.col_begin, step,
-                       table.weights.data() + run.weight_offset,
-                       table.corner_weights.data() + 2 * std::size_t{run.weight_offset}, run.count, sums[face]);
-  }
-}
-
-// One sample of the quadratics pass in double: excluded (its functions' mass noted) or sanitised.
-inline void quadratic_sample_careful(const float* value, double w, std::uint16_t q0, std::uint16_t q1, bool excluded,
-                                     Sums& s) {
-  const double l0 = q0 * kCornerWeightUnit, l1 = q1 * kCornerWeightUnit;
-  const geom::LayerValues phi = geom::layer_values(geom::DomeBasis::Quadratics, {l0, l1, 1.0 - l0 - l1});
-  const Eigen::Map<const Eigen::Matrix<double, 6, 1>> v(phi.data());
-  if (excluded) {
-    s.excluded = true;
-    s.quadratic_excluded_mass.noalias() += (w * v) * v.transpose();
-    return;
-  }
-  float clean[3] = {value[0], value[1], value[2]};
-  sanitise(clean, s);
-  s.b += w * clean[0];
-  s.g += w * clean[1];
-  s.r += w * clean[2];
-  s.weight += w;
-  s.quadratic.noalias() += (w * v) * Eigen::RowVector3d(clean[2], clean[1], clean[0]);
-}
-
-// The quadratics pass. A run with no excluded sample is summed in kLanes float lanes (the six
-// functions' weighted sums; runs are short, ~100 samples at step 1) and flushed into the face's
-// double sums; if those sums show a NaN, an infinity or a negative value, the run is summed
-// again sample by sample in double, sanitised, as is a run the exclusion mask touches.
-void accumulate_quadratics(const SkyTable& table, const cv::Mat& radiance, const cv::Mat& clipped,
-                           const cv::Mat& exclude, std::vector<Sums>& sums, std::int64_t& samples) {
-  constexpr int kLanes = 8;
-  const RunLimits limits(table, sums.size());
-  const std::ptrdiff_t step = table.step;
-  constexpr float unit = static_cast<float>(kCornerWeightUnit);
-  for (const PixelRun& run : table.runs) {
-    limits.check(run);
-    Sums& s = sums[static_cast<std::size_t>(run.face)];
-    const float* pixel = radiance.ptr<float>(run.row) + 3 * std::ptrdiff_t{run.col_begin};
-    const std::uint8_t* c = clipped.empty() ? nullptr : clipped.ptr<std::uint8_t>(run.row) + run.col_begin;
-    const std::uint8_t* e = exclude.empty() ? nullptr : exclude.ptr<std::uint8_t>(run.row) + run.col_begin;
-    const float* weights = table.weights.data() + run.weight_offset;
-    const std::uint16_t* lambda = table.corner_weights.data() + 2 * std::size_t{run.weight_offset};
-    samples += run.count;
-    if (c) {
-      for (std::int32_t k = 0; k < run.count; ++k) {
-        if (c[k * step] != 0 && !(e && e[k * step] != 0)) {
-          s.clipped += weights[k];
-          ++s.clipped_pixels;
-        }
-      }
-    }
-    bool careful = false;
-    if (e) {
-      for (std::int32_t k = 0; k < run.count && !careful; ++k) careful = e[k * step] != 0;
-    }
-    if (!careful) {
-      float acc[6][3][kLanes] = {};
-      float rgbw[4][kLanes] = {};
-      float lowest[kLanes];
-      for (float& x : lowest) x = 0.0f;
-      const auto add = [&](int lane, std::int32_t k) {
-        const float w = weights[k];
-        const float* value = pixel + k * 3 * step;
-        const float l0 = lambda[2 * k] * unit, l1 = lambda[2 * k + 1] * unit, l2 = 1.0f - l0 - l1;
-        const float phi[6] = {l0 * l0, l1 * l1, l2 * l2, 2.0f * l0 * l1, 2.0f * l1 * l2, 2.0f * l2 * l0};
-        const float rgb[3] = {value[2], value[1], value[0]};
-        for (int j = 0; j < 6; ++j) {
-          for (int ch = 0; ch < 3; ++ch) acc[j][ch][lane] += (w * phi[j]) * rgb[ch];
-        }
-        for (int ch = 0; ch < 3; ++ch) {
-          rgbw[ch][lane] += w * value[ch];
-          lowest[lane] = std::min(lowest[lane], value[ch]);
-        }
-        rgbw[3][lane] += w;
-      };
-      std::int32_t k = 0;
-      for (; k + kLanes <= run.count; k += kLanes) {
-        for (int lane = 0; lane < kLanes; ++lane) add(lane, k + lane);
-      }
-      for (int lane = 0; k < run.count; ++k, ++lane) add(lane, k);
-      double flushed[6][3] = {}, totals[4] = {};
-      float low = 0.0f;
-      for (int lane = 0; lane < kLanes; ++lane) {
-        for (int j = 0; j < 6; ++j) {
-          for (int ch = 0; ch < 3; ++ch) flushed[j][ch] += acc[j][ch][lane];
-        }
-        for (int t = 0; t < 4; ++t) totals[t] += rgbw[t][lane];
-        low = std::min(low, lowest[lane]);
-      }
-      // NaN and ±Inf reach the sums; a negative value only `lowest`.
-      careful = !(low >= 0.0f) || !std::isfinite(totals[0] + totals[1] + totals[2]);
-      if (!careful) {
-        for (int j = 0; j < 6; ++j) {
-          for (int ch = 0; ch < 3; ++ch) s.quadratic(j, ch) += flushed[j][ch];
-        }
-        s.b += totals[0];
-        s.g += totals[1];
-        s.r += totals[2];
-        s.weight += totals[3];
-        continue;
-      }
-    }
-    for (std::int32_t k = 0; k < run.count; ++k) {
-      quadratic_sample_careful(pixel + k * 3 * step, weights[k], lambda[2 * k], lambda[2 * k + 1],
-                               e && e[k * step] != 0, s);
-    }
+    corner_run_careful<kQuadratic>(
+        radiance.ptr<float>(run.row) + 3 * std::ptrdiff_t{run.col_begin}, 3 * step,
+        clipped.empty() ? nullptr : clipped.ptr<std::uint8_t>(run.row) + run.col_begin,
+        exclude.empty() ? nullptr : exclude.ptr<std::uint8_t>(run.row) + run.col_begin, step,
+        table.weights.data() + run.weight_offset, table.corner_weights.data() + 2 * std::size_t{run.weight_offset},
+        run.count, sums[face]);
   }
 }
 
@@ -777,16 +764,18 @@ void fit_layers(const SkyTable& table, const std::vector<Sums>& sums, const std:
     if (!seen[i]) continue;
     const Sums& s = sums[i];
     Eigen::MatrixXd b(layers, 3);  // row k: Σ w φ_k L (R G B)
-    Eigen::MatrixXd mass = table.corner_mass[i];
+    // The table's mass, less the excluded samples' (a copy only where the sun took some).
+    Eigen::MatrixXd excluded_mass;
     if (quadratics) {
       b = s.quadratic;
-      if (s.excluded) mass -= s.quadratic_excluded_mass;
+      if (s.excluded) excluded_mass = table.corner_mass[i] - s.quadratic_excluded_mass;
     } else {
       b.row(0) = s.corner0.transpose();
       b.row(1) = s.corner1.transpose();
       b.row(2) = Eigen::Vector3d(s.r, s.g, s.b).transpose() - b.row(0) - b.row(1);
-      if (s.excluded) mass -= s.excluded_mass;
+      if (s.excluded) excluded_mass = table.corner_mass[i] - s.excluded_mass;
     }
+    const Eigen::MatrixXd& mass = s.excluded ? excluded_mass : table.corner_mass[i];
     const double conditioning =
         s.excluded ? corner_conditioning(mass, table.corner_full_mass[i]) : table.corner_conditioning[i];
     Eigen::MatrixXd fit;
@@ -919,9 +908,9 @@ Luminance compute_luminance(const SkyTable& table, const geom::Dome& dome, const
   const bool has_clipped = !clipped.empty();
   const bool has_exclude = !exclude.empty();
   if (table.basis == geom::DomeBasis::Corners) {
-    accumulate_corners(table, radiance, clipped, exclude, options.use_simd, sums, result.samples);
+    accumulate_fitted<false>(table, radiance, clipped, exclude, options.use_simd, sums, result.samples);
   } else if (table.basis == geom::DomeBasis::Quadratics) {
-    accumulate_quadratics(table, radiance, clipped, exclude, sums, result.samples);
+    accumulate_fitted<true>(table, radiance, clipped, exclude, options.use_simd, sums, result.samples);
   } else {
     const RunLimits limits(table, n);
     for (const PixelRun& run : table.runs) {

@@ -93,8 +93,8 @@ struct BlendSettings {
   // blend.basis: full (every layer), lean (the layers that hold a shadow and one of ones, T
   // within 1e-3; docs/baker.md) or pca (each plane's PCA form, K + 1 layers, docs/bake-format.md;
   // the bake must have one: skylit-bake compress) or cropped (lean with each shadowed layer
-  // cropped to the rectangle it shadows: the CPU blend reads only the rectangles; the GPU blend
-  // expands it to whole layers; any storage).
+  // cropped to the rectangle it shadows: the CPU blend reads only the rectangles, the GPU blend
+  // holds them in an atlas of pages; any storage).
   enum class Basis { Full, Lean, Pca, Cropped };
   Basis basis = Basis::Full;
   double skip_threshold = 0.0;
