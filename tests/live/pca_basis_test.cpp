@@ -13,25 +13,12 @@
 
 #include "../../src/live/src/cpu_shadow_ratios.hpp"
 #include "live_fixture.hpp"
+#include "service_blend_check.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/base/error.hpp"
-#include "skylit/geom/dome.hpp"
-#include "skylit/render/sun_shadow_map.hpp"
-#include "skylit/sky/sky_estimate.hpp"
-#include "skylit/track/pose.hpp"
 
 namespace skylit::live_test {
 namespace {
-
-// The rig's config with `bake:` pointing at `bake_dir` and `blend` as given.
-void write_config_with_bake(const Rig& rig, const fs::path& bake_dir, const std::string& blend) {
-  std::string text = rig.config_text();
-  const std::string original = "bake: " + quoted(BakedSite::get().dir / "bake") + "\n";
-  const std::size_t at = text.find(original);
-  ASSERT_NE(at, std::string::npos) << text;
-  text.replace(at, original.size(), "bake: " + quoted(bake_dir) + "\n");
-  std::ofstream(rig.config_file()) << text << blend;
-}
 
 // A copy of the tests' bake beside the rig, with each plane's PCA form added.
 // tile > 0: clustered PCA, each tile of tile × tile texels with its own components.
@@ -127,132 +114,77 @@ TEST(LivePcaBasis, CroppedFormBlendsOnTheCpuAsTheLeanForm) {
     std::printf("measured: plane '%s': cropped form of %d layers, %zu of the lean form's %zu values\n",
                 manifest.planes[j].plane.name.c_str(), cropped.layers, cropped.half.size(), lean.half.size());
   }
-  // Any storage: the GPU blend expands the rectangles to whole layers of values >= 0.
+  // Any storage: the GPU blend keeps the rectangles cropped, in an atlas of 16 × 16-texel pages
+  // (render/gpu_blend.hpp) whose values, B inside a layer's rectangle and its fill outside, are
+  // >= 0 as 8-bit and EAC layers need.
   RigOptions rig_options;
   const Rig rig(rig_options);
   write_config_with_bake(rig, BakedSite::get().dir / "bake", "blend:\n  device: gpu\n  storage: unorm8\n  basis: cropped\n");
   EXPECT_EQ(load_error(rig.config_file(), false), "");
 }
 
-// The service on a compressed bake (tile > 0: clustered) with the blend on `device`.
+// blend.basis cropped on the GPU: the atlas of pages sums the same T as blend_cpu over the cropped
+// form; the service's frames against the compositor driven directly with that T.
+TEST(LivePcaBasis, CroppedFormBlendsOnTheGpuAsTheDirectComposite) {
+  const Rig rig;
+  ServiceBlendSetup setup;
+  setup.bake_dir = BakedSite::get().dir / "bake";
+  setup.blend = "blend:\n  device: gpu\n  basis: cropped\n";
+  setup.form = render::BasisForm::Cropped;
+  setup.label = "blend.basis cropped";
+  ServiceBlendResult run;
+  ASSERT_NO_FATAL_FAILURE(check_service_blend(rig, setup, run));
+  const nlohmann::json& blend = run.status["blend"];
+  EXPECT_EQ(blend["basis"], "cropped") << blend.dump(2);
+  EXPECT_EQ(blend["device"], "gpu") << blend.dump(2);
+  for (std::size_t j = 0; j < run.manifest.planes.size(); ++j) {
+    const render::BasisImages cropped =
+        render::load_basis(setup.bake_dir, run.manifest, static_cast<int>(j), render::BasisForm::Cropped);
+    EXPECT_EQ(blend["planes"][j]["layers"], cropped.layers) << run.manifest.planes[j].plane.name;
+  }
+}
+
+// The service on a compressed bake (tile > 0: clustered) with the blend on `device`, against
+// the compositor driven directly with the PCA form's T (the service's blend of the PCA form is
+// the same sum as blend_cpu's).
 void expect_service_blends_the_pca_form(int tile, const std::string& device) {
   RigOptions rig_options;
   const Rig rig(rig_options);
-  const fs::path bake_dir = compressed_bake(rig, tile);
-  write_config_with_bake(rig, bake_dir, "blend:\n  device: " + device + "\n  basis: pca\n");
-  const live::LiveConfig config = rig.config();
-  ASSERT_EQ(config.blend.basis, live::BlendSettings::Basis::Pca);
-  live::ServiceOptions options = quiet_options();
-  options.frames = 20;
-  options.record = rig.dir() / "recorded";
-  nlohmann::json status;
-  {
-    RunningService running(config, options);
-    running.join();
-    ASSERT_EQ(running.error(), "");
-    status = running.status();
-  }
+  ServiceBlendSetup setup;
+  setup.bake_dir = compressed_bake(rig, tile);
+  setup.blend = "blend:\n  device: " + device + "\n  basis: pca\n";
+  setup.form = render::BasisForm::Pca;
+  setup.label = "blend.basis pca, tile " + std::to_string(tile);
+  ServiceBlendResult run;
+  ASSERT_NO_FATAL_FAILURE(check_service_blend(rig, setup, run));
+  ASSERT_EQ(rig.config().blend.basis, live::BlendSettings::Basis::Pca);
 
   // Status: the form and the layers each plane blends (K + 1 of the dome's n).
-  const bake::Manifest manifest = bake::read_manifest(bake_dir);
-  const nlohmann::json& blend = status["blend"];
+  const bake::Manifest& manifest = run.manifest;
+  const nlohmann::json& blend = run.status["blend"];
   EXPECT_EQ(blend["basis"], "pca") << blend.dump(2);
-  ASSERT_EQ(blend["planes"].size(), manifest.planes.size()) << blend.dump(2);
+  EXPECT_EQ(blend["device"], device) << blend.dump(2);
   for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
     const bake::PlaneRecord& record = manifest.planes[j];
     ASSERT_TRUE(record.pca);
     const nlohmann::json& plane = blend["planes"][j];
-    EXPECT_EQ(plane["name"], record.plane.name);
     EXPECT_EQ(plane["layers"], record.pca->components + 1);
-    EXPECT_EQ(plane["source_layers"], manifest.faces.size());
     EXPECT_EQ(plane["max_error"], record.pca->max_error);
     // A tile as large as the plane is no tiling.
     const bool cut = tile > 0 && (tile < record.plane.width || tile < record.plane.height);
     EXPECT_EQ(record.pca->tile, cut ? tile : 0) << record.plane.name;
     std::printf("measured: plane '%s': PCA form of %d + 1 layers for %zu, max_error %.4g\n", record.plane.name.c_str(),
                 record.pca->components, manifest.faces.size(), record.pca->max_error);
+    // T of the full form, with the same sky and visibility, within max_error of the PCA form's
+    // (max_error bounds |F − F̂| on the stored forms; T blends them in float: a few ulps more).
+    const render::BasisImages full = render::load_basis(setup.bake_dir, manifest, static_cast<int>(j), render::BasisForm::Full);
+    std::vector<float> full_t(full.texel_count() * 3);
+    render::blend_cpu(full, render::blend_weights(full, run.sky, run.sun), run.visibility[j], full_t);
+    const double difference = largest_difference(run.shadow_ratios[j], full_t);
+    std::printf("measured: plane '%s': max |T_pca − T_full| %.4g (manifest max_error %.4g)\n", record.plane.name.c_str(),
+                difference, record.pca->max_error);
+    EXPECT_LE(difference, record.pca->max_error + 1e-5);
   }
-  EXPECT_GT(status["blends"]["run"].get<std::int64_t>(), 0);
-  EXPECT_LT(status["frames_without_sky"].get<std::int64_t>(), 15) << "the sky came too late to compare frames";
-
-  // The same sky without the service: T of each plane from both forms, and the composite with
-  // the PCA form's T (the CPU blend with the sun's shadow map's visibility, as the service's).
-  const gpu::HeadlessContext context;
-  const scene::Site site = scene::load_site(config.site);
-  const scene::Mesh mesh = scene::load_model(site.model, site.up, site.scale);
-  std::vector<std::size_t> shape;
-  const std::vector<float> transfer = bake::read_npy(bake_dir / manifest.transfer_file, &shape);
-  const geom::Dome dome(manifest.plan.frequency);
-  sky::SkyEstimateOptions estimate_options;
-  estimate_options.table.basis = manifest.plan.basis;
-  const sky::SkyEstimator estimator(sky::load_calibration(config.sky.calibration), dome, estimate_options);
-  const sky::SkyEstimate estimate =
-      estimator.estimate(sky::linearise(sky::read_sky_image(rig.dir() / "sky" / "frame_0000.exr"), sky::ResponseCurve::linear(8), {}));
-  ASSERT_TRUE(estimate.sun) << estimate.sun_reason;
-  const std::vector<Vector3d> S = sky::layer_radiances(estimate.luminance);
-  const render::SunLight sun{estimate.sun->direction, estimate.sun->energy};
-  std::vector<geom::Plane> planes;
-  for (const auto& record : manifest.planes) planes.push_back(record.plane);
-  render::SunShadowMap shadow_map(mesh, planes);
-  shadow_map.update(sun.direction, std::max(estimate.sun->angular_radius, 0.0047));
-
-  std::vector<gpu::Texture> textures;
-  std::vector<GLuint> names;
-  for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
-    const int plane = static_cast<int>(j);
-    const std::vector<float> visibility = shadow_map.read_visibility(plane);
-    std::vector<float> full_t, pca_t;
-    int width = 0, height = 0;
-    for (const render::BasisForm form : {render::BasisForm::Full, render::BasisForm::Pca}) {
-      const render::BasisImages basis = render::load_basis(bake_dir, manifest, plane, form);
-      std::vector<float> rgb(basis.texel_count() * 3);
-      render::blend_cpu(basis, render::blend_weights(basis, S, sun), visibility, rgb);
-      (form == render::BasisForm::Pca ? pca_t : full_t) = std::move(rgb);
-      width = basis.width;
-      height = basis.height;
-    }
-    const double difference = largest_difference(pca_t, full_t);
-    const double max_error = manifest.planes[j].pca->max_error;
-    std::printf("measured: plane '%s': max |T_pca − T_full| %.4g (manifest max_error %.4g)\n",
-                manifest.planes[j].plane.name.c_str(), difference, max_error);
-    // max_error bounds |F − F̂| on the stored forms; T blends them in float (a few ulps more).
-    EXPECT_LE(difference, max_error + 1e-5);
-    textures.push_back(render::upload_shadow_ratio(pca_t, width, height));
-    names.push_back(textures.back().get());
-  }
-
-  const auto pose = track::open_pose_source(config.pose)->pose_at(0.0);
-  ASSERT_TRUE(pose);
-  render::CompositeInput input;
-  input.pose.R_site_from_camera = pose->R_site_from_camera.toRotationMatrix();
-  input.pose.t_site_from_camera = pose->t_site_from_camera;
-  input.sky = S;
-  input.sun = sun;
-  input.shadow_ratios = names;
-  input.sun_shadow = &shadow_map;
-  render::Compositor compositor(site, mesh, manifest, transfer, sky::load_calibration(config.camera.calibration));
-  std::vector<cv::Mat> direct;
-  for (const cv::Mat& camera : rig.camera_frames()) {
-    input.camera = camera;
-    direct.push_back(compositor.composite(input));
-  }
-  // Each recorded frame after the sky came against the nearest direct composite (the frame it
-  // was made from): the service's CPU blend of the PCA form is the same sum as blend_cpu's.
-  int worst = 0, compared = 0;
-  for (int k = static_cast<int>(status["frames_without_sky"].get<std::int64_t>()); k < 20; ++k) {
-    char name[32];
-    std::snprintf(name, sizeof name, "frame_%06d.png", k);
-    const cv::Mat recorded = cv::imread((rig.dir() / "recorded" / name).string(), cv::IMREAD_UNCHANGED);
-    ASSERT_FALSE(recorded.empty()) << name;
-    int nearest = 255;
-    for (const cv::Mat& d : direct) nearest = std::min(nearest, max_difference(recorded, d));
-    worst = std::max(worst, nearest);
-    ++compared;
-  }
-  std::printf("measured: blend.basis pca, tile %d, %s: %d frames, max |service − direct with the PCA form's T| %d codes\n",
-              tile, device.c_str(), compared, worst);
-  EXPECT_GT(compared, 4);
-  EXPECT_LE(worst, 2);
 }
 
 TEST(LivePcaBasis, CompressedBakeBlendsItsPcaFormWithinItsMaxError) { expect_service_blends_the_pca_form(0, "cpu"); }
