@@ -29,37 +29,7 @@ std::string describe(double x) {
 // A basis must hold what its header says before any loop trusts its sizes.
 void check_basis(const BasisImages& basis) {
   const std::string field = "basis '" + basis.name + "'";
-  if (basis.width < 0 || basis.height < 0 || basis.layers < 0) {
-    bad_input(field, "negative size " + std::to_string(basis.width) + "x" + std::to_string(basis.height) + "x" +
-                         std::to_string(basis.layers),
-              "load the basis with load_basis");
-  }
-  if (basis.cropped()) {
-    if (basis.crops.size() != static_cast<std::size_t>(basis.layers) || basis.tile > 0) {
-      bad_input(field + ".crops", std::to_string(basis.crops.size()) + " rectangles for " + std::to_string(basis.layers) +
-                                      " layers" + (basis.tile > 0 ? " of a tiled basis" : ""),
-                "load the basis with load_basis(…, BasisForm::Cropped)");
-    }
-    std::size_t expected = 0;
-    for (const LayerCrop& c : basis.crops) {
-      const bool inside = c.col >= 0 && c.row >= 0 && c.cols >= 0 && c.rows >= 0 && c.col + c.cols <= basis.width &&
-                          c.row + c.rows <= basis.height;
-      if (!inside || c.offset != expected || !std::isfinite(c.fill)) {
-        bad_input(field + ".crops", "a rectangle lies outside the plane, out of order or with a fill that is not finite",
-                  "load the basis with load_basis(…, BasisForm::Cropped)");
-      }
-      expected += static_cast<std::size_t>(c.cols) * static_cast<std::size_t>(c.rows);
-    }
-    if (basis.half.size() != expected) {
-      bad_input(field, "holds " + std::to_string(basis.half.size()) + " values for rectangles of " +
-                           std::to_string(expected) + " texels",
-                "load the basis with load_basis(…, BasisForm::Cropped)");
-    }
-  } else if (basis.half.size() != basis.texel_count() * static_cast<std::size_t>(basis.layers)) {
-    bad_input(field, "holds " + std::to_string(basis.half.size()) + " values for " + std::to_string(basis.layers) +
-                         " layers of " + std::to_string(basis.width) + "x" + std::to_string(basis.height),
-              "load the basis with load_basis");
-  }
+  check_basis_storage(basis);
   if (basis.tile < 0 || (basis.tile > 0 && !basis.compressed())) {
     bad_input(field + ".tile", std::to_string(basis.tile) + (basis.tile < 0 ? " is negative" : " without a projection"),
               "load the basis with load_basis");
@@ -177,6 +147,41 @@ float BasisImages::value(int layer, int col, int row) const {
   if (!c.contains(col, row)) return c.fill;
   return half_to_float(half[c.offset + static_cast<std::size_t>(row - c.row) * static_cast<std::size_t>(c.cols) +
                             static_cast<std::size_t>(col - c.col)]);
+}
+
+void check_basis_storage(const BasisImages& basis) {
+  const std::string field = "basis '" + basis.name + "'";
+  if (basis.width < 0 || basis.height < 0 || basis.layers < 0) {
+    bad_input(field, "negative size " + std::to_string(basis.width) + "x" + std::to_string(basis.height) + "x" +
+                         std::to_string(basis.layers),
+              "load the basis with load_basis");
+  }
+  if (basis.cropped()) {
+    if (basis.crops.size() != static_cast<std::size_t>(basis.layers) || basis.tile > 0) {
+      bad_input(field + ".crops", std::to_string(basis.crops.size()) + " rectangles for " + std::to_string(basis.layers) +
+                                      " layers" + (basis.tile > 0 ? " of a tiled basis" : ""),
+                "load the basis with load_basis(…, BasisForm::Cropped)");
+    }
+    std::size_t expected = 0;
+    for (const LayerCrop& c : basis.crops) {
+      const bool inside = c.col >= 0 && c.row >= 0 && c.cols >= 0 && c.rows >= 0 && c.col + c.cols <= basis.width &&
+                          c.row + c.rows <= basis.height;
+      if (!inside || c.offset != expected || !std::isfinite(c.fill)) {
+        bad_input(field + ".crops", "a rectangle lies outside the plane, out of order or with a fill that is not finite",
+                  "load the basis with load_basis(…, BasisForm::Cropped)");
+      }
+      expected += static_cast<std::size_t>(c.cols) * static_cast<std::size_t>(c.rows);
+    }
+    if (basis.half.size() != expected) {
+      bad_input(field, "holds " + std::to_string(basis.half.size()) + " values for rectangles of " +
+                           std::to_string(expected) + " texels",
+                "load the basis with load_basis(…, BasisForm::Cropped)");
+    }
+  } else if (basis.half.size() != basis.texel_count() * static_cast<std::size_t>(basis.layers)) {
+    bad_input(field, "holds " + std::to_string(basis.half.size()) + " values for " + std::to_string(basis.layers) +
+                         " layers of " + std::to_string(basis.width) + "x" + std::to_string(basis.height),
+              "load the basis with load_basis");
+  }
 }
 
 BasisImages uncropped(const BasisImages& basis) {

@@ -32,33 +32,7 @@ void check_basis(const BasisImages& basis) {
                          std::to_string(basis.layers) + " has no texels",
               "load the basis with load_basis");
   }
-  if (basis.cropped()) {
-    // The cropped form: one rectangle per layer, inside the plane, stored back to back.
-    if (basis.crops.size() != static_cast<std::size_t>(basis.layers) || basis.tile != 0) {
-      bad_input(field + ".crops", std::to_string(basis.crops.size()) + " rectangles for " + std::to_string(basis.layers) +
-                                      " layers" + (basis.tile != 0 ? " of a tiled basis" : ""),
-                "load the basis with load_basis(…, BasisForm::Cropped)");
-    }
-    std::size_t expected = 0;
-    for (const LayerCrop& c : basis.crops) {
-      const bool inside = c.col >= 0 && c.row >= 0 && c.cols >= 0 && c.rows >= 0 && c.col + c.cols <= basis.width &&
-                          c.row + c.rows <= basis.height;
-      if (!inside || c.offset != expected || !std::isfinite(c.fill)) {
-        bad_input(field + ".crops", "a rectangle lies outside the plane, out of order or with a fill that is not finite",
-                  "load the basis with load_basis(…, BasisForm::Cropped)");
-      }
-      expected += static_cast<std::size_t>(c.cols) * static_cast<std::size_t>(c.rows);
-    }
-    if (basis.half.size() != expected) {
-      bad_input(field, "holds " + std::to_string(basis.half.size()) + " values for rectangles of " +
-                           std::to_string(expected) + " texels",
-                "load the basis with load_basis(…, BasisForm::Cropped)");
-    }
-  } else if (basis.half.size() != basis.texel_count() * static_cast<std::size_t>(basis.layers)) {
-    bad_input(field, "holds " + std::to_string(basis.half.size()) + " values for " + std::to_string(basis.layers) +
-                         " layers of " + std::to_string(basis.width) + "x" + std::to_string(basis.height),
-              "load the basis with load_basis");
-  }
+  check_basis_storage(basis);
   if (basis.tile < 0) {
     bad_input(field + ".tile", std::to_string(basis.tile) + " is negative", "load the basis with load_basis");
   }

@@ -106,8 +106,13 @@ BasisImages load_basis(const std::filesystem::path& bake_dir, const bake::Manife
                        BasisForm form = BasisForm::Full);
 
 // A cropped basis with every layer whole again (the fill outside its rectangle), for consumers
-// that read whole layers (the GPU blend); any other basis as it is.
+// that read whole layers; any other basis as it is.
 BasisImages uncropped(const BasisImages& basis);
+
+// InputError unless the stored values are what the header says: sizes not negative, and
+// `half` holding every whole layer, or (cropped) one rectangle per layer inside the plane, back
+// to back, with finite fills. Both blends check this before any loop trusts the sizes.
+void check_basis_storage(const BasisImages& basis);
 
 struct SunLight {
   Vec3 direction = Vec3::UnitZ();                    // unit, site frame, towards the sun
