@@ -32,9 +32,9 @@ TEST(Presets, TheShippedOnesLoad) {
   for (const Preset& p : presets) {
     SCOPED_TRACE(p.name);
     EXPECT_EQ(p.bake.frequency % 2, 0);
-    EXPECT_TRUE(p.bake.basis == "faces" || p.bake.basis == "corners");
-    EXPECT_GE(p.bake.samples, p.bake.basis == "corners" ? 3 : 1);
-    EXPECT_TRUE(p.live.basis == "full" || p.live.basis == "lean" || p.live.basis == "pca");
+    EXPECT_TRUE(p.bake.basis == "faces" || p.bake.basis == "corners" || p.bake.basis == "quadratics");
+    EXPECT_GE(p.bake.samples, p.bake.basis == "quadratics" ? 6 : p.bake.basis == "corners" ? 3 : 1);
+    EXPECT_TRUE(p.live.basis == "full" || p.live.basis == "lean" || p.live.basis == "pca" || p.live.basis == "cropped");
     if (p.live.basis == "pca") {
       EXPECT_GT(p.bake.pca_components, 0);
     }
