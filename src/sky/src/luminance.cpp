@@ -313,7 +313,7 @@ template <class Vector>
 
 // One face's sums in registers while a run is added.
 template <int kWidth, bool kQuadratic>
-struct CornerLanes {
+struct FittedLanes {
   using V = Vec<kWidth>;
   using Float = typename V::Float;
   using Int = typename V::Int;
@@ -329,7 +329,7 @@ struct CornerLanes {
   Float q01_b, q01_g, q01_r;  // w·λ0·λ1·L
   Float lowest;
 
-  [[gnu::always_inline]] explicit CornerLanes(const FaceLanes<kQuadratic>& f) {
+  [[gnu::always_inline]] explicit FittedLanes(const FaceLanes<kQuadratic>& f) {
     load_vector(sum_b, f.sum[0]);
     load_vector(sum_g, f.sum[1]);
     load_vector(sum_r, f.sum[2]);
@@ -534,7 +534,7 @@ inline void add_function_sums(Sums& sums, double w, double l0, double l1, const 
 
 // The careful pass of one run: every value sanitised, double sums straight into `sums`.
 template <bool kQuadratic>
-void corner_run_careful(const float* pixel, std::ptrdiff_t stride, const std::uint8_t* clipped,
+void fitted_run_careful(const float* pixel, std::ptrdiff_t stride, const std::uint8_t* clipped,
                         const std::uint8_t* exclude, std::ptrdiff_t mask_stride, const float* weights,
                         const std::uint16_t* lambda, std::int32_t count, Sums& sums) {
   for (std::int32_t k = 0; k < count; ++k) {
@@ -564,7 +564,7 @@ void corner_run_careful(const float* pixel, std::ptrdiff_t stride, const std::ui
 // value. `clipped` and `exclude` are null where the run has none. `run_weight`: Σ w of all its
 // samples (the part of face_solid_angle that the fast sums do not cover).
 template <bool kQuadratic>
-bool add_masked_corner_run(const RunData& d, std::ptrdiff_t stride, const std::uint8_t* clipped,
+bool add_masked_fitted_run(const RunData& d, std::ptrdiff_t stride, const std::uint8_t* clipped,
                            const std::uint8_t* exclude, std::ptrdiff_t mask_stride, Sums& sums,
                            double& run_weight) {
   Sums run;
@@ -611,10 +611,11 @@ bool add_masked_corner_run(const RunData& d, std::ptrdiff_t stride, const std::u
   return true;
 }
 
-// What the corners pass works on. Per face: the double sums, the float lane sums, the weight of
-// its runs that a mask touched, and whether it must be summed again value by value.
+// What the fitted pass (corners or quadratics) works on. Per face: the double sums, the float
+// lane sums, the weight of its runs that a mask touched, and whether it must be summed again
+// value by value.
 template <bool kQuadratic>
-struct CornersPass {
+struct FittedPass {
   const SkyTable& table;
   const cv::Mat& radiance;
   const cv::Mat& clipped;  // may be empty
@@ -626,9 +627,9 @@ struct CornersPass {
 };
 
 // The fast pass, always inlined: it takes the instruction set of its caller
-// (fast_corner_pass_avx2 or fast_corner_pass_portable). Returns the samples visited.
+// (fast_fitted_pass_avx2 or fast_fitted_pass_portable). Returns the samples visited.
 template <int kWidth, bool kQuadratic>
-[[gnu::always_inline]] inline std::int64_t fast_corner_pass(const CornersPass<kQuadratic>& p) {
+[[gnu::always_inline]] inline std::int64_t fast_fitted_pass(const FittedPass<kQuadratic>& p) {
   // Everything the loop reads from the table and the frames in locals: the lane sums' stores
   // (memcpy) may alias anything, and would make the compiler read them again for every run.
   const SkyTable& table = p.table;
@@ -667,7 +668,7 @@ template <int kWidth, bool kQuadratic>
     if (e && !any_set(e, run->count, step)) e = nullptr;
     if (c || e) [[unlikely]] {
       double run_weight = 0;
-      if (add_masked_corner_run<kQuadratic>(d, stride, c, e, step, sums[face], run_weight)) {
+      if (add_masked_fitted_run<kQuadratic>(d, stride, c, e, step, sums[face], run_weight)) {
         masked_weight[face] += run_weight;
       } else {
         careful[face] = 1;
@@ -675,7 +676,7 @@ template <int kWidth, bool kQuadratic>
       continue;
     }
     FaceLanes<kQuadratic>& stored = face_lanes[face];
-    CornerLanes<kWidth, kQuadratic> lanes(stored);
+    FittedLanes<kWidth, kQuadratic> lanes(stored);
     if (step == 1) {
       lanes.template add_run<true>(d, stride, ends);
     } else {
@@ -692,8 +693,8 @@ template <int kWidth, bool kQuadratic>
 }
 
 template <bool kQuadratic>
-std::int64_t fast_corner_pass_portable(const CornersPass<kQuadratic>& p) {
-  return fast_corner_pass<4, kQuadratic>(p);
+std::int64_t fast_fitted_pass_portable(const FittedPass<kQuadratic>& p) {
+  return fast_fitted_pass<4, kQuadratic>(p);
 }
 
 #if SKYLIT_SKY_X86
@@ -701,8 +702,8 @@ std::int64_t fast_corner_pass_portable(const CornersPass<kQuadratic>& p) {
 // agree with the portable pass to float rounding, not bit for bit); eight lanes at step 1, four
 // where the step skips pixels (the lanes are then filled one by one and the runs are short).
 template <bool kQuadratic>
-__attribute__((target("avx2,fma"))) std::int64_t fast_corner_pass_avx2(const CornersPass<kQuadratic>& p) {
-  return p.table.step == 1 ? fast_corner_pass<8, kQuadratic>(p) : fast_corner_pass<4, kQuadratic>(p);
+__attribute__((target("avx2,fma"))) std::int64_t fast_fitted_pass_avx2(const FittedPass<kQuadratic>& p) {
+  return p.table.step == 1 ? fast_fitted_pass<8, kQuadratic>(p) : fast_fitted_pass<4, kQuadratic>(p);
 }
 bool cpu_has_avx2_fma() { return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"); }
 #endif
@@ -717,12 +718,12 @@ void accumulate_fitted(const SkyTable& table, const cv::Mat& radiance, const cv:
   std::vector<FaceLanes<kQuadratic>> lanes(n);
   std::vector<double> masked_weight(n, 0.0);
   std::vector<std::uint8_t> careful(n, 0);
-  const CornersPass<kQuadratic> pass{table, radiance, clipped, exclude, sums, lanes, masked_weight, careful};
+  const FittedPass<kQuadratic> pass{table, radiance, clipped, exclude, sums, lanes, masked_weight, careful};
 #if SKYLIT_SKY_X86
-  samples += use_simd && cpu_has_avx2_fma() ? fast_corner_pass_avx2(pass) : fast_corner_pass_portable(pass);
+  samples += use_simd && cpu_has_avx2_fma() ? fast_fitted_pass_avx2(pass) : fast_fitted_pass_portable(pass);
 #else
   (void)use_simd;
-  samples += fast_corner_pass_portable(pass);
+  samples += fast_fitted_pass_portable(pass);
 #endif
   bool any_careful = false;
   for (std::size_t face = 0; face < n; ++face) {
@@ -739,7 +740,7 @@ void accumulate_fitted(const SkyTable& table, const cv::Mat& radiance, const cv:
   for (const PixelRun& run : table.runs) {
     const auto face = static_cast<std::size_t>(run.face);
     if (!careful[face]) continue;
-    corner_run_careful<kQuadratic>(
+    fitted_run_careful<kQuadratic>(
         radiance.ptr<float>(run.row) + 3 * std::ptrdiff_t{run.col_begin}, 3 * step,
         clipped.empty() ? nullptr : clipped.ptr<std::uint8_t>(run.row) + run.col_begin,
         exclude.empty() ? nullptr : exclude.ptr<std::uint8_t>(run.row) + run.col_begin, step,
