@@ -1155,7 +1155,7 @@ int main(int argc, char** argv) {
   trade->add_option("--sky", o.skies, "only these skies (file stems)")->delimiter(',');
   trade->add_option("--out", o.out_dir, "bakes (cached) and results")->capture_default_str();
   trade->add_option("--frequencies", o.frequencies, "dome frequencies ν")->delimiter(',')->capture_default_str();
-  trade->add_option("--bases", o.bases, "faces, corners")->delimiter(',')->capture_default_str();
+  trade->add_option("--bases", o.bases, "faces, corners, quadratics")->delimiter(',')->capture_default_str();
   trade->add_option("--samples", o.samples, "samples per face")->delimiter(',')->capture_default_str();
   trade->add_option("--texel-scales", o.texel_scales, "plane resolution divisors (1: the site's)")->delimiter(',')->capture_default_str();
   trade->add_option("--forms", o.forms, "full, lean, cropped, pcaK, pcaKtN (clustered PCA, tiles of N texels)")->delimiter(',')->capture_default_str();
