@@ -29,7 +29,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <random>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -260,28 +259,6 @@ double median_of(std::vector<double> values) {
   return n % 2 == 1 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
 }
 
-// The cropped form of `full`: each layer kept within a square of `fraction` of the plane's texels
-// at a pseudo-random place, its A outside (as BasisForm::Cropped stores a lean layer).
-BasisImages synthetic_cropped_basis(const BasisImages& full, double fraction, std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  BasisImages b = full;
-  b.half.clear();
-  const int side = std::max(1, static_cast<int>(std::lround(std::sqrt(fraction) * full.width)));
-  std::uniform_int_distribution<int> place(0, full.width - side);
-  for (int l = 0; l < full.layers; ++l) {
-    skylit::render::LayerCrop c{place(rng), place(rng), side, side, b.half.size(),
-                                static_cast<float>(full.unoccluded[static_cast<std::size_t>(l)])};
-    for (int r = 0; r < side; ++r) {
-      const std::uint16_t* from = full.half.data() + static_cast<std::size_t>(l) * full.texel_count() +
-                                  static_cast<std::size_t>(c.row + r) * static_cast<std::size_t>(full.width) +
-                                  static_cast<std::size_t>(c.col);
-      b.half.insert(b.half.end(), from, from + side);
-    }
-    b.crops.push_back(c);
-  }
-  return b;
-}
-
 // The table "PCA forms" (see the header), on stdout.
 void pca_table(const PcaSettings& settings) {
   std::printf("\nPCA forms: blend_cpu per plane of %d² (default options: all hardware threads, %s; warm), "
@@ -304,7 +281,7 @@ void pca_table(const PcaSettings& settings) {
                                           0xca5e0000ull + static_cast<std::uint64_t>(frequency)));
     }
     // The cropped form at the share the sample site's ground keeps at ν = 8 (43% of the texels).
-    forms.push_back(synthetic_cropped_basis(full, 0.43, 0xc0ull + static_cast<std::uint64_t>(frequency)));
+    forms.push_back(skylit::bench::synthetic_cropped_basis(full, 0.43, 0xc0ull + static_cast<std::uint64_t>(frequency)));
     std::vector<float> out(3 * full.texel_count());
     double full_median = 0.0;
     for (std::size_t f = 0; f <= forms.size(); ++f) {

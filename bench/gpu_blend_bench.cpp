@@ -5,7 +5,7 @@
 //
 //   gpu_blend_bench [--size 512] [--repeats 9] [--batch 20] [--frequencies 2,4,8] [--planes 1,4,16]
 //                   [--storage r16f,r8,eac] [--layout packed,single] [--no-check] [--shader-dir DIR]
-//                   [--pca K] [--pca-tiles 0,64]
+//                   [--pca K] [--pca-tiles 0,64] [--cropped F]
 //
 // Layouts: packed = four layers per texel (RGBA16F / RGBA8 arrays; two in RG11 EAC), single = one
 // (R16F / R8 / R11 EAC).
@@ -22,6 +22,15 @@
 // [-1, 1]; projection n × (tile_count · (K + 1)), column t · (K + 1) = A_l (tile t's mean) and
 // A_l · [-0.1, 0.1] elsewhere, so that T stays near [0, 1]. Half storage, packed layout only (the
 // eigen-images are negative). The check table adds each PCA form against blend_cpu.
+//
+// --cropped F (default 0: off; 0 < F <= 1) adds the table "Cropped forms": per ν, storage, layout
+// and plane count, the whole-layer basis above beside its cropped form (BasisImages::crops, held
+// by the GPU blend in an atlas of 16 × 16 pages): each layer kept within a square of F of the
+// plane's texels (side round(√F · size)) at a pseudo-random place, B = A outside it
+// (bench/synthetic_pca.hpp, synthetic_cropped_basis, as blend_bench's, with each fill rounded to
+// half as a baked cropped form's; 0.43 is what the sample site's ground keeps at ν = 8). Basis read (GpuBlender::basis_bytes(): the atlas, unused page
+// slots included), pages, time, floor and time / floor as in the first table, and time / the
+// whole-layer basis's. The check table adds each cropped form against blend_cpu.
 #include <EGL/egl.h>
 #include <GLES3/gl31.h>
 #include <GLES2/gl2ext.h>
@@ -68,13 +77,14 @@ struct Settings {
   std::string shader_dir;
   int pca = 0;                       // K eigen-images of the PCA forms; 0: no PCA table
   std::vector<int> pca_tiles{0, 64};  // 0: untiled
+  double cropped = 0.0;              // F: share of the texels each cropped layer keeps; 0: no cropped table
 };
 
 [[noreturn]] void usage(const std::string& problem) {
   std::fprintf(stderr,
                "gpu_blend_bench: %s\nusage: gpu_blend_bench [--size N] [--repeats N] [--batch N] [--frequencies 2,4,8] "
                "[--planes 1,4,16] [--storage r16f,r8,eac] [--layout packed,single] [--no-check] [--shader-dir DIR] "
-               "[--pca K] [--pca-tiles 0,64]\n",
+               "[--pca K] [--pca-tiles 0,64] [--cropped F]\n",
                problem.c_str());
   std::exit(2);
 }
@@ -105,6 +115,16 @@ int non_negative(const std::string& text, const std::string& option) {
   } catch (const std::exception&) {
   }
   usage("option " + option + " needs integers >= 0, got '" + text + "'");
+}
+
+double share(const std::string& text, const std::string& option) {
+  try {
+    std::size_t used = 0;
+    const double value = std::stod(text, &used);
+    if (used == text.size() && value > 0.0 && value <= 1.0) return value;
+  } catch (const std::exception&) {
+  }
+  usage("option " + option + " needs a number in (0, 1], got '" + text + "'");
 }
 
 Settings parse(int argc, char** argv) {
@@ -157,6 +177,8 @@ Settings parse(int argc, char** argv) {
     } else if (arg == "--pca-tiles") {
       s.pca_tiles.clear();
       for (const std::string& t : split(value())) s.pca_tiles.push_back(non_negative(t, arg));
+    } else if (arg == "--cropped") {
+      s.cropped = share(value(), arg);
     } else {
       usage("unknown option '" + arg + "'");
     }
@@ -368,7 +390,8 @@ int main(int argc, char** argv) {
       for (std::size_t k = 0; k < cpu.size(); ++k) worst = std::max(worst, std::abs(static_cast<double>(gpu[k]) - cpu[k]));
       return worst;
     };
-    std::vector<std::string> pca_rows;  // the "PCA forms" table, printed after the others
+    std::vector<std::string> pca_rows;      // the "PCA forms" table, printed after the others
+    std::vector<std::string> cropped_rows;  // the "Cropped forms" table, printed last
     for (const int frequency : settings.frequencies) {
       const int layers = 10 * frequency * frequency;
       const BasisImages basis = synthetic_basis(settings.size, layers, 0x5EED0000ULL + static_cast<std::uint64_t>(frequency));
@@ -480,6 +503,93 @@ int main(int argc, char** argv) {
           }
         }
       }
+      if (settings.cropped > 0.0) {
+        // The whole-layer basis and its cropped form, in each storage and layout of the run.
+        BasisImages cropped = skylit::bench::synthetic_cropped_basis(
+            basis, settings.cropped, 0xC0ULL + static_cast<std::uint64_t>(frequency));
+        // Each fill A rounded to half, as load_basis's cropped form stores it (render/basis.cpp) and
+        // as the GPU's pages hold it outside a rectangle: unrounded, the check would read the
+        // fill's half rounding (~1e-5 of T here) instead of the blend's.
+        for (skylit::render::LayerCrop& crop : cropped.crops) {
+          crop.fill = skylit::render::half_to_float(skylit::render::float_to_half(crop.fill));
+        }
+        const int side = cropped.crops.front().cols;
+        char cropped_name[96];
+        std::snprintf(cropped_name, sizeof cropped_name, "cropped to %.0f%% (%d² of %d²)",
+                      100.0 * side * side / (static_cast<double>(settings.size) * settings.size), side, settings.size);
+        for (const bool packed : settings.packed) {
+        for (const BasisStorage storage : settings.storages) {
+          GpuBlendOptions options;
+          options.storage = storage;
+          options.pack_layers = packed;
+          options.shader_dir = settings.shader_dir;
+          struct Form {
+            std::string name;
+            const BasisImages* basis;
+            std::vector<Timing> per_call;   // per plane count
+            std::vector<Timing> sustained;  // per plane count
+            std::size_t bytes = 0;          // of one plane's basis texture array (or atlas)
+            int slices = 0;
+            int pages = 0;
+          };
+          std::vector<Form> forms;
+          forms.push_back({"whole layers", &basis, {}, {}, 0, 0, 0});
+          forms.push_back({cropped_name, &cropped, {}, {}, 0, 0, 0});
+          for (Form& form : forms) {
+            std::vector<std::unique_ptr<GpuBlender>> blenders;
+            for (const int planes : settings.planes) {
+              while (static_cast<int>(blenders.size()) < planes) {
+                blenders.push_back(std::make_unique<GpuBlender>(*form.basis, options));
+              }
+              const auto call = [&] {
+                for (int j = 0; j < planes; ++j) {
+                  blenders[static_cast<std::size_t>(j)]->invalidate();
+                  blenders[static_cast<std::size_t>(j)]->blend(weights);
+                }
+              };
+              form.per_call.push_back(time_it(timer, settings.repeats, call));
+              form.sustained.push_back(time_it(timer, settings.repeats, call, settings.batch, std::chrono::milliseconds(0)));
+              form.bytes = blenders.front()->basis_bytes();
+              form.slices = blenders.front()->slices();
+              form.pages = blenders.front()->pages();
+            }
+            blenders.clear();
+            if (settings.check && form.basis != &basis) {
+              checks.push_back({form.name + ", " + storage_name(storage, packed), frequency,
+                                compare_with_cpu(*form.basis, options, weights)});
+            }
+          }
+          for (std::size_t p = 0; p < settings.planes.size(); ++p) {
+            const int planes = settings.planes[p];
+            const auto time_of = [](const Timing& t) { return t.gpu_s ? *t.gpu_s : t.wall_s; };
+            const double full = time_of(forms.front().per_call[p]);
+            for (const Form& form : forms) {
+              const Timing& t = form.per_call[p];
+              const double measured = time_of(t);
+              const double sustained = time_of(form.sustained[p]);
+              const double bytes = static_cast<double>(planes) * static_cast<double>(form.bytes);
+              const double floor_s = bytes / bandwidth.best();
+              char gpu_text[32] = "n/a";
+              if (t.gpu_s) std::snprintf(gpu_text, sizeof gpu_text, "%.3f ms", *t.gpu_s * 1e3);
+              char pages_text[48];
+              if (form.pages > 0) {
+                std::snprintf(pages_text, sizeof pages_text, "%d (%d slices)", form.pages, form.slices);
+              } else {
+                std::snprintf(pages_text, sizeof pages_text, "— (%d slices)", form.slices);
+              }
+              char row[640];
+              std::snprintf(row, sizeof row,
+                            "| %s | %s | %d (%d) | %d | %.2f MiB | %s | %.3f ms | %s | %.3f ms | %.4f ms | %.2f× | %.2f× | "
+                            "%.3f× |",
+                            form.name.c_str(), storage_name(storage, packed), frequency, layers, planes,
+                            bytes / (1 << 20), pages_text, t.wall_s * 1e3, gpu_text, sustained * 1e3, floor_s * 1e3,
+                            measured / floor_s, sustained / floor_s, measured / full);
+              cropped_rows.emplace_back(row);
+            }
+          }
+        }
+        }
+      }
     }
     if (!checks.empty()) {
       std::printf("\nmax |T_gpu - T_cpu| on one plane (RGBA32F output, blend_cpu reference):\n\n");
@@ -494,6 +604,16 @@ int main(int argc, char** argv) {
                   settings.size);
       std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
       for (const std::string& row : pca_rows) std::printf("%s\n", row.c_str());
+    }
+    if (!cropped_rows.empty()) {
+      std::printf("\nCropped forms (every plane blended once per call, all layers active; time = GPU time where the "
+                  "driver has a timer, else wall time; floor = basis read / the faster copy bandwidth; time / whole = "
+                  "time over the whole-layer basis's in the same storage):\n\n");
+      std::printf("| form | basis | ν (layers) | planes of %d² | basis read | pages | wall | GPU | sustained | floor | "
+                  "GPU / floor | sustained / floor | time / whole |\n",
+                  settings.size);
+      std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+      for (const std::string& row : cropped_rows) std::printf("%s\n", row.c_str());
     }
     std::printf("\nfloor = basis bytes / the faster copy bandwidth (read + written); time = GPU time where the "
                 "driver has a timer, else wall time\n");

@@ -1,8 +1,13 @@
 #pragma once
-// A random generator and a synthetic PCA form for the blend benchmarks (blend_bench,
-// gpu_blend_bench): header-only, so that the GPU bench's standalone build
-// (bench/gpu_standalone.sh) needs no further source.
+// The synthetic forms both blend benchmarks (blend_bench, gpu_blend_bench) use: a random
+// generator, the synthetic PCA form (synthetic_pca_basis) and the synthetic cropped form
+// (synthetic_cropped_basis) of a full basis. Header-only, so that the GPU bench's standalone
+// build (bench/gpu_standalone.sh) needs no further source.
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
 #include <cstdint>
+#include <random>
 #include <vector>
 
 #include "skylit/render/cpu_blend.hpp"
@@ -54,6 +59,30 @@ inline render::BasisImages synthetic_pca_basis(int side, const std::vector<doubl
     }
   }
   return basis;
+}
+
+// The cropped form of `full` (square planes: width = height): each layer kept within a square of
+// `fraction` of the plane's texels at a pseudo-random place, its A outside (as BasisForm::Cropped
+// stores a lean layer).
+inline render::BasisImages synthetic_cropped_basis(const render::BasisImages& full, double fraction,
+                                                   std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  render::BasisImages b = full;
+  b.half.clear();
+  const int side = std::max(1, static_cast<int>(std::lround(std::sqrt(fraction) * full.width)));
+  std::uniform_int_distribution<int> place(0, full.width - side);
+  for (int l = 0; l < full.layers; ++l) {
+    render::LayerCrop c{place(rng), place(rng), side, side, b.half.size(),
+                        static_cast<float>(full.unoccluded[static_cast<std::size_t>(l)])};
+    for (int r = 0; r < side; ++r) {
+      const std::uint16_t* from = full.half.data() + static_cast<std::size_t>(l) * full.texel_count() +
+                                  static_cast<std::size_t>(c.row + r) * static_cast<std::size_t>(full.width) +
+                                  static_cast<std::size_t>(c.col);
+      b.half.insert(b.half.end(), from, from + side);
+    }
+    b.crops.push_back(c);
+  }
+  return b;
 }
 
 }  // namespace skylit::bench
