@@ -237,6 +237,7 @@ class GpuTimer {
 struct Timing {
   double wall_s = 0;
   std::optional<double> gpu_s;
+  double seconds() const { return gpu_s ? *gpu_s : wall_s; }  // GPU time where the driver has a timer
 };
 
 // Median wall and GPU time of `work` (per call of `batch` calls issued back to back).
@@ -306,8 +307,8 @@ Bandwidth copy_bandwidth(const GpuTimer& timer, int repeats, const std::string& 
   skylit::gpu::check_gl_error("copy bandwidth: copies");
   Bandwidth b;
   b.from_gpu_timer = copy.gpu_s.has_value() && compute.gpu_s.has_value();
-  b.copy_bytes_per_s = 2.0 * static_cast<double>(kBytes) / (copy.gpu_s ? *copy.gpu_s : copy.wall_s);
-  b.compute_bytes_per_s = 2.0 * static_cast<double>(kBytes) / (compute.gpu_s ? *compute.gpu_s : compute.wall_s);
+  b.copy_bytes_per_s = 2.0 * static_cast<double>(kBytes) / copy.seconds();
+  b.compute_bytes_per_s = 2.0 * static_cast<double>(kBytes) / compute.seconds();
   return b;
 }
 
@@ -349,6 +350,46 @@ const char* storage_name(BasisStorage storage, bool packed) {
   if (storage == BasisStorage::Half) return packed ? "RGBA16F (4 layers/texel)" : "R16F";
   if (storage == BasisStorage::Eac11) return packed ? "RG11 EAC (2 layers/texel)" : "R11 EAC";
   return packed ? "RGBA8 (4 layers/texel)" : "R8";
+}
+
+GpuBlendOptions blend_options(BasisStorage storage, bool packed, const Settings& settings) {
+  GpuBlendOptions options;
+  options.storage = storage;
+  options.pack_layers = packed;
+  options.shader_dir = settings.shader_dir;
+  return options;
+}
+
+// One basis of a comparison table (PCA forms, cropped forms) and its timings per plane count.
+struct Form {
+  std::string name;
+  const BasisImages* basis;
+  BlendWeights weights;
+  std::vector<Timing> per_call;   // per plane count
+  std::vector<Timing> sustained;  // per plane count
+  std::size_t bytes = 0;          // of one plane's basis texture array (or atlas)
+  int slices = 0;
+  int pages = 0;
+};
+
+// Times `form` blended on every plane count of the run (one blender per plane, all kept until
+// the largest count), once per call and sustained, and notes its texture's size.
+void time_form(Form& form, const GpuBlendOptions& options, const GpuTimer& timer, const Settings& settings) {
+  std::vector<std::unique_ptr<GpuBlender>> blenders;
+  for (const int planes : settings.planes) {
+    while (static_cast<int>(blenders.size()) < planes) blenders.push_back(std::make_unique<GpuBlender>(*form.basis, options));
+    const auto call = [&] {
+      for (int j = 0; j < planes; ++j) {
+        blenders[static_cast<std::size_t>(j)]->invalidate();
+        blenders[static_cast<std::size_t>(j)]->blend(form.weights);
+      }
+    };
+    form.per_call.push_back(time_it(timer, settings.repeats, call));
+    form.sustained.push_back(time_it(timer, settings.repeats, call, settings.batch, std::chrono::milliseconds(0)));
+    form.bytes = blenders.front()->basis_bytes();
+    form.slices = blenders.front()->slices();
+    form.pages = blenders.front()->pages();
+  }
 }
 
 }  // namespace
@@ -398,10 +439,7 @@ int main(int argc, char** argv) {
       const BlendWeights weights = sky_weights(basis, 17);
       for (const bool packed : settings.packed) {
       for (const BasisStorage storage : settings.storages) {
-        GpuBlendOptions options;
-        options.storage = storage;
-        options.pack_layers = packed;
-        options.shader_dir = settings.shader_dir;
+        const GpuBlendOptions options = blend_options(storage, packed, settings);
         std::vector<std::unique_ptr<GpuBlender>> blenders;
         for (const int planes : settings.planes) {
           while (static_cast<int>(blenders.size()) < planes) blenders.push_back(std::make_unique<GpuBlender>(basis, options));
@@ -415,8 +453,8 @@ int main(int argc, char** argv) {
           const Timing sustained = time_it(timer, settings.repeats, call, settings.batch, std::chrono::milliseconds(0));
           const double bytes = static_cast<double>(planes) * static_cast<double>(blenders.front()->basis_bytes());
           const double floor_s = bytes / bandwidth.best();
-          const double measured = t.gpu_s ? *t.gpu_s : t.wall_s;
-          const double measured_sustained = sustained.gpu_s ? *sustained.gpu_s : sustained.wall_s;
+          const double measured = t.seconds();
+          const double measured_sustained = sustained.seconds();
           char gpu_text[32] = "n/a";
           if (t.gpu_s) std::snprintf(gpu_text, sizeof gpu_text, "%.3f ms", *t.gpu_s * 1e3);
           std::printf("| %s | %d (%d) | %d | %.0f MiB | %.3f ms | %s | %.3f ms | %.3f ms | %.2f× | %.2f× |\n",
@@ -440,65 +478,36 @@ int main(int argc, char** argv) {
           pca_forms.push_back(skylit::bench::synthetic_pca_basis(settings.size, basis.unoccluded, settings.pca, tile,
                                                   0xCA5E0000ULL + static_cast<std::uint64_t>(frequency)));
         }
-        struct Form {
-          std::string name;
-          const BasisImages* basis;
-          BlendWeights weights;
-          std::vector<Timing> per_call;   // per plane count
-          std::vector<Timing> sustained;  // per plane count
-          std::size_t bytes = 0;          // of one plane's basis texture array
-          int slices = 0;
-        };
         std::vector<Form> forms;
-        forms.push_back({"full", &basis, weights, {}, {}, 0, 0});
+        forms.push_back({"full", &basis, weights, {}, {}, 0, 0, 0});
         for (const BasisImages& pca : pca_forms) {
           const std::string name = "PCA K=" + std::to_string(settings.pca) +
                                    (pca.tile > 0 ? ", tile " + std::to_string(pca.tile) + " (" +
                                                        std::to_string(pca.tile_count()) + " tiles)"
                                                  : ", untiled");
-          forms.push_back({name, &pca, sky_weights(pca, 17), {}, {}, 0, 0});
+          forms.push_back({name, &pca, sky_weights(pca, 17), {}, {}, 0, 0, 0});
         }
-        GpuBlendOptions options;
-        options.storage = BasisStorage::Half;
-        options.pack_layers = true;
-        options.shader_dir = settings.shader_dir;
+        const GpuBlendOptions options = blend_options(BasisStorage::Half, true, settings);
         for (Form& form : forms) {
-          std::vector<std::unique_ptr<GpuBlender>> blenders;
-          for (const int planes : settings.planes) {
-            while (static_cast<int>(blenders.size()) < planes) {
-              blenders.push_back(std::make_unique<GpuBlender>(*form.basis, options));
-            }
-            const auto call = [&] {
-              for (int j = 0; j < planes; ++j) {
-                blenders[static_cast<std::size_t>(j)]->invalidate();
-                blenders[static_cast<std::size_t>(j)]->blend(form.weights);
-              }
-            };
-            form.per_call.push_back(time_it(timer, settings.repeats, call));
-            form.sustained.push_back(time_it(timer, settings.repeats, call, settings.batch, std::chrono::milliseconds(0)));
-            form.bytes = blenders.front()->basis_bytes();
-            form.slices = blenders.front()->slices();
-          }
-          blenders.clear();
+          time_form(form, options, timer, settings);
           if (settings.check && form.basis != &basis) {
             checks.push_back({form.name + " (RGBA16F)", frequency, compare_with_cpu(*form.basis, options, form.weights)});
           }
         }
         for (std::size_t p = 0; p < settings.planes.size(); ++p) {
           const int planes = settings.planes[p];
-          const auto time_of = [](const Timing& t) { return t.gpu_s ? *t.gpu_s : t.wall_s; };
-          const double full = time_of(forms.front().per_call[p]);
-          const double full_sustained = time_of(forms.front().sustained[p]);
+          const double full = forms.front().per_call[p].seconds();
+          const double full_sustained = forms.front().sustained[p].seconds();
           for (const Form& form : forms) {
             const Timing& t = form.per_call[p];
-            const double sustained = time_of(form.sustained[p]);
+            const double sustained = form.sustained[p].seconds();
             char gpu_text[32] = "n/a";
             if (t.gpu_s) std::snprintf(gpu_text, sizeof gpu_text, "%.3f ms", *t.gpu_s * 1e3);
             char row[512];
             std::snprintf(row, sizeof row, "| %s | %d (%d) | %d (%d slices) | %d | %.1f MiB | %.3f ms | %s | %.3f ms | %.3f× | %.3f× |",
                           form.name.c_str(), frequency, layers, form.basis->layers, form.slices, planes,
                           static_cast<double>(planes) * static_cast<double>(form.bytes) / (1 << 20), t.wall_s * 1e3,
-                          gpu_text, sustained * 1e3, time_of(t) / full, sustained / full_sustained);
+                          gpu_text, sustained * 1e3, t.seconds() / full, sustained / full_sustained);
             pca_rows.emplace_back(row);
           }
         }
@@ -519,41 +528,12 @@ int main(int argc, char** argv) {
                       100.0 * side * side / (static_cast<double>(settings.size) * settings.size), side, settings.size);
         for (const bool packed : settings.packed) {
         for (const BasisStorage storage : settings.storages) {
-          GpuBlendOptions options;
-          options.storage = storage;
-          options.pack_layers = packed;
-          options.shader_dir = settings.shader_dir;
-          struct Form {
-            std::string name;
-            const BasisImages* basis;
-            std::vector<Timing> per_call;   // per plane count
-            std::vector<Timing> sustained;  // per plane count
-            std::size_t bytes = 0;          // of one plane's basis texture array (or atlas)
-            int slices = 0;
-            int pages = 0;
-          };
+          const GpuBlendOptions options = blend_options(storage, packed, settings);
           std::vector<Form> forms;
-          forms.push_back({"whole layers", &basis, {}, {}, 0, 0, 0});
-          forms.push_back({cropped_name, &cropped, {}, {}, 0, 0, 0});
+          forms.push_back({"whole layers", &basis, weights, {}, {}, 0, 0, 0});
+          forms.push_back({cropped_name, &cropped, weights, {}, {}, 0, 0, 0});
           for (Form& form : forms) {
-            std::vector<std::unique_ptr<GpuBlender>> blenders;
-            for (const int planes : settings.planes) {
-              while (static_cast<int>(blenders.size()) < planes) {
-                blenders.push_back(std::make_unique<GpuBlender>(*form.basis, options));
-              }
-              const auto call = [&] {
-                for (int j = 0; j < planes; ++j) {
-                  blenders[static_cast<std::size_t>(j)]->invalidate();
-                  blenders[static_cast<std::size_t>(j)]->blend(weights);
-                }
-              };
-              form.per_call.push_back(time_it(timer, settings.repeats, call));
-              form.sustained.push_back(time_it(timer, settings.repeats, call, settings.batch, std::chrono::milliseconds(0)));
-              form.bytes = blenders.front()->basis_bytes();
-              form.slices = blenders.front()->slices();
-              form.pages = blenders.front()->pages();
-            }
-            blenders.clear();
+            time_form(form, options, timer, settings);
             if (settings.check && form.basis != &basis) {
               checks.push_back({form.name + ", " + storage_name(storage, packed), frequency,
                                 compare_with_cpu(*form.basis, options, weights)});
@@ -561,12 +541,11 @@ int main(int argc, char** argv) {
           }
           for (std::size_t p = 0; p < settings.planes.size(); ++p) {
             const int planes = settings.planes[p];
-            const auto time_of = [](const Timing& t) { return t.gpu_s ? *t.gpu_s : t.wall_s; };
-            const double full = time_of(forms.front().per_call[p]);
+              const double full = forms.front().per_call[p].seconds();
             for (const Form& form : forms) {
               const Timing& t = form.per_call[p];
-              const double measured = time_of(t);
-              const double sustained = time_of(form.sustained[p]);
+              const double measured = t.seconds();
+              const double sustained = form.sustained[p].seconds();
               const double bytes = static_cast<double>(planes) * static_cast<double>(form.bytes);
               const double floor_s = bytes / bandwidth.best();
               char gpu_text[32] = "n/a";

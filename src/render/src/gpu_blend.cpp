@@ -38,6 +38,74 @@ void check_basis(const BasisImages& basis) {
   }
 }
 
+// max |B| over a layer's values, and whether any is negative (NaN ignored).
+struct LayerExtent {
+  float top = 0.0f;
+  bool negative = false;
+};
+LayerExtent extent_of(std::span<const float> values) {
+  LayerExtent e;
+  for (const float b : values) {
+    e.top = std::abs(b) > e.top ? std::abs(b) : e.top;  // NaN compares false: ignored
+    e.negative |= b < 0.0f;
+  }
+  return e;
+}
+
+// InputError when layer `layer` of plane `plane` cannot be stored as `storage`: a PCA basis has
+// eigen-images of either sign, which 8-bit and EAC layers cannot hold; an infinite value none can.
+void check_storable(const std::string& plane, std::size_t layer, const LayerExtent& e, BasisStorage storage) {
+  const std::string field = "basis '" + plane + "' layer " + std::to_string(layer);
+  const bool eac = storage == BasisStorage::Eac11;
+  if (storage != BasisStorage::Half && e.negative) {
+    bad_input(field,
+              std::string("holds negative values (a PCA basis), which ") + (eac ? "EAC" : "8-bit") +
+                  " layers cannot store",
+              "store the basis as half floats (blend.storage: half) or read the full form");
+  }
+  if (!std::isfinite(e.top)) bad_input(field, "holds an infinite value", "re-bake the plane");
+}
+
+// The basis texture array's formats for a storage and layout.
+struct ArrayFormat {
+  GLenum internal_format;
+  GLenum format;  // of uncompressed uploads
+  GLenum type;    // of uncompressed uploads
+  bool compressed;
+};
+ArrayFormat array_format(const GpuBlendOptions& options) {
+  const bool packed = options.pack_layers;
+  switch (options.storage) {
+    case BasisStorage::Eac11:
+      return {packed ? GLenum(GL_COMPRESSED_RG11_EAC) : GLenum(GL_COMPRESSED_R11_EAC), GL_NONE, GL_NONE, true};
+    case BasisStorage::Unorm8:
+      return {packed ? GLenum(GL_RGBA8) : GLenum(GL_R8), packed ? GLenum(GL_RGBA) : GLenum(GL_RED), GL_UNSIGNED_BYTE, false};
+    case BasisStorage::Half:
+      break;
+  }
+  return {packed ? GLenum(GL_RGBA16F) : GLenum(GL_R16F), packed ? GLenum(GL_RGBA) : GLenum(GL_RED), GL_HALF_FLOAT, false};
+}
+
+// Storage for the bound texture array: `slices` slices of width × height, read texel by texel.
+void allocate_array(const ArrayFormat& f, int width, int height, int slices) {
+  glTexStorage3D(GL_TEXTURE_2D_ARRAY, 1, f.internal_format, width, height, slices);
+  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+}
+
+// One whole slice of the bound texture array: EAC blocks, 8-bit values or halves, as `f` says.
+void upload_slice(const ArrayFormat& f, int slice, int width, int height, const std::vector<std::uint8_t>& blocks,
+                  const std::vector<std::uint8_t>& bytes, const std::vector<std::uint16_t>& halves) {
+  if (f.compressed) {
+    glCompressedTexSubImage3D(GL_TEXTURE_2D_ARRAY, 0, 0, 0, slice, width, height, 1, f.internal_format,
+                              static_cast<GLsizei>(blocks.size()), blocks.data());
+  } else {
+    glTexSubImage3D(GL_TEXTURE_2D_ARRAY, 0, 0, 0, slice, width, height, 1, f.format, f.type,
+                    f.type == GL_UNSIGNED_BYTE ? static_cast<const void*>(bytes.data())
+                                               : static_cast<const void*>(halves.data()));
+  }
+}
+
 void check_threshold(double value, const std::string& field) {
   if (!std::isfinite(value) || value < 0.0) {
     bad_input(field, "value " + std::to_string(value) + " is not finite and >= 0",
@@ -321,14 +389,9 @@ void GpuBlender::upload_layers(const BasisImages& basis) {
   const std::size_t texels = basis.texel_count();
   const bool unorm8 = options_.storage == BasisStorage::Unorm8;
   const std::size_t channels = static_cast<std::size_t>(layers_per_slice_);
-  const GLenum internal_format =
-      eac ? (options_.pack_layers ? GL_COMPRESSED_RG11_EAC : GL_COMPRESSED_R11_EAC)
-          : (options_.pack_layers ? (unorm8 ? GL_RGBA8 : GL_RGBA16F) : (unorm8 ? GL_R8 : GL_R16F));
-  const GLenum format = options_.pack_layers ? GL_RGBA : GL_RED;
+  const ArrayFormat array = array_format(options_);
   const std::size_t layer_block_bytes = eac_block_count(width_, height_) * kEacBlockBytes;
-  glTexStorage3D(GL_TEXTURE_2D_ARRAY, 1, internal_format, width_, height_, slices_);
-  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  allocate_array(array, width_, height_, slices_);
   layer_max_.assign(static_cast<std::size_t>(layers_), 0.0f);
   std::vector<float> values(texels);
   std::vector<std::uint16_t> halves(unorm8 || eac ? 0 : channels * texels);
@@ -356,22 +419,9 @@ void GpuBlender::upload_layers(const BasisImages& basis) {
       if (i >= layers_) break;
       const std::uint16_t* layer = basis.half.data() + static_cast<std::size_t>(i) * texels;
       halves_to_floats(std::span<const std::uint16_t>(layer, texels), values);
-      // max |B|: a PCA basis has eigen-images of either sign, which 8-bit layers cannot hold.
-      float top = 0.0f;
-      bool negative = false;
-      for (const float b : values) {
-        top = std::abs(b) > top ? std::abs(b) : top;  // NaN compares false: ignored
-        negative |= b < 0.0f;
-      }
-      if ((unorm8 || eac) && negative) {
-        bad_input("basis '" + name_ + "' layer " + std::to_string(i),
-                  std::string("holds negative values (a PCA basis), which ") + (eac ? "EAC" : "8-bit") +
-                      " layers cannot store",
-                  "store the basis as half floats (blend.storage: half) or read the full form");
-      }
-      if (!std::isfinite(top)) {
-        bad_input("basis '" + name_ + "' layer " + std::to_string(i), "holds an infinite value", "re-bake the plane");
-      }
+      const LayerExtent extent = extent_of(values);
+      check_storable(name_, static_cast<std::size_t>(i), extent, options_.storage);
+      const float top = extent.top;
       layer_max_[static_cast<std::size_t>(i)] = top;
       if (unorm8) {
         // B ≈ top · q / 255, q rounded to nearest; negative values (none in a bake) become 0.
@@ -396,14 +446,7 @@ void GpuBlender::upload_layers(const BasisImages& basis) {
         for (std::size_t k = 0; k < texels; ++k) halves[k * channels + c] = layer[k];
       }
     }
-    if (eac) {
-      glCompressedTexSubImage3D(GL_TEXTURE_2D_ARRAY, 0, 0, 0, slice, width_, height_, 1, internal_format,
-                                static_cast<GLsizei>(blocks.size()), blocks.data());
-    } else {
-      glTexSubImage3D(GL_TEXTURE_2D_ARRAY, 0, 0, 0, slice, width_, height_, 1, format,
-                      unorm8 ? GL_UNSIGNED_BYTE : GL_HALF_FLOAT,
-                      unorm8 ? static_cast<const void*>(bytes.data()) : static_cast<const void*>(halves.data()));
-    }
+    upload_slice(array, slice, width_, height_, blocks, bytes, halves);
   }
 }
 
@@ -424,38 +467,20 @@ void GpuBlender::upload_pages(const BasisImages& basis) {
     const std::size_t area = static_cast<std::size_t>(c.cols) * static_cast<std::size_t>(c.rows);
     values.resize(area);
     halves_to_floats(std::span<const std::uint16_t>(basis.half.data() + c.offset, area), values);
-    float top = 0.0f;
-    bool negative = false;
-    for (const float b : values) {
-      top = std::abs(b) > top ? std::abs(b) : top;  // NaN compares false: ignored
-      negative |= b < 0.0f;
-    }
+    LayerExtent extent = extent_of(values);
     if (area < basis.texel_count()) {
       // The fill as stored in the pages (a half) and as summed in the tiles' constants.
       const float stored = half_to_float(float_to_half(c.fill));
-      top = std::max({top, std::abs(c.fill), std::abs(stored)});
-      negative |= c.fill < 0.0f;
+      extent.top = std::max({extent.top, std::abs(c.fill), std::abs(stored)});
+      extent.negative |= c.fill < 0.0f;
     }
-    if ((unorm8 || eac) && negative) {
-      bad_input("basis '" + name_ + "' layer " + std::to_string(k),
-                std::string("holds negative values (a PCA basis), which ") + (eac ? "EAC" : "8-bit") +
-                    " layers cannot store",
-                "store the basis as half floats (blend.storage: half) or read the full form");
-    }
-    if (!std::isfinite(top)) {
-      bad_input("basis '" + name_ + "' layer " + std::to_string(k), "holds an infinite value", "re-bake the plane");
-    }
-    layer_max_[k] = top;
+    check_storable(name_, k, extent, options_.storage);
+    layer_max_[k] = extent.top;
     fills_[k] = c.fill;
   }
 
-  const GLenum internal_format =
-      eac ? (options_.pack_layers ? GL_COMPRESSED_RG11_EAC : GL_COMPRESSED_R11_EAC)
-          : (options_.pack_layers ? (unorm8 ? GL_RGBA8 : GL_RGBA16F) : (unorm8 ? GL_R8 : GL_R16F));
-  const GLenum format = options_.pack_layers ? GL_RGBA : GL_RED;
-  glTexStorage3D(GL_TEXTURE_2D_ARRAY, 1, internal_format, atlas_width_, atlas_height_, slices_);
-  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  const ArrayFormat array = array_format(options_);
+  allocate_array(array, atlas_width_, atlas_height_, slices_);
 
   // The tile of each page.
   std::vector<int> page_tile(static_cast<std::size_t>(pages_), 0);
@@ -553,14 +578,7 @@ void GpuBlender::upload_pages(const BasisImages& basis) {
         }
       }
     }
-    if (eac) {
-      glCompressedTexSubImage3D(GL_TEXTURE_2D_ARRAY, 0, 0, 0, slice, atlas_width_, atlas_height_, 1, internal_format,
-                                static_cast<GLsizei>(blocks.size()), blocks.data());
-    } else {
-      glTexSubImage3D(GL_TEXTURE_2D_ARRAY, 0, 0, 0, slice, atlas_width_, atlas_height_, 1, format,
-                      unorm8 ? GL_UNSIGNED_BYTE : GL_HALF_FLOAT,
-                      unorm8 ? static_cast<const void*>(bytes.data()) : static_cast<const void*>(halves.data()));
-    }
+    upload_slice(array, slice, atlas_width_, atlas_height_, blocks, bytes, halves);
   }
 }
 
