@@ -38,17 +38,17 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "skylit/bake/pca.hpp"
+#include "skylit/bake_format/pca.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/baker/visibility.hpp"
 #include "skylit/base/files.hpp"
-#include "skylit/render/cpu_blend.hpp"
+#include "skylit/blend/cpu_blend.hpp"
 #include "skylit/scene/site.hpp"
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/lens.hpp"
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/simulate.hpp"
 #include "skylit/sky/sky_estimate.hpp"
-#include "study/study.hpp"
+#include "skylit/study/study.hpp"
 
 namespace {
 
@@ -170,8 +170,8 @@ int main(int argc, char** argv) {
   const fs::path site_path = coarse_site(site_file, texel_scale, out_dir);
   const skylit::scene::Site site = skylit::scene::load_site(site_path);
   const skylit::scene::Mesh mesh = skylit::scene::load_model(site.model, site.up, site.scale);
-  const skylit::sky::CameraCalibration calibration = skylit::sky::load_calibration(calib_file);
-  const skylit::sky::Lens lens(calibration);
+  const skylit::camera::CameraCalibration calibration = skylit::camera::load_calibration(calib_file);
+  const skylit::camera::Lens lens(calibration);
 
   // One bake per (ν, K, basis), ray-traced: the CPU reference engine.
   std::map<BakeKey, fs::path> bakes;
@@ -204,7 +204,7 @@ int main(int argc, char** argv) {
       const fs::path copy = dir.string() + "_pca" + std::to_string(k) + (pca_tile > 0 ? "_tile" + std::to_string(pca_tile) : "");
       fs::remove_all(copy);
       fs::copy(dir, copy, fs::copy_options::recursive);
-      skylit::bake::PcaOptions pca;
+      skylit::bake_format::PcaOptions pca;
       pca.components = k;
       pca.sky_correlation_deg = pca_correlation;
       pca.tile = pca_tile;
@@ -260,7 +260,7 @@ int main(int argc, char** argv) {
     bool noted = false;
     for (const Config& c : configs) {
       const fs::path bake_dir = bakes.at(key_of(c));
-      const skylit::bake::Manifest manifest = skylit::bake::read_manifest(bake_dir);
+      const skylit::bake_format::Manifest manifest = skylit::bake_format::read_manifest(bake_dir);
       const skylit::geom::Dome dome(c.frequency);
       const bool use_oracle = c.oracle_sun && oracle.found;
       skylit::sky::SkyEstimateOptions sky_options;
@@ -295,11 +295,11 @@ int main(int argc, char** argv) {
         estimate.sun_reason = std::to_string(sources.size()) + " source(s)";
       }
       const std::vector<Eigen::Vector3d> S = skylit::sky::layer_radiances(estimate.luminance);
-      std::optional<skylit::render::SunLight> sun;
+      std::optional<skylit::blend::SunLight> sun;
       std::vector<Vec3> disc_directions;
       std::vector<double> disc_weights;
       if (use_oracle) {
-        sun = skylit::render::SunLight{oracle.centroid, oracle.energy};
+        sun = skylit::blend::SunLight{oracle.centroid, oracle.energy};
         disc_directions = oracle.directions;
         disc_weights = oracle.weights;
         if (c.mix == Config::Mix::OraclePoint) {
@@ -323,11 +323,11 @@ int main(int argc, char** argv) {
           disc_weights.push_back(core_weight);
         }
       } else if (mixed && c.mix == Config::Mix::OracleLight) {
-        sun = skylit::render::SunLight{oracle.centroid, oracle.energy};
+        sun = skylit::blend::SunLight{oracle.centroid, oracle.energy};
         disc_directions = oracle.directions;
         disc_weights = oracle.weights;
       } else if (estimate.sun) {
-        sun = skylit::render::SunLight{estimate.sun->direction,
+        sun = skylit::blend::SunLight{estimate.sun->direction,
                                        mixed && c.mix == Config::Mix::OracleEnergy ? oracle.energy : estimate.sun->energy};
         disc_directions = estimate.sun->disc_directions;
         disc_weights = estimate.sun->disc_weights;
@@ -379,17 +379,17 @@ int main(int argc, char** argv) {
       // Per K: |T_pca − T_full| and |T_pca − T_ref| over every texel and channel.
       std::map<int, std::vector<double>> pca_vs_full, pca_vs_reference;
       for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
-        const skylit::render::BasisImages basis = skylit::render::load_basis(bake_dir, manifest, static_cast<int>(j));
+        const skylit::blend::BasisImages basis = skylit::blend::load_basis(bake_dir, manifest, static_cast<int>(j));
         std::vector<float> visibility;
         if (sun) {
           visibility.resize(basis.texel_count());
           skylit::baker::area_light_visibility(mesh, manifest.planes[j].plane, disc_directions, disc_weights,
                                                visibility);
         }
-        const auto w = skylit::render::blend_weights(basis, S, sun);
+        const auto w = skylit::blend::blend_weights(basis, S, sun);
         std::vector<float> T(basis.texel_count() * 3);
-        skylit::render::blend_cpu(basis, w, w.sun.isZero() ? std::span<const float>() : std::span<const float>(visibility), T);
-        std::vector<skylit::render::SunLight> lights;
+        skylit::blend::blend_cpu(basis, w, w.sun.isZero() ? std::span<const float>() : std::span<const float>(visibility), T);
+        std::vector<skylit::blend::SunLight> lights;
         std::vector<std::vector<float>> source_visibility(sources.size());
         std::vector<std::span<const float>> views;
         if (!sources.empty()) {
@@ -403,20 +403,20 @@ int main(int argc, char** argv) {
                                                  sources[k].disc_weights, source_visibility[k]);
           }
           for (const auto& v : source_visibility) views.emplace_back(v);
-          skylit::render::blend_cpu_sources(basis, skylit::render::blend_weights_sources(basis, S, lights), views, T);
+          skylit::blend::blend_cpu_sources(basis, skylit::blend::blend_weights_sources(basis, S, lights), views, T);
         }
         {
           for (const int k : pca_components) {
-            const skylit::render::BasisImages pca =
-                skylit::render::load_basis(pca_bakes.at({key_of(c), k}), skylit::bake::read_manifest(pca_bakes.at({key_of(c), k})),
-                                           static_cast<int>(j), skylit::render::BasisForm::Pca);
+            const skylit::blend::BasisImages pca =
+                skylit::blend::load_basis(pca_bakes.at({key_of(c), k}), skylit::bake_format::read_manifest(pca_bakes.at({key_of(c), k})),
+                                           static_cast<int>(j), skylit::blend::BasisForm::Pca);
             std::vector<float> T_pca(T.size());
             if (sources.empty()) {
-              const auto pw = skylit::render::blend_weights(pca, S, sun);
-              skylit::render::blend_cpu(pca, pw, pw.sun.isZero(0) ? std::span<const float>() : std::span<const float>(visibility),
+              const auto pw = skylit::blend::blend_weights(pca, S, sun);
+              skylit::blend::blend_cpu(pca, pw, pw.sun.isZero(0) ? std::span<const float>() : std::span<const float>(visibility),
                                         T_pca);
             } else {
-              skylit::render::blend_cpu_sources(pca, skylit::render::blend_weights_sources(pca, S, lights), views, T_pca);
+              skylit::blend::blend_cpu_sources(pca, skylit::blend::blend_weights_sources(pca, S, lights), views, T_pca);
             }
             for (std::size_t x = 0; x < basis.texel_count(); ++x) {
               for (int ch = 0; ch < 3; ++ch) {

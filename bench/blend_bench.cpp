@@ -45,15 +45,16 @@
 
 #include <benchmark/benchmark.h>
 
-#include "skylit/render/blend_workers.hpp"
+#include "skylit/blend/workers.hpp"
+#include "skylit/blend/half.hpp"
 #include "synthetic_pca.hpp"
-#include "skylit/render/cpu_blend.hpp"
+#include "skylit/blend/cpu_blend.hpp"
 
 namespace {
 
-using skylit::render::BasisImages;
-using skylit::render::BlendOptions;
-using skylit::render::BlendWeights;
+using skylit::blend::BasisImages;
+using skylit::blend::BlendOptions;
+using skylit::blend::BlendWeights;
 using Clock = std::chrono::steady_clock;
 
 constexpr int kSide = 512;
@@ -140,7 +141,7 @@ struct Scene {
   std::vector<float> visibility;
   std::size_t basis_bytes = 0;
   std::vector<Eigen::Vector3d> S;  // the sky, one RGB value per layer
-  skylit::render::SunLight sun;
+  skylit::blend::SunLight sun;
 };
 
 Scene make_scene(int layers, int planes, int side = kSide) {
@@ -155,8 +156,8 @@ Scene make_scene(int layers, int planes, int side = kSide) {
   const double omega = 2.0 * std::numbers::pi / layers;
   std::vector<Eigen::Vector3d> S;
   for (int i = 0; i < layers; ++i) S.emplace_back(0.5 + next(), 0.5 + next(), 0.5 + next());
-  skylit::render::SunLight sun;
-  sun.direction = skylit::render::Vec3(0.5, 0.2, 0.8).normalized();
+  skylit::blend::SunLight sun;
+  sun.direction = skylit::geom::Vec3(0.5, 0.2, 0.8).normalized();
   sun.energy = Eigen::Vector3d(3.0, 2.9, 2.7);
   for (int j = 0; j < planes; ++j) {
     BasisImages basis;
@@ -170,10 +171,10 @@ Scene make_scene(int layers, int planes, int side = kSide) {
       std::uint16_t* layer = basis.half.data() + static_cast<std::size_t>(i) * basis.texel_count();
       const double a = basis.unoccluded[static_cast<std::size_t>(i)];
       for (std::size_t t = 0; t < basis.texel_count(); ++t) {
-        layer[t] = skylit::render::float_to_half(static_cast<float>(a * std::min(1.0, 1.3 * next())));
+        layer[t] = skylit::blend::float_to_half(static_cast<float>(a * std::min(1.0, 1.3 * next())));
       }
     }
-    scene.weights.push_back(skylit::render::blend_weights(basis, S, sun));
+    scene.weights.push_back(skylit::blend::blend_weights(basis, S, sun));
     scene.basis_bytes += basis.half.size() * sizeof(std::uint16_t);
     scene.planes.push_back(std::move(basis));
   }
@@ -263,7 +264,7 @@ double median_of(std::vector<double> values) {
 void pca_table(const PcaSettings& settings) {
   std::printf("\nPCA forms: blend_cpu per plane of %d² (default options: all hardware threads, %s; warm), "
               "median and minimum of %d calls:\n\n",
-              settings.size, skylit::render::blend_simd_available() ? "avx2" : "portable", settings.repeats);
+              settings.size, skylit::blend::blend_simd_available() ? "avx2" : "portable", settings.repeats);
   std::printf("| form | ν (n layers) | stored layers | basis bytes | median | min | median / full |\n");
   std::printf("|---|---|---|---|---|---|---|\n");
   std::fflush(stdout);
@@ -286,8 +287,8 @@ void pca_table(const PcaSettings& settings) {
     double full_median = 0.0;
     for (std::size_t f = 0; f <= forms.size(); ++f) {
       const BasisImages& basis = f == 0 ? full : forms[f - 1];
-      const BlendWeights weights = skylit::render::blend_weights(basis, scene.S, scene.sun);
-      const auto call = [&] { return skylit::render::blend_cpu(basis, weights, scene.visibility, out); };
+      const BlendWeights weights = skylit::blend::blend_weights(basis, scene.S, scene.sun);
+      const auto call = [&] { return skylit::blend::blend_cpu(basis, weights, scene.visibility, out); };
       for (int w = 0; w < 2; ++w) benchmark::DoNotOptimize(call());
       std::vector<double> seconds;
       for (int r = 0; r < settings.repeats; ++r) {
@@ -321,7 +322,7 @@ struct Setup {
   double copy_rate;     // bytes copied per second, this thread count
   double read_rate;     // bytes read per second, this thread count
   const Buffer* evict;  // for cold runs
-  skylit::render::BlendWorkers* workers;  // kept between calls, as the live service does
+  skylit::blend::BlendWorkers* workers;  // kept between calls, as the live service does
 };
 
 void blend_planes(benchmark::State& state, const Setup& setup) {
@@ -336,7 +337,7 @@ void blend_planes(benchmark::State& state, const Setup& setup) {
     if (setup.cold) evict_caches(*setup.evict, 2 * l3_bytes());
     const auto start = Clock::now();
     for (std::size_t j = 0; j < scene.planes.size(); ++j) {
-      benchmark::DoNotOptimize(skylit::render::blend_cpu(scene.planes[j], scene.weights[j], scene.visibility, out, options));
+      benchmark::DoNotOptimize(skylit::blend::blend_cpu(scene.planes[j], scene.weights[j], scene.visibility, out, options));
     }
     const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
     state.SetIterationTime(elapsed);
@@ -353,7 +354,7 @@ void blend_planes(benchmark::State& state, const Setup& setup) {
   state.counters["copy_GBps"] = setup.copy_rate * 1e-9;
   state.counters["read_GBps"] = setup.read_rate * 1e-9;
   state.counters["ratio_read"] = time / (bytes / setup.read_rate);
-  state.SetLabel(std::string(setup.simd && skylit::render::blend_simd_available() ? "avx2" : "portable") +
+  state.SetLabel(std::string(setup.simd && skylit::blend::blend_simd_available() ? "avx2" : "portable") +
                  (setup.cold ? ", cold" : ", warm"));
 }
 
@@ -386,9 +387,9 @@ int main(int argc, char** argv) {
   // 40 faces × 4 planes of 512² (84 MB), 640 faces × 1 plane of 512² (335 MB).
   const Scene forty = make_scene(40, 4);
   const Scene six_forty = make_scene(640, 1);
-  std::vector<std::unique_ptr<skylit::render::BlendWorkers>> workers(max_threads + 1);
+  std::vector<std::unique_ptr<skylit::blend::BlendWorkers>> workers(max_threads + 1);
   for (int t = 1; t <= max_threads; ++t) {
-    workers[static_cast<std::size_t>(t)] = std::make_unique<skylit::render::BlendWorkers>(t);
+    workers[static_cast<std::size_t>(t)] = std::make_unique<skylit::blend::BlendWorkers>(t);
   }
 
   // On a shared machine other work only ever slows a run down: the minimum over repetitions is

@@ -23,16 +23,17 @@
 #include <benchmark/benchmark.h>
 #include <opencv2/core.hpp>
 
-#include "skylit/bake/format.hpp"
+#include "skylit/bake_format/manifest.hpp"
+#include "skylit/bake_format/arrays.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/gpu/egl_context.hpp"
 #include "skylit/render/compositor.hpp"
-#include "skylit/render/cpu_blend.hpp"
+#include "skylit/blend/cpu_blend.hpp"
 #include "skylit/render/hmd_distortion.hpp"
 #include "skylit/render/sun_shadow_map.hpp"
 #include "skylit/scene/site.hpp"
-#include "skylit/sky/calibration.hpp"
-#include "study/study.hpp"
+#include "skylit/camera/calibration.hpp"
+#include "skylit/study/study.hpp"
 
 namespace {
 
@@ -44,10 +45,10 @@ struct Scene {
   gpu::HeadlessContext context;
   scene::Site site;
   scene::Mesh mesh;
-  bake::Manifest manifest;
+  bake_format::Manifest manifest;
   std::vector<float> transfer;
   std::vector<Eigen::Vector3d> sky;
-  render::SunLight sun;
+  blend::SunLight sun;
   std::vector<gpu::Texture> ratios;
   std::vector<GLuint> ratio_names;
   std::unique_ptr<render::SunShadowMap> shadow_map;
@@ -74,11 +75,11 @@ struct Scene {
     std::FILE* quiet = std::fopen("/dev/null", "w");
     baker::run_bake(options, quiet);
     std::fclose(quiet);
-    manifest = bake::read_manifest(dir);
+    manifest = bake_format::read_manifest(dir);
     site = scene::load_site(options.site_file);
     mesh = scene::load_model(site.model, site.up, site.scale);
     std::vector<std::size_t> shape;
-    transfer = bake::read_npy(dir / manifest.transfer_file, &shape);
+    transfer = bake_format::read_npy(dir / manifest.transfer_file, &shape);
     sky.assign(transfer.size() / mesh.vertex_count(), Eigen::Vector3d(0.3, 0.4, 0.6));  // one value per basis layer
     const double az = 140 * std::numbers::pi / 180, el = 35 * std::numbers::pi / 180;
     sun = {Eigen::Vector3d(std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)), Eigen::Vector3d::Constant(3.0)};
@@ -87,10 +88,10 @@ struct Scene {
     shadow_map = std::make_unique<render::SunShadowMap>(mesh, planes);
     shadow_map->update(sun.direction, 0.0047);
     for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
-      const render::BasisImages basis = render::load_basis(dir, manifest, static_cast<int>(j));
+      const blend::BasisImages basis = blend::load_basis(dir, manifest, static_cast<int>(j));
       const std::vector<float> visibility = shadow_map->read_visibility(static_cast<int>(j));
       std::vector<float> T(basis.texel_count() * 3);
-      render::blend_cpu(basis, render::blend_weights(basis, sky, sun), visibility, T);
+      blend::blend_cpu(basis, blend::blend_weights(basis, sky, sun), visibility, T);
       ratios.push_back(render::upload_shadow_ratio(T, basis.width, basis.height));
       ratio_names.push_back(ratios.back().get());
     }
@@ -108,7 +109,7 @@ struct Scene {
 
 // The sample HMD camera (config/hmd_camera.yaml) scaled to width (same focal length per pixel of
 // width), any height.
-sky::CameraCalibration camera(int width, int height) {
+camera::CameraCalibration camera(int width, int height) {
   return study::scaled_camera(fs::path(SKYLIT_SOURCE_DIR) / "config/hmd_camera.yaml", width, height);
 }
 
@@ -119,7 +120,7 @@ sky::CameraCalibration camera(int width, int height) {
 using study::median;
 using study::visitor_pose;
 
-render::CompositeInput frame_input(const Scene& scene, const sky::CameraCalibration& calibration, cv::Mat& image) {
+render::CompositeInput frame_input(const Scene& scene, const camera::CameraCalibration& calibration, cv::Mat& image) {
   image = cv::Mat(calibration.image_height, calibration.image_width, CV_8UC3);
   cv::randu(image, cv::Scalar::all(0), cv::Scalar::all(256));
   render::CompositeInput input;
@@ -144,7 +145,7 @@ void frame(benchmark::State& state, bool read_back) {
   Scene& scene = Scene::get();
   const int width = static_cast<int>(state.range(0));
   const int height = static_cast<int>(state.range(1));
-  const sky::CameraCalibration calibration = camera(width, height);
+  const camera::CameraCalibration calibration = camera(width, height);
   render::CompositorOptions options;
   options.lens.render_scale = static_cast<double>(state.range(2)) / 100.0;
   render::Compositor compositor(scene.site, scene.mesh, scene.manifest, scene.transfer, calibration, options);
@@ -172,7 +173,7 @@ void BM_CompositeStages(benchmark::State& state) {
   Scene& scene = Scene::get();
   const int width = static_cast<int>(state.range(0));
   const int height = static_cast<int>(state.range(1));
-  const sky::CameraCalibration calibration = camera(width, height);
+  const camera::CameraCalibration calibration = camera(width, height);
   render::CompositorOptions options;
   options.lens.render_scale = static_cast<double>(state.range(2)) / 100.0;
   options.time_stages = true;
@@ -211,7 +212,7 @@ void BM_CompositeStages(benchmark::State& state) {
 // per-vertex sky irradiance is summed again on the CPU. args: width, height, render scale in percent.
 void BM_CompositeDrawNewSky(benchmark::State& state) {
   Scene& scene = Scene::get();
-  const sky::CameraCalibration calibration = camera(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  const camera::CameraCalibration calibration = camera(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
   render::CompositorOptions options;
   options.lens.render_scale = static_cast<double>(state.range(2)) / 100.0;
   render::Compositor compositor(scene.site, scene.mesh, scene.manifest, scene.transfer, calibration, options);
@@ -272,7 +273,7 @@ BENCHMARK(BM_SunShadowUpdate)->Unit(benchmark::kMillisecond)->UseRealTime();
 // eyes); 2: stereo (a composite per eye).
 void BM_HmdFrame(benchmark::State& state) {
   Scene& scene = Scene::get();
-  const sky::CameraCalibration calibration = camera(1920, 1080);
+  const camera::CameraCalibration calibration = camera(1920, 1080);
   render::Compositor compositor(scene.site, scene.mesh, scene.manifest, scene.transfer, calibration);
   render::HmdDistortion hmd(render::load_hmd_profile(fs::path(SKYLIT_SOURCE_DIR) / "config/hmd/generic.yaml"));
   cv::Mat image;

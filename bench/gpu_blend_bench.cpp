@@ -1,4 +1,4 @@
-// The GPU blend alone (render/gpu_blend.hpp): ν = 2, 4, 8 (40, 160, 640 layers) and 1, 4, 16
+// The GPU blend alone (blend/gpu_blend.hpp): ν = 2, 4, 8 (40, 160, 640 layers) and 1, 4, 16
 // planes of 512², R16F and R8 basis storage (and EAC R11 on request), against the memory-bandwidth floor measured in the
 // same run on the same device (the basis bytes read once, at the device's copy bandwidth).
 // Prints markdown tables; see bench/RESULTS.md ("GPU blend").
@@ -52,17 +52,18 @@
 #include "skylit/gpu/gl.hpp"
 #include "skylit/gpu/shader.hpp"
 #include "synthetic_pca.hpp"
-#include "skylit/render/cpu_blend.hpp"
-#include "skylit/render/gpu_blend.hpp"
+#include "skylit/blend/cpu_blend.hpp"
+#include "skylit/blend/half.hpp"
+#include "skylit/blend/gpu_blend.hpp"
 
 namespace {
 
-using skylit::render::BasisImages;
-using skylit::render::BasisStorage;
-using skylit::render::BlendWeights;
-using skylit::render::GpuBlender;
-using skylit::render::GpuBlendOptions;
-using skylit::render::ShadowRatioFormat;
+using skylit::blend::BasisImages;
+using skylit::blend::BasisStorage;
+using skylit::blend::BlendWeights;
+using skylit::blend::GpuBlender;
+using skylit::blend::GpuBlendOptions;
+using skylit::blend::ShadowRatioFormat;
 using Clock = std::chrono::steady_clock;
 
 struct Settings {
@@ -332,7 +333,7 @@ BasisImages synthetic_basis(int size, int layers, std::uint64_t seed) {
     for (std::size_t k = 0; k < basis.texel_count(); ++k) {
       const double pick = random.next();
       const double f = pick < 0.3 ? 0.0 : (pick < 0.6 ? 1.0 : random.next());
-      layer[k] = skylit::render::float_to_half(static_cast<float>(a * f));
+      layer[k] = skylit::blend::float_to_half(static_cast<float>(a * f));
     }
   }
   return basis;
@@ -343,7 +344,7 @@ BlendWeights sky_weights(const BasisImages& basis, std::uint64_t seed) {
   Random random{seed};
   std::vector<Eigen::Vector3d> S;
   for (int i = 0; i < basis.source_layers(); ++i) S.emplace_back(0.2 + random.next(), 0.3 + random.next(), 0.5 + random.next());
-  return skylit::render::blend_weights(basis, S, std::nullopt);
+  return skylit::blend::blend_weights(basis, S, std::nullopt);
 }
 
 const char* storage_name(BasisStorage storage, bool packed) {
@@ -426,7 +427,7 @@ int main(int argc, char** argv) {
       blender.blend(weights);
       const std::vector<float> gpu = blender.read_back();
       std::vector<float> cpu(3 * basis.texel_count());
-      skylit::render::blend_cpu(basis, weights, {}, cpu);
+      skylit::blend::blend_cpu(basis, weights, {}, cpu);
       double worst = 0;
       for (std::size_t k = 0; k < cpu.size(); ++k) worst = std::max(worst, std::abs(static_cast<double>(gpu[k]) - cpu[k]));
       return worst;
@@ -516,11 +517,11 @@ int main(int argc, char** argv) {
         // The whole-layer basis and its cropped form, in each storage and layout of the run.
         BasisImages cropped = skylit::bench::synthetic_cropped_basis(
             basis, settings.cropped, 0xC0ULL + static_cast<std::uint64_t>(frequency));
-        // Each fill A rounded to half, as load_basis's cropped form stores it (render/basis.cpp) and
+        // Each fill A rounded to half, as load_basis's cropped form stores it (blend/basis.cpp) and
         // as the GPU's pages hold it outside a rectangle: unrounded, the check would read the
         // fill's half rounding (~1e-5 of T here) instead of the blend's.
-        for (skylit::render::LayerCrop& crop : cropped.crops) {
-          crop.fill = skylit::render::half_to_float(skylit::render::float_to_half(crop.fill));
+        for (skylit::blend::LayerCrop& crop : cropped.crops) {
+          crop.fill = skylit::blend::half_to_float(skylit::blend::float_to_half(crop.fill));
         }
         const int side = cropped.crops.front().cols;
         char cropped_name[96];

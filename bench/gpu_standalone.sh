@@ -48,12 +48,12 @@ done
 set -x
 # src/gpu's sources named one by one: window_context.cpp needs GLFW, which this build does without.
 g++ -std=c++20 -O2 -pthread \
-  -I"$repo/src/base/include" -I"$repo/src/geom/include" -I"$repo/src/bake/include" \
-  -I"$repo/src/gpu/include" -I"$repo/src/render/include" -I"$include_dir" -I"$eigen_dir" \
+  -I"$repo/src/base/include" -I"$repo/src/geom/include" -I"$repo/src/bake_format/include" \
+  -I"$repo/src/gpu/include" -I"$repo/src/blend/include" -I"$include_dir" -I"$eigen_dir" \
   -DSKYLIT_SOURCE_SHADER_DIR="\"$repo/shaders\"" -DSKYLIT_INSTALL_SHADER_DIR="\"/usr/local/share/skylit/shaders\"" \
   "$repo/bench/gpu_blend_bench.cpp" "$repo/bench/gpu_standalone_files.cpp" \
-  "$repo/src/render/src/gpu_blend.cpp" "$repo/src/render/src/cpu_blend.cpp" "$repo/src/render/src/blend_kernel.cpp" \
-  "$repo/src/render/src/half.cpp" "$repo/src/render/src/blend_workers.cpp" "$repo/src/render/src/eac.cpp" \
+  "$repo/src/blend/src/gpu_blend.cpp" "$repo/src/blend/src/cpu_blend.cpp" "$repo/src/blend/src/kernel.cpp" \
+  "$repo/src/blend/src/half.cpp" "$repo/src/blend/src/workers.cpp" "$repo/src/blend/src/eac.cpp" \
   "$repo/src/gpu/src/egl_context.cpp" "$repo/src/gpu/src/gl.cpp" "$repo/src/gpu/src/shader.cpp" \
   "$repo/src/base/src/error.cpp" \
   "$lib_dir/libEGL.so.1" "$lib_dir/libGLESv2.so.2" -Wl,-rpath,"$lib_dir" \

@@ -12,14 +12,15 @@
 #include "skylit/sky/sky_model.hpp"
 #include "skylit/sky/sky_table.hpp"
 #include "skylit/sky/sun.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace {
 
 using namespace skylit;
 
 // A 1920×1080 sensor behind an equidistant fisheye whose 180° circle fills the frame's height.
-sky::CameraCalibration hd_fisheye() {
-  sky::CameraCalibration c;
+camera::CameraCalibration hd_fisheye() {
+  camera::CameraCalibration c;
   c.image_width = 1920;
   c.image_height = 1080;
   c.fx = c.fy = 540.0 / (std::numbers::pi / 2.0);
@@ -31,7 +32,7 @@ sky::CameraCalibration hd_fisheye() {
 
 const cv::Mat& clear_sky_frame() {
   static const cv::Mat frame = [] {
-    const sky::Lens lens(hd_fisheye());
+    const camera::Lens lens(hd_fisheye());
     const sky::ClearSky sky(Eigen::Vector3d(0.5, -0.4, 0.7).normalized());
     return sky::render_fisheye(lens, sky::sky_function(sky), {.supersample = 1});
   }();
@@ -40,7 +41,7 @@ const cv::Mat& clear_sky_frame() {
 
 void BM_Luminance(benchmark::State& state) {
   const geom::Dome dome(static_cast<int>(state.range(0)));
-  const sky::Lens lens(hd_fisheye());
+  const camera::Lens lens(hd_fisheye());
   const sky::SkyTable table = sky::build_sky_table(lens, dome, {.step = static_cast<int>(state.range(1))});
   const cv::Mat& frame = clear_sky_frame();
   for (auto _ : state) {
@@ -57,7 +58,7 @@ BENCHMARK(BM_Luminance)->ArgsProduct({{2, 8}, {1, 2, 4}})->Unit(benchmark::kMill
 // where the CPU has it) or the portable one (0).
 void run_fitted_pass(benchmark::State& state, geom::DomeBasis basis) {
   const geom::Dome dome(static_cast<int>(state.range(0)));
-  const sky::Lens lens(hd_fisheye());
+  const camera::Lens lens(hd_fisheye());
   const sky::SkyTable table =
       sky::build_sky_table(lens, dome, {.step = static_cast<int>(state.range(1)), .basis = basis});
   const cv::Mat& frame = clear_sky_frame();
@@ -101,7 +102,7 @@ BENCHMARK(BM_LuminanceQuadratics)->Apply(fitted_pass_arguments);
 
 void BM_BuildTable(benchmark::State& state) {
   const geom::Dome dome(static_cast<int>(state.range(0)));
-  const sky::Lens lens(hd_fisheye());
+  const camera::Lens lens(hd_fisheye());
   for (auto _ : state) {
     sky::SkyTable t = sky::build_sky_table(lens, dome);
     benchmark::DoNotOptimize(t.runs.data());
@@ -111,7 +112,7 @@ BENCHMARK(BM_BuildTable)->Arg(2)->Arg(8)->Unit(benchmark::kMillisecond)->UseReal
 
 void BM_BuildTableCorners(benchmark::State& state) {
   const geom::Dome dome(static_cast<int>(state.range(0)));
-  const sky::Lens lens(hd_fisheye());
+  const camera::Lens lens(hd_fisheye());
   for (auto _ : state) {
     sky::SkyTable t = sky::build_sky_table(lens, dome, {.basis = geom::DomeBasis::Corners});
     benchmark::DoNotOptimize(t.runs.data());
@@ -120,7 +121,7 @@ void BM_BuildTableCorners(benchmark::State& state) {
 BENCHMARK(BM_BuildTableCorners)->Arg(2)->Arg(8)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
 
 void BM_SunDetection(benchmark::State& state) {
-  const sky::Lens lens(hd_fisheye());
+  const camera::Lens lens(hd_fisheye());
   const sky::SunDetector detector(lens, cv::Mat());
   const cv::Mat& frame = clear_sky_frame();
   for (auto _ : state) {

@@ -10,7 +10,8 @@
 #include <random>
 #include <vector>
 
-#include "skylit/render/cpu_blend.hpp"
+#include "skylit/blend/cpu_blend.hpp"
+#include "skylit/blend/half.hpp"
 
 namespace skylit::bench {
 
@@ -29,11 +30,11 @@ struct Random {
 // `unoccluded`: `components` + 1 stored layers (the mean in [0.3, 0.7], eigen-images in [−1, 1]),
 // tiles of `tile` texels (0: untiled); each tile's projection A_l · (1, [−0.1, 0.1] …), so that
 // T stays near [0, 1].
-inline render::BasisImages synthetic_pca_basis(int side, const std::vector<double>& unoccluded, int components, int tile,
+inline blend::BasisImages synthetic_pca_basis(int side, const std::vector<double>& unoccluded, int components, int tile,
                                                std::uint64_t seed) {
   Random random{seed};
   const auto next = [&random] { return random.next(); };
-  render::BasisImages basis;
+  blend::BasisImages basis;
   basis.name = "synthetic-pca";
   basis.width = side;
   basis.height = side;
@@ -45,7 +46,7 @@ inline render::BasisImages synthetic_pca_basis(int side, const std::vector<doubl
     std::uint16_t* layer = basis.half.data() + static_cast<std::size_t>(i) * basis.texel_count();
     for (std::size_t k = 0; k < basis.texel_count(); ++k) {
       const double value = i == 0 ? 0.3 + 0.4 * next() : 2.0 * next() - 1.0;
-      layer[k] = render::float_to_half(static_cast<float>(value));
+      layer[k] = blend::float_to_half(static_cast<float>(value));
     }
   }
   const auto n = static_cast<Eigen::Index>(unoccluded.size());
@@ -64,15 +65,15 @@ inline render::BasisImages synthetic_pca_basis(int side, const std::vector<doubl
 // The cropped form of `full` (square planes: width = height): each layer kept within a square of
 // `fraction` of the plane's texels at a pseudo-random place, its A outside (as BasisForm::Cropped
 // stores a lean layer).
-inline render::BasisImages synthetic_cropped_basis(const render::BasisImages& full, double fraction,
+inline blend::BasisImages synthetic_cropped_basis(const blend::BasisImages& full, double fraction,
                                                    std::uint64_t seed) {
   std::mt19937_64 rng(seed);
-  render::BasisImages b = full;
+  blend::BasisImages b = full;
   b.half.clear();
   const int side = std::max(1, static_cast<int>(std::lround(std::sqrt(fraction) * full.width)));
   std::uniform_int_distribution<int> place(0, full.width - side);
   for (int l = 0; l < full.layers; ++l) {
-    render::LayerCrop c{place(rng), place(rng), side, side, b.half.size(),
+    blend::LayerCrop c{place(rng), place(rng), side, side, b.half.size(),
                         static_cast<float>(full.unoccluded[static_cast<std::size_t>(l)])};
     for (int r = 0; r < side; ++r) {
       const std::uint16_t* from = full.half.data() + static_cast<std::size_t>(l) * full.texel_count() +

@@ -13,7 +13,7 @@
 #include <benchmark/benchmark.h>
 #include <opencv2/core/mat.hpp>
 
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/lens.hpp"
 #include "skylit/track/marker_pose.hpp"
 #include "skylit/track/marker_render.hpp"
 #include "skylit/track/tag_detector.hpp"
@@ -22,11 +22,11 @@ namespace {
 
 using namespace skylit::track;
 
-skylit::sky::CameraCalibration hmd_camera() {
-  skylit::sky::CameraCalibration c;
+skylit::camera::CameraCalibration hmd_camera() {
+  skylit::camera::CameraCalibration c;
   c.image_width = 1280;
   c.image_height = 720;
-  c.model = skylit::sky::LensModel::Pinhole;
+  c.model = skylit::camera::LensModel::Pinhole;
   c.fx = c.fy = 1000;
   c.cx = 639.5;
   c.cy = 359.5;
@@ -61,7 +61,7 @@ Pose head(const Vec3& position, const Vec3& target, double roll_deg) {
 }
 
 struct Scene {
-  skylit::sky::Lens lens{hmd_camera()};
+  skylit::camera::Lens lens{hmd_camera()};
   MarkerMap map = wall_of_four();
   std::vector<Pose> truths{head(Vec3(0.1, 0.0, 1.6), Vec3(0.0, 3.0, 1.6), 2),
                            head(Vec3(-0.6, 0.2, 1.7), Vec3(0.1, 3.0, 1.5), -4),

@@ -1,5 +1,5 @@
 #version 310 es
-// Shadow ratios of one plane (render/gpu_blend.hpp): per texel
+// Shadow ratios of one plane (blend/gpu_blend.hpp): per texel
 //     T = Σ_i w_i B_i + w_sun V     per colour channel, fp32,
 // then a channel without light is 1 and T is clamped to [0, 1], as blend_cpu does. One
 // invocation per texel. The basis array holds one layer per slice (R16F, R8, R11 EAC) or

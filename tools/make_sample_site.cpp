@@ -12,13 +12,14 @@
 #include "skylit/base/error.hpp"
 #include "skylit/base/files.hpp"
 #include "skylit/scene/sample_site.hpp"
+#include "command_line.hpp"
 
 int main(int argc, char** argv) {
   namespace fs = std::filesystem;
   CLI::App app{"skylit-sample-site: writes data/models/gate.glb and config/sample_site.yaml"};
   std::string root = ".";
   app.add_option("--root", root, "repository root to write into")->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = skylit::tools::parse_command_line(app, argc, argv)) return *status;
 
   try {
     const fs::path model_file = fs::path(root) / "data" / "models" / "gate.glb";
@@ -42,10 +43,10 @@ int main(int argc, char** argv) {
                 gate.triangle_count(), site_file.string().c_str());
     return 0;
   } catch (const skylit::InputError& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
+    std::fprintf(stderr, "skylit-sample-site: error: %s\n", e.what());
     return 2;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "internal error: %s\n", e.what());
+    std::fprintf(stderr, "skylit-sample-site: internal error: %s\n", e.what());
     return 1;
   }
 }

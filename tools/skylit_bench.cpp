@@ -19,7 +19,7 @@
 //
 // With --sequence, also a sky sequence (an analytic clear sky over time with a passing cloud, one
 // sky per second, a dense reference per frame: study::sequence_reference) run through the live
-// path per setting — smoother (τ) → blend weights → CpuShadowRatios with the change threshold, kept
+// path per setting — smoother (τ) → blend weights → CpuBlender with the change threshold, kept
 // from frame to frame — for the error the ΔS threshold and the smoothing add and the share of
 // frames that re-blend (docs/trade.md, "The sky sequence").
 //
@@ -47,22 +47,26 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "../src/live/src/cpu_shadow_ratios.hpp"
+#include "skylit/blend/cpu_blender.hpp"
+#include "skylit/blend/half.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/baker/visibility.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/base/files.hpp"
 #include "skylit/gpu/egl_context.hpp"
-#include "skylit/render/blend_workers.hpp"
+#include "skylit/blend/workers.hpp"
 #include "skylit/render/compositor.hpp"
-#include "skylit/render/cpu_blend.hpp"
-#include "skylit/render/gpu_blend.hpp"
+#include "skylit/blend/cpu_blend.hpp"
+#include "skylit/blend/gpu_blend.hpp"
 #include "skylit/render/sun_shadow_map.hpp"
 #include "skylit/sky/simulate.hpp"
 #include "skylit/sky/sky_estimate.hpp"
 #include "skylit/sky/sky_smoothing.hpp"
 #include "skylit/sky/solar.hpp"
-#include "study/study.hpp"
+#include "skylit/study/study.hpp"
+#include "skylit/camera/lens.hpp"
+#include "skylit/bake_format/arrays.hpp"
+#include "command_line.hpp"
 
 namespace {
 
@@ -89,29 +93,29 @@ struct BakeKey {
 };
 
 struct Form {
-  render::BasisForm form = render::BasisForm::Full;
+  blend::BasisForm form = blend::BasisForm::Full;
   int components = 0;  // Pca
   int tile = 0;        // Pca: clustered, tiles of this many texels of the bake's planes (0: none)
   std::string name() const {
-    if (form == render::BasisForm::Pca) {
+    if (form == blend::BasisForm::Pca) {
       return "pca" + std::to_string(components) + (tile > 0 ? "t" + std::to_string(tile) : "");
     }
-    return form == render::BasisForm::Lean ? "lean" : form == render::BasisForm::Cropped ? "cropped" : "full";
+    return form == blend::BasisForm::Lean ? "lean" : form == blend::BasisForm::Cropped ? "cropped" : "full";
   }
 };
 
 Form parse_form(const std::string& text) {
-  if (text == "full") return {render::BasisForm::Full, 0, 0};
-  if (text == "lean") return {render::BasisForm::Lean, 0, 0};
-  if (text == "cropped") return {render::BasisForm::Cropped, 0, 0};
+  if (text == "full") return {blend::BasisForm::Full, 0, 0};
+  if (text == "lean") return {blend::BasisForm::Lean, 0, 0};
+  if (text == "cropped") return {blend::BasisForm::Cropped, 0, 0};
   // pcaK or pcaKtN (clustered: tiles of N texels).
   int k = 0, tile = 0, used = 0;
   if (std::sscanf(text.c_str(), "pca%d%n", &k, &used) == 1 && k > 0) {
-    if (static_cast<std::size_t>(used) == text.size()) return {render::BasisForm::Pca, k, 0};
+    if (static_cast<std::size_t>(used) == text.size()) return {blend::BasisForm::Pca, k, 0};
     int more = 0;
     if (std::sscanf(text.c_str() + used, "t%d%n", &tile, &more) == 1 && tile >= 2 &&
         static_cast<std::size_t>(used + more) == text.size()) {
-      return {render::BasisForm::Pca, k, tile};
+      return {blend::BasisForm::Pca, k, tile};
     }
   }
   throw InputError("option --forms: got '" + text +
@@ -188,25 +192,25 @@ std::uint64_t directory_bytes(const fs::path& dir) {
 // A cropped basis stays cropped: the GPU blend's pages hold the fill (as a half) outside each
 // rectangle and quantise it with the rectangle, so the top is over the rectangle and the fill
 // (where the rectangle leaves texels to it), and the fill is quantised as the texels it covers.
-void quantise_to_unorm8(render::BasisImages& basis) {
+void quantise_to_unorm8(blend::BasisImages& basis) {
   const std::size_t texels = basis.texel_count();
   std::vector<float> values;
   for (int layer = 0; layer < basis.layers; ++layer) {
-    render::LayerCrop* crop = basis.cropped() ? &basis.crops.at(static_cast<std::size_t>(layer)) : nullptr;
+    blend::LayerCrop* crop = basis.cropped() ? &basis.crops.at(static_cast<std::size_t>(layer)) : nullptr;
     const std::size_t offset = crop ? crop->offset : static_cast<std::size_t>(layer) * texels;
     const std::size_t count = crop ? static_cast<std::size_t>(crop->cols) * static_cast<std::size_t>(crop->rows) : texels;
     const std::span<std::uint16_t> halves(basis.half.data() + offset, count);
     values.resize(count);
-    render::halves_to_floats(halves, values);
+    blend::halves_to_floats(halves, values);
     float top = 0.0f;
     for (float v : values) top = std::max(top, v);
     const bool has_fill = crop && count < texels;
-    const float fill = has_fill ? render::half_to_float(render::float_to_half(crop->fill)) : 0.0f;
+    const float fill = has_fill ? blend::half_to_float(blend::float_to_half(crop->fill)) : 0.0f;
     if (has_fill) top = std::max(top, fill);
     if (top <= 0.0f) continue;
     const auto quantised = [top](float v) { return top * std::round(std::clamp(v / top * 255.0f, 0.0f, 255.0f)) / 255.0f; };
-    for (std::size_t k = 0; k < count; ++k) halves[k] = render::float_to_half(quantised(values[k]));
-    if (has_fill) crop->fill = render::half_to_float(render::float_to_half(quantised(fill)));
+    for (std::size_t k = 0; k < count; ++k) halves[k] = blend::float_to_half(quantised(values[k]));
+    if (has_fill) crop->fill = blend::half_to_float(blend::float_to_half(quantised(fill)));
   }
 }
 
@@ -215,9 +219,9 @@ void quantise_to_unorm8(render::BasisImages& basis) {
 // A tiled basis (clustered PCA) is scaled by a whole factor, its tiles with it, so that every
 // texel keeps its tile. A cropped basis stays cropped: each rectangle scaled with the plane (its
 // values nearest texel, as a whole layer's), the fills kept.
-render::BasisImages upsampled(const render::BasisImages& b, int width, int height) {
+blend::BasisImages upsampled(const blend::BasisImages& b, int width, int height) {
   if (b.cropped()) {
-    render::BasisImages out = b;
+    blend::BasisImages out = b;
     out.width = width;
     out.height = height;
     out.half.clear();
@@ -226,8 +230,8 @@ render::BasisImages upsampled(const render::BasisImages& b, int width, int heigh
       return static_cast<int>((static_cast<std::int64_t>(at) * to + from - 1) / from);
     };
     for (int layer = 0; layer < b.layers; ++layer) {
-      const render::LayerCrop& c = b.crops[static_cast<std::size_t>(layer)];
-      render::LayerCrop& f = out.crops[static_cast<std::size_t>(layer)];
+      const blend::LayerCrop& c = b.crops[static_cast<std::size_t>(layer)];
+      blend::LayerCrop& f = out.crops[static_cast<std::size_t>(layer)];
       f.col = scaled(c.col, width, b.width);
       f.row = scaled(c.row, height, b.height);
       f.cols = c.cols > 0 && c.rows > 0 ? scaled_up(c.col + c.cols, width, b.width) - f.col : 0;
@@ -237,7 +241,7 @@ render::BasisImages upsampled(const render::BasisImages& b, int width, int heigh
         for (int col = f.col; col < f.col + f.cols; ++col) {
           // Nearest texel of the coarse layer: a fine texel at the rectangle's edge may fall
           // just outside the coarse rectangle, where the layer is its fill.
-          out.half.push_back(render::float_to_half(b.value(layer, col * b.width / width, row * b.height / height)));
+          out.half.push_back(blend::float_to_half(b.value(layer, col * b.width / width, row * b.height / height)));
         }
       }
     }
@@ -248,7 +252,7 @@ render::BasisImages upsampled(const render::BasisImages& b, int width, int heigh
     width = b.width * factor;
     height = b.height * factor;
   }
-  render::BasisImages out = b;
+  blend::BasisImages out = b;
   if (b.tile > 0) out.tile = b.tile * (width / b.width);
   out.width = width;
   out.height = height;
@@ -576,8 +580,24 @@ struct SkyData {
   bool sunny = false;  // a sun in the equirect (study::equirect_sun)
 };
 
+// The input files, given or the defaults (relative to the repository root), before any work.
+void check_inputs(const TradeOptions& o) {
+  const auto need = [](bool present, const char* option, const std::string& path, const char* what) {
+    if (!present) {
+      throw InputError(std::string("option ") + option + ": '" + path + "' is not " + what +
+                       ". Fix: pass " + option + ", or run from the repository root for the default");
+    }
+  };
+  std::error_code ec;
+  need(fs::is_regular_file(o.site_file, ec), "--site", o.site_file, "a file");
+  need(fs::is_regular_file(o.sky_calib, ec), "--calib", o.sky_calib, "a file");
+  need(fs::is_regular_file(o.hmd_calib, ec), "--hmd-camera", o.hmd_calib, "a file");
+  need(fs::is_directory(o.skies_dir, ec), "--skies", o.skies_dir, "a folder");
+}
+
 int run_trade(TradeOptions o) {
   const auto start = Clock::now();
+  check_inputs(o);
   // The sky sequence's settings (--sequence), checked before any work.
   study::SequenceOptions sequence;
   sequence.frames = o.sequence_frames;
@@ -619,7 +639,7 @@ int run_trade(TradeOptions o) {
             const Form form = parse_form(form_text);
             for (int bits : o.bits) {
               if (bits != 8 && bits != 16) throw InputError("option --bits: 16 or 8");
-              if (bits == 8 && form.form == render::BasisForm::Pca) continue;
+              if (bits == 8 && form.form == blend::BasisForm::Pca) continue;
               for (const std::string& sun : o.sun) {
                 if (sun != "on" && sun != "off") throw InputError("option --sun: on, off");
                 for (double skip : o.skip_thresholds) {
@@ -628,7 +648,7 @@ int run_trade(TradeOptions o) {
                       for (double render_scale : o.render_scales) {
                         settings.push_back({key, form, bits, sun == "on", skip, change, smoothing, render_scale});
                         bake_keys.insert(key);
-                        if (form.form == render::BasisForm::Pca) pca_keys.insert({key, form.components, form.tile});
+                        if (form.form == blend::BasisForm::Pca) pca_keys.insert({key, form.components, form.tile});
                       }
                     }
                   }
@@ -686,7 +706,6 @@ int run_trade(TradeOptions o) {
   // Bakes, cached in OUT/bakes.
   std::map<BakeKey, fs::path> bakes;
   std::map<BakeKey, double> bake_seconds;
-  std::FILE* quiet = std::fopen("/dev/null", "w");
   int done = 0;
   for (const BakeKey& key : bake_keys) {
     const fs::path dir = out / "bakes" / key.name();
@@ -695,7 +714,7 @@ int run_trade(TradeOptions o) {
     bool cached = false;
     if (fs::exists(stamp)) {
       try {
-        (void)bake::read_manifest(dir);
+        (void)bake_format::read_manifest(dir);
         bake_seconds[key] = nlohmann::json::parse(read_file(stamp)).at("seconds").get<double>();
         cached = true;
       } catch (const std::exception&) {
@@ -715,7 +734,7 @@ int run_trade(TradeOptions o) {
       options.force = true;
       options.previews = false;
       const auto t = Clock::now();
-      baker::run_bake(options, quiet);
+      baker::run_bake(options, nullptr);
       bake_seconds[key] = seconds_since(t);
       write_file_atomic(stamp, nlohmann::json{{"seconds", bake_seconds[key]}}.dump() + "\n");
       std::printf("bake %d/%zu: %s %.1f s\n", done, bake_keys.size(), key.name().c_str(), bake_seconds[key]);
@@ -734,7 +753,7 @@ int run_trade(TradeOptions o) {
     bool cached = false;
     if (fs::exists(stamp)) {
       try {
-        (void)bake::read_manifest(copy);
+        (void)bake_format::read_manifest(copy);
         pca_seconds[{key, k, tile}] = nlohmann::json::parse(read_file(stamp)).at("seconds").get<double>();
         cached = true;
       } catch (const std::exception&) {
@@ -745,11 +764,11 @@ int run_trade(TradeOptions o) {
       fs::remove_all(copy);
       fs::copy(bakes.at(key), copy, fs::copy_options::recursive);
       fs::remove(copy / "trade_bake.json");
-      bake::PcaOptions pca;
+      bake_format::PcaOptions pca;
       pca.components = k;
       pca.tile = tile;
       const auto t = Clock::now();
-      baker::compress_bake(copy, pca, quiet);
+      baker::compress_bake(copy, pca, nullptr);
       pca_seconds[{key, k, tile}] = seconds_since(t);
       write_file_atomic(stamp, nlohmann::json{{"seconds", pca_seconds[{key, k, tile}]}}.dump() + "\n");
       std::printf("PCA %s K=%d tile %d: %.1f s\n", key.name().c_str(), k, tile, pca_seconds[{key, k, tile}]);
@@ -757,11 +776,10 @@ int run_trade(TradeOptions o) {
     }
     pca_bakes[{key, k, tile}] = copy;
   }
-  std::fclose(quiet);
 
   // Skies: the fisheye frame the live path sees, whether the equirect has a sun.
-  const sky::CameraCalibration calibration = sky::load_calibration(o.sky_calib);
-  const sky::Lens lens(calibration);
+  const camera::CameraCalibration calibration = camera::load_calibration(o.sky_calib);
+  const camera::Lens lens(calibration);
   std::vector<SkyData> skies;
   for (const fs::path& file : sky_files) {
     SkyData d;
@@ -829,7 +847,7 @@ int run_trade(TradeOptions o) {
     std::vector<std::shared_ptr<const std::vector<std::vector<float>>>> visibility;  // per frame: per plane
   };
   std::map<std::pair<EstimatorKey, int>, SunTrack> sun_tracks;
-  const auto sun_track = [&](const Setting& s, const bake::Manifest& manifest) -> const SunTrack& {
+  const auto sun_track = [&](const Setting& s, const bake_format::Manifest& manifest) -> const SunTrack& {
     const EstimatorKey key{s.bake.frequency, s.bake.basis, s.sun};
     SunTrack& track = sun_tracks[{key, s.bake.texel_scale}];
     if (!track.revision.empty()) return track;
@@ -856,9 +874,9 @@ int run_trade(TradeOptions o) {
 
   // The compositor's frame time per (bake, sun map, render scale): the headless GL context.
   gpu::HeadlessContext context;
-  const sky::CameraCalibration hmd = study::scaled_camera(o.hmd_calib, o.frame_width, o.frame_height);
+  const camera::CameraCalibration hmd = study::scaled_camera(o.hmd_calib, o.frame_width, o.frame_height);
   const double az = 140 * std::numbers::pi / 180, el = 35 * std::numbers::pi / 180;
-  const render::SunLight bench_sun{Eigen::Vector3d(std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)),
+  const blend::SunLight bench_sun{Eigen::Vector3d(std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)),
                                    Eigen::Vector3d::Constant(3.0)};
   // One compositor per (bake, sun map, render scale), all made first and then timed a frame each
   // in turn, round after round, so that a change of the machine's load falls on all alike.
@@ -880,9 +898,9 @@ int run_trade(TradeOptions o) {
     rig = std::make_unique<FrameRig>();
     const SiteData& site = sites.at(s.bake.texel_scale);
     const fs::path dir = bakes.at(s.bake);
-    const bake::Manifest manifest = bake::read_manifest(dir);
+    const bake_format::Manifest manifest = bake_format::read_manifest(dir);
     std::vector<std::size_t> shape;
-    const std::vector<float> transfer = bake::read_npy(dir / manifest.transfer_file, &shape);
+    const std::vector<float> transfer = bake_format::read_npy(dir / manifest.transfer_file, &shape);
     std::vector<geom::Plane> planes;
     for (const auto& record : manifest.planes) planes.push_back(record.plane);
     if (s.sun) {
@@ -925,7 +943,7 @@ int run_trade(TradeOptions o) {
   frame_rigs.clear();
 
   // Per setting: T for every sky against the reference; the blend's time on the first sky.
-  render::BlendWorkers workers(o.threads);
+  blend::BlendWorkers workers(o.threads);
   std::vector<Result> results;
   int index = 0;
   for (const Setting& s : settings) {
@@ -933,15 +951,15 @@ int run_trade(TradeOptions o) {
     const auto t_setting = Clock::now();
     Result r;
     r.setting = s;
-    const bool pca = s.form.form == render::BasisForm::Pca;
+    const bool pca = s.form.form == blend::BasisForm::Pca;
     const fs::path bake_dir = pca ? pca_bakes.at({s.bake, s.form.components, s.form.tile}) : bakes.at(s.bake);
-    const bake::Manifest manifest = bake::read_manifest(bake_dir);
+    const bake_format::Manifest manifest = bake_format::read_manifest(bake_dir);
     r.bake_seconds = bake_seconds.at(s.bake) + (pca ? pca_seconds.at({s.bake, s.form.components, s.form.tile}) : 0.0);
     r.bake_bytes = directory_bytes(bake_dir);
     const SiteData& site = sites.at(s.bake.texel_scale);
-    std::vector<render::BasisImages> basis;
+    std::vector<blend::BasisImages> basis;
     for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
-      basis.push_back(render::load_basis(bake_dir, manifest, static_cast<int>(j), s.form.form));
+      basis.push_back(blend::load_basis(bake_dir, manifest, static_cast<int>(j), s.form.form));
       if (s.bits == 8) quantise_to_unorm8(basis.back());
       r.layers += basis.back().layers;
     }
@@ -952,8 +970,8 @@ int run_trade(TradeOptions o) {
     for (std::size_t i = 0; i < skies.size(); ++i) {
       const sky::SkyEstimate estimate = estimator->estimate(skies[i].frame);
       const std::vector<Eigen::Vector3d> S = sky::layer_radiances(estimate.luminance);
-      std::optional<render::SunLight> sun;
-      if (estimate.sun) sun = render::SunLight{estimate.sun->direction, estimate.sun->energy};
+      std::optional<blend::SunLight> sun;
+      if (estimate.sun) sun = blend::SunLight{estimate.sun->direction, estimate.sun->energy};
       const auto& reference = references.at({s.bake.texel_scale, i});
       std::vector<double> sky_diffs;
       for (std::size_t j = 0; j < basis.size(); ++j) {
@@ -963,8 +981,8 @@ int run_trade(TradeOptions o) {
           baker::area_light_visibility(site.mesh, manifest.planes[j].plane, estimate.sun->disc_directions,
                                        estimate.sun->disc_weights, visibility);
         }
-        const render::BlendWeights w = render::blend_weights(basis[j], S, sun);
-        live::CpuShadowRatios ratios(basis[j], s.skip_threshold, 0.0);
+        const blend::BlendWeights w = blend::blend_weights(basis[j], S, sun);
+        blend::CpuBlender ratios(basis[j], s.skip_threshold, 0.0);
         ratios.blend(w, visibility, 1, &workers);
         const std::vector<float>& rgba = *ratios.rgba();
         std::vector<float> T(basis[j].texel_count() * 3);
@@ -982,16 +1000,16 @@ int run_trade(TradeOptions o) {
           // change threshold (0) never keeps the last T; every plane, as the live service blends them.
           const geom::Plane& full = sites.at(s.bake.texel_scale).full_planes[j];
           const int width = std::max(4, full.width / o.timing_scale), height = std::max(4, full.height / o.timing_scale);
-          const render::BasisImages fine = upsampled(basis[j], width, height);
+          const blend::BasisImages fine = upsampled(basis[j], width, height);
           const std::vector<float> fine_visibility = upsampled(visibility, basis[j].width, basis[j].height, fine.width, fine.height);
           // What the GPU blend allocates for the plane at this resolution (packed layers): whole
           // layers, or a cropped basis's pages (upsampled keeps it cropped).
-          render::GpuBlendOptions gpu_options;
-          gpu_options.storage = s.bits == 8 ? render::BasisStorage::Unorm8 : render::BasisStorage::Half;
+          blend::GpuBlendOptions gpu_options;
+          gpu_options.storage = s.bits == 8 ? blend::BasisStorage::Unorm8 : blend::BasisStorage::Half;
           gpu_options.pack_layers = true;
-          r.gpu_bytes += static_cast<std::uint64_t>(render::gpu_basis_bytes(fine, gpu_options));
-          live::CpuShadowRatios timed(fine, s.skip_threshold, 0.0);
-          render::BlendWeights nudged = w;
+          r.gpu_bytes += static_cast<std::uint64_t>(blend::gpu_basis_bytes(fine, gpu_options));
+          blend::CpuBlender timed(fine, s.skip_threshold, 0.0);
+          blend::BlendWeights nudged = w;
           for (auto& f : nudged.face) f *= 1.0001f;
           nudged.sun *= 1.0001f;
           std::vector<double> times, cpu;
@@ -1014,7 +1032,7 @@ int run_trade(TradeOptions o) {
     }
     r.error = study::errors_of(std::move(diffs));
     if (o.sequence) {
-      // The sequence: the live path (smoother → blend weights → CpuShadowRatios with the change
+      // The sequence: the live path (smoother → blend weights → CpuBlender with the change
       // threshold, one per plane, kept from frame to frame as the service keeps them) and the
       // still-sky path (a fresh blend of the frame's own estimate), both against the reference.
       const auto& estimates = sequence_estimates.at({s.bake.frequency, s.bake.basis, s.sun});
@@ -1024,24 +1042,24 @@ int run_trade(TradeOptions o) {
       q.planes = static_cast<int>(basis.size());
       q.sun_redraws = track.revision.empty() ? 0 : static_cast<int>(track.revision.back());
       sky::SkySmoother smoother(s.smoothing);
-      std::vector<std::unique_ptr<live::CpuShadowRatios>> kept;
-      for (const auto& b : basis) kept.push_back(std::make_unique<live::CpuShadowRatios>(b, s.skip_threshold, s.change_threshold));
+      std::vector<std::unique_ptr<blend::CpuBlender>> kept;
+      for (const auto& b : basis) kept.push_back(std::make_unique<blend::CpuBlender>(b, s.skip_threshold, s.change_threshold));
       const auto sun_of = [](const sky::SkyEstimate& e) {
-        return e.sun ? std::optional<render::SunLight>(render::SunLight{e.sun->direction, e.sun->energy}) : std::nullopt;
+        return e.sun ? std::optional<blend::SunLight>(blend::SunLight{e.sun->direction, e.sun->energy}) : std::nullopt;
       };
       for (std::size_t k = 0; k < estimates.size(); ++k) {
         const sky::SkyEstimate smoothed = smoother.smooth(study::sequence_time(sequence, static_cast<int>(k)), estimates[k]);
         const std::vector<Eigen::Vector3d> S_live = sky::layer_radiances(smoothed.luminance);
         const std::vector<Eigen::Vector3d> S_still = sky::layer_radiances(estimates[k].luminance);
-        const std::optional<render::SunLight> sun_live = sun_of(smoothed), sun_still = sun_of(estimates[k]);
+        const std::optional<blend::SunLight> sun_live = sun_of(smoothed), sun_still = sun_of(estimates[k]);
         std::vector<double> live_diffs, still_diffs;
         int blended = 0;
         for (std::size_t j = 0; j < basis.size(); ++j) {
           const std::span<const float> visibility =
               track.visibility[k] ? std::span<const float>((*track.visibility[k])[j]) : std::span<const float>();
-          blended += kept[j]->blend(render::blend_weights(basis[j], S_live, sun_live), visibility, track.revision[k], &workers) ? 1 : 0;
-          live::CpuShadowRatios fresh(basis[j], s.skip_threshold, 0.0);
-          fresh.blend(render::blend_weights(basis[j], S_still, sun_still), visibility, track.revision[k], &workers);
+          blended += kept[j]->blend(blend::blend_weights(basis[j], S_live, sun_live), visibility, track.revision[k], &workers) ? 1 : 0;
+          blend::CpuBlender fresh(basis[j], s.skip_threshold, 0.0);
+          fresh.blend(blend::blend_weights(basis[j], S_still, sun_still), visibility, track.revision[k], &workers);
           const std::vector<float>& live_rgba = *kept[j]->rgba();
           const std::vector<float>& still_rgba = *fresh.rgba();
           for (std::size_t x = 0; x < basis[j].texel_count(); ++x) {
@@ -1221,7 +1239,7 @@ int main(int argc, char** argv) {
   trade->add_flag("--quick", o.quick,
                   "a small grid (ν 2, faces and corners, K 8, planes at 1/16, full and pca4, 16 bits, sun on, S 0; "
                   "park and city) in a few minutes; explicit options still apply");
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = tools::parse_command_line(app, argc, argv)) return *status;
   try {
     if (o.quick) {
       const auto unless_given = [&](const char* name, auto& field, auto value) {
@@ -1241,7 +1259,10 @@ int main(int argc, char** argv) {
     }
     return run_trade(o);
   } catch (const InputError& e) {
-    std::fprintf(stderr, "skylit-bench: %s\n", e.what());
+    std::fprintf(stderr, "skylit-bench: error: %s\n", e.what());
     return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "skylit-bench: internal error: %s\n", e.what());
+    return 3;
   }
 }

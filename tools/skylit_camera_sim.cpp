@@ -23,8 +23,10 @@
 
 #include "skylit/base/error.hpp"
 #include "skylit/base/files.hpp"
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/lens.hpp"
+#include "skylit/sky/srgb.hpp"
 #include "skylit/track/pose.hpp"
+#include "command_line.hpp"
 
 namespace {
 
@@ -60,11 +62,6 @@ Vec3 ground_albedo(double x, double y) {
   return Vec3(0.95, 0.9, 0.8) * (0.18 + 0.10 * grain);
 }
 
-double srgb_encode(double linear) {
-  linear = std::clamp(linear, 0.0, 1.0);
-  return linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1.0 / 2.4) - 0.055;
-}
-
 std::vector<double> parse_numbers(const std::string& text, std::size_t count, const std::string& option) {
   std::vector<double> values;
   std::size_t start = 0;
@@ -95,7 +92,7 @@ int main(int argc, char** argv) {
   std::string calib_file, out_dir, centre_text = "0,0", target_text = "0,0,3";
   int frames = 120;
   double fps = 30, radius = 18, height = 1.6, sweep = 60, start_azimuth = -90, exposure = 1.0;
-  app.add_option("--calib", calib_file, "the HMD camera's calibration (YAML)")->required();
+  app.add_option("--calib", calib_file, "the HMD camera's calibration (YAML)")->required()->check(CLI::ExistingFile);
   app.add_option("-o,--out", out_dir, "output folder")->required();
   app.add_option("--frames", frames, "frames to write")->capture_default_str()->check(CLI::Range(1, 100000));
   app.add_option("--fps", fps, "frames per second of the recording")->capture_default_str()->check(CLI::PositiveNumber);
@@ -107,15 +104,15 @@ int main(int argc, char** argv) {
   app.add_option("--sweep", sweep, "degrees of arc walked over the whole recording")->capture_default_str();
   app.add_option("--look-at", target_text, "x,y,z the camera looks at")->capture_default_str();
   app.add_option("--exposure", exposure, "scale from the ground's radiance to pixel values")->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = skylit::tools::parse_command_line(app, argc, argv)) return *status;
 
   try {
     const auto centre = parse_numbers(centre_text, 2, "--centre");
     const auto target_values = parse_numbers(target_text, 3, "--look-at");
     const Vec3 target(target_values[0], target_values[1], target_values[2]);
-    const skylit::sky::CameraCalibration calibration = skylit::sky::load_calibration(calib_file);
-    const skylit::sky::Lens lens(calibration);
-    fs::create_directories(out_dir);
+    const skylit::camera::CameraCalibration calibration = skylit::camera::load_calibration(calib_file);
+    const skylit::camera::Lens lens(calibration);
+    skylit::ensure_writable_directory(out_dir);
 
     // Each pixel's ray in the camera frame, once (the lens does not move).
     const int width = calibration.image_width, height_px = calibration.image_height;
@@ -156,7 +153,7 @@ int main(int argc, char** argv) {
             }
           }
           for (int c = 0; c < 3; ++c) {
-            out[col][2 - c] = static_cast<std::uint8_t>(std::lround(255.0 * srgb_encode(exposure * radiance[c])));
+            out[col][2 - c] = skylit::sky::srgb_encode8(exposure * radiance[c]);
           }
         }
       }
@@ -177,8 +174,11 @@ int main(int argc, char** argv) {
     skylit::write_file_atomic(fs::path(out_dir) / "poses.csv", poses_csv);
     std::printf("skylit-camera-sim: %d frames of %d×%d in %s (frames.csv, poses.csv)\n", frames, width, height_px,
                 out_dir.c_str());
+  } catch (const skylit::InputError& e) {
+    std::fprintf(stderr, "skylit-camera-sim: error: %s\n", e.what());
+    return 2;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "skylit-camera-sim: %s\n", e.what());
+    std::fprintf(stderr, "skylit-camera-sim: internal error: %s\n", e.what());
     return 1;
   }
   return 0;

@@ -19,20 +19,22 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
-#include "skylit/bake/format.hpp"
+#include "skylit/bake_format/manifest.hpp"
+#include "skylit/bake_format/arrays.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/geom/dome.hpp"
 #include "skylit/gpu/egl_context.hpp"
 #include "skylit/render/compositor.hpp"
-#include "skylit/render/cpu_blend.hpp"
-#include "skylit/render/gpu_blend.hpp"
+#include "skylit/blend/cpu_blend.hpp"
+#include "skylit/blend/gpu_blend.hpp"
 #include "skylit/render/sun_shadow_map.hpp"
 #include "skylit/scene/site.hpp"
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/lens.hpp"
 #include "skylit/sky/image_io.hpp"
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/simulate.hpp"
 #include "skylit/sky/sky_estimate.hpp"
+#include "command_line.hpp"
 
 namespace {
 
@@ -68,7 +70,7 @@ Vector3d three(const std::vector<double>& values, const std::string& option) {
   throw InputError(std::string("option ").append(option).append(": expected one number or three (r, g, b)"));
 }
 
-skylit::render::CameraPose pose_from(const Options& o, const skylit::sky::CameraCalibration& hmd) {
+skylit::render::CameraPose pose_from(const Options& o, const skylit::camera::CameraCalibration& hmd) {
   skylit::render::CameraPose pose;
   if (o.position.empty()) {
     pose.R_site_from_camera = hmd.R_site_from_camera;
@@ -89,7 +91,7 @@ skylit::render::CameraPose pose_from(const Options& o, const skylit::sky::Camera
   return pose;
 }
 
-cv::Mat film_equirect(const std::string& file, const skylit::sky::Lens& lens, double azimuth_offset_deg) {
+cv::Mat film_equirect(const std::string& file, const skylit::camera::Lens& lens, double azimuth_offset_deg) {
   const cv::Mat equirect = skylit::sky::read_sky_image(file);
   cv::Mat radiance;
   equirect.convertTo(radiance, CV_32FC3, equirect.depth() == CV_8U ? 1.0 / 255.0 : 1.0);
@@ -102,12 +104,12 @@ cv::Mat film_equirect(const std::string& file, const skylit::sky::Lens& lens, do
 int run(const Options& o) {
   const skylit::scene::Site site = skylit::scene::load_site(o.site);
   const skylit::scene::Mesh mesh = skylit::scene::load_model(site.model, site.up, site.scale);
-  const skylit::bake::Manifest manifest = skylit::bake::read_manifest(o.bake_dir);
+  const skylit::bake_format::Manifest manifest = skylit::bake_format::read_manifest(o.bake_dir);
   std::vector<std::size_t> shape;
-  const std::vector<float> transfer = skylit::bake::read_npy(fs::path(o.bake_dir) / manifest.transfer_file, &shape);
+  const std::vector<float> transfer = skylit::bake_format::read_npy(fs::path(o.bake_dir) / manifest.transfer_file, &shape);
 
   // The sky: S and the sun.
-  const skylit::sky::CameraCalibration sky_calibration = skylit::sky::load_calibration(o.sky_calib);
+  const skylit::camera::CameraCalibration sky_calibration = skylit::camera::load_calibration(o.sky_calib);
   const skylit::geom::Dome dome(manifest.plan.frequency);
   skylit::sky::SkyEstimateOptions estimate_options;
   estimate_options.table.basis = manifest.plan.basis;
@@ -121,8 +123,8 @@ int run(const Options& o) {
   }
   const skylit::sky::SkyEstimate estimate = estimator.estimate(sky_frame);
   const std::vector<Vector3d> S = skylit::sky::layer_radiances(estimate.luminance);
-  std::optional<skylit::render::SunLight> sun;
-  if (estimate.sun) sun = skylit::render::SunLight{estimate.sun->direction, estimate.sun->energy};
+  std::optional<skylit::blend::SunLight> sun;
+  if (estimate.sun) sun = skylit::blend::SunLight{estimate.sun->direction, estimate.sun->energy};
   std::printf("sky: %s", estimate.sun_reason.c_str());
   if (sun) {
     std::printf(" at azimuth %.1f°, elevation %.1f°", std::atan2(sun->direction.x(), sun->direction.y()) * 180 / 3.14159265,
@@ -131,13 +133,13 @@ int run(const Options& o) {
   std::printf("\n");
 
   // The HMD frame and pose.
-  skylit::sky::CameraCalibration hmd = skylit::sky::load_calibration(o.hmd_calib);
+  skylit::camera::CameraCalibration hmd = skylit::camera::load_calibration(o.hmd_calib);
   const skylit::render::CameraPose pose = pose_from(o, hmd);
   cv::Mat camera;
   if (!o.camera_equirect.empty()) {
-    skylit::sky::CameraCalibration posed = hmd;
+    skylit::camera::CameraCalibration posed = hmd;
     posed.R_site_from_camera = pose.R_site_from_camera;
-    const cv::Mat radiance = film_equirect(o.camera_equirect, skylit::sky::Lens(posed), o.azimuth_offset_deg);
+    const cv::Mat radiance = film_equirect(o.camera_equirect, skylit::camera::Lens(posed), o.azimuth_offset_deg);
     double exposure = o.camera_exposure;
     if (exposure <= 0) {  // as an auto-exposing camera would: the median luminance to 18% grey
       cv::Mat grey;
@@ -159,14 +161,14 @@ int run(const Options& o) {
   for (const auto& record : manifest.planes) planes.push_back(record.plane);
   skylit::render::SunShadowMap shadow_map(mesh, planes, shadow_options);
   if (sun) shadow_map.update(sun->direction, estimate.sun->angular_radius);
-  std::vector<std::unique_ptr<skylit::render::GpuBlender>> blenders;
+  std::vector<std::unique_ptr<skylit::blend::GpuBlender>> blenders;
   std::vector<GLuint> ratios;
-  skylit::render::GpuBlendOptions blend_options;
+  skylit::blend::GpuBlendOptions blend_options;
   blend_options.shader_dir = o.shader_dir;
   for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
-    const skylit::render::BasisImages basis = skylit::render::load_basis(o.bake_dir, manifest, static_cast<int>(j));
-    blenders.push_back(std::make_unique<skylit::render::GpuBlender>(basis, blend_options));
-    const skylit::render::BlendWeights weights = skylit::render::blend_weights(basis, S, sun);
+    const skylit::blend::BasisImages basis = skylit::blend::load_basis(o.bake_dir, manifest, static_cast<int>(j));
+    blenders.push_back(std::make_unique<skylit::blend::GpuBlender>(basis, blend_options));
+    const skylit::blend::BlendWeights weights = skylit::blend::blend_weights(basis, S, sun);
     blenders.back()->blend(weights, weights.sun.isZero(0) ? nullptr : &shadow_map.visibility(static_cast<int>(j)));
     ratios.push_back(blenders.back()->shadow_ratio_texture());
   }
@@ -221,16 +223,22 @@ int run(const Options& o) {
 int main(int argc, char** argv) {
   CLI::App app{"skylit-compose: one composite frame (bake + sky + HMD camera frame + pose → PNG)"};
   Options o;
-  app.add_option("--site", o.site, "site YAML (model and plane surfaces)")->required();
-  app.add_option("--bake", o.bake_dir, "bake directory (from skylit-bake)")->required();
-  app.add_option("--sky-calib", o.sky_calib, "sky-camera calibration")->required();
-  auto* sky = app.add_option("--sky", o.sky, "sky-camera frame (float EXR/HDR linear, or 8-bit sRGB)");
-  app.add_option("--sky-equirect", o.sky_equirect, "equirect HDR to film with the sky camera instead")->excludes(sky);
+  app.add_option("--site", o.site, "site YAML (model and plane surfaces)")->required()->check(CLI::ExistingFile);
+  app.add_option("--bake", o.bake_dir, "bake directory (from skylit-bake)")->required()->check(CLI::ExistingDirectory);
+  app.add_option("--sky-calib", o.sky_calib, "sky-camera calibration")->required()->check(CLI::ExistingFile);
+  auto* sky = app.add_option("--sky", o.sky, "sky-camera frame (float EXR/HDR linear, or 8-bit sRGB)")
+                  ->check(CLI::ExistingFile);
+  app.add_option("--sky-equirect", o.sky_equirect, "equirect HDR to film with the sky camera instead")
+      ->excludes(sky)
+      ->check(CLI::ExistingFile);
   app.add_option("--hmd-calib", o.hmd_calib, "HMD camera calibration (its R/t are the pose unless --position)")
-      ->required();
-  auto* camera = app.add_option("--camera", o.camera, "HMD camera frame (8-bit sRGB or float linear)");
+      ->required()
+      ->check(CLI::ExistingFile);
+  auto* camera = app.add_option("--camera", o.camera, "HMD camera frame (8-bit sRGB or float linear)")
+                     ->check(CLI::ExistingFile);
   app.add_option("--camera-equirect", o.camera_equirect, "equirect to film with the HMD camera instead")
-      ->excludes(camera);
+      ->excludes(camera)
+      ->check(CLI::ExistingFile);
   app.add_option("--camera-exposure", o.camera_exposure, "exposure for --camera-equirect (0: auto)");
   app.add_option("--position", o.position, "camera position x y z (site metres)")->expected(3);
   app.add_option("--look-at", o.look_at, "point the camera looks at, x y z")->expected(3);
@@ -243,16 +251,16 @@ int main(int argc, char** argv) {
   app.add_option("--render-scale", o.render_scale, "building render resolution / the camera's")->capture_default_str();
   app.add_option("--shader-dir", o.shader_dir, "shader directory (default: search)");
   app.add_option("-o,--output", o.output, "output PNG")->required();
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = skylit::tools::parse_command_line(app, argc, argv)) return *status;
   try {
     if (o.sky.empty() && o.sky_equirect.empty()) throw InputError("give --sky or --sky-equirect");
     if (o.camera.empty() && o.camera_equirect.empty()) throw InputError("give --camera or --camera-equirect");
     return run(o);
   } catch (const InputError& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
+    std::fprintf(stderr, "skylit-compose: error: %s\n", e.what());
     return 2;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "internal error: %s\n", e.what());
+    std::fprintf(stderr, "skylit-compose: internal error: %s\n", e.what());
     return 1;
   }
 }

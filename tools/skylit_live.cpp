@@ -17,6 +17,7 @@
 #include "skylit/base/error.hpp"
 #include "skylit/live/live_config.hpp"
 #include "skylit/live/service.hpp"
+#include "command_line.hpp"
 
 namespace {
 
@@ -24,8 +25,8 @@ namespace {
 // thread, so no handler runs in the middle of a frame) and stops the service.
 class SignalWatcher {
  public:
-  explicit SignalWatcher(skylit::live::Service& service) {
-    thread_ = std::thread([this, &service] {
+  SignalWatcher(skylit::live::Service& service, bool quiet) {
+    thread_ = std::thread([this, &service, quiet] {
       sigset_t set;
       sigemptyset(&set);
       sigaddset(&set, SIGINT);
@@ -34,7 +35,7 @@ class SignalWatcher {
       while (!done_) {
         const int signal = sigtimedwait(&set, nullptr, &wait);
         if (signal == SIGINT || signal == SIGTERM) {
-          std::fprintf(stderr, "\nskylit-live: %s, stopping\n", signal == SIGINT ? "SIGINT" : "SIGTERM");
+          if (!quiet) std::fprintf(stderr, "\nskylit-live: %s, stopping\n", signal == SIGINT ? "SIGINT" : "SIGTERM");
           service.stop();
         }
       }
@@ -59,14 +60,16 @@ int main(int argc, char** argv) {
   std::string config_file, record, status;
   std::int64_t frames = 0;
   bool headless = false, profile = false, quiet = false;
-  app.add_option("config", config_file, "the service's YAML configuration (docs/live.md)")->required();
+  app.add_option("config", config_file, "the service's YAML configuration (docs/live.md)")
+      ->required()
+      ->check(CLI::ExistingFile);
   app.add_flag("--headless", headless, "no window, whatever the config says");
   app.add_option("--record", record, "write composited frames: a video (.mp4, .avi) or a folder of PNGs");
   app.add_option("--frames", frames, "stop after this many frames")->check(CLI::PositiveNumber);
   app.add_option("--status", status, "serve /status, /metrics, /sky.jpg, /frame.jpg on ADDR:PORT");
   app.add_flag("--profile", profile, "wait for the GPU after each stage, so that stage times are true");
-  app.add_flag("-q,--quiet", quiet, "no progress line");
-  CLI11_PARSE(app, argc, argv);
+  app.add_flag("-q,--quiet", quiet, "only warnings and errors: no progress line, no final status");
+  if (const auto status_code = skylit::tools::parse_command_line(app, argc, argv)) return *status_code;
 
   // Block the signals before any thread starts, so that every thread inherits the mask.
   sigset_t set;
@@ -85,15 +88,17 @@ int main(int argc, char** argv) {
     options.profile = profile;
     options.quiet = quiet;
     skylit::live::Service service(config, options);
-    if (!service.status_address().empty()) {
+    if (!service.status_address().empty() && !quiet) {
       std::fprintf(stderr, "skylit-live: status on http://%s/status\n", service.status_address().c_str());
     }
-    const SignalWatcher watcher(service);
+    const SignalWatcher watcher(service, quiet);
     const std::int64_t done = service.run();
-    std::printf("skylit-live: %lld frames composited\n", static_cast<long long>(done));
-    std::fputs(service.status_json().c_str(), stdout);
+    if (!quiet) {
+      std::printf("skylit-live: %lld frames composited\n", static_cast<long long>(done));
+      std::fputs(service.status_json().c_str(), stdout);
+    }
   } catch (const skylit::InputError& e) {
-    std::fprintf(stderr, "skylit-live: %s\n", e.what());
+    std::fprintf(stderr, "skylit-live: error: %s\n", e.what());
     return 2;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "skylit-live: error: %s\n", e.what());

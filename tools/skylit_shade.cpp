@@ -16,18 +16,19 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
-#include "skylit/bake/format.hpp"
+#include "skylit/bake_format/manifest.hpp"
 #include "skylit/baker/visibility.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/base/files.hpp"
 #include "skylit/geom/dome.hpp"
-#include "skylit/render/cpu_blend.hpp"
+#include "skylit/blend/cpu_blend.hpp"
 #include "skylit/scene/site.hpp"
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/calibration.hpp"
 #include "skylit/sky/image_io.hpp"
 #include "skylit/sky/overlay.hpp"
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/sky_estimate.hpp"
+#include "command_line.hpp"
 
 namespace {
 
@@ -55,20 +56,8 @@ struct Options {
   int threads = 0;
 };
 
-skylit::sky::ResponseCurve response_for(const Options& o, int bits) {
-  if (o.response == "srgb") return skylit::sky::ResponseCurve::srgb(bits);
-  if (o.response == "linear") return skylit::sky::ResponseCurve::linear(bits);
-  skylit::sky::ResponseCurve curve = skylit::sky::load_response(o.response);
-  if (curve.bits != bits) {
-    throw InputError(o.response + ": field 'bits': the response curve is for " + std::to_string(curve.bits) +
-                     "-bit frames, the sky frames are " + std::to_string(bits) +
-                     "-bit. Fix: calibrate a response for this camera mode, or use --response srgb");
-  }
-  return curve;
-}
-
 // The frames as one linear radiance image: a single frame linearised, a bracket merged.
-skylit::sky::RadianceFrame load_sky(const Options& o, const skylit::sky::CameraCalibration& calibration) {
+skylit::sky::RadianceFrame load_sky(const Options& o, const skylit::camera::CameraCalibration& calibration) {
   std::vector<cv::Mat> frames;
   for (const std::string& file : o.sky) {
     cv::Mat frame = skylit::sky::read_sky_image(file);
@@ -100,14 +89,15 @@ skylit::sky::RadianceFrame load_sky(const Options& o, const skylit::sky::CameraC
   const int depth = frames.front().depth();
   const int bits = depth == CV_8U ? 8 : depth == CV_16U ? 16 : 0;
   if (frames.size() == 1) {
-    return skylit::sky::linearise(frames.front(), bits ? response_for(o, bits) : skylit::sky::ResponseCurve::linear(8),
-                                  exposures.front());
+    return skylit::sky::linearise(
+        frames.front(), bits ? skylit::sky::response_for(o.response, bits) : skylit::sky::ResponseCurve::linear(8),
+        exposures.front());
   }
   if (!bits) {
     throw InputError(o.sky.front() + ": an exposure bracket must be 8- or 16-bit frames. Fix: pass one float (EXR) "
                                      "frame alone, it is already HDR");
   }
-  return skylit::sky::merge_bracket(frames, exposures, response_for(o, bits));
+  return skylit::sky::merge_bracket(frames, exposures, skylit::sky::response_for(o.response, bits));
 }
 
 std::vector<std::string> face_flag_names(std::uint32_t flags) {
@@ -124,7 +114,7 @@ std::vector<std::string> face_flag_names(std::uint32_t flags) {
 nlohmann::json vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
 // The site model the bake was made from, for the separated sources' shadows.
-skylit::scene::Mesh site_mesh(const Options& o, const skylit::bake::Manifest& manifest) {
+skylit::scene::Mesh site_mesh(const Options& o, const skylit::bake_format::Manifest& manifest) {
   const fs::path site_file = o.site.empty() ? fs::path(manifest.plan.site_file) : fs::path(o.site);
   if (!fs::exists(site_file)) {
     throw InputError(site_file.string() + ": the site this bake was made from is not here, and the sun's shadows "
@@ -141,7 +131,7 @@ skylit::scene::Mesh site_mesh(const Options& o, const skylit::bake::Manifest& ma
 
 // Visibility of a separated source (the sun, a lamp) for every texel of every plane: its disc as
 // an area light (soft shadows), ray-cast with Embree against the site model.
-std::vector<std::vector<float>> sun_visibility(const Options& o, const skylit::bake::Manifest& manifest,
+std::vector<std::vector<float>> sun_visibility(const Options& o, const skylit::bake_format::Manifest& manifest,
                                                const skylit::scene::Mesh& mesh, const skylit::sky::Sun& sun) {
   std::vector<skylit::geom::Vec3> directions = sun.disc_directions;
   std::vector<double> weights = sun.disc_weights;
@@ -169,17 +159,17 @@ int run(const Options& o) {
                      ". Fix: use --sources 1 (the sun alone), or N > 1 with --sun auto to separate further compact "
                      "sources");
   }
-  const skylit::bake::VerifyReport report = skylit::bake::verify(o.bake_dir);
+  const skylit::bake_format::VerifyReport report = skylit::bake_format::verify(o.bake_dir);
   if (!report.ok) {
     std::string problems;
     for (const std::string& p : report.problems) problems += "\n  - " + p;
     throw InputError(o.bake_dir + ": not a valid bake:" + problems);
   }
-  const skylit::bake::Manifest& manifest = report.manifest;
+  const skylit::bake_format::Manifest& manifest = report.manifest;
   skylit::ensure_writable_directory(out_dir);
 
   const skylit::geom::Dome dome(manifest.plan.frequency);
-  const skylit::sky::CameraCalibration calibration = skylit::sky::load_calibration(o.sky_calib);
+  const skylit::camera::CameraCalibration calibration = skylit::camera::load_calibration(o.sky_calib);
 
   auto t = Clock::now();
   const skylit::sky::RadianceFrame frame = load_sky(o, calibration);
@@ -198,14 +188,14 @@ int run(const Options& o) {
 
   const std::vector<Eigen::Vector3d> S = skylit::sky::layer_radiances(estimate.luminance);
   // One separated term per source (with --sources 1: the sun, when there is one).
-  std::vector<skylit::render::SunLight> lights;
+  std::vector<skylit::blend::SunLight> lights;
   std::vector<std::vector<std::vector<float>>> visibility;  // [source][plane][texel]
   double visibility_ms = 0;
   if (!estimate.sources.empty()) {
     t = Clock::now();
     const skylit::scene::Mesh mesh = site_mesh(o, manifest);
     for (const skylit::sky::Sun& source : estimate.sources) {
-      lights.push_back(skylit::render::SunLight{source.direction, source.energy});
+      lights.push_back(skylit::blend::SunLight{source.direction, source.energy});
       visibility.push_back(sun_visibility(o, manifest, mesh, source));
     }
     visibility_ms = ms_since(t);
@@ -213,16 +203,16 @@ int run(const Options& o) {
 
   nlohmann::json planes_json = nlohmann::json::array();
   double blend_ms = 0;
-  skylit::render::BlendOptions blend_options;
+  skylit::blend::BlendOptions blend_options;
   blend_options.threads = o.threads;
   for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
-    const skylit::render::BasisImages basis = skylit::render::load_basis(o.bake_dir, manifest, static_cast<int>(j));
+    const skylit::blend::BasisImages basis = skylit::blend::load_basis(o.bake_dir, manifest, static_cast<int>(j));
     t = Clock::now();
-    const skylit::render::BlendWeights weights = skylit::render::blend_weights_sources(basis, S, lights, blend_options);
+    const skylit::blend::BlendWeights weights = skylit::blend::blend_weights_sources(basis, S, lights, blend_options);
     std::vector<float> rgb(basis.texel_count() * 3);
     std::vector<std::span<const float>> v;
     for (const auto& source : visibility) v.emplace_back(source[j]);
-    const skylit::render::BlendStats stats = skylit::render::blend_cpu_sources(basis, weights, v, rgb, blend_options);
+    const skylit::blend::BlendStats stats = skylit::blend::blend_cpu_sources(basis, weights, v, rgb, blend_options);
     const double ms = ms_since(t);
     blend_ms += ms;
 
@@ -361,9 +351,11 @@ int main(int argc, char** argv) {
   CLI::App app{"skylit-shade: shadow ratios of a bake's planes under a sky frame (CPU reference)", "skylit-shade"};
   app.set_version_flag("--version", "skylit-shade 0.1.0");
   Options o;
-  app.add_option("--bake", o.bake_dir, "bake directory (from skylit-bake)")->required();
-  app.add_option("--sky", o.sky, "sky frame; several form one exposure bracket")->required();
-  app.add_option("--sky-calib", o.sky_calib, "sky-camera calibration (YAML, or OpenCV FileStorage)")->required();
+  app.add_option("--bake", o.bake_dir, "bake directory (from skylit-bake)")->required()->check(CLI::ExistingDirectory);
+  app.add_option("--sky", o.sky, "sky frame; several form one exposure bracket")->required()->check(CLI::ExistingFile);
+  app.add_option("--sky-calib", o.sky_calib, "sky-camera calibration (YAML, or OpenCV FileStorage)")
+      ->required()
+      ->check(CLI::ExistingFile);
   app.add_option("-o,--output", o.out_dir, "output directory")->required();
   app.add_option("--sun", o.sun, "auto: separate a compact sun as a directional light; off: dome only")
       ->capture_default_str();
@@ -375,14 +367,15 @@ int main(int argc, char** argv) {
   app.add_option("--gain", o.gain, "sensor gain (linear) when --exposure is given")->capture_default_str();
   app.add_option("--response", o.response, "camera response for 8/16-bit frames: srgb, linear or a YAML curve")
       ->capture_default_str();
-  app.add_option("--site", o.site, "site YAML for the sun's shadows (default: the one the bake records)");
+  app.add_option("--site", o.site, "site YAML for the sun's shadows (default: the one the bake records)")
+      ->check(CLI::ExistingFile);
   app.add_option("--step", o.step, "sky table: sample every N-th pixel")->capture_default_str();
   app.add_option("--min-coverage", o.min_coverage, "faces seen less than this are filled from neighbours")
       ->capture_default_str();
   app.add_option("--threads", o.threads, "threads for the blend and ray casting (0 = all)")->capture_default_str();
   bool quiet = false;
   app.add_flag("-q,--quiet", quiet, "only warnings and errors");
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = skylit::tools::parse_command_line(app, argc, argv)) return *status;
   spdlog::set_level(quiet ? spdlog::level::warn : spdlog::level::info);
   spdlog::set_pattern("skylit-shade: %^%l%$: %v");
   try {

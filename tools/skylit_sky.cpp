@@ -22,19 +22,20 @@
 #include "skylit/base/error.hpp"
 #include "skylit/base/files.hpp"
 #include "skylit/base/progress.hpp"
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/lens.hpp"
 #include "skylit/sky/image_io.hpp"
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/simulate.hpp"
 #include "skylit/sky/sky_model.hpp"
 #include "skylit/sky/solar.hpp"
+#include "command_line.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 using skylit::InputError;
 using skylit::input_message;
-using skylit::sky::Lens;
+using skylit::camera::Lens;
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr long long kMaxFrames = 100000;  // a typo in --every should not fill a disk
@@ -283,7 +284,8 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "skylit-sky 0.1.0");
   Options o;
   app.add_option("--calib", o.calib, "sky camera calibration (YAML, see docs/sky.md)");
-  app.add_option("--equirect", o.equirect, "HDR equirect of the sky (EXR/HDR; 8/16-bit taken as sRGB)");
+  app.add_option("--equirect", o.equirect, "HDR equirect of the sky (EXR/HDR; 8/16-bit taken as sRGB)")
+      ->check(CLI::ExistingFile);
   app.add_flag("--clear", o.clear, "Preetham clear sky with the sun of --lat, --lon at --start");
   app.add_flag("--overcast", o.overcast, "CIE standard overcast sky");
   app.add_option("-o,--output", o.output, "OUT.exr or OUT.png (one frame), or a directory (time-lapse)");
@@ -304,18 +306,21 @@ int main(int argc, char** argv) {
   std::vector<double> response_times;
   double response_gain = 1.0;
   std::string response_out;
-  response->add_option("images", response_images, "8-bit frames of one static scene")->required();
+  response->add_option("images", response_images, "8-bit frames of one static scene")
+      ->required()
+      ->check(CLI::ExistingFile);
   response->add_option("--exposure", response_times, "exposure time of each frame, seconds")->required();
   response->add_option("--gain", response_gain, "sensor gain (linear), the same for every frame")->capture_default_str();
   response->add_option("-o,--output", response_out, "curve to write (YAML; a .png plot goes beside it)")->required();
-  CLI11_PARSE(app, argc, argv);
+  response->add_flag("-q,--quiet", o.quiet, "only warnings and errors");
+  if (const auto status = skylit::tools::parse_command_line(app, argc, argv)) return *status;
   spdlog::set_level(o.quiet ? spdlog::level::warn : spdlog::level::info);
   spdlog::set_pattern("skylit-sky: %^%l%$: %v");
 
   try {
     if (*response) return run_response(response_images, response_times, response_gain, response_out);
     validate(o);
-    const Lens lens(skylit::sky::load_calibration(o.calib));
+    const Lens lens(skylit::camera::load_calibration(o.calib));
     // The models check their parameters: before any frame is rendered.
     if (o.clear) (void)skylit::sky::ClearSky(Eigen::Vector3d::UnitZ(), o.turbidity);
     if (o.overcast) (void)skylit::sky::OvercastSky(o.zenith_radiance);

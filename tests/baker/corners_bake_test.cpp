@@ -18,6 +18,7 @@
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/baker/visibility.hpp"
 #include "skylit/geom/dome_basis.hpp"
+#include "skylit/bake_format/arrays.hpp"
 
 namespace skylit::baker {
 namespace {
@@ -145,8 +146,8 @@ TEST(WeightedDirections, BothEnginesGiveEveryLayerInOnePass) {
 class CornersBake : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = new fs::path(skylit::test::make_suite_dir("skylit-corners-bake"));
-    skylit::test::write_box_site(*dir_, "dome:\n  frequency: 2\n  basis: corners\n"
+    dir_ = new skylit::test::TempDir("skylit-corners-bake-");
+    skylit::test::write_box_site(dir_->path(), "dome:\n  frequency: 2\n  basis: corners\n"
                                         "planes:\n"
                                         "  - name: ground\n    origin: [-6, -6, 0.01]\n    u: [12, 0, 0]\n"
                                         "    v: [0, 12, 0]\n    resolution: [48, 48]\n"
@@ -169,25 +170,23 @@ class CornersBake : public ::testing::Test {
   }
   void SetUp() override { setup_.require(); }
   static void TearDownTestSuite() {
-    std::error_code ignored;
-    fs::remove_all(*dir_, ignored);
     delete dir_;
   }
-  static fs::path* dir_;
+  static skylit::test::TempDir* dir_;
   static inline skylit::test::SuiteSetup setup_;
 };
-fs::path* CornersBake::dir_ = nullptr;
+skylit::test::TempDir* CornersBake::dir_ = nullptr;
 
 TEST_F(CornersBake, TheManifestAndTheFilesHaveThreeLayersPerFace) {
-  const bake::VerifyReport corners = bake::verify(*dir_ / "corners");
+  const bake_format::VerifyReport corners = bake_format::verify(*dir_ / "corners");
   ASSERT_TRUE(corners.ok) << (corners.problems.empty() ? "" : corners.problems.front());
-  const bake::VerifyReport faces = bake::verify(*dir_ / "faces");
+  const bake_format::VerifyReport faces = bake_format::verify(*dir_ / "faces");
   ASSERT_TRUE(faces.ok);
   EXPECT_EQ(corners.manifest.plan.basis, geom::DomeBasis::Corners);
   EXPECT_EQ(faces.manifest.plan.basis, geom::DomeBasis::Faces);
   EXPECT_EQ(corners.manifest.layer_count(), 120U);
   std::vector<std::size_t> shape;
-  bake::read_npy(*dir_ / "corners" / "transfer.npy", &shape);
+  bake_format::read_npy(*dir_ / "corners" / "transfer.npy", &shape);
   EXPECT_EQ(shape, (std::vector<std::size_t>{corners.manifest.plan.vertex_count, 120}));
   // A per layer: the three corners of a face add up to the face's exact A.
   for (std::size_t j = 0; j < 2; ++j) {
@@ -200,12 +199,12 @@ TEST_F(CornersBake, TheManifestAndTheFilesHaveThreeLayersPerFace) {
 }
 
 TEST_F(CornersBake, AnUnoccludedTexelHoldsAAndTheCornersAddUpToTheFace) {
-  const bake::Manifest corners = bake::read_manifest(*dir_ / "corners");
-  const bake::Manifest faces = bake::read_manifest(*dir_ / "faces");
+  const bake_format::Manifest corners = bake_format::read_manifest(*dir_ / "corners");
+  const bake_format::Manifest faces = bake_format::read_manifest(*dir_ / "faces");
   for (std::size_t j = 0; j < 2; ++j) {
     SCOPED_TRACE(corners.planes[j].plane.name);
-    const bake::ImageStack b3 = bake::read_exr_stack(*dir_ / "corners" / corners.planes[j].file);
-    const bake::ImageStack b1 = bake::read_exr_stack(*dir_ / "faces" / faces.planes[j].file);
+    const bake_format::ImageStack b3 = bake_format::read_exr_stack(*dir_ / "corners" / corners.planes[j].file);
+    const bake_format::ImageStack b1 = bake_format::read_exr_stack(*dir_ / "faces" / faces.planes[j].file);
     const std::size_t texels = static_cast<std::size_t>(b1.width * b1.height);
     double sum_diff = 0, total_a = 0, worst = 0;
     for (int i = 0; i < 40; ++i) {
@@ -231,7 +230,7 @@ TEST_F(CornersBake, AnUnoccludedTexelHoldsAAndTheCornersAddUpToTheFace) {
   }
   // The south plane faces away from the box behind it: every texel sees all of its half of the
   // sky, so B = A in every layer, to half-float rounding.
-  const bake::ImageStack south = bake::read_exr_stack(*dir_ / "corners" / corners.planes[1].file);
+  const bake_format::ImageStack south = bake_format::read_exr_stack(*dir_ / "corners" / corners.planes[1].file);
   int lit_layers = 0;
   for (int l = 0; l < 120; ++l) {
     const double a = corners.planes[1].unoccluded[static_cast<std::size_t>(l)];
@@ -245,8 +244,8 @@ TEST_F(CornersBake, AnUnoccludedTexelHoldsAAndTheCornersAddUpToTheFace) {
 // A between the corners for vertex normals, the faces cut by their horizon included.
 TEST_F(CornersBake, TransferVectorsSplitTheFacesTransfer) {
   std::vector<std::size_t> shape3, shape1;
-  const std::vector<float> t3 = bake::read_npy(*dir_ / "corners" / "transfer.npy", &shape3);
-  const std::vector<float> t1 = bake::read_npy(*dir_ / "faces" / "transfer.npy", &shape1);
+  const std::vector<float> t3 = bake_format::read_npy(*dir_ / "corners" / "transfer.npy", &shape3);
+  const std::vector<float> t1 = bake_format::read_npy(*dir_ / "faces" / "transfer.npy", &shape1);
   const std::size_t vertices = shape1.at(0);
   ASSERT_EQ(shape1, (std::vector<std::size_t>{vertices, 40}));
   ASSERT_EQ(shape3, (std::vector<std::size_t>{vertices, 120}));

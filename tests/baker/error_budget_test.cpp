@@ -13,7 +13,7 @@
 #include <gtest/gtest.h>
 
 #include "../support/box_site.hpp"
-#include "skylit/bake/format.hpp"
+#include "skylit/bake_format/manifest.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/baker/error_budget.hpp"
 
@@ -25,8 +25,8 @@ namespace fs = std::filesystem;
 class ErrorBudget : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = new fs::path(skylit::test::make_suite_dir("skylit-budget"));
-    skylit::test::write_box_site(*dir_, "dome:\n  frequency: 2\n"
+    dir_ = new skylit::test::TempDir("skylit-budget-");
+    skylit::test::write_box_site(dir_->path(), "dome:\n  frequency: 2\n"
                                         "planes:\n"
                                         "  - name: ground\n    origin: [-6, -6, 0.01]\n    u: [12, 0, 0]\n"
                                         "    v: [0, 12, 0]\n    resolution: [24, 24]\n"
@@ -35,8 +35,6 @@ class ErrorBudget : public ::testing::Test {
     quiet_ = std::fopen("/dev/null", "w");
   }
   static void TearDownTestSuite() {
-    std::error_code ignored;
-    fs::remove_all(*dir_, ignored);
     delete dir_;
     std::fclose(quiet_);
   }
@@ -73,12 +71,12 @@ class ErrorBudget : public ::testing::Test {
     return cheapest_rms_;
   }
 
-  static fs::path* dir_;
+  static skylit::test::TempDir* dir_;
   static std::FILE* quiet_;
   static double cheapest_rms_;  // of ν=2, 1 sample
 };
 
-fs::path* ErrorBudget::dir_ = nullptr;
+skylit::test::TempDir* ErrorBudget::dir_ = nullptr;
 std::FILE* ErrorBudget::quiet_ = nullptr;
 double ErrorBudget::cheapest_rms_ = -1.0;
 
@@ -114,7 +112,7 @@ TEST_F(ErrorBudget, GenerousBudgetTakesTheCheapestDome) {
   EXPECT_GE(report.skies.size(), 10u);  // clear skies across the year at 35°N plus overcast
   cheapest_rms_ = picked.rms;
 
-  const bake::VerifyReport verified = bake::verify(bake.out_dir);
+  const bake_format::VerifyReport verified = bake_format::verify(bake.out_dir);
   ASSERT_TRUE(verified.ok);
   EXPECT_EQ(verified.manifest.plan.frequency, 2);
   EXPECT_EQ(verified.manifest.plan.samples, 1);
@@ -135,7 +133,7 @@ TEST_F(ErrorBudget, TightBudgetTakesADenserDome) {
     EXPECT_FALSE(report.tried[i].within_budget);
   }
   EXPECT_NE(report.verdict.find("would not do"), std::string::npos) << report.verdict;
-  const bake::Manifest manifest = bake::read_manifest(bake.out_dir);
+  const bake_format::Manifest manifest = bake_format::read_manifest(bake.out_dir);
   EXPECT_EQ(manifest.plan.frequency, picked.frequency);
   EXPECT_EQ(manifest.plan.samples, picked.samples);
 }
@@ -234,7 +232,7 @@ TEST_F(ErrorBudget, CornersBasisBakesAndMeasuresCorners) {
   EXPECT_NE(log_text.find("reference ν=6, 16 samples, corners basis"), std::string::npos) << log_text;
   EXPECT_NE(log_text.find("needs at least 3 samples per face"), std::string::npos) << log_text;
 
-  const bake::VerifyReport verified = bake::verify(bake.out_dir);
+  const bake_format::VerifyReport verified = bake_format::verify(bake.out_dir);
   ASSERT_TRUE(verified.ok);
   EXPECT_EQ(verified.manifest.plan.basis, geom::DomeBasis::Corners);
   EXPECT_EQ(verified.manifest.plan.frequency, 2);

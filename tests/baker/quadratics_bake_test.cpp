@@ -8,7 +8,8 @@
 
 #include "../support/box_site.hpp"
 #include "../support/suite_setup.hpp"
-#include "skylit/bake/format.hpp"
+#include "skylit/bake_format/manifest.hpp"
+#include "skylit/bake_format/arrays.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/geom/dome_basis.hpp"
@@ -21,8 +22,8 @@ namespace fs = std::filesystem;
 class QuadraticsBake : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = new fs::path(skylit::test::make_suite_dir("skylit-quadratics-bake"));
-    skylit::test::write_box_site(*dir_, "dome:\n  frequency: 2\n  basis: quadratics\n"
+    dir_ = new skylit::test::TempDir("skylit-quadratics-bake-");
+    skylit::test::write_box_site(dir_->path(), "dome:\n  frequency: 2\n  basis: quadratics\n"
                                         "planes:\n"
                                         "  - name: ground\n    origin: [-6, -6, 0.01]\n    u: [12, 0, 0]\n"
                                         "    v: [0, 12, 0]\n    resolution: [48, 48]\n"
@@ -47,31 +48,29 @@ class QuadraticsBake : public ::testing::Test {
   }
   void SetUp() override { setup_.require(); }
   static void TearDownTestSuite() {
-    std::error_code ignored;
-    fs::remove_all(*dir_, ignored);
     delete dir_;
   }
-  static bake::Manifest manifest(const std::string& name) { return bake::read_manifest(*dir_ / name); }
-  static bake::ImageStack plane(const std::string& name, std::size_t j) {
-    return bake::read_exr_stack(*dir_ / name / manifest(name).planes[j].file);
+  static bake_format::Manifest manifest(const std::string& name) { return bake_format::read_manifest(*dir_ / name); }
+  static bake_format::ImageStack plane(const std::string& name, std::size_t j) {
+    return bake_format::read_exr_stack(*dir_ / name / manifest(name).planes[j].file);
   }
-  static fs::path* dir_;
+  static skylit::test::TempDir* dir_;
   static inline skylit::test::SuiteSetup setup_;
 };
-fs::path* QuadraticsBake::dir_ = nullptr;
+skylit::test::TempDir* QuadraticsBake::dir_ = nullptr;
 
 TEST_F(QuadraticsBake, TheBakeHasSixLayersPerFaceAndItsASplitsTheCorners) {
-  const bake::VerifyReport report = bake::verify(*dir_ / "quadratics");
+  const bake_format::VerifyReport report = bake_format::verify(*dir_ / "quadratics");
   ASSERT_TRUE(report.ok) << (report.problems.empty() ? "" : report.problems.front());
   EXPECT_EQ(report.manifest.plan.basis, geom::DomeBasis::Quadratics);
   EXPECT_EQ(report.manifest.layer_count(), 240U);
   std::vector<std::size_t> shape;
-  bake::read_npy(*dir_ / "quadratics" / "transfer.npy", &shape);
+  bake_format::read_npy(*dir_ / "quadratics" / "transfer.npy", &shape);
   EXPECT_EQ(shape, (std::vector<std::size_t>{report.manifest.plan.vertex_count, 240}));
-  const bake::ImageStack ground = plane("quadratics", 0);
+  const bake_format::ImageStack ground = plane("quadratics", 0);
   EXPECT_EQ(ground.layers, 240);
-  const bake::Manifest faces = manifest("faces");
-  const bake::Manifest corners = manifest("corners");
+  const bake_format::Manifest faces = manifest("faces");
+  const bake_format::Manifest corners = manifest("corners");
   const Eigen::Matrix<double, 3, 6> to_corner = geom::quadratic_to_corner();
   for (std::size_t j = 0; j < 2; ++j) {
     const auto& a6 = report.manifest.planes[j].unoccluded;
@@ -87,12 +86,12 @@ TEST_F(QuadraticsBake, TheBakeHasSixLayersPerFaceAndItsASplitsTheCorners) {
 }
 
 TEST_F(QuadraticsBake, AnUnoccludedTexelHoldsAAndTheFunctionsAddUpToTheFace) {
-  const bake::Manifest quadratics = manifest("quadratics");
-  const bake::Manifest faces = manifest("faces");
+  const bake_format::Manifest quadratics = manifest("quadratics");
+  const bake_format::Manifest faces = manifest("faces");
   for (std::size_t j = 0; j < 2; ++j) {
     SCOPED_TRACE(quadratics.planes[j].plane.name);
-    const bake::ImageStack b6 = plane("quadratics", j);
-    const bake::ImageStack b1 = plane("faces", j);
+    const bake_format::ImageStack b6 = plane("quadratics", j);
+    const bake_format::ImageStack b1 = plane("faces", j);
     const std::size_t texels = static_cast<std::size_t>(b1.width * b1.height);
     double sum_diff = 0, total_a = 0;
     int shadowed = 0;
@@ -119,7 +118,7 @@ TEST_F(QuadraticsBake, AnUnoccludedTexelHoldsAAndTheFunctionsAddUpToTheFace) {
     }
   }
   // The south plane sees all of its half of the sky: B = A in every layer, both passes.
-  const bake::ImageStack south = plane("quadratics", 1);
+  const bake_format::ImageStack south = plane("quadratics", 1);
   int lit_layers = 0;
   for (int l = 0; l < 240; ++l) {
     const double a = quadratics.planes[1].unoccluded[static_cast<std::size_t>(l)];
@@ -131,8 +130,8 @@ TEST_F(QuadraticsBake, AnUnoccludedTexelHoldsAAndTheFunctionsAddUpToTheFace) {
 
 TEST_F(QuadraticsBake, TransferVectorsSplitTheFacesTransfer) {
   std::vector<std::size_t> shape6, shape1;
-  const std::vector<float> t6 = bake::read_npy(*dir_ / "quadratics" / "transfer.npy", &shape6);
-  const std::vector<float> t1 = bake::read_npy(*dir_ / "faces" / "transfer.npy", &shape1);
+  const std::vector<float> t6 = bake_format::read_npy(*dir_ / "quadratics" / "transfer.npy", &shape6);
+  const std::vector<float> t1 = bake_format::read_npy(*dir_ / "faces" / "transfer.npy", &shape1);
   const std::size_t vertices = shape1.at(0);
   ASSERT_EQ(shape6, (std::vector<std::size_t>{vertices, 240}));
   double diff = 0, total = 0;

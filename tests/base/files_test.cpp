@@ -9,6 +9,7 @@
 #include <random>
 #include <stdexcept>
 
+#include "../support/temp_dir.hpp"
 #include "skylit/base/error.hpp"
 
 namespace fs = std::filesystem;
@@ -16,39 +17,22 @@ namespace fs = std::filesystem;
 namespace skylit {
 namespace {
 
-// A fresh directory per test, removed afterwards.
-class ScratchDir {
- public:
-  ScratchDir() {
-    std::random_device entropy;
-    path_ = fs::temp_directory_path() /
-            ("skylit-base-test-" + std::to_string(::getpid()) + "-" + std::to_string(entropy()));
-    fs::create_directories(path_);
-  }
-  ~ScratchDir() {
-    std::error_code ignored;
-    fs::remove_all(path_, ignored);
-  }
-  ScratchDir(const ScratchDir&) = delete;
-  ScratchDir& operator=(const ScratchDir&) = delete;
-  const fs::path& path() const { return path_; }
-  std::vector<std::string> entries() const {
-    std::vector<std::string> names;
-    for (const auto& entry : fs::directory_iterator(path_)) names.push_back(entry.path().filename().string());
-    std::sort(names.begin(), names.end());
-    return names;
-  }
+using test::TempDir;
 
- private:
-  fs::path path_;
-};
+// The names in `dir`, sorted: what a write left behind.
+std::vector<std::string> entries(const TempDir& dir) {
+  std::vector<std::string> names;
+  for (const auto& entry : fs::directory_iterator(dir.path())) names.push_back(entry.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
 
 std::span<const std::byte> bytes_of(const std::string& s) {
   return std::as_bytes(std::span<const char>(s.data(), s.size()));
 }
 
 TEST(WriteFileAtomic, WritesReplacesAndLeavesNoTemporaries) {
-  ScratchDir dir;
+  TempDir dir;
   const fs::path file = dir.path() / "manifest.json";
   write_file_atomic(file, std::string("first"));
   EXPECT_EQ(read_file(file), "first");
@@ -58,11 +42,11 @@ TEST(WriteFileAtomic, WritesReplacesAndLeavesNoTemporaries) {
   EXPECT_EQ(read_file(file), binary);
   write_file_atomic(file, std::string());
   EXPECT_EQ(read_file(file), "");
-  EXPECT_EQ(dir.entries(), std::vector<std::string>{"manifest.json"});
+  EXPECT_EQ(entries(dir), std::vector<std::string>{"manifest.json"});
 }
 
 TEST(WriteFileAtomic, ThrowingCallbackLeavesTheOldFileIntact) {
-  ScratchDir dir;
+  TempDir dir;
   const fs::path file = dir.path() / "basis.exr";
   write_file_atomic(file, std::string("old contents"));
   fs::path seen;
@@ -74,7 +58,7 @@ TEST(WriteFileAtomic, ThrowingCallbackLeavesTheOldFileIntact) {
                                       }),
                std::runtime_error);
   EXPECT_EQ(read_file(file), "old contents");
-  EXPECT_EQ(dir.entries(), std::vector<std::string>{"basis.exr"});
+  EXPECT_EQ(entries(dir), std::vector<std::string>{"basis.exr"});
   // The temporary sits beside the target and keeps its extension (libraries choose formats by it).
   EXPECT_EQ(seen.parent_path(), dir.path());
   EXPECT_EQ(seen.extension(), ".exr");
@@ -82,15 +66,15 @@ TEST(WriteFileAtomic, ThrowingCallbackLeavesTheOldFileIntact) {
 }
 
 TEST(WriteFileAtomic, CallbackResultIsPublished) {
-  ScratchDir dir;
+  TempDir dir;
   const fs::path file = dir.path() / "image.png";
   write_file_atomic_with(file, [](const fs::path& tmp) { std::ofstream(tmp, std::ios::binary) << "PNG!"; });
   EXPECT_EQ(read_file(file), "PNG!");
-  EXPECT_EQ(dir.entries(), std::vector<std::string>{"image.png"});
+  EXPECT_EQ(entries(dir), std::vector<std::string>{"image.png"});
 }
 
 TEST(WriteFileAtomic, MissingDirectoryIsAnInputErrorNamingThePath) {
-  ScratchDir dir;
+  TempDir dir;
   const fs::path file = dir.path() / "no-such-dir" / "out.bin";
   try {
     write_file_atomic(file, std::string("x"));
@@ -101,11 +85,11 @@ TEST(WriteFileAtomic, MissingDirectoryIsAnInputErrorNamingThePath) {
     EXPECT_NE(message.find("No such file or directory"), std::string::npos) << message;
     EXPECT_NE(message.find("Fix:"), std::string::npos) << message;
   }
-  EXPECT_TRUE(dir.entries().empty());
+  EXPECT_TRUE(entries(dir).empty());
 }
 
 TEST(ReadFile, UnreadableIsAnInputError) {
-  ScratchDir dir;
+  TempDir dir;
   EXPECT_THROW(read_file(dir.path() / "missing.txt"), InputError);
   EXPECT_THROW(read_file(dir.path()), InputError);  // a directory
   EXPECT_THROW(sha256_file(dir.path() / "missing.txt"), InputError);
@@ -119,7 +103,7 @@ TEST(Sha256, KnownVectors) {
 }
 
 TEST(Sha256, FileIsStreamedAndMatchesTheBuffer) {
-  ScratchDir dir;
+  TempDir dir;
   // A million 'a's: the FIPS 180-2 long vector, larger than one read chunk.
   const std::string million(1000000, 'a');
   write_file_atomic(dir.path() / "a.bin", million);
@@ -128,7 +112,7 @@ TEST(Sha256, FileIsStreamedAndMatchesTheBuffer) {
 }
 
 TEST(EnsureWritableDirectory, CreatesNestedDirectories) {
-  ScratchDir dir;
+  TempDir dir;
   const fs::path nested = dir.path() / "bake" / "site" / "v1";
   ensure_writable_directory(nested);
   EXPECT_TRUE(fs::is_directory(nested));
@@ -138,7 +122,7 @@ TEST(EnsureWritableDirectory, CreatesNestedDirectories) {
 
 TEST(EnsureWritableDirectory, PathUnderARegularFileIsAnInputError) {
   // Root ignores permission bits, so block creation with a regular file in the way.
-  ScratchDir dir;
+  TempDir dir;
   write_file_atomic(dir.path() / "plain", std::string("x"));
   for (const fs::path& target : {dir.path() / "plain" / "out", dir.path() / "plain"}) {
     try {

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include "../support/temp_dir.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/base/presets.hpp"
 
@@ -24,66 +25,41 @@ std::string error_of(const auto& call) {
   return "";
 }
 
-TEST(Presets, TheShippedOnesLoad) {
+TEST(Presets, TheShippedFileHasThreePresetsWithBothSections) {
   EXPECT_EQ(default_presets_file(), kPresets);
-  const std::vector<Preset> presets = load_presets(kPresets);
-  ASSERT_EQ(presets.size(), 3u);
-  EXPECT_EQ(preset_names(presets), "fast, balanced, accurate");
-  for (const Preset& p : presets) {
-    SCOPED_TRACE(p.name);
-    EXPECT_EQ(p.bake.frequency % 2, 0);
-    EXPECT_TRUE(p.bake.basis == "faces" || p.bake.basis == "corners" || p.bake.basis == "quadratics");
-    EXPECT_GE(p.bake.samples, p.bake.basis == "quadratics" ? 6 : p.bake.basis == "corners" ? 3 : 1);
-    EXPECT_TRUE(p.live.basis == "full" || p.live.basis == "lean" || p.live.basis == "pca" || p.live.basis == "cropped");
-    if (p.live.basis == "pca") {
-      EXPECT_GT(p.bake.pca_components, 0);
+  const PresetsFile presets(kPresets);
+  EXPECT_EQ(presets.names_text(), "fast, balanced, accurate");
+  for (const std::string& name : presets.names()) {
+    for (const char* section : {"bake", "live"}) {
+      const PresetSection s = presets.section(name, section);
+      EXPECT_TRUE(s.node.IsMap()) << name << "." << section;
+      EXPECT_EQ(s.field_of("x"), name + "." + section + ".x");
     }
-    EXPECT_TRUE(p.live.storage == "half" || p.live.storage == "unorm8" || p.live.storage == "eac");
-    EXPECT_GT(p.live.render_scale, 0.0);
-    EXPECT_LE(p.live.render_scale, 1.0);
-    const Preset again = find_preset(kPresets, p.name);
-    EXPECT_EQ(again.bake.frequency, p.bake.frequency);
-    EXPECT_EQ(again.live.skip_threshold, p.live.skip_threshold);
   }
-  // The accurate preset is at least as fine as the fast one.
-  EXPECT_GE(find_preset(kPresets, "accurate").bake.frequency, find_preset(kPresets, "fast").bake.frequency);
 }
 
 TEST(Presets, AnUnknownNameListsTheValidOnesAndTheFile) {
-  const std::string message = error_of([] { (void)find_preset(kPresets, "turbo"); });
+  const std::string message = error_of([] { (void)PresetsFile(kPresets).section("turbo", "bake"); });
   EXPECT_NE(message.find("turbo"), std::string::npos) << message;
   EXPECT_NE(message.find(kPresets.string()), std::string::npos) << message;
   EXPECT_NE(message.find("fast, balanced, accurate"), std::string::npos) << message;
 }
 
-TEST(Presets, ABadFieldIsNamed) {
-  const fs::path file = fs::temp_directory_path() / ("skylit_presets_" + std::to_string(::getpid()) + ".yaml");
-  std::ofstream(file) << "quick:\n  bake: {frequency: 3, basis: faces, samples: 4}\n  live: {basis: full}\n";
-  std::string message = error_of([&] { (void)load_presets(file); });
-  EXPECT_NE(message.find("quick.bake.frequency"), std::string::npos) << message;
+TEST(Presets, ABadShapeIsNamed) {
+  const test::TempDir dir;
+  const fs::path file = dir / "presets.yaml";
+  std::ofstream(file) << "quick:\n  bake: {frequency: 2, basis: faces, samples: 4}\n";
+  std::string message = error_of([&] { (void)PresetsFile{file}; });
+  EXPECT_NE(message.find("quick.live"), std::string::npos) << message;
   EXPECT_NE(message.find(file.string()), std::string::npos) << message;
 
-  std::ofstream(file) << "quick:\n  bake: {frequency: 2, basis: faces, samples: 4}\n  live: {basis: pca}\n";
-  message = error_of([&] { (void)load_presets(file); });
-  EXPECT_NE(message.find("quick.live.basis"), std::string::npos) << message;
+  std::ofstream(file) << "quick:\n  bake: {frequency: 2}\n  live: {}\n  lives: {}\n";
+  message = error_of([&] { (void)PresetsFile{file}; });
+  EXPECT_NE(message.find("lives"), std::string::npos) << message;
 
-  std::ofstream(file) << "quick:\n  bake: {frequency: 2, basis: faces, samples: 4}\n  live: {smothing: 1}\n";
-  message = error_of([&] { (void)load_presets(file); });
-  EXPECT_NE(message.find("smothing"), std::string::npos) << message;
-  std::ofstream(file) << "quick:\n  bake: {frequency: 2, basis: faces, samples: 4}\n  live: {render_scale: 1.5}\n";
-  message = error_of([&] { (void)load_presets(file); });
-  EXPECT_NE(message.find("render_scale"), std::string::npos) << message;
-  std::ofstream(file) << "quick:\n  bake: {frequency: 2, basis: faces, samples: 4, pca_components: 4}\n"
-                         "  live: {basis: pca, storage: eac}\n";
-  message = error_of([&] { (void)load_presets(file); });
-  EXPECT_NE(message.find("live.storage"), std::string::npos) << message;
-  std::ofstream(file) << "quick:\n  bake: {frequency: 2, basis: faces, samples: 4, pca_components: 4, pca_tile: 1}\n"
-                         "  live: {basis: pca}\n";
-  message = error_of([&] { (void)load_presets(file); });
-  EXPECT_NE(message.find("quick.bake.pca_tile"), std::string::npos) << message;
-  std::ofstream(file) << "quick:\n  bake: {frequency: 2, basis: faces, samples: 4, pca_components: 4, pca_tile: 64}\n"
-                         "  live: {basis: pca}\n";
-  EXPECT_EQ(load_presets(file).front().bake.pca_tile, 64);
+  std::ofstream(file) << "{}\n";
+  message = error_of([&] { (void)PresetsFile{file}; });
+  EXPECT_NE(message.find("no presets"), std::string::npos) << message;
   fs::remove(file);
 }
 

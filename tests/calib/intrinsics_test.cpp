@@ -15,10 +15,12 @@
 #include <opencv2/aruco/charuco.hpp>
 #include <opencv2/calib3d.hpp>
 
+#include "../support/temp_dir.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/base/files.hpp"
 #include "skylit/calib/board.hpp"
 #include "skylit/calib/intrinsics.hpp"
+#include "skylit/camera/lens.hpp"
 #include "synthetic_board.hpp"
 
 namespace {
@@ -31,8 +33,8 @@ using skylit::calib::IntrinsicsResult;
 using skylit::calib::NamedView;
 using skylit::calib_test::board_pose;
 using skylit::calib_test::BoardRenderer;
-using skylit::sky::CameraCalibration;
-using skylit::sky::LensModel;
+using skylit::camera::CameraCalibration;
+using skylit::camera::LensModel;
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
@@ -98,7 +100,7 @@ std::vector<NamedView> render_views(const BoardSpec& spec, const std::vector<Vie
 // The largest distance (pixels) between where the true and the recovered lens put the same
 // direction, over the pixels whose direction is within `max_theta_deg` of the axis.
 double max_projection_difference(const CameraCalibration& truth, const CameraCalibration& recovered, double max_theta_deg) {
-  const skylit::sky::Lens a(truth), b(recovered);
+  const skylit::camera::Lens a(truth), b(recovered);
   double worst = 0;
   for (int y = 0; y < truth.image_height; y += 8) {
     for (int x = 0; x < truth.image_width; x += 8) {
@@ -106,7 +108,7 @@ double max_projection_difference(const CameraCalibration& truth, const CameraCal
       if (!d || std::acos(std::clamp(d->z(), -1.0, 1.0)) > max_theta_deg * kDeg) continue;
       const auto p = b.project(*d);
       if (!p) return 1e9;
-      worst = std::max(worst, (*p - skylit::sky::Vec2(x, y)).norm());
+      worst = std::max(worst, (*p - skylit::camera::Vec2(x, y)).norm());
     }
   }
   return worst;
@@ -221,7 +223,7 @@ TEST(CalibIntrinsics, SyntheticCharucoCornersAndCalibration) {
                                     {10, 270, 0.6, -20, 0, 0}, {15, 45, 0.6, 15, 15, 10}};
   std::vector<NamedView> views;
   const Eigen::Vector2d centre(0.5 * width, 0.5 * height);
-  const skylit::sky::Lens lens(truth);
+  const skylit::camera::Lens lens(truth);
   double worst = 0, sum = 0;
   int count = 0;
   for (std::size_t k = 0; k < poses.size(); ++k) {
@@ -235,7 +237,7 @@ TEST(CalibIntrinsics, SyntheticCharucoCornersAndCalibration) {
       const cv::Point3f& o = found.view->object[i];
       const auto expected = lens.project(pose.R_camera_from_board * Eigen::Vector3d(o.x, o.y, o.z) + pose.t_camera_from_board);
       ASSERT_TRUE(expected);
-      const double e = (*expected - skylit::sky::Vec2(found.view->image[i].x, found.view->image[i].y)).norm();
+      const double e = (*expected - skylit::camera::Vec2(found.view->image[i].x, found.view->image[i].y)).norm();
       worst = std::max(worst, e);
       sum += e;
       ++count;
@@ -288,10 +290,10 @@ TEST(CalibIntrinsics, RealChessboardPhotosCalibrateUnderHalfAPixel) {
   EXPECT_NEAR(result.calibration.cx, 320, 30);
   EXPECT_NEAR(result.calibration.cy, 240, 30);
   // The YAML reads back through the schema's reader, rms and per-view errors included.
-  const fs::path file = fs::temp_directory_path() / ("skylit_calib_real_" + std::to_string(::getpid()) + ".yaml");
+  const skylit::test::TempDir dir;
+  const fs::path file = dir / "real.yaml";
   skylit::write_file_atomic(file, skylit::calib::intrinsics_yaml(result, "test"));
-  const CameraCalibration back = skylit::sky::load_calibration(file);
-  fs::remove(file);
+  const CameraCalibration back = skylit::camera::load_calibration(file);
   EXPECT_EQ(back.model, LensModel::Pinhole);
   EXPECT_DOUBLE_EQ(back.fx, result.calibration.fx);
   ASSERT_EQ(back.D.size(), 5u);

@@ -14,6 +14,7 @@
 #include "skylit/base/error.hpp"
 #include "skylit/track/marker_render.hpp"
 #include "skylit/track/tag_detector.hpp"
+#include "skylit/camera/lens.hpp"
 #include "synthetic_markers.hpp"
 
 namespace {
@@ -61,8 +62,8 @@ std::pair<double, double> expect_map_matches(const track::MarkerMap& truth, cons
 
 TEST(MarkerSurvey, RecoversTheSiteFromRenderedPhotos) {
   const track::MarkerMap site = skylit::calib_test::survey_site();
-  const skylit::sky::CameraCalibration camera = skylit::calib_test::survey_camera();
-  const skylit::sky::Lens lens(camera);
+  const skylit::camera::CameraCalibration camera = skylit::calib_test::survey_camera();
+  const skylit::camera::Lens lens(camera);
   track::TagDetectorOptions detector_options;
   detector_options.decimation = 1.0;
   track::TagDetector detector(detector_options);
@@ -183,7 +184,7 @@ TEST(MarkerSurvey, ReportsTagsThatCannotBePlaced) {
 
 TEST(MarkerSurvey, RefusesWhenTheDataCannotMakeAMap) {
   const track::MarkerMap site = skylit::calib_test::survey_site();
-  const skylit::sky::CameraCalibration camera = skylit::calib_test::survey_camera();
+  const skylit::camera::CameraCalibration camera = skylit::calib_test::survey_camera();
   std::vector<calib::MarkerPhoto> photos = projected_photos(site, 0.2);
   calib::MarkerSurveyOptions options = twenty_cm_tags();
   options.origin_id = 42;

@@ -17,7 +17,7 @@
 #include "../cli/cli_support.hpp"
 #include "skylit/base/files.hpp"
 #include "skylit/calib/orientation.hpp"
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/lens.hpp"
 #include "skylit/sky/solar.hpp"
 #include "skylit/track/marker_map.hpp"
 #include "skylit/track/marker_render.hpp"
@@ -61,8 +61,8 @@ TEST(SkylitCalibCli, CameraCalibratesTheRealPhotos) {
   EXPECT_NE(r.output.find("board found in 13 of 13 photo(s)"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("RMS reprojection error"), std::string::npos);
   EXPECT_NE(r.output.find("per-view errors, worst first"), std::string::npos);
-  const skylit::sky::CameraCalibration c = skylit::sky::load_calibration(dir / "hmd.yaml");
-  EXPECT_EQ(c.model, skylit::sky::LensModel::Pinhole);
+  const skylit::camera::CameraCalibration c = skylit::camera::load_calibration(dir / "hmd.yaml");
+  EXPECT_EQ(c.model, skylit::camera::LensModel::Pinhole);
   EXPECT_LT(*c.rms, 0.5);
   EXPECT_EQ(c.per_view_errors.size(), 13u);
   const cv::Mat coverage = cv::imread((dir / "hmd.coverage.png").string());
@@ -117,30 +117,30 @@ std::vector<std::chrono::sys_seconds> times(int count, int every_minutes) {
 
 TEST(SkylitCalibCli, SkyOrientationFromTheSun) {
   const TempDir dir;
-  skylit::sky::CameraCalibration truth = skylit::calib_test::small_sky_camera(256);
+  skylit::camera::CameraCalibration truth = skylit::calib_test::small_sky_camera(256);
   truth.R_site_from_camera = true_orientation();
   const fs::path csv = skylit::calib_test::write_sky_frames(dir.path(), truth, 48.2, 16.37, times(5, 90), true);  // Vienna
-  skylit::sky::CameraCalibration intrinsics = truth;
+  skylit::camera::CameraCalibration intrinsics = truth;
   intrinsics.R_site_from_camera.setIdentity();
-  skylit::sky::save_calibration(intrinsics, dir / "sky.yaml");
+  skylit::camera::save_calibration(intrinsics, dir / "sky.yaml");
 
   const Result r = run_calib("sky-orientation --calib " + q(dir / "sky.yaml") + " --frames " + q(csv) +
                              " --lat 48.2 --lon 16.37 -o " + q(dir / "oriented.yaml"));
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("sun in 5 of 5 frames"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("residual"), std::string::npos);
-  const skylit::sky::CameraCalibration oriented = skylit::sky::load_calibration(dir / "oriented.yaml");
+  const skylit::camera::CameraCalibration oriented = skylit::camera::load_calibration(dir / "oriented.yaml");
   EXPECT_LT(skylit::calib::rotation_difference_deg(oriented.R_site_from_camera, truth.R_site_from_camera), 0.5);
   EXPECT_DOUBLE_EQ(oriented.fx, truth.fx);
   EXPECT_TRUE(fs::exists(dir / "oriented.orientation.png"));
-  EXPECT_TRUE(skylit::sky::load_calibration(dir / "sky.yaml").R_site_from_camera.isIdentity()) << "-o leaves --calib alone";
+  EXPECT_TRUE(skylit::camera::load_calibration(dir / "sky.yaml").R_site_from_camera.isIdentity()) << "-o leaves --calib alone";
 }
 
 TEST(SkylitCalibCli, SkyOrientationWithoutSunFailsCleanly) {
   const TempDir dir;
-  const skylit::sky::CameraCalibration camera = skylit::calib_test::small_sky_camera(128);
+  const skylit::camera::CameraCalibration camera = skylit::calib_test::small_sky_camera(128);
   const fs::path csv = skylit::calib_test::write_sky_frames(dir.path(), camera, 48.2, 16.37, times(3, 60), false);
-  skylit::sky::save_calibration(camera, dir / "sky.yaml");
+  skylit::camera::save_calibration(camera, dir / "sky.yaml");
   const std::string before = skylit::read_file(dir / "sky.yaml");
   Result r = run_calib("sky-orientation --calib " + q(dir / "sky.yaml") + " --frames " + q(csv) + " --lat 48.2 --lon 16.37");
   EXPECT_EQ(r.status, 2) << r.output;
@@ -156,10 +156,10 @@ TEST(SkylitCalibCli, SkyOrientationWithoutSunFailsCleanly) {
 
 TEST(SkylitCalibCli, SkyOrientationFromLevelAndCompass) {
   const TempDir dir;
-  skylit::sky::save_calibration(skylit::calib_test::small_sky_camera(128), dir / "sky.yaml");
+  skylit::camera::save_calibration(skylit::calib_test::small_sky_camera(128), dir / "sky.yaml");
   const Result r = run_calib("sky-orientation --calib " + q(dir / "sky.yaml") + " --level-compass 80 --declination 7.5");
   ASSERT_EQ(r.status, 0) << r.output;
-  const skylit::sky::CameraCalibration c = skylit::sky::load_calibration(dir / "sky.yaml");
+  const skylit::camera::CameraCalibration c = skylit::camera::load_calibration(dir / "sky.yaml");
   EXPECT_LT(skylit::calib::rotation_difference_deg(c.R_site_from_camera, skylit::calib::level_compass_rotation(87.5)), 1e-6);
   EXPECT_NE(skylit::read_file(dir / "sky.yaml").find("bearing 87.50° true"), std::string::npos);
 }
@@ -168,9 +168,9 @@ TEST(SkylitCalibCli, SkyOrientationFromLevelAndCompass) {
 // The survey site of synthetic_markers.hpp photographed from its eight places, as PNG files, and
 // the camera's calibration; the photos' names, quoted, for the command line.
 std::string write_site_photos(const fs::path& dir) {
-  const skylit::sky::CameraCalibration camera = skylit::calib_test::survey_camera();
-  skylit::sky::save_calibration(camera, dir / "hmd.yaml");
-  const skylit::sky::Lens lens(camera);
+  const skylit::camera::CameraCalibration camera = skylit::calib_test::survey_camera();
+  skylit::camera::save_calibration(camera, dir / "hmd.yaml");
+  const skylit::camera::Lens lens(camera);
   skylit::track::MarkerRenderOptions render;
   render.supersampling = 3;
   std::string names;

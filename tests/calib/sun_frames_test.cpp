@@ -21,6 +21,7 @@
 #include "skylit/calib/orientation.hpp"
 #include "skylit/calib/sun_frames.hpp"
 #include "skylit/sky/solar.hpp"
+#include "skylit/camera/lens.hpp"
 #include "synthetic_sky.hpp"
 
 namespace {
@@ -128,16 +129,16 @@ TEST(SunFrames, PhotoTimesFromExif) {
 
 TEST(SunFrames, RecoversTheOrientationFromRenderedFrames) {
   const TempDir dir;
-  skylit::sky::CameraCalibration truth = skylit::calib_test::small_sky_camera(320);
+  skylit::camera::CameraCalibration truth = skylit::calib_test::small_sky_camera(320);
   truth.R_site_from_camera = true_orientation();
   const fs::path csv = skylit::calib_test::write_sky_frames(dir.path(), truth, kLatitude, kLongitude, day_times(6, 90), true);
 
-  skylit::sky::CameraCalibration intrinsics = truth;
+  skylit::camera::CameraCalibration intrinsics = truth;
   intrinsics.R_site_from_camera.setIdentity();
   const auto frames = skylit::calib::read_frame_list(csv);
   const auto suns = skylit::calib::find_sun(intrinsics, frames, kLatitude, kLongitude);
   ASSERT_EQ(suns.size(), 6u);
-  const skylit::sky::Lens lens(truth);
+  const skylit::camera::Lens lens(truth);
   for (const auto& s : suns) {
     ASSERT_TRUE(s.observation) << s.frame.file << ": " << s.reason;
     // Found within a pixel (0.56° here) of where the true lens images the sun.
@@ -153,7 +154,7 @@ TEST(SunFrames, RecoversTheOrientationFromRenderedFrames) {
   std::printf("sun frames: orientation %.3f° from the truth, residual RMS %.3f°, sun path %.1f°\n", error, fit.rms_deg,
               fit.spread_deg);
 
-  skylit::sky::CameraCalibration oriented = intrinsics;
+  skylit::camera::CameraCalibration oriented = intrinsics;
   oriented.R_site_from_camera = fit.R_site_from_camera;
   const cv::Mat picture = skylit::calib::draw_orientation(oriented, cv::Mat(), suns, fit.inlier);
   EXPECT_EQ(picture.size(), cv::Size(320, 320));
@@ -162,7 +163,7 @@ TEST(SunFrames, RecoversTheOrientationFromRenderedFrames) {
 
 TEST(SunFrames, OvercastFramesHaveNoSunAndWrongZonesAreFlagged) {
   const TempDir dir;
-  skylit::sky::CameraCalibration truth = skylit::calib_test::small_sky_camera(160);
+  skylit::camera::CameraCalibration truth = skylit::calib_test::small_sky_camera(160);
   const auto times = day_times(2, 120);
   const fs::path overcast = skylit::calib_test::write_sky_frames(dir.path(), truth, kLatitude, kLongitude, times, false);
   for (const auto& s : skylit::calib::find_sun(truth, skylit::calib::read_frame_list(overcast), kLatitude, kLongitude)) {
@@ -185,7 +186,7 @@ TEST(SunFrames, OvercastFramesHaveNoSunAndWrongZonesAreFlagged) {
 
 TEST(SunFrames, AFrameOfAnotherSizeIsAnError) {
   const TempDir dir;
-  const skylit::sky::CameraCalibration camera = skylit::calib_test::small_sky_camera(96);
+  const skylit::camera::CameraCalibration camera = skylit::calib_test::small_sky_camera(96);
   const fs::path csv = skylit::calib_test::write_sky_frames(dir.path(), camera, kLatitude, kLongitude, day_times(1, 60), true);
   try {
     skylit::calib::find_sun(skylit::calib_test::small_sky_camera(128), skylit::calib::read_frame_list(csv), kLatitude,

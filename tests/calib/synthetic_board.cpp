@@ -6,6 +6,8 @@
 
 #include <Eigen/Geometry>
 
+#include "skylit/camera/lens.hpp"
+
 namespace skylit::calib_test {
 
 BoardPose board_pose(const Eigen::Vector2d& board_centre, double theta, double phi, double distance, double tilt_x, double tilt_y,
@@ -39,9 +41,9 @@ BoardPattern chessboard_pattern(cv::Size inner, double square) {
   };
 }
 
-BoardRenderer::BoardRenderer(const sky::CameraCalibration& calibration, int supersample)
+BoardRenderer::BoardRenderer(const camera::CameraCalibration& calibration, int supersample)
     : width_(calibration.image_width), height_(calibration.image_height), supersample_(supersample) {
-  const sky::Lens lens(calibration);
+  const camera::Lens lens(calibration);
   const int s = supersample_;
   rays_.resize(static_cast<std::size_t>(width_) * height_ * s * s, Eigen::Vector3f::Zero());
   std::size_t k = 0;
@@ -49,7 +51,7 @@ BoardRenderer::BoardRenderer(const sky::CameraCalibration& calibration, int supe
     for (int x = 0; x < width_; ++x) {
       for (int sy = 0; sy < s; ++sy) {
         for (int sx = 0; sx < s; ++sx, ++k) {
-          const sky::Vec2 p(x - 0.5 + (sx + 0.5) / s, y - 0.5 + (sy + 0.5) / s);
+          const camera::Vec2 p(x - 0.5 + (sx + 0.5) / s, y - 0.5 + (sy + 0.5) / s);
           if (const auto d = lens.unproject(p)) rays_[k] = d->cast<float>();
         }
       }

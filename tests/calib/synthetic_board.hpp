@@ -8,7 +8,7 @@
 #include <Eigen/Core>
 #include <opencv2/core/mat.hpp>
 
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/calibration.hpp"
 
 namespace skylit::calib_test {
 
@@ -32,7 +32,7 @@ BoardPattern chessboard_pattern(cv::Size inner, double square);
 
 class BoardRenderer {
  public:
-  BoardRenderer(const sky::CameraCalibration& lens, int supersample);
+  BoardRenderer(const camera::CameraCalibration& lens, int supersample);
   // CV_8UC1: the board where the rays hit it (front or back), `background` elsewhere and where
   // the lens images nothing; a little sensor noise (σ = `noise` in 0..255 units, fixed seed).
   cv::Mat render(const BoardPattern& pattern, const BoardPose& pose, float background = 0.45f, double noise = 1.0) const;

@@ -10,7 +10,7 @@
 #include <Eigen/Geometry>
 
 #include "skylit/calib/marker_survey.hpp"
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/lens.hpp"
 #include "skylit/track/marker_map.hpp"
 #include "skylit/track/marker_render.hpp"
 #include "skylit/track/pose.hpp"
@@ -20,11 +20,11 @@ namespace skylit::calib_test {
 inline constexpr double kMarkerDeg = std::numbers::pi / 180.0;
 
 // fx = 800 px: 77° across 1280 px, with mild barrel distortion.
-inline sky::CameraCalibration survey_camera() {
-  sky::CameraCalibration c;
+inline camera::CameraCalibration survey_camera() {
+  camera::CameraCalibration c;
   c.image_width = 1280;
   c.image_height = 720;
-  c.model = sky::LensModel::Pinhole;
+  c.model = camera::LensModel::Pinhole;
   c.fx = 800;
   c.fy = 800;
   c.cx = 639.5;
@@ -88,9 +88,9 @@ inline std::vector<track::Pose> survey_viewpoints() {
 
 // The tags' corners projected through the lens, with Gaussian pixel noise: detections without
 // rendering, for the tests of the solver's logic.
-inline std::vector<track::TagDetection> project_tags(const track::MarkerMap& map, const sky::CameraCalibration& camera,
+inline std::vector<track::TagDetection> project_tags(const track::MarkerMap& map, const camera::CameraCalibration& camera,
                                                      const track::Pose& pose, double noise_px, std::mt19937& random) {
-  const sky::Lens lens(camera);
+  const camera::Lens lens(camera);
   std::normal_distribution<double> noise(0.0, noise_px);
   const Eigen::Matrix3d R_cs = pose.R_site_from_camera.toRotationMatrix().transpose();
   std::vector<track::TagDetection> out;

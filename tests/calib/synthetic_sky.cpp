@@ -7,25 +7,26 @@
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/simulate.hpp"
 #include "skylit/sky/solar.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::calib_test {
 
-sky::CameraCalibration small_sky_camera(int size) {
-  sky::CameraCalibration c;
+camera::CameraCalibration small_sky_camera(int size) {
+  camera::CameraCalibration c;
   c.image_width = size;
   c.image_height = size;
-  c.model = sky::LensModel::Fisheye;
+  c.model = camera::LensModel::Fisheye;
   c.fx = c.fy = size / std::numbers::pi;  // θ = 90° at the image's edge
   c.cx = c.cy = 0.5 * (size - 1);
   c.D = {0, 0, 0, 0};
   return c;
 }
 
-std::filesystem::path write_sky_frames(const std::filesystem::path& dir, const sky::CameraCalibration& camera,
+std::filesystem::path write_sky_frames(const std::filesystem::path& dir, const camera::CameraCalibration& camera,
                                        double latitude_deg, double longitude_deg,
                                        const std::vector<std::chrono::sys_seconds>& times, bool clear,
                                        const std::vector<std::string>& csv_times) {
-  const sky::Lens lens(camera);
+  const camera::Lens lens(camera);
   sky::AnalyticSkySettings settings;
   settings.kind = clear ? sky::AnalyticSkySettings::Kind::Clear : sky::AnalyticSkySettings::Kind::Overcast;
   settings.latitude_deg = latitude_deg;

@@ -6,17 +6,17 @@
 #include <string>
 #include <vector>
 
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/calibration.hpp"
 
 namespace skylit::calib_test {
 
 // A small equidistant sky camera (size × size, 180° across the image's width).
-sky::CameraCalibration small_sky_camera(int size);
+camera::CameraCalibration small_sky_camera(int size);
 
 // Renders one frame per time into `dir` (frame_00.exr, ...) through `camera` (its R is the
 // truth) and writes `dir`/frames.csv (timestamp,file) with `csv_times` (the render times when
 // empty). Returns the CSV's path.
-std::filesystem::path write_sky_frames(const std::filesystem::path& dir, const sky::CameraCalibration& camera,
+std::filesystem::path write_sky_frames(const std::filesystem::path& dir, const camera::CameraCalibration& camera,
                                        double latitude_deg, double longitude_deg,
                                        const std::vector<std::chrono::sys_seconds>& times, bool clear,
                                        const std::vector<std::string>& csv_times = {});

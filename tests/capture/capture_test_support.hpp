@@ -1,6 +1,6 @@
 #pragma once
-// Shared helpers for the frame-source tests: a temporary directory, a clock that only moves when
-// told to, and a scripted source that fails on demand.
+// Shared helpers for the frame-source tests: the tests' temporary directory, a clock that only
+// moves when told to, and a scripted source that fails on demand.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -16,38 +16,11 @@
 
 #include "skylit/capture/frame_source.hpp"
 #include "skylit/capture/reconnecting_source.hpp"
+#include "../support/temp_dir.hpp"
 
 namespace skylit::capture::testing {
 
-class TempDir {
- public:
-  TempDir() {
-    const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    const std::string name = std::string("skylit_capture_") + info->test_suite_name() + "_" + info->name() + "_" +
-                             std::to_string(::getpid());
-    path_ = std::filesystem::temp_directory_path() / name;
-    std::filesystem::remove_all(path_);
-    std::filesystem::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ignored;
-    std::filesystem::remove_all(path_, ignored);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-
-  const std::filesystem::path& path() const { return path_; }
-  std::filesystem::path write(const std::string& name, const std::string& content) const {
-    const std::filesystem::path file = path_ / name;
-    std::filesystem::create_directories(file.parent_path());
-    std::ofstream out(file, std::ios::binary);
-    out << content;
-    return file;
-  }
-
- private:
-  std::filesystem::path path_;
-};
+using skylit::test::TempDir;
 
 // Time moves only through sleep() and advance(); every sleep is recorded.
 struct FakeTime {

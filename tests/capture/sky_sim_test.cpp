@@ -10,7 +10,7 @@
 #include "capture_test_support.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/capture/sources.hpp"
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/lens.hpp"
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/simulate.hpp"
 #include "skylit/sky/sky_model.hpp"
@@ -21,6 +21,7 @@ namespace {
 using namespace skylit::capture;
 using skylit::capture::testing::TempDir;
 namespace fs = std::filesystem;
+namespace camera = skylit::camera;
 namespace sky = skylit::sky;
 
 // A 128 × 128 equidistant fisheye at the zenith whose 180° circle (radius 40·π/2 = 62.8 px)
@@ -56,7 +57,7 @@ TEST(SkySimSource, TheSunIsWhereSolarPositionPutsItThroughTheCalibration) {
   TempDir dir;
   const fs::path calibration = write_calibration(dir);
   SkySimSource source(clear_sky(calibration));
-  const sky::Lens lens(sky::load_calibration(calibration));
+  const camera::Lens lens(camera::load_calibration(calibration));
   for (int k = 0; k < 3; ++k) {
     FrameResult result = source.next(0);
     ASSERT_EQ(result.status, FrameStatus::Ready) << k;
@@ -134,7 +135,7 @@ TEST(SkySimSource, AnEquirectSkyIsRenderedOnceAndRepeated) {
   sky::RenderOptions options;
   options.supersample = 1;
   options.azimuth_offset = 30 * std::numbers::pi / 180;
-  const cv::Mat expected = sky::render_fisheye(sky::Lens(sky::load_calibration(calibration)),
+  const cv::Mat expected = sky::render_fisheye(camera::Lens(camera::load_calibration(calibration)),
                                                sky::read_equirect(file), options);
   for (int k = 0; k < 3; ++k) {
     FrameResult result = source.next(0);

@@ -1,6 +1,6 @@
 #pragma once
-// Shared by the end-to-end tests: run a program from build/bin as a user would, and a temporary
-// directory that cleans up after itself.
+// Shared by the end-to-end tests: run a program from build/bin as a user would, and the tests'
+// temporary directory.
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <random>
 #include <string>
+
+#include "../support/temp_dir.hpp"
 
 namespace skylit::cli_test {
 
@@ -34,24 +36,6 @@ inline Result run_program(const fs::path& program, const std::string& args) {
   return r;
 }
 
-class TempDir {
- public:
-  TempDir() {
-    std::random_device rd;
-    path_ = fs::temp_directory_path() / ("skylit_cli_" + std::to_string(getpid()) + "_" + std::to_string(rd()));
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ignored;
-    fs::remove_all(path_, ignored);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  const fs::path& path() const { return path_; }
-  fs::path operator/(const std::string& name) const { return path_ / name; }
-
- private:
-  fs::path path_;
-};
+using skylit::test::TempDir;
 
 }  // namespace skylit::cli_test

@@ -10,14 +10,17 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <sstream>
 #include <string>
 #include <thread>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "skylit/bake/format.hpp"
+#include "skylit/bake_format/manifest.hpp"
+#include "skylit/bake_format/arrays.hpp"
 #include "skylit/geom/dome.hpp"
+#include "../support/fixture_cache.hpp"
 #include "cli_support.hpp"
 
 namespace fs = std::filesystem;
@@ -63,13 +66,15 @@ f 4 5 8
 // ground: 12 m × 12 m around the cube; sky: above everything (never shadowed); wall: a vertical
 // plane facing west (normal −x), 1 cm off the cube's west face.
 std::string cube_site(const std::string& extra_plane = "", int frequency = 2) {
-  return "scene:\n  model: cube.obj\n  up: z\n  scale: 1.0\n"
-         "dome:\n  frequency: " + std::to_string(frequency) + "\n"
-         "planes:\n"
-         "  - name: ground\n    origin: [-6, -6, 0.01]\n    u: [12, 0, 0]\n    v: [0, 12, 0]\n    resolution: [48, 48]\n"
-         "  - name: sky\n    origin: [-3, -3, 5]\n    u: [6, 0, 0]\n    v: [0, 6, 0]\n    resolution: [8, 8]\n"
-         "  - name: wall\n    origin: [-1.01, 1, 0]\n    u: [0, -2, 0]\n    v: [0, 0, 2]\n    resolution: [16, 16]\n" +
-         extra_plane;
+  // Appended piece by piece: GCC 12 at -O3 warns falsely (-Warray-bounds) on "literal" + string.
+  std::string yaml = "scene:\n  model: cube.obj\n  up: z\n  scale: 1.0\ndome:\n  frequency: ";
+  yaml += std::to_string(frequency);
+  yaml += "\nplanes:\n"
+          "  - name: ground\n    origin: [-6, -6, 0.01]\n    u: [12, 0, 0]\n    v: [0, 12, 0]\n    resolution: [48, 48]\n"
+          "  - name: sky\n    origin: [-3, -3, 5]\n    u: [6, 0, 0]\n    v: [0, 6, 0]\n    resolution: [8, 8]\n"
+          "  - name: wall\n    origin: [-1.01, 1, 0]\n    u: [0, -2, 0]\n    v: [0, 0, 2]\n    resolution: [16, 16]\n";
+  yaml += extra_plane;
+  return yaml;
 }
 
 fs::path make_cube_site(const TempDir& dir, const std::string& extra_plane = "") {
@@ -120,13 +125,13 @@ TEST(SkylitBake, BakesVerifiesAndMatchesGeometry) {
     ASSERT_EQ(verify.status, 0) << verify.output;
     EXPECT_NE(verify.output.find("OK"), std::string::npos);
 
-    const skylit::bake::Manifest m = skylit::bake::read_manifest(dir / "bake");
+    const skylit::bake_format::Manifest m = skylit::bake_format::read_manifest(dir / "bake");
     ASSERT_EQ(m.faces.size(), 40u);
     ASSERT_EQ(m.planes.size(), 3u);
     const skylit::geom::Dome dome(2);
 
     // Unoccluded plane: B = A for every face and texel (half-float storage: relative 1e-3).
-    const auto sky = skylit::bake::read_exr_stack(dir / "bake" / m.planes[1].file);
+    const auto sky = skylit::bake_format::read_exr_stack(dir / "bake" / m.planes[1].file);
     ASSERT_EQ(sky.layers, 40);
     for (int i = 0; i < 40; ++i) {
       const double a = m.planes[1].unoccluded[static_cast<std::size_t>(i)];
@@ -134,7 +139,7 @@ TEST(SkylitBake, BakesVerifiesAndMatchesGeometry) {
     }
 
     // Vertical plane: faces wholly behind it have A = B = 0 exactly.
-    const auto wall = skylit::bake::read_exr_stack(dir / "bake" / m.planes[2].file);
+    const auto wall = skylit::bake_format::read_exr_stack(dir / "bake" / m.planes[2].file);
     const Vec3 wall_normal = m.planes[2].plane.normal();
     ASSERT_NEAR(wall_normal.x(), -1.0, 1e-12);
     int behind = 0;
@@ -152,7 +157,7 @@ TEST(SkylitBake, BakesVerifiesAndMatchesGeometry) {
     // Ground around the cube, face-centre method: a texel is shadowed exactly when the ray from
     // its centre towards the face centre hits the cube (texels within 0.6 texel of a shadow
     // edge are skipped: the raster engine resolves edges to its shadow-map texel).
-    const auto ground = skylit::bake::read_exr_stack(dir / "bake" / m.planes[0].file);
+    const auto ground = skylit::bake_format::read_exr_stack(dir / "bake" / m.planes[0].file);
     const auto& plane = m.planes[0].plane;
     const double texel = plane.u.norm() / plane.width;
     int checked = 0, shadowed = 0;
@@ -207,11 +212,11 @@ TEST(SkylitBake, ShardsMergeToTheSameBake) {
                             (dir / "merged").string() + " --no-previews");
   ASSERT_EQ(merged.status, 0) << merged.output;
   ASSERT_EQ(run("verify " + (dir / "merged").string()).status, 0);
-  const auto whole = skylit::bake::read_manifest(dir / "whole");
-  const auto joined = skylit::bake::read_manifest(dir / "merged");
+  const auto whole = skylit::bake_format::read_manifest(dir / "whole");
+  const auto joined = skylit::bake_format::read_manifest(dir / "merged");
   for (std::size_t j = 0; j < whole.planes.size(); ++j) {
-    const auto x = skylit::bake::read_exr_stack(dir / "whole" / whole.planes[j].file);
-    const auto y = skylit::bake::read_exr_stack(dir / "merged" / joined.planes[j].file);
+    const auto x = skylit::bake_format::read_exr_stack(dir / "whole" / whole.planes[j].file);
+    const auto y = skylit::bake_format::read_exr_stack(dir / "merged" / joined.planes[j].file);
     EXPECT_EQ(x.data, y.data) << whole.planes[j].plane.name;
   }
 }
@@ -368,7 +373,7 @@ TEST(SkylitBake, SampleSiteConfigBakes) {
                        " --resolution 32x32");
   ASSERT_EQ(r.status, 0) << r.output;
   ASSERT_EQ(run("verify " + (dir / "bake").string()).status, 0);
-  const auto m = skylit::bake::read_manifest(dir / "bake");
+  const auto m = skylit::bake_format::read_manifest(dir / "bake");
   EXPECT_GE(m.planes.size(), 3u);
   for (const auto& p : m.planes) EXPECT_TRUE(fs::exists(dir / "bake" / "preview" / (p.plane.name + ".png")));
 }
@@ -383,7 +388,7 @@ TEST(SkylitBake, ClusteredPcaStoresComponentsPerTile) {
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("tiles of 6x6 texels"), std::string::npos) << r.output;
   ASSERT_EQ(run("verify " + (dir / "bake").string()).status, 0);
-  const auto m = skylit::bake::read_manifest(dir / "bake");
+  const auto m = skylit::bake_format::read_manifest(dir / "bake");
   for (const auto& p : m.planes) {
     ASSERT_TRUE(p.pca.has_value()) << p.plane.name;
     EXPECT_EQ(p.pca->tile, 6) << p.plane.name;
@@ -391,7 +396,7 @@ TEST(SkylitBake, ClusteredPcaStoresComponentsPerTile) {
   }
   // Compressed again without tiles: one set for the whole plane.
   ASSERT_EQ(run("compress " + (dir / "bake").string() + " --pca-components 3").status, 0);
-  for (const auto& p : skylit::bake::read_manifest(dir / "bake").planes) EXPECT_EQ(p.pca->tile, 0) << p.plane.name;
+  for (const auto& p : skylit::bake_format::read_manifest(dir / "bake").planes) EXPECT_EQ(p.pca->tile, 0) << p.plane.name;
   const Result bad = run("compress " + (dir / "bake").string() + " --pca-components 3 --pca-tile 1");
   EXPECT_EQ(bad.status, 2) << bad.output;
   EXPECT_NE(bad.output.find("pca.tile"), std::string::npos) << bad.output;
@@ -405,7 +410,7 @@ TEST(SkylitBake, PresetSetsTheBakeAndAnUnknownOneListsTheValidNames) {
   const Result r = run((kSource / "config" / "sample_site.yaml").string() + " -o " + (dir / "bake").string() +
                        " --preset fast --samples 3 --method raytrace --resolution 16x8 --no-previews");
   ASSERT_EQ(r.status, 0) << r.output;
-  const auto m = skylit::bake::read_manifest(dir / "bake");
+  const auto m = skylit::bake_format::read_manifest(dir / "bake");
   EXPECT_EQ(m.plan.frequency, 2);
   EXPECT_EQ(m.plan.basis, skylit::geom::DomeBasis::Corners);
   EXPECT_EQ(m.plan.samples, 3);
@@ -421,6 +426,92 @@ TEST(SkylitBake, PresetSetsTheBakeAndAnUnknownOneListsTheValidNames) {
   EXPECT_NE(bad.output.find("presets.yaml"), std::string::npos) << bad.output;
   EXPECT_NE(bad.output.find("fast, balanced, accurate"), std::string::npos) << bad.output;
   EXPECT_FALSE(fs::exists(dir / "other" / "manifest.json"));
+}
+
+// The defaults a user meets first, on two bakes of the sample site at 16×16 texels a plane, both
+// with the default --method (auto): one with -q, one that talks. Made once per build of this
+// program (support/fixture_cache.hpp) with what each printed beside it; tests change copies only.
+class SkylitBakeDefaults : public ::testing::Test {
+ protected:
+  struct Bake {
+    fs::path dir;
+    Result result;
+  };
+  static Bake bake(const std::string& name) {
+    const fs::path root = skylit::test::cached_fixture("cli_bake_defaults", [](const fs::path& folder) {
+      const auto record = [&folder](const std::string& run_name, const std::string& options) {
+        const Result r = run((kSource / "config" / "sample_site.yaml").string() + " -o " +
+                             (folder / run_name).string() + " --resolution 16x16" + options);
+        std::ofstream(folder / (run_name + ".status")) << r.status;
+        std::ofstream(folder / (run_name + ".output"), std::ios::binary) << r.output;
+      };
+      record("quiet", " -q");
+      record("loud", " --no-previews");
+    });
+    Bake b{root / name, {}};
+    std::ifstream(root / (name + ".status")) >> b.result.status;
+    std::ostringstream output;
+    output << std::ifstream(root / (name + ".output"), std::ios::binary).rdbuf();
+    b.result.output = output.str();
+    return b;
+  }
+};
+
+TEST_F(SkylitBakeDefaults, QuietMeansWarningsAndErrorsOnly) {
+  const Bake quiet = bake("quiet"), loud = bake("loud");
+  ASSERT_EQ(quiet.result.status, 0) << quiet.result.output;
+  EXPECT_EQ(quiet.result.output, "");
+  ASSERT_EQ(loud.result.status, 0) << loud.result.output;
+  EXPECT_NE(loud.result.output.find("bake complete"), std::string::npos) << loud.result.output;
+  // The subcommands too, -q after them as a user types it; verify's report is its result.
+  const TempDir dir;
+  fs::copy(quiet.dir, dir / "bake", fs::copy_options::recursive);
+  const Result compressed = run("compress " + (dir / "bake").string() + " --pca-components 2 -q");
+  ASSERT_EQ(compressed.status, 0) << compressed.output;
+  EXPECT_EQ(compressed.output, "");
+  const Result verified = run("verify " + (dir / "bake").string() + " -q");
+  EXPECT_EQ(verified.status, 0) << verified.output;
+  EXPECT_NE(verified.output.find("OK"), std::string::npos) << verified.output;
+}
+
+TEST_F(SkylitBakeDefaults, AutoPicksTheFastEngineSaysWhyAndRecordsIt) {
+  const Bake quiet = bake("quiet"), loud = bake("loud");
+  ASSERT_EQ(loud.result.status, 0) << loud.result.output;
+  const std::string& output = loud.result.output;
+  const std::string said = "method auto: ";
+  const auto at = output.find(said);
+  ASSERT_NE(at, std::string::npos) << output;
+  const std::string line = output.substr(at, output.find('\n', at) - at);
+  const std::string method = line.substr(said.size(), line.find_first_of(" ,", said.size()) - said.size());
+  // Raytrace where OpenGL ES draws on the CPU (this project's machines: llvmpipe) or not at all,
+  // raster on a GPU driver.
+  bool software = line.find("no OpenGL ES") != std::string::npos;
+  for (const char* renderer : {"llvmpipe", "softpipe", "swrast"}) software |= line.find(renderer) != std::string::npos;
+  EXPECT_EQ(method, software ? "raytrace" : "raster") << line;
+  // The plan records the engine run, not "auto": resume and merge compare it.
+  EXPECT_EQ(skylit::bake_format::read_manifest(loud.dir).plan.method, method);
+  EXPECT_EQ(skylit::bake_format::read_manifest(quiet.dir).plan.method, method);
+  EXPECT_EQ(quiet.result.output.find(said), std::string::npos) << quiet.result.output;
+}
+
+TEST_F(SkylitBakeDefaults, AutoContinuesABakeWithTheEngineItWasStartedWith) {
+  // Half the faces with raster, the rest into the same folder with auto: the plans must agree,
+  // whatever auto would pick on this machine.
+  const TempDir dir;
+  const fs::path site = make_cube_site(dir);
+  const std::string common = site.string() + " -o " + (dir / "sharded").string() + " --resolution 16x16 --shadow-map 256";
+  const Result first = run(common + " --shard 0/2 --method raster -q");
+  ASSERT_EQ(first.status, 0) << first.output;
+  EXPECT_EQ(first.output, "");
+  const Result second = run(common + " --shard 1/2");
+  ASSERT_EQ(second.status, 0) << second.output;
+  EXPECT_NE(second.output.find("method auto: raster, the engine of the interrupted bake"), std::string::npos)
+      << second.output;
+  const Result merged =
+      run("merge " + (dir / "sharded").string() + " -o " + (dir / "merged").string() + " --no-previews -q");
+  ASSERT_EQ(merged.status, 0) << merged.output;
+  EXPECT_EQ(merged.output, "");
+  EXPECT_EQ(skylit::bake_format::read_manifest(dir / "merged").plan.method, "raster");
 }
 
 }  // namespace

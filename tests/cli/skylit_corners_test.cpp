@@ -10,7 +10,7 @@
 #include <opencv2/core.hpp>
 
 #include "cli_support.hpp"
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/lens.hpp"
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/simulate.hpp"
 
@@ -42,7 +42,7 @@ fs::path bake_and_verify(const fs::path& dir, const std::string& options, const 
 // skylit-shade on the park sky (a low sun) seen by the sample sky camera; its output folder.
 fs::path shade_park(const fs::path& bake, const fs::path& dir) {
   const fs::path calib = kSource / "config" / "sky_camera.yaml";
-  const skylit::sky::Lens lens(skylit::sky::load_calibration(calib));
+  const skylit::camera::Lens lens(skylit::camera::load_calibration(calib));
   const cv::Mat equirect = skylit::sky::read_sky_image(kSource / "data" / "hdri" / "park.exr");
   const fs::path frame = dir / "park_fisheye.exr";
   skylit::sky::write_sky_exr(frame, skylit::sky::render_fisheye(lens, equirect, {.supersample = 1}));

@@ -33,29 +33,25 @@ Result run(const fs::path& program, const std::string& args) { return skylit::cl
 class SkylitShade : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    std::random_device rd;
-    dir_ = new fs::path(fs::temp_directory_path() / ("skylit_shade_cli_" + std::to_string(getpid()) + "_" + std::to_string(rd())));
-    fs::create_directories(*dir_);
+    dir_ = new skylit::test::TempDir("skylit_shade_cli_");
     const Result bake = run(kBin / "skylit-bake", (kSource / "config" / "sample_site.yaml").string() + " -o " +
                                                       (*dir_ / "bake").string() + " --resolution 48x32 --no-previews -q");
     ASSERT_EQ(bake.status, 0) << bake.output;
+    EXPECT_EQ(bake.output, "") << "-q: warnings and errors only";
     const Result sky = run(kBin / "skylit-sky", "--calib " + calib().string() + " --equirect " +
                                                     (kSource / "data" / "hdri" / "park.exr").string() + " -o " +
                                                     (*dir_ / "park.exr").string() + " --supersample 1 -q");
     ASSERT_EQ(sky.status, 0) << sky.output;
+    EXPECT_EQ(sky.output, "") << "-q: warnings and errors only";
   }
-  static void TearDownTestSuite() {
-    std::error_code ignored;
-    fs::remove_all(*dir_, ignored);
-    delete dir_;
-  }
+  static void TearDownTestSuite() { delete dir_; }
   static fs::path calib() { return kSource / "config" / "sky_camera.yaml"; }
   static std::string common(const fs::path& out) {
     return "--bake " + (*dir_ / "bake").string() + " --sky-calib " + calib().string() + " -o " + out.string();
   }
-  static fs::path* dir_;
+  static skylit::test::TempDir* dir_;
 };
-fs::path* SkylitShade::dir_ = nullptr;
+skylit::test::TempDir* SkylitShade::dir_ = nullptr;
 
 TEST_F(SkylitShade, ShadesEveryPlaneAndDescribesTheSky) {
   const fs::path out = *dir_ / "out";
@@ -92,8 +88,9 @@ TEST_F(SkylitShade, ShadesEveryPlaneAndDescribesTheSky) {
 
 TEST_F(SkylitShade, SunOffKeepsTheSunInTheDome) {
   const fs::path out = *dir_ / "off";
-  const Result r = run(kBin / "skylit-shade", common(out) + " --sun off --sky " + (*dir_ / "park.exr").string());
+  const Result r = run(kBin / "skylit-shade", common(out) + " --sun off --sky " + (*dir_ / "park.exr").string() + " -q");
   ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output.find("info"), std::string::npos) << "-q: warnings and errors only\n" << r.output;
   const nlohmann::json sky = nlohmann::json::parse(std::ifstream(out / "sky.json"));
   EXPECT_TRUE(sky["sun"].is_null());
   EXPECT_EQ(sky["sun_reason"], "sun separation off");
@@ -179,7 +176,7 @@ TEST_F(SkylitShade, BadInputsAreClearErrors) {
       {"--bake " + (*dir_ / "bake").string() + " --sky-calib " + small_calib.string() + " -o " +
            (*dir_ / "x2").string() + " --sky " + sky.string(),
        "calibration"},
-      {"--bake " + (*dir_).string() + " --sky-calib " + calib().string() + " -o " + (*dir_ / "x3").string() +
+      {"--bake " + dir_->path().string() + " --sky-calib " + calib().string() + " -o " + (*dir_ / "x3").string() +
            " --sky " + sky.string(),
        "not a valid bake"},
       {common(*dir_ / "x4") + " --sky " + sky.string() + " " + sky.string(), "bracket"},

@@ -18,7 +18,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/lens.hpp"
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/simulate.hpp"
 #include "skylit/sky/solar.hpp"
@@ -83,7 +83,7 @@ TEST(SkylitSky, EquirectToExrAndPng) {
   ASSERT_EQ(radiance.type(), CV_32FC3);
   EXPECT_EQ(radiance.size(), cv::Size(96, 96));
   // Energy of the sky is kept (the 96 px image is coarse: 2%).
-  const skylit::sky::Lens lens(skylit::sky::load_calibration(calib));
+  const skylit::camera::Lens lens(skylit::camera::load_calibration(calib));
   const Eigen::Vector3d got = skylit::sky::fisheye_hemisphere_energy(lens, radiance);
   const Eigen::Vector3d expected = skylit::sky::equirect_hemisphere_energy(skylit::sky::read_sky_image(kPark));
   EXPECT_NEAR(got.sum() / expected.sum(), 1.0, 0.02);
@@ -109,7 +109,7 @@ TEST(SkylitSky, ClearTimeLapseWritesFramesAndCsv) {
   const std::vector<std::string> csv = lines_of(out / "frames.csv");
   ASSERT_EQ(csv.size(), 7u);
   EXPECT_EQ(csv[0], "timestamp,file,sun_azimuth_deg,sun_elevation_deg");
-  const skylit::sky::Lens lens(skylit::sky::load_calibration(calib));
+  const skylit::camera::Lens lens(skylit::camera::load_calibration(calib));
   for (int k = 0; k < 6; ++k) {
     SCOPED_TRACE("frame " + std::to_string(k));
     char name[32];

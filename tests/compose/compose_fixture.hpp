@@ -19,15 +19,18 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "../support/fixture_cache.hpp"
 #include "reference_composite.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/baker/visibility.hpp"
-#include "skylit/bake/format.hpp"
+#include "skylit/bake_format/manifest.hpp"
+#include "skylit/bake_format/arrays.hpp"
 #include "skylit/gpu/egl_context.hpp"
 #include "skylit/render/compositor.hpp"
-#include "skylit/render/cpu_blend.hpp"
+#include "skylit/blend/cpu_blend.hpp"
 #include "skylit/scene/mesh.hpp"
 #include "skylit/scene/site.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::compose_test {
 
@@ -100,12 +103,12 @@ inline scene::Mesh tower_and_annex() {
 
 // The HMD camera: 320×240, a barrel-distorting pinhole lens, at (1.5, −9, 1.7) looking north,
 // 10° down.
-inline sky::CameraCalibration hmd_camera() {
-  sky::CameraCalibration c;
+inline camera::CameraCalibration hmd_camera() {
+  camera::CameraCalibration c;
   c.file = "hmd_test.yaml";
   c.image_width = 320;
   c.image_height = 240;
-  c.model = sky::LensModel::Pinhole;
+  c.model = camera::LensModel::Pinhole;
   c.fx = c.fy = 200.0;
   c.cx = 161.3;
   c.cy = 118.2;
@@ -132,66 +135,61 @@ inline Vector3d from_angles(double azimuth_deg, double elevation_deg) {
   return {std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)};
 }
 
-// The baked site, shared by every test of the program (made on first use).
+// The baked site, shared by every test of the program (made on first use, kept on disk).
 struct BakedSite {
   fs::path dir;
   scene::Site site;
   scene::Mesh mesh;
-  bake::Manifest manifest;
+  bake_format::Manifest manifest;
   std::vector<float> transfer;
-  std::vector<render::BasisImages> basis;
+  std::vector<blend::BasisImages> basis;
 
   BakedSite() {
-    dir = fs::temp_directory_path() /
-          ("skylit-compose-" + std::to_string(::getpid()) + "-" +
-           std::to_string(std::chrono::steady_clock::now().time_since_epoch().count()));
-    fs::create_directories(dir);
     mesh = tower_and_annex();
-    scene::write_glb(mesh, dir / "tower.glb");
-    std::ofstream(dir / "site.yaml") << "scene:\n  model: tower.glb\n  up: y\n  scale: 1\n"
-                                        "dome:\n  frequency: 2\n"
-                                        "planes:\n"
-                                        "  - name: ground\n    origin: [-8, -8, 0.01]\n    u: [16, 0, 0]\n"
-                                        "    v: [0, 16, 0]\n    resolution: [128, 128]\n    surface: real\n"
-                                        "  - name: roof\n    origin: [-1, -1, 4.01]\n    u: [2, 0, 0]\n"
-                                        "    v: [0, 2, 0]\n    resolution: [16, 16]\n"
-                                        "  - name: wall\n    origin: [-1, -1.01, 0]\n    u: [2, 0, 0]\n"
-                                        "    v: [0, 0, 4]\n    resolution: [16, 32]\n    surface: virtual\n";
-    baker::BakeOptions options;
-    options.site_file = dir / "site.yaml";
-    options.out_dir = dir / "bake";
-    options.samples = 4;
-    options.method = "raytrace";
-    options.previews = false;
-    std::FILE* quiet = std::fopen("/dev/null", "w");
-    baker::run_bake(options, quiet);
-    std::fclose(quiet);
-    manifest = bake::read_manifest(dir / "bake");
+    // Made once per build of the test program and shared by its tests (read only).
+    dir = test::cached_fixture("compose_site", [this](const fs::path& out) {
+      scene::write_glb(mesh, out / "tower.glb");
+      std::ofstream(out / "site.yaml") << "scene:\n  model: tower.glb\n  up: y\n  scale: 1\n"
+                                          "dome:\n  frequency: 2\n"
+                                          "planes:\n"
+                                          "  - name: ground\n    origin: [-8, -8, 0.01]\n    u: [16, 0, 0]\n"
+                                          "    v: [0, 16, 0]\n    resolution: [128, 128]\n    surface: real\n"
+                                          "  - name: roof\n    origin: [-1, -1, 4.01]\n    u: [2, 0, 0]\n"
+                                          "    v: [0, 2, 0]\n    resolution: [16, 16]\n"
+                                          "  - name: wall\n    origin: [-1, -1.01, 0]\n    u: [2, 0, 0]\n"
+                                          "    v: [0, 0, 4]\n    resolution: [16, 32]\n    surface: virtual\n";
+      baker::BakeOptions options;
+      options.site_file = out / "site.yaml";
+      options.out_dir = out / "bake";
+      options.samples = 4;
+      options.method = "raytrace";
+      options.previews = false;
+      std::FILE* quiet = std::fopen("/dev/null", "w");
+      baker::run_bake(options, quiet);
+      std::fclose(quiet);
+    });
+    manifest = bake_format::read_manifest(dir / "bake");
     site = scene::load_site(dir / "site.yaml");
     // The model as the bake saw it has the same vertex order as the mesh in memory, which keeps
     // its texcoords and texture (write_glb does not store them).
     const scene::Mesh loaded = scene::load_model(site.model, site.up, site.scale);
     if (loaded.vertex_count() != mesh.vertex_count()) throw std::runtime_error("glb round trip changed the vertices");
     std::vector<std::size_t> shape;
-    transfer = bake::read_npy(dir / "bake" / manifest.transfer_file, &shape);
+    transfer = bake_format::read_npy(dir / "bake" / manifest.transfer_file, &shape);
     for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
-      basis.push_back(render::load_basis(dir / "bake", manifest, static_cast<int>(j)));
+      basis.push_back(blend::load_basis(dir / "bake", manifest, static_cast<int>(j)));
     }
-  }
-  ~BakedSite() {
-    std::error_code ignored;
-    fs::remove_all(dir, ignored);
   }
   BakedSite(const BakedSite&) = delete;
   BakedSite& operator=(const BakedSite&) = delete;
 
   // T of every plane for a sky, on the CPU (blend_cpu, with the sun's disc visibility ray-cast).
-  std::vector<PlaneRatios> shadow_ratios(std::span<const Vector3d> sky, const std::optional<render::SunLight>& sun,
+  std::vector<PlaneRatios> shadow_ratios(std::span<const Vector3d> sky, const std::optional<blend::SunLight>& sun,
                                          const std::vector<Vector3d>& disc_directions = {},
                                          const std::vector<double>& disc_weights = {}) const {
     std::vector<PlaneRatios> out;
     for (std::size_t j = 0; j < basis.size(); ++j) {
-      const render::BlendWeights weights = render::blend_weights(basis[j], sky, sun);
+      const blend::BlendWeights weights = blend::blend_weights(basis[j], sky, sun);
       std::vector<float> visibility;
       if (!weights.sun.isZero()) {
         visibility.resize(basis[j].texel_count());
@@ -204,7 +202,7 @@ struct BakedSite {
         }
       }
       PlaneRatios ratios{basis[j].width, basis[j].height, std::vector<float>(basis[j].texel_count() * 3)};
-      render::blend_cpu(basis[j], weights, visibility, ratios.rgb);
+      blend::blend_cpu(basis[j], weights, visibility, ratios.rgb);
       out.push_back(std::move(ratios));
     }
     return out;

@@ -19,6 +19,7 @@
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/simulate.hpp"
 #include "skylit/sky/sky_estimate.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::compose_test {
 namespace {
@@ -51,7 +52,7 @@ class CompositorTest : public ::testing::Test {
   }
 
   static ReferenceInputs reference_inputs(const std::vector<PlaneRatios>& ratios, const std::vector<Vector3d>& sky,
-                                          const std::optional<render::SunLight>& sun,
+                                          const std::optional<blend::SunLight>& sun,
                                           const Vector3d& photometric = Vector3d::Ones()) {
     const BakedSite& baked = BakedSite::get();
     ReferenceInputs in;
@@ -91,7 +92,7 @@ TEST_F(CompositorTest, RecordedFramesMatchTheCpuReference) {
   // The recorded sky (a real HDR capture), turned so that its sun stands in the west-south-west,
   // seen by the sample sky camera; the HMD frame is the same capture seen by the HMD camera.
   const cv::Mat equirect = sky::read_sky_image(fs::path(SKYLIT_SOURCE_DIR) / "data/hdri/park.exr");
-  const sky::CameraCalibration sky_camera = sky::load_calibration(fs::path(SKYLIT_SOURCE_DIR) / "config/sky_camera.yaml");
+  const camera::CameraCalibration sky_camera = camera::load_calibration(fs::path(SKYLIT_SOURCE_DIR) / "config/sky_camera.yaml");
   sky::RenderOptions render_options;
   render_options.supersample = 2;
   const geom::Dome dome(2);
@@ -107,7 +108,7 @@ TEST_F(CompositorTest, RecordedFramesMatchTheCpuReference) {
   const sky::Sun& detected = *estimate.sun;
   std::vector<Vector3d> S;
   for (const sky::FaceLuminance& face : estimate.luminance.faces) S.push_back(face.rgb);
-  const render::SunLight sun{detected.direction, detected.energy};
+  const blend::SunLight sun{detected.direction, detected.energy};
   std::printf("measured: sun at azimuth %.1f°, elevation %.1f°, E_sun %.3g, Σ S_i Ω_i %.3g\n",
               std::atan2(sun.direction.x(), sun.direction.y()) * 180 / std::numbers::pi,
               std::asin(sun.direction.z()) * 180 / std::numbers::pi, sun.energy.mean(),
@@ -122,10 +123,10 @@ TEST_F(CompositorTest, RecordedFramesMatchTheCpuReference) {
   render::SunShadowMap shadow_map(baked.mesh, baked.site.planes);
   shadow_map.update(detected.direction, detected.angular_radius);
 
-  sky::CameraCalibration hmd = hmd_camera();
+  camera::CameraCalibration hmd = hmd_camera();
   const render::CameraPose pose = hmd_pose();
   hmd.R_site_from_camera = pose.R_site_from_camera;
-  const cv::Mat camera = sky::render_fisheye(sky::Lens(hmd), equirect, render_options);
+  const cv::Mat camera = sky::render_fisheye(camera::Lens(hmd), equirect, render_options);
 
   render::Compositor compositor = make();
   // The photometric match from the grass south-west of the buildings (albedo taken as known),
@@ -152,7 +153,7 @@ TEST_F(CompositorTest, RecordedFramesMatchTheCpuReference) {
 
   const RayCaster caster(baked.mesh);
   const ReferenceResult reference = reference_composite(reference_inputs(ratios, S, sun, match.match.scale),
-                                                        sky::Lens(hmd_camera()), caster, camera, pose);
+                                                        camera::Lens(hmd_camera()), caster, camera, pose);
   ASSERT_TRUE(finite_image(gpu));
   // A pixel is off when a channel differs by more than 1% of the image's mean value plus 2% of
   // its own. Edges rasterise differently (the building's outline through the pinhole render,
@@ -245,7 +246,7 @@ TEST_F(CompositorTest, ShadowOnTheGroundLandsWhereGeometryPutsIt) {
     SCOPED_TRACE(azimuth);
     const Vector3d towards_sun = from_angles(azimuth, 35.0);
     const std::vector<Vector3d> S = uniform_sky(0.05);
-    const render::SunLight sun{towards_sun, Vector3d::Ones()};
+    const blend::SunLight sun{towards_sun, Vector3d::Ones()};
     const std::vector<PlaneRatios> ratios = baked.shadow_ratios(S, sun);
     const RatioTextures textures = upload(ratios);
     render::SunShadowMap shadow_map(baked.mesh, baked.site.planes);
@@ -266,7 +267,7 @@ TEST_F(CompositorTest, ShadowOnTheGroundLandsWhereGeometryPutsIt) {
 
     // Every ground pixel clear of the building and more than 0.3 m from a shadow's edge: dark
     // (T < 0.6) exactly where the geometry puts the shadow.
-    const sky::Lens lens(hmd_camera());
+    const camera::Lens lens(hmd_camera());
     const RayCaster caster(baked.mesh);
     const geom::Plane& ground = baked.manifest.planes[0].plane;
     int shadowed = 0, lit = 0, agree = 0;
@@ -360,7 +361,7 @@ TEST_F(CompositorTest, RealPixelsPassUntouchedWhereNothingVirtualIs) {
   const cv::Mat out = compositor.composite(input);
   ASSERT_EQ(out.type(), CV_8UC3);
 
-  const sky::Lens lens(hmd_camera());
+  const camera::Lens lens(hmd_camera());
   const RayCaster caster(BakedSite::get().mesh);
   cv::Mat building(camera.size(), CV_8U, cv::Scalar(0));
   for (int y = 0; y < camera.rows; ++y) {
@@ -421,7 +422,7 @@ TEST_F(CompositorTest, OpacityBlendsTheCompositeTowardsTheCameraImage) {
   const BakedSite& baked = BakedSite::get();
   const Vector3d towards_sun = from_angles(250.0, 35.0);
   const std::vector<Vector3d> S = uniform_sky(0.05);
-  const render::SunLight sun{towards_sun, Vector3d::Ones()};
+  const blend::SunLight sun{towards_sun, Vector3d::Ones()};
   const std::vector<PlaneRatios> ratios = baked.shadow_ratios(S, sun);
   const RatioTextures textures = upload(ratios);
   render::SunShadowMap shadow_map(baked.mesh, baked.site.planes);
@@ -464,7 +465,7 @@ TEST_F(CompositorTest, OpacityBlendsTheCompositeTowardsTheCameraImage) {
   EXPECT_LT(to_midpoint.max, 2e-6);
 
   // The CPU reference at opacity 0.5: the bounds of the full-opacity comparisons (RecordedFrames…).
-  const sky::Lens lens(hmd_camera());
+  const camera::Lens lens(hmd_camera());
   const RayCaster caster(baked.mesh);
   ReferenceInputs reference_in = reference_inputs(ratios, S, sun);
   reference_in.opacity = 0.5;
@@ -501,7 +502,7 @@ TEST_F(CompositorTest, VirtualPlaneShadesExactlyWithItsRatioInsteadOfTheTransfer
   // tower's south face the radiance halves exactly; with planes never covering (cover distance
   // 0) the wall's T does not matter.
   auto constant = [&](float value) {
-    const render::BasisImages& wall = baked.basis[2];
+    const blend::BasisImages& wall = baked.basis[2];
     return render::upload_shadow_ratio(std::vector<float>(wall.texel_count() * 3, value), wall.width, wall.height);
   };
   const gpu::Texture full = constant(1.0f);
@@ -524,7 +525,7 @@ TEST_F(CompositorTest, VirtualPlaneShadesExactlyWithItsRatioInsteadOfTheTransfer
   const cv::Mat uncovered_half = run(half.get(), 0.0);
 
   // Pixels well inside the tower's south face (x in [−0.8, 0.8], z in [0.2, 3.8]).
-  const sky::Lens lens(hmd_camera());
+  const camera::Lens lens(hmd_camera());
   const render::CameraPose pose = hmd_pose();
   int pixels = 0;
   double worst_ratio = 0, worst_uncovered = 0, transfer_vs_plane = 0;
@@ -569,7 +570,7 @@ TEST_F(CompositorTest, NoNanFromNanOrBlackInputs) {
   std::vector<Vector3d> S = uniform_sky(1.0);
   S[0] = Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
   S[1] = Vector3d(std::numeric_limits<double>::infinity(), -1.0, 0.5);
-  const render::BasisImages& ground = baked.basis[0];
+  const blend::BasisImages& ground = baked.basis[0];
   const gpu::Texture nan_ratio =
       render::upload_shadow_ratio(std::vector<float>(ground.texel_count() * 3, nan), ground.width, ground.height);
   const std::array<GLuint, 3> names{nan_ratio.get(), nan_ratio.get(), 0};
@@ -579,7 +580,7 @@ TEST_F(CompositorTest, NoNanFromNanOrBlackInputs) {
   input.camera = camera;
   input.pose = pose;
   input.sky = S;
-  input.sun = render::SunLight{from_angles(200, 40), Vector3d(std::nan(""), 1.0, 1.0)};
+  input.sun = blend::SunLight{from_angles(200, 40), Vector3d(std::nan(""), 1.0, 1.0)};
   input.shadow_ratios = names;
   input.photometric = render::PhotometricMatch{Vector3d(1.0, std::nan(""), 1.0)};
   const cv::Mat out = compositor.composite(input);
@@ -616,7 +617,7 @@ TEST_F(CompositorTest, RegionMaskAndPhotometricEstimateRecoverTheScale) {
   const cv::Mat region = compositor.region_mask(0, 0.3, 0.5, 0.1, 0.25, pose);
   ASSERT_GT(cv::countNonZero(region), 500);
   // Every pixel of the mask sees the rectangle.
-  const sky::Lens lens(hmd_camera());
+  const camera::Lens lens(hmd_camera());
   const geom::Plane& ground = baked.manifest.planes[0].plane;
   for (int y = 0; y < region.rows; ++y) {
     for (int x = 0; x < region.cols; ++x) {

@@ -12,13 +12,14 @@
 #include "compose_fixture.hpp"
 #include "skylit/geom/dome.hpp"
 #include "skylit/render/lens_remap.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::compose_test {
 namespace {
 
 TEST(LensRemap, RaysFollowTheLensModelAndThePinholeCoversThem) {
-  const sky::CameraCalibration calibration = hmd_camera();
-  const sky::Lens lens(calibration);
+  const camera::CameraCalibration calibration = hmd_camera();
+  const camera::Lens lens(calibration);
   const render::LensRemap remap = render::make_lens_remap(lens);
   ASSERT_EQ(remap.rays.cols, 320);
   ASSERT_EQ(remap.rays.rows, 240);
@@ -66,7 +67,7 @@ struct Targets {
   std::vector<Vector3d> centres;
 };
 
-Targets squares_at(const sky::Lens& lens, const render::CameraPose& pose, const std::vector<Eigen::Vector2d>& pixels,
+Targets squares_at(const camera::Lens& lens, const render::CameraPose& pose, const std::vector<Eigen::Vector2d>& pixels,
                    double distance, double side) {
   Targets targets;
   targets.mesh.materials = {scene::Material{"white", {1, 1, 1, 1}, -1}};
@@ -92,8 +93,8 @@ Targets squares_at(const sky::Lens& lens, const render::CameraPose& pose, const 
 
 TEST(LensRemap, ASitePointLandsWhereTheLensModelProjectsIt) {
   const gpu::HeadlessContext context;
-  const sky::CameraCalibration calibration = hmd_camera();
-  const sky::Lens lens(calibration);
+  const camera::CameraCalibration calibration = hmd_camera();
+  const camera::Lens lens(calibration);
   const render::CameraPose pose = hmd_pose();
   std::vector<Eigen::Vector2d> pixels;
   for (double y : {14.0, 60.0, 118.0, 180.0, 226.0}) {
@@ -103,9 +104,9 @@ TEST(LensRemap, ASitePointLandsWhereTheLensModelProjectsIt) {
 
   // A bake-shaped description of the squares: no planes, a transfer of 0.1 sr on every face.
   const geom::Dome dome(2);
-  bake::Manifest manifest;
+  bake_format::Manifest manifest;
   for (int i = 0; i < dome.face_count(); ++i) {
-    bake::FaceRecord face;
+    bake_format::FaceRecord face;
     face.index = i;
     face.direction = dome.face(i).centre;
     face.solid_angle = dome.face(i).solid_angle;

@@ -17,11 +17,11 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
-#include "skylit/bake/format.hpp"
+#include "skylit/bake_format/manifest.hpp"
 #include "skylit/render/compositor.hpp"
 #include "skylit/scene/mesh.hpp"
 #include "skylit/scene/site.hpp"
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::compose_test {
 
@@ -130,11 +130,11 @@ struct PlaneRatios {
 struct ReferenceInputs {
   const scene::Site* site = nullptr;
   const scene::Mesh* mesh = nullptr;
-  const bake::Manifest* manifest = nullptr;
+  const bake_format::Manifest* manifest = nullptr;
   std::span<const float> transfer;
   std::vector<PlaneRatios> ratios;                 // per bake plane
   std::vector<Vector3d> sky;                       // S_i
-  std::optional<render::SunLight> sun;
+  std::optional<blend::SunLight> sun;
   Vector3d photometric = Vector3d::Ones();
   render::CompositorOptions options;
   bool sun_shadows = true;                         // false: the building's sun term is unshadowed
@@ -173,10 +173,10 @@ struct ReferenceResult {
   cv::Mat what;  // CV_8U
 };
 
-inline ReferenceResult reference_composite(const ReferenceInputs& in, const sky::Lens& lens, const RayCaster& caster,
+inline ReferenceResult reference_composite(const ReferenceInputs& in, const camera::Lens& lens, const RayCaster& caster,
                                            const cv::Mat& camera, const render::CameraPose& pose) {
   const scene::Mesh& mesh = *in.mesh;
-  const bake::Manifest& manifest = *in.manifest;
+  const bake_format::Manifest& manifest = *in.manifest;
   const std::size_t faces = manifest.faces.size();
   // Per-vertex sky irradiance Σ S_i t_{v,i}.
   std::vector<Vector3d> vertex_irradiance(mesh.vertex_count(), Vector3d::Zero());

@@ -8,6 +8,7 @@
 #include <string>
 #include <unistd.h>
 
+#include "../support/temp_dir.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/base/files.hpp"
 #include "skylit/gpu/egl_context.hpp"
@@ -20,26 +21,7 @@ namespace fs = std::filesystem;
 
 const fs::path kShaderDir = fs::path(SKYLIT_SOURCE_DIR) / "shaders";
 
-class TempShaders {
- public:
-  TempShaders()
-      : dir_(fs::temp_directory_path() /
-             ("skylit-shader-library-" + std::to_string(::getpid()) + "-" +
-              std::to_string(std::chrono::steady_clock::now().time_since_epoch().count()))) {
-    fs::create_directories(dir_);
-  }
-  ~TempShaders() {
-    std::error_code ignored;
-    fs::remove_all(dir_, ignored);
-  }
-  TempShaders(const TempShaders&) = delete;
-  TempShaders& operator=(const TempShaders&) = delete;
-  void write(const std::string& name, const std::string& text) const { std::ofstream(dir_ / name) << text; }
-  const fs::path& dir() const { return dir_; }
-
- private:
-  fs::path dir_;
-};
+using test::TempDir;
 
 TEST(ShaderLibrary, TheLibraryIsAppendedAfterTheShader) {
   const std::string shader = read_file(kShaderDir / "sun_visibility.comp");
@@ -53,23 +35,23 @@ TEST(ShaderLibrary, TheLibraryIsAppendedAfterTheShader) {
 
 TEST(ShaderLibrary, ProgramsLinkWithTheirLibraries) {
   const HeadlessContext context;
-  TempShaders shaders;
+  TempDir shaders;
   shaders.write("twice.glsl", "float twice(float x) { return 2.0 * x; }\n");
   shaders.write("uses.comp",
                 "#version 310 es\n// library: twice.glsl\nlayout(local_size_x = 1) in;\n"
                 "layout(std430, binding = 0) buffer B { float v[]; };\nfloat twice(float x);\n"
                 "void main() { v[0] = twice(v[0]); }\n");
-  const Program program = load_program(shaders.dir(), {"uses.comp"});
+  const Program program = load_program(shaders.path(), {"uses.comp"});
   EXPECT_NE(program.get(), 0u);
   // And the project's own: the sun's visibility pass needs sun_shadow.glsl to link.
   EXPECT_NO_THROW(load_program(kShaderDir, {"sun_visibility.comp"}));
 }
 
 TEST(ShaderLibrary, MissingLibraryIsAnInputError) {
-  TempShaders shaders;
+  TempDir shaders;
   shaders.write("lonely.comp", "#version 310 es\n// library: nowhere.glsl\nvoid main() {}\n");
   try {
-    read_shader(shaders.dir(), "lonely.comp");
+    read_shader(shaders.path(), "lonely.comp");
     FAIL() << "expected InputError";
   } catch (const InputError& error) {
     EXPECT_NE(std::string(error.what()).find("nowhere.glsl"), std::string::npos) << error.what();

@@ -24,15 +24,11 @@ namespace {
 // The tests' site (BakedSite's model and planes) with the quadratics basis, baked once per
 // program into a temporary folder: site.yaml, tower.glb and bake/.
 struct QuadraticsSite {
-  fs::path dir;
+  test::TempDir dir{"skylit-quadratics-"};
   double bake_seconds = 0;
 
   QuadraticsSite() {
     const BakedSite& baked = BakedSite::get();
-    dir = fs::temp_directory_path() /
-          ("skylit-quadratics-" + std::to_string(::getpid()) + "-" +
-           std::to_string(std::chrono::steady_clock::now().time_since_epoch().count()));
-    fs::create_directories(dir);
     fs::copy_file(baked.dir / "tower.glb", dir / "tower.glb");
     std::ostringstream in;
     in << std::ifstream(baked.dir / "site.yaml").rdbuf();
@@ -54,10 +50,6 @@ struct QuadraticsSite {
     bake_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     std::fclose(quiet);
   }
-  ~QuadraticsSite() {
-    std::error_code ignored;
-    fs::remove_all(dir, ignored);
-  }
   QuadraticsSite(const QuadraticsSite&) = delete;
   QuadraticsSite& operator=(const QuadraticsSite&) = delete;
 
@@ -74,12 +66,12 @@ void expect_service_blends_the_quadratics_bake(const std::string& device) {
   setup.bake_dir = fitted.dir / "bake";
   setup.site_file = fitted.dir / "site.yaml";
   setup.blend = "blend:\n  device: " + device + "\n";
-  setup.form = render::BasisForm::Full;
+  setup.form = blend::BasisForm::Full;
   setup.label = "dome.basis quadratics, blend.basis full";
   ServiceBlendResult run;
   ASSERT_NO_FATAL_FAILURE(check_service_blend(rig, setup, run));
 
-  const bake::Manifest& manifest = run.manifest;
+  const bake_format::Manifest& manifest = run.manifest;
   ASSERT_EQ(manifest.plan.basis, geom::DomeBasis::Quadratics);
   ASSERT_EQ(manifest.plan.frequency, 2);
   EXPECT_EQ(manifest.faces.size(), 40u);

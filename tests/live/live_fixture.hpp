@@ -26,11 +26,13 @@
 #include <opencv2/imgproc.hpp>
 
 #include "../compose/compose_fixture.hpp"
+#include "../support/temp_dir.hpp"
 #include "skylit/live/live_config.hpp"
 #include "skylit/live/service.hpp"
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/simulate.hpp"
 #include "skylit/sky/sky_model.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::live_test {
 
@@ -71,7 +73,7 @@ inline void write_sky_calibration(const fs::path& file, int size) {
 // A clear sky (Preetham sky and ESRA sun) with the sun at azimuth/elevation, as the sky camera
 // of `calibration` records it: linear float radiance.
 inline cv::Mat clear_sky_frame(const fs::path& calibration, double azimuth_deg, double elevation_deg) {
-  const sky::Lens lens(sky::load_calibration(calibration));
+  const camera::Lens lens(camera::load_calibration(calibration));
   sky::RenderOptions options;
   options.supersample = 2;
   return sky::render_fisheye(lens, sky::sky_function(sky::ClearSky(compose_test::from_angles(azimuth_deg, elevation_deg))),
@@ -134,9 +136,6 @@ struct RigOptions {
 class Rig {
  public:
   explicit Rig(const RigOptions& options = {}) : options_(options) {
-    std::random_device rd;
-    dir_ = fs::temp_directory_path() / ("skylit_live_" + std::to_string(::getpid()) + "_" + std::to_string(rd()));
-    fs::create_directories(dir_);
     write_hmd_calibration(dir_ / "hmd.yaml", options.hmd_width, options.hmd_height);
     write_sky_calibration(dir_ / "sky.yaml", options.sky_size);
     std::vector<cv::Mat> skies;
@@ -148,14 +147,10 @@ class Rig {
     write_frames(dir_ / "camera", camera_frames_, options.camera_fps, "png");
     write_config(config_file());
   }
-  ~Rig() {
-    std::error_code ignored;
-    fs::remove_all(dir_, ignored);
-  }
   Rig(const Rig&) = delete;
   Rig& operator=(const Rig&) = delete;
 
-  const fs::path& dir() const { return dir_; }
+  const fs::path& dir() const { return dir_.path(); }
   fs::path config_file() const { return dir_ / "config.yaml"; }
   const std::vector<cv::Mat>& camera_frames() const { return camera_frames_; }
   live::LiveConfig config() const { return live::load_live_config(config_file()); }
@@ -193,7 +188,7 @@ class Rig {
 
  private:
   RigOptions options_;
-  fs::path dir_;
+  test::TempDir dir_{"skylit_live_"};
   std::vector<cv::Mat> camera_frames_;
 };
 

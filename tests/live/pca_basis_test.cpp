@@ -11,7 +11,7 @@
 
 #include <gtest/gtest.h>
 
-#include "../../src/live/src/cpu_shadow_ratios.hpp"
+#include "skylit/blend/cpu_blender.hpp"
 #include "live_fixture.hpp"
 #include "service_blend_check.hpp"
 #include "skylit/baker/bake_job.hpp"
@@ -25,7 +25,7 @@ namespace {
 fs::path compressed_bake(const Rig& rig, int tile = 0) {
   const fs::path copy = rig.dir() / "bake";
   fs::copy(BakedSite::get().dir / "bake", copy, fs::copy_options::recursive);
-  bake::PcaOptions options;
+  bake_format::PcaOptions options;
   options.variance = 0.999;
   options.tile = tile;
   baker::compress_bake(copy, options, nullptr);
@@ -51,7 +51,7 @@ double largest_difference(const std::vector<float>& a, const std::vector<float>&
 
 // blend.basis lean: the layers that hold a shadow, and one of ones for the unshadowed light.
 // Ten frames of the service on the tests' bake with `blend` (YAML) in its config; its status.
-nlohmann::json status_of_ten_frames(const std::string& blend, live::BlendSettings::Basis expected) {
+nlohmann::json status_of_ten_frames(const std::string& blend, blend::BasisForm expected) {
   RigOptions rig_options;
   const Rig rig(rig_options);
   write_config_with_bake(rig, BakedSite::get().dir / "bake", blend);
@@ -67,14 +67,14 @@ nlohmann::json status_of_ten_frames(const std::string& blend, live::BlendSetting
 
 TEST(LivePcaBasis, LeanFormBlendsOnlyTheShadowedLayers) {
   const nlohmann::json status =
-      status_of_ten_frames("blend:\n  device: cpu\n  basis: lean\n", live::BlendSettings::Basis::Lean);
+      status_of_ten_frames("blend:\n  device: cpu\n  basis: lean\n", blend::BasisForm::Lean);
   EXPECT_EQ(status["blend"]["basis"], "lean") << status["blend"].dump(2);
-  const bake::Manifest manifest = bake::read_manifest(BakedSite::get().dir / "bake");
+  const bake_format::Manifest manifest = bake_format::read_manifest(BakedSite::get().dir / "bake");
   ASSERT_EQ(status["blend"]["planes"].size(), manifest.planes.size());
   for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
     const nlohmann::json& plane = status["blend"]["planes"][j];
-    const render::BasisImages lean = render::load_basis(BakedSite::get().dir / "bake", manifest, static_cast<int>(j),
-                                                        render::BasisForm::Lean);
+    const blend::BasisImages lean = blend::load_basis(BakedSite::get().dir / "bake", manifest, static_cast<int>(j),
+                                                        blend::BasisForm::Lean);
     EXPECT_EQ(plane["layers"], lean.layers);
     EXPECT_LE(plane["layers"].get<int>(), static_cast<int>(manifest.layer_count()));
     std::printf("measured: plane '%s': lean form of %d layers for %zu\n", manifest.planes[j].plane.name.c_str(),
@@ -86,36 +86,36 @@ TEST(LivePcaBasis, LeanFormBlendsOnlyTheShadowedLayers) {
 // the CPU blend reads only the rectangles, with the lean form's layers, bounds and T.
 TEST(LivePcaBasis, CroppedFormBlendsOnTheCpuAsTheLeanForm) {
   const nlohmann::json status =
-      status_of_ten_frames("blend:\n  device: cpu\n  basis: cropped\n", live::BlendSettings::Basis::Cropped);
+      status_of_ten_frames("blend:\n  device: cpu\n  basis: cropped\n", blend::BasisForm::Cropped);
   EXPECT_EQ(status["blend"]["basis"], "cropped") << status["blend"].dump(2);
-  const bake::Manifest manifest = bake::read_manifest(BakedSite::get().dir / "bake");
+  const bake_format::Manifest manifest = bake_format::read_manifest(BakedSite::get().dir / "bake");
   ASSERT_EQ(status["blend"]["planes"].size(), manifest.planes.size());
   const std::vector<Eigen::Vector3d> S(manifest.layer_count(), Eigen::Vector3d(0.9, 1.0, 1.2));
   for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
     SCOPED_TRACE(manifest.planes[j].plane.name);
     const nlohmann::json& plane = status["blend"]["planes"][j];
     const fs::path bake_dir = BakedSite::get().dir / "bake";
-    const render::BasisImages lean = render::load_basis(bake_dir, manifest, static_cast<int>(j), render::BasisForm::Lean);
-    const render::BasisImages cropped = render::load_basis(bake_dir, manifest, static_cast<int>(j), render::BasisForm::Cropped);
+    const blend::BasisImages lean = blend::load_basis(bake_dir, manifest, static_cast<int>(j), blend::BasisForm::Lean);
+    const blend::BasisImages cropped = blend::load_basis(bake_dir, manifest, static_cast<int>(j), blend::BasisForm::Cropped);
     EXPECT_EQ(plane["layers"], lean.layers);
     EXPECT_EQ(cropped.layers, lean.layers);
     EXPECT_LE(cropped.half.size(), lean.half.size());
     // The bounds the thresholds use: the same per layer, read from the rectangles and fills.
-    live::CpuShadowRatios lean_ratios(lean, 0.0, 0.0), cropped_ratios(cropped, 0.0, 0.0);
+    blend::CpuBlender lean_ratios(lean, 0.0, 0.0), cropped_ratios(cropped, 0.0, 0.0);
     ASSERT_EQ(cropped_ratios.layer_max().size(), lean_ratios.layer_max().size());
     for (std::size_t k = 0; k < lean_ratios.layer_max().size(); ++k) {
       EXPECT_NEAR(cropped_ratios.layer_max()[k], lean_ratios.layer_max()[k], 1e-3 * std::max(1.0f, lean_ratios.layer_max()[k]))
           << "layer " << k;
     }
     // And the same T.
-    ASSERT_TRUE(lean_ratios.blend(render::blend_weights(lean, S, std::nullopt), {}, 1, nullptr));
-    ASSERT_TRUE(cropped_ratios.blend(render::blend_weights(cropped, S, std::nullopt), {}, 1, nullptr));
+    ASSERT_TRUE(lean_ratios.blend(blend::blend_weights(lean, S, std::nullopt), {}, 1, nullptr));
+    ASSERT_TRUE(cropped_ratios.blend(blend::blend_weights(cropped, S, std::nullopt), {}, 1, nullptr));
     EXPECT_LE(largest_difference(*lean_ratios.rgba(), *cropped_ratios.rgba()), 1e-3);
     std::printf("measured: plane '%s': cropped form of %d layers, %zu of the lean form's %zu values\n",
                 manifest.planes[j].plane.name.c_str(), cropped.layers, cropped.half.size(), lean.half.size());
   }
   // Any storage: the GPU blend keeps the rectangles cropped, in an atlas of 16 × 16-texel pages
-  // (render/gpu_blend.hpp) whose values, B inside a layer's rectangle and its fill outside, are
+  // (blend/gpu_blend.hpp) whose values, B inside a layer's rectangle and its fill outside, are
   // >= 0 as 8-bit and EAC layers need.
   RigOptions rig_options;
   const Rig rig(rig_options);
@@ -130,7 +130,7 @@ TEST(LivePcaBasis, CroppedFormBlendsOnTheGpuAsTheDirectComposite) {
   ServiceBlendSetup setup;
   setup.bake_dir = BakedSite::get().dir / "bake";
   setup.blend = "blend:\n  device: gpu\n  basis: cropped\n";
-  setup.form = render::BasisForm::Cropped;
+  setup.form = blend::BasisForm::Cropped;
   setup.label = "blend.basis cropped";
   ServiceBlendResult run;
   ASSERT_NO_FATAL_FAILURE(check_service_blend(rig, setup, run));
@@ -138,8 +138,8 @@ TEST(LivePcaBasis, CroppedFormBlendsOnTheGpuAsTheDirectComposite) {
   EXPECT_EQ(blend["basis"], "cropped") << blend.dump(2);
   EXPECT_EQ(blend["device"], "gpu") << blend.dump(2);
   for (std::size_t j = 0; j < run.manifest.planes.size(); ++j) {
-    const render::BasisImages cropped =
-        render::load_basis(setup.bake_dir, run.manifest, static_cast<int>(j), render::BasisForm::Cropped);
+    const blend::BasisImages cropped =
+        blend::load_basis(setup.bake_dir, run.manifest, static_cast<int>(j), blend::BasisForm::Cropped);
     EXPECT_EQ(blend["planes"][j]["layers"], cropped.layers) << run.manifest.planes[j].plane.name;
   }
 }
@@ -153,19 +153,19 @@ void expect_service_blends_the_pca_form(int tile, const std::string& device) {
   ServiceBlendSetup setup;
   setup.bake_dir = compressed_bake(rig, tile);
   setup.blend = "blend:\n  device: " + device + "\n  basis: pca\n";
-  setup.form = render::BasisForm::Pca;
+  setup.form = blend::BasisForm::Pca;
   setup.label = "blend.basis pca, tile " + std::to_string(tile);
   ServiceBlendResult run;
   ASSERT_NO_FATAL_FAILURE(check_service_blend(rig, setup, run));
-  ASSERT_EQ(rig.config().blend.basis, live::BlendSettings::Basis::Pca);
+  ASSERT_EQ(rig.config().blend.basis, blend::BasisForm::Pca);
 
   // Status: the form and the layers each plane blends (K + 1 of the dome's n).
-  const bake::Manifest& manifest = run.manifest;
+  const bake_format::Manifest& manifest = run.manifest;
   const nlohmann::json& blend = run.status["blend"];
   EXPECT_EQ(blend["basis"], "pca") << blend.dump(2);
   EXPECT_EQ(blend["device"], device) << blend.dump(2);
   for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
-    const bake::PlaneRecord& record = manifest.planes[j];
+    const bake_format::PlaneRecord& record = manifest.planes[j];
     ASSERT_TRUE(record.pca);
     const nlohmann::json& plane = blend["planes"][j];
     EXPECT_EQ(plane["layers"], record.pca->components + 1);
@@ -177,9 +177,9 @@ void expect_service_blends_the_pca_form(int tile, const std::string& device) {
                 record.pca->components, manifest.faces.size(), record.pca->max_error);
     // T of the full form, with the same sky and visibility, within max_error of the PCA form's
     // (max_error bounds |F − F̂| on the stored forms; T blends them in float: a few ulps more).
-    const render::BasisImages full = render::load_basis(setup.bake_dir, manifest, static_cast<int>(j), render::BasisForm::Full);
+    const blend::BasisImages full = blend::load_basis(setup.bake_dir, manifest, static_cast<int>(j), blend::BasisForm::Full);
     std::vector<float> full_t(full.texel_count() * 3);
-    render::blend_cpu(full, render::blend_weights(full, run.sky, run.sun), run.visibility[j], full_t);
+    blend::blend_cpu(full, blend::blend_weights(full, run.sky, run.sun), run.visibility[j], full_t);
     const double difference = largest_difference(run.shadow_ratios[j], full_t);
     std::printf("measured: plane '%s': max |T_pca − T_full| %.4g (manifest max_error %.4g)\n", record.plane.name.c_str(),
                 difference, record.pca->max_error);
@@ -195,7 +195,7 @@ TEST(LivePcaBasis, TiledPcaFormBlendsOnTheGpuWithinItsMaxError) { expect_service
 TEST(LivePcaBasis, BakeWithoutPcaFormIsRefusedNamingTheFieldAndTheFix) {
   const Rig rig;
   write_config_with_bake(rig, BakedSite::get().dir / "bake", "blend:\n  basis: pca\n");
-  ASSERT_FALSE(bake::read_manifest(BakedSite::get().dir / "bake").planes.front().pca) << "the tests' bake has a PCA form";
+  ASSERT_FALSE(bake_format::read_manifest(BakedSite::get().dir / "bake").planes.front().pca) << "the tests' bake has a PCA form";
   const std::string message = load_error(rig.config_file(), true);
   EXPECT_NE(message.find(rig.config_file().string()), std::string::npos) << message;
   EXPECT_NE(message.find("blend.basis"), std::string::npos) << message;

@@ -15,34 +15,34 @@ namespace {
 TEST(ServiceConfig, PresetSetsTheLiveSettings) {
   const Rig rig;
   const fs::path file = rig.dir() / "preset.yaml";
-  for (const Preset& p : load_presets(default_presets_file())) {
-    SCOPED_TRACE(p.name);
-    std::ofstream(file) << rig.config_text() << "preset: " << p.name << "\n";
+  const PresetsFile presets(default_presets_file());
+  for (const std::string& name : presets.names()) {
+    SCOPED_TRACE(name);
+    const live::LivePreset p = live::load_live_preset(presets, name);
+    std::ofstream(file) << rig.config_text() << "preset: " << name << "\n";
     const live::LiveConfig config = live::load_live_config(file);
-    EXPECT_EQ(config.preset, p.name);
+    EXPECT_EQ(config.preset, name);
     EXPECT_EQ(config.presets_file, default_presets_file());
-    EXPECT_EQ(config.blend.skip_threshold, p.live.skip_threshold);
-    EXPECT_EQ(config.blend.change_threshold, p.live.change_threshold);
-    EXPECT_EQ(config.blend.storage == live::BlendSettings::Storage::Unorm8, p.live.storage == "unorm8");
-    EXPECT_EQ(config.blend.storage == live::BlendSettings::Storage::Eac, p.live.storage == "eac");
-    EXPECT_EQ(config.render.scale, p.live.render_scale);
-    EXPECT_EQ(config.sky.smoothing, p.live.smoothing);
-    const auto basis = p.live.basis == "pca"    ? live::BlendSettings::Basis::Pca
-                       : p.live.basis == "lean" ? live::BlendSettings::Basis::Lean
-                                                : live::BlendSettings::Basis::Full;
-    EXPECT_EQ(config.blend.basis, basis);
+    EXPECT_EQ(config.blend.skip_threshold, p.skip_threshold);
+    EXPECT_EQ(config.blend.change_threshold, p.change_threshold);
+    EXPECT_EQ(config.blend.storage, p.storage);
+    EXPECT_EQ(config.render.scale, p.render_scale);
+    EXPECT_EQ(config.sky.smoothing, p.smoothing);
+    EXPECT_EQ(config.blend.basis, p.basis);
+    EXPECT_GT(p.render_scale, 0.0);
+    EXPECT_LE(p.render_scale, 1.0);
   }
 }
 
 TEST(ServiceConfig, ConfigKeysOverrideThePreset) {
   const Rig rig;
   const fs::path file = rig.dir() / "preset.yaml";
-  const Preset fast = find_preset(default_presets_file(), "fast");
+  const live::LivePreset fast = live::load_live_preset(PresetsFile(default_presets_file()), "fast");
   std::ofstream(file) << rig.config_text() << "preset: fast\nblend:\n  skip_threshold: 0.0125\n  basis: full\n";
   const live::LiveConfig config = live::load_live_config(file);
   EXPECT_EQ(config.blend.skip_threshold, 0.0125);
-  EXPECT_EQ(config.blend.basis, live::BlendSettings::Basis::Full);
-  EXPECT_EQ(config.blend.change_threshold, fast.live.change_threshold);  // not overridden: the preset's
+  EXPECT_EQ(config.blend.basis, blend::BasisForm::Full);
+  EXPECT_EQ(config.blend.change_threshold, fast.change_threshold);  // not overridden: the preset's
 
   // A presets.yaml beside the config is used instead of the shipped one.
   std::ofstream(rig.dir() / "presets.yaml")
@@ -68,6 +68,32 @@ TEST(ServiceConfig, AnUnknownPresetNamesTheFileFieldAndValidNames) {
     EXPECT_NE(message.find("turbo"), std::string::npos) << message;
     EXPECT_NE(message.find("fast, balanced, accurate"), std::string::npos) << message;
   }
+}
+
+TEST(ServiceConfig, ABadLivePresetFieldIsNamed) {
+  const Rig rig;
+  const fs::path file = rig.dir() / "bad_presets.yaml";
+  const auto error_for = [&](const std::string& bake, const std::string& live_section) {
+    std::ofstream(file) << "quick:\n  bake: " << bake << "\n  live: " << live_section << "\n";
+    try {
+      (void)live::load_live_preset(PresetsFile(file), "quick");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  const std::string bake = "{frequency: 2, basis: faces, samples: 4}";
+  std::string message = error_for(bake, "{basis: pca}");
+  EXPECT_NE(message.find("quick.live.basis"), std::string::npos) << message;
+  EXPECT_NE(message.find(file.string()), std::string::npos) << message;
+  message = error_for(bake, "{smothing: 1}");
+  EXPECT_NE(message.find("smothing"), std::string::npos) << message;
+  message = error_for(bake, "{render_scale: 1.5}");
+  EXPECT_NE(message.find("render_scale"), std::string::npos) << message;
+  message = error_for("{frequency: 2, basis: faces, samples: 4, pca_components: 4}", "{basis: pca, storage: eac}");
+  EXPECT_NE(message.find("live.storage"), std::string::npos) << message;
+  EXPECT_EQ(error_for("{frequency: 2, basis: faces, samples: 4, pca_components: 4}", "{basis: pca}"), "");
+  fs::remove(file);
 }
 
 }  // namespace

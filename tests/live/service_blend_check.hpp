@@ -17,6 +17,8 @@
 #include "skylit/render/sun_shadow_map.hpp"
 #include "skylit/sky/sky_estimate.hpp"
 #include "skylit/track/pose.hpp"
+#include "skylit/bake_format/arrays.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::live_test {
 
@@ -40,16 +42,16 @@ struct ServiceBlendSetup {
   fs::path bake_dir;
   fs::path site_file;                                // empty: the tests' site
   std::string blend;                                 // the config's `blend:` section (YAML)
-  render::BasisForm form = render::BasisForm::Full;  // the form whose T the direct composites use
+  blend::BasisForm form = blend::BasisForm::Full;  // the form whose T the direct composites use
   std::string label;                                 // what the "measured:" line names
 };
 
 // What came of it.
 struct ServiceBlendResult {
   nlohmann::json status;                          // the service's, after its last frame
-  bake::Manifest manifest;
+  bake_format::Manifest manifest;
   std::vector<Vector3d> sky;                      // S of the sky frame, one per dome layer
-  render::SunLight sun;
+  blend::SunLight sun;
   std::vector<std::vector<float>> visibility;     // per plane: the sun's shadow map's
   std::vector<std::vector<float>> shadow_ratios;  // per plane: T (RGB) of the setup's form
   int worst = 255;                                // largest |recorded − nearest direct composite|, codes
@@ -74,8 +76,8 @@ inline void check_service_blend(const Rig& rig, const ServiceBlendSetup& setup, 
     out.status = running.status();
   }
 
-  out.manifest = bake::read_manifest(setup.bake_dir);
-  const bake::Manifest& manifest = out.manifest;
+  out.manifest = bake_format::read_manifest(setup.bake_dir);
+  const bake_format::Manifest& manifest = out.manifest;
   const nlohmann::json& blend = out.status["blend"];
   ASSERT_EQ(blend["planes"].size(), manifest.planes.size()) << blend.dump(2);
   for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
@@ -91,17 +93,17 @@ inline void check_service_blend(const Rig& rig, const ServiceBlendSetup& setup, 
   const scene::Site site = scene::load_site(config.site);
   const scene::Mesh mesh = scene::load_model(site.model, site.up, site.scale);
   std::vector<std::size_t> shape;
-  const std::vector<float> transfer = bake::read_npy(setup.bake_dir / manifest.transfer_file, &shape);
+  const std::vector<float> transfer = bake_format::read_npy(setup.bake_dir / manifest.transfer_file, &shape);
   const geom::Dome dome(manifest.plan.frequency);
   sky::SkyEstimateOptions estimate_options;
   estimate_options.table.basis = manifest.plan.basis;
-  const sky::SkyEstimator estimator(sky::load_calibration(config.sky.calibration), dome, estimate_options);
+  const sky::SkyEstimator estimator(camera::load_calibration(config.sky.calibration), dome, estimate_options);
   const sky::SkyEstimate estimate =
       estimator.estimate(sky::linearise(sky::read_sky_image(rig.dir() / "sky" / "frame_0000.exr"), sky::ResponseCurve::linear(8), {}));
   ASSERT_TRUE(estimate.sun) << estimate.sun_reason;
   out.sky = sky::layer_radiances(estimate.luminance);
   ASSERT_EQ(out.sky.size(), manifest.layer_count());
-  out.sun = render::SunLight{estimate.sun->direction, estimate.sun->energy};
+  out.sun = blend::SunLight{estimate.sun->direction, estimate.sun->energy};
   std::vector<geom::Plane> planes;
   for (const auto& record : manifest.planes) planes.push_back(record.plane);
   render::SunShadowMap shadow_map(mesh, planes);
@@ -114,10 +116,10 @@ inline void check_service_blend(const Rig& rig, const ServiceBlendSetup& setup, 
   out.shadow_ratios.clear();
   for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
     const int plane = static_cast<int>(j);
-    const render::BasisImages basis = render::load_basis(setup.bake_dir, manifest, plane, setup.form);
+    const blend::BasisImages basis = blend::load_basis(setup.bake_dir, manifest, plane, setup.form);
     out.visibility.push_back(shadow_map.read_visibility(plane));
     std::vector<float> rgb(basis.texel_count() * 3);
-    render::blend_cpu(basis, render::blend_weights(basis, out.sky, out.sun), out.visibility.back(), rgb);
+    blend::blend_cpu(basis, blend::blend_weights(basis, out.sky, out.sun), out.visibility.back(), rgb);
     textures.push_back(render::upload_shadow_ratio(rgb, basis.width, basis.height));
     names.push_back(textures.back().get());
     out.shadow_ratios.push_back(std::move(rgb));
@@ -131,7 +133,7 @@ inline void check_service_blend(const Rig& rig, const ServiceBlendSetup& setup, 
   input.sun = out.sun;
   input.shadow_ratios = names;
   input.sun_shadow = &shadow_map;
-  render::Compositor compositor(site, mesh, manifest, transfer, sky::load_calibration(config.camera.calibration));
+  render::Compositor compositor(site, mesh, manifest, transfer, camera::load_calibration(config.camera.calibration));
   std::vector<cv::Mat> direct;
   for (const cv::Mat& camera : rig.camera_frames()) {
     input.camera = camera;

@@ -16,6 +16,8 @@
 #include "skylit/sky/sky_estimate.hpp"
 #include "skylit/sky/sky_smoothing.hpp"
 #include "skylit/track/pose.hpp"
+#include "skylit/camera/lens.hpp"
+#include "skylit/bake_format/arrays.hpp"
 
 namespace skylit::live_test {
 namespace {
@@ -29,7 +31,7 @@ struct Outputs {
   std::vector<cv::Mat> direct;         // per camera frame of the rig
   std::vector<cv::Mat> inputs;         // the rig's camera frames
   render::CameraPose pose;
-  sky::CameraCalibration hmd;
+  camera::CameraCalibration hmd;
   Vector3d sun_direction = Vector3d::Zero();
   std::string error;
 
@@ -76,13 +78,13 @@ struct Outputs {
     const gpu::HeadlessContext context;
     const scene::Site site = scene::load_site(config.site);
     const scene::Mesh mesh = scene::load_model(site.model, site.up, site.scale);
-    const bake::Manifest manifest = bake::read_manifest(config.bake);
+    const bake_format::Manifest manifest = bake_format::read_manifest(config.bake);
     std::vector<std::size_t> shape;
-    const std::vector<float> transfer = bake::read_npy(config.bake / manifest.transfer_file, &shape);
+    const std::vector<float> transfer = bake_format::read_npy(config.bake / manifest.transfer_file, &shape);
     const geom::Dome dome(manifest.plan.frequency);
     sky::SkyEstimateOptions estimate_options;
     estimate_options.table.basis = manifest.plan.basis;
-    const sky::SkyEstimator estimator(sky::load_calibration(config.sky.calibration), dome, estimate_options);
+    const sky::SkyEstimator estimator(camera::load_calibration(config.sky.calibration), dome, estimate_options);
     const cv::Mat sky_frame = sky::read_sky_image(rig.dir() / "sky" / "frame_0000.exr");
     const sky::SkyEstimate estimate =
         estimator.estimate(sky::linearise(sky_frame, sky::ResponseCurve::linear(8), {}));
@@ -91,7 +93,7 @@ struct Outputs {
       return out;
     }
     const std::vector<Vector3d> S = sky::layer_radiances(estimate.luminance);
-    const render::SunLight sun{estimate.sun->direction, estimate.sun->energy};
+    const blend::SunLight sun{estimate.sun->direction, estimate.sun->energy};
     out.sun_direction = sun.direction;
 
     std::vector<geom::Plane> planes;
@@ -101,10 +103,10 @@ struct Outputs {
     std::vector<gpu::Texture> textures;
     std::vector<GLuint> names;
     for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
-      const render::BasisImages basis = render::load_basis(config.bake, manifest, static_cast<int>(j));
-      const render::BlendWeights weights = render::blend_weights(basis, S, sun);
+      const blend::BasisImages basis = blend::load_basis(config.bake, manifest, static_cast<int>(j));
+      const blend::BlendWeights weights = blend::blend_weights(basis, S, sun);
       std::vector<float> rgb(basis.texel_count() * 3);
-      render::blend_cpu(basis, weights, shadow_map.read_visibility(static_cast<int>(j)), rgb);
+      blend::blend_cpu(basis, weights, shadow_map.read_visibility(static_cast<int>(j)), rgb);
       textures.push_back(render::upload_shadow_ratio(rgb, basis.width, basis.height));
       names.push_back(textures.back().get());
     }
@@ -112,7 +114,7 @@ struct Outputs {
     const auto pose = track::open_pose_source(config.pose)->pose_at(0.0);
     out.pose.R_site_from_camera = pose->R_site_from_camera.toRotationMatrix();
     out.pose.t_site_from_camera = pose->t_site_from_camera;
-    out.hmd = sky::load_calibration(config.camera.calibration);
+    out.hmd = camera::load_calibration(config.camera.calibration);
     render::Compositor compositor(site, mesh, manifest, transfer, out.hmd);
     for (const cv::Mat& camera : out.inputs) {
       render::CompositeInput input;
@@ -256,7 +258,7 @@ TEST(Service, TheBoxShadowLandsOnTheGroundWhereGeometryPutsIt) {
   const BakedSite& baked = BakedSite::get();
   const scene::Mesh mesh = scene::load_model(baked.site.model, baked.site.up, baked.site.scale);
   const compose_test::RayCaster caster(mesh);
-  const sky::Lens lens(out.hmd);
+  const camera::Lens lens(out.hmd);
   const geom::Plane& ground = baked.manifest.planes[0].plane;
   const auto& R = out.pose.R_site_from_camera;
   const Vector3d& eye = out.pose.t_site_from_camera;

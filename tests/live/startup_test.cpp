@@ -187,7 +187,7 @@ TEST(ServiceConfig, BlendDeviceAndRecordSettings) {
   config = live::load_live_config(file);
   EXPECT_EQ(config.blend.device, live::BlendDevice::Gpu);
   EXPECT_EQ(config.blend.threads, 3);
-  EXPECT_EQ(config.blend.storage, live::BlendSettings::Storage::Unorm8);
+  EXPECT_EQ(config.blend.storage, blend::BasisStorage::Unorm8);
   EXPECT_EQ(config.output.record, rig.dir() / "a.avi");
   EXPECT_FALSE(config.output.record_fps.has_value());
 
@@ -198,7 +198,7 @@ TEST(ServiceConfig, BlendDeviceAndRecordSettings) {
   // EAC blocks and the building's render scale.
   std::ofstream(file) << rig.config_text() << "blend:\n  device: gpu\n  storage: eac\nrender:\n  scale: 0.75\n";
   config = live::load_live_config(file);
-  EXPECT_EQ(config.blend.storage, live::BlendSettings::Storage::Eac);
+  EXPECT_EQ(config.blend.storage, blend::BasisStorage::Eac11);
   EXPECT_DOUBLE_EQ(config.render.scale, 0.75);
   std::ofstream(file) << rig.config_text() << "render:\n  scale: 1.5\n";
   try {

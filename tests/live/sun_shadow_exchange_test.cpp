@@ -14,7 +14,7 @@
 
 #include <gtest/gtest.h>
 
-#include "../../src/live/src/sun_shadow_exchange.hpp"
+#include "skylit/live/sun_shadow_exchange.hpp"
 #include "../baker/box_scene.hpp"
 #include "../support/gl_suite.hpp"
 #include "skylit/gpu/egl_context.hpp"

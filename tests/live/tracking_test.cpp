@@ -15,6 +15,7 @@
 #include "skylit/track/imu.hpp"
 #include "skylit/track/marker_map.hpp"
 #include "skylit/track/marker_render.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::live_test {
 namespace {
@@ -59,7 +60,7 @@ RigOptions tag_rig_options(const std::string& extra = "") {
 // seen from kTruth (three frames, looping: a still head).
 void write_tag_recording(const Rig& rig) {
   track::save_marker_map(board(), rig.dir() / "tags.yaml");
-  const sky::Lens lens(sky::load_calibration(rig.dir() / "hmd.yaml"));
+  const camera::Lens lens(camera::load_calibration(rig.dir() / "hmd.yaml"));
   std::vector<cv::Mat> frames;
   for (std::uint64_t k = 0; k < 3; ++k) {
     track::MarkerRenderOptions options;
@@ -195,7 +196,7 @@ TEST(LiveTracking, BuildingFadesOutWhenTagsVanishAndInAgainAtTheNewPose) {
   options.camera_loop = false;
   Rig rig(options);
   track::save_marker_map(board(), rig.dir() / "tags.yaml");
-  const sky::Lens lens(sky::load_calibration(rig.dir() / "hmd.yaml"));
+  const camera::Lens lens(camera::load_calibration(rig.dir() / "hmd.yaml"));
   std::vector<cv::Mat> frames;
   for (int k = 0; k < kBefore + kLost + kAfter; ++k) {
     track::MarkerRenderOptions render_options;

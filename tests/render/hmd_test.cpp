@@ -14,6 +14,7 @@
 #include <opencv2/core.hpp>
 
 #include "../support/gl_suite.hpp"
+#include "../support/temp_dir.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/render/hmd_distortion.hpp"
 #include "skylit/render/hmd_profile.hpp"
@@ -66,16 +67,9 @@ TEST(HmdProfile, TheShippedProfilesLoad) {
 
 class BadProfile : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("skylit_hmd_test_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
-                                        "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
   // The message of the InputError that loading `text` raises.
   std::string error_of(const std::string& text) {
-    const fs::path file = dir_ / "bad_hmd.yaml";
-    std::ofstream(file) << text;
+    const fs::path file = dir_.write("bad_hmd.yaml", text);
     try {
       load_hmd_profile(file);
     } catch (const InputError& e) {
@@ -83,7 +77,7 @@ class BadProfile : public ::testing::Test {
     }
     return "(no InputError)";
   }
-  fs::path dir_;
+  test::TempDir dir_;
 };
 
 const std::string kGood = "name: x\npanel: {width: 400, height: 200}\nlayout: side-by-side\n";

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "skylit/render/plane_view.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::render {
 namespace {
@@ -111,10 +112,10 @@ TEST(PlaneInView, ThicknessCoversFragmentsOffThePlane) {
 }
 
 TEST(UndistortedView, APinholeWithoutDistortionIsItsImage) {
-  sky::CameraCalibration calibration;
+  camera::CameraCalibration calibration;
   calibration.image_width = 640;
   calibration.image_height = 480;
-  calibration.model = sky::LensModel::Pinhole;
+  calibration.model = camera::LensModel::Pinhole;
   calibration.fx = calibration.fy = 320.0;
   calibration.cx = 319.5;
   calibration.cy = 239.5;
@@ -126,10 +127,10 @@ TEST(UndistortedView, APinholeWithoutDistortionIsItsImage) {
 }
 
 TEST(UndistortedView, ABarrelLensSeesBeyondItsPinholeRectangle) {
-  sky::CameraCalibration calibration;
+  camera::CameraCalibration calibration;
   calibration.image_width = 640;
   calibration.image_height = 480;
-  calibration.model = sky::LensModel::Pinhole;
+  calibration.model = camera::LensModel::Pinhole;
   calibration.fx = calibration.fy = 320.0;
   calibration.cx = 319.5;
   calibration.cy = 239.5;
@@ -139,7 +140,7 @@ TEST(UndistortedView, ABarrelLensSeesBeyondItsPinholeRectangle) {
   EXPECT_GT(view.height, 480);
   // The ray of the image's right edge, centre row, is inside the view; and a plane at that ray,
   // beyond the undistorted rectangle, is in view through the lens.
-  const sky::Lens lens(calibration);
+  const camera::Lens lens(calibration);
   const std::optional<Eigen::Vector3d> edge = lens.unproject(Eigen::Vector2d(639.0, 239.5));
   ASSERT_TRUE(edge.has_value());
   const double x = edge->x() / edge->z();

@@ -1,6 +1,6 @@
 // SunShadowMap against the ray-traced area light (baker::area_light_visibility, Embree): on a
 // scene of boxes the sun's shadow lands where the geometry puts it, the penumbra is about as
-// wide as the disc makes it, the blend takes the visibility as blend_cpu does, and another
+// wide as the disc makes it, the blend takes the visibility as blend::blend_cpu does, and another
 // shader can sample the map through shaders/sun_shadow.glsl. Measured figures are printed
 // ("measured:" lines).
 #include <algorithm>
@@ -18,7 +18,8 @@
 #include "skylit/base/error.hpp"
 #include "skylit/base/files.hpp"
 #include "skylit/gpu/shader.hpp"
-#include "skylit/render/gpu_blend.hpp"
+#include "skylit/blend/gpu_blend.hpp"
+#include "skylit/blend/half.hpp"
 #include "skylit/render/sun_shadow_map.hpp"
 #include "skylit/scene/mesh.hpp"
 #include "skylit/scene/site.hpp"
@@ -227,22 +228,22 @@ TEST_F(SunShadow, BlendWithTheMapsVisibilityMatchesTheCpu) {
 
   // An open sky (B = A) on 40 faces, so that the sun's shadow is all there is.
   std::vector<double> A(40, 2.0 * std::numbers::pi / 40 * 0.5);
-  BasisImages basis;
+  blend::BasisImages basis;
   basis.name = "ground";
   basis.width = plane.width;
   basis.height = plane.height;
   basis.layers = 40;
   basis.unoccluded = A;
-  basis.half.assign(basis.texel_count() * 40, float_to_half(static_cast<float>(A[0])));
+  basis.half.assign(basis.texel_count() * 40, blend::float_to_half(static_cast<float>(A[0])));
   basis.normal = plane.normal();
   const std::vector<Eigen::Vector3d> S(40, Eigen::Vector3d(0.4, 0.6, 1.0));
-  const BlendWeights w = blend_weights(basis, S, SunLight{sun_direction, Eigen::Vector3d(20, 18, 15)});
+  const blend::BlendWeights w = blend::blend_weights(basis, S, blend::SunLight{sun_direction, Eigen::Vector3d(20, 18, 15)});
   std::vector<float> expected(3 * basis.texel_count());
-  blend_cpu(basis, w, V, expected);
+  blend::blend_cpu(basis, w, V, expected);
 
-  GpuBlendOptions blend_options;
-  blend_options.output = ShadowRatioFormat::Float;
-  GpuBlender blender(basis, blend_options);
+  blend::GpuBlendOptions blend_options;
+  blend_options.output = blend::ShadowRatioFormat::Float;
+  blend::GpuBlender blender(basis, blend_options);
   ASSERT_TRUE(blender.blend(w, &map.visibility(0)));
   const std::vector<float> T = blender.read_back();
   double worst = 0;

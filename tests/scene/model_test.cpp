@@ -14,12 +14,12 @@
 
 #include "skylit/base/error.hpp"
 #include "skylit/scene/mesh.hpp"
-#include "test_support.hpp"
+#include "../support/temp_dir.hpp"
 
 namespace skylit::scene {
 namespace {
 
-using testing::TempDir;
+using skylit::test::TempDir;
 using Eigen::Vector3f;
 
 // Unit cube [0,1]³ as an OBJ: 8 vertices, 6 quads counter-clockwise seen from outside.

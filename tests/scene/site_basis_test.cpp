@@ -6,12 +6,12 @@
 
 #include "skylit/base/error.hpp"
 #include "skylit/scene/site.hpp"
-#include "test_support.hpp"
+#include "../support/temp_dir.hpp"
 
 namespace skylit::scene {
 namespace {
 
-using testing::TempDir;
+using skylit::test::TempDir;
 
 // The site with `dome_lines` under "dome:" (or, with flow = true, `dome_lines` as the section).
 std::string site_with_dome(const std::string& dome_lines, bool flow = false) {

@@ -28,19 +28,22 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "../render/gpu_test_support.hpp"
+#include "../blend/gpu_test_support.hpp"
 #include "../support/box_site.hpp"
+#include "../support/fixture_cache.hpp"
 #include "../support/sky_paint.hpp"
 #include "skylit/gpu/egl_context.hpp"
-#include "skylit/render/gpu_blend.hpp"
+#include "skylit/blend/gpu_blend.hpp"
 #include "skylit/base/presets.hpp"
+#include "skylit/baker/preset.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/baker/visibility.hpp"
-#include "skylit/render/cpu_blend.hpp"
+#include "skylit/blend/cpu_blend.hpp"
 #include "skylit/scene/site.hpp"
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/simulate.hpp"
 #include "skylit/sky/sky_estimate.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit {
 namespace {
@@ -69,9 +72,11 @@ std::vector<BakeVariant> bake_variants() {
                                     {"quadratics", 2, geom::DomeBasis::Quadratics, 6, 4},
                                     // Tiles of 6 texels: 4 × 4 on the ground, 2 × 2 (the last narrower) on the wall.
                                     {"faces_tiled_pca", 2, geom::DomeBasis::Faces, 4, 4, 6}};
-  for (const Preset& p : load_presets(default_presets_file())) {
-    variants.push_back({"preset_" + p.name, p.bake.frequency, *geom::parse_basis(p.bake.basis), p.bake.samples,
-                        p.bake.pca_components > 0 ? p.bake.pca_components : 4, p.bake.pca_tile});
+  const PresetsFile presets(default_presets_file());
+  for (const std::string& name : presets.names()) {
+    const baker::BakePreset p = baker::load_bake_preset(presets, name);
+    variants.push_back({"preset_" + name, p.frequency, p.basis, p.samples, p.pca_components > 0 ? p.pca_components : 4,
+                        p.pca_tile});
   }
   return variants;
 }
@@ -81,8 +86,8 @@ std::vector<BakeVariant> bake_variants() {
 class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
  protected:
   static void SetUpTestSuite() {
-    dir_ = new fs::path(skylit::test::make_suite_dir("skylit-extremes"));
-    skylit::test::write_box_site(*dir_, "dome:\n  frequency: 2\n"
+    dir_ = new skylit::test::TempDir("skylit-extremes-");
+    skylit::test::write_box_site(dir_->path(), "dome:\n  frequency: 2\n"
                                         "planes:\n"
                                         "  - name: ground\n    origin: [-6, -6, 0.01]\n    u: [12, 0, 0]\n"
                                         "    v: [0, 12, 0]\n    resolution: [24, 24]\n"
@@ -93,8 +98,6 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
     context_ = new gpu::HeadlessContext();
   }
   static void TearDownTestSuite() {
-    std::error_code ignored;
-    fs::remove_all(*dir_, ignored);
     delete dir_;
     delete mesh_;
     delete context_;
@@ -104,15 +107,15 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
   // no layer is negative, i.e. not a PCA form): T finite and in [0, 1], and within the storage's
   // bound of the CPU blend `expected` (8-bit: Σ_i |w_i| max_i / 510; EAC: Σ_i |w_i| e_i with e_i
   // the error measured on upload), plus fp32 summation in another order.
-  static void expect_gpu_blends(const render::BasisImages& basis, const render::BlendWeights& w,
+  static void expect_gpu_blends(const blend::BasisImages& basis, const blend::BlendWeights& w,
                                 std::span<const float> visibility, std::span<const float> expected, std::size_t plane) {
-    std::optional<render::test::VisibilityTexture> sun;
+    std::optional<blend::test::VisibilityTexture> sun;
     if (!w.sun.isZero(0)) sun.emplace(basis.width, basis.height, visibility);
     const bool negative = std::any_of(basis.half.begin(), basis.half.end(), [](std::uint16_t h) { return (h & 0x8000u) && (h & 0x7FFFu); });
-    std::vector<render::BasisStorage> storages{render::BasisStorage::Half};
-    if (!negative) storages.insert(storages.end(), {render::BasisStorage::Unorm8, render::BasisStorage::Eac11});
-    for (const render::BasisStorage storage : storages) {
-      render::GpuBlender blender(basis, render::test::blend_options(storage, render::ShadowRatioFormat::Float));
+    std::vector<blend::BasisStorage> storages{blend::BasisStorage::Half};
+    if (!negative) storages.insert(storages.end(), {blend::BasisStorage::Unorm8, blend::BasisStorage::Eac11});
+    for (const blend::BasisStorage storage : storages) {
+      blend::GpuBlender blender(basis, blend::test::blend_options(storage, blend::ShadowRatioFormat::Float));
       blender.blend(w, sun ? &sun->texture : nullptr);
       const std::vector<float> T = blender.read_back();
       ASSERT_EQ(T.size(), expected.size());
@@ -122,8 +125,8 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
         const auto k = static_cast<std::size_t>(i) % static_cast<std::size_t>(basis.layers);
         const Eigen::Vector3d wi = w.face[static_cast<std::size_t>(i)].cwiseAbs().cast<double>();
         magnitude += wi * blender.layer_max()[k];
-        if (storage == render::BasisStorage::Unorm8) quantisation += wi * blender.layer_max()[k] / 510.0;
-        if (storage == render::BasisStorage::Eac11) quantisation += wi * blender.eac_error()[k];
+        if (storage == blend::BasisStorage::Unorm8) quantisation += wi * blender.layer_max()[k] / 510.0;
+        if (storage == blend::BasisStorage::Eac11) quantisation += wi * blender.eac_error()[k];
       }
       const double bound = quantisation.maxCoeff() + 4.0 * static_cast<double>(w.active.size() + 2) * 0x1p-24 * std::max(magnitude.maxCoeff(), 1.0);
       double worst = 0.0;
@@ -136,32 +139,38 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
     }
   }
 
-  static fs::path bake_dir() { return *dir_ / ("bake_" + GetParam().name); }
-  // The case's bake, made on first use (ctest runs each case in its own process).
-  static const bake::Manifest& manifest() {
+  // The case's bake, beside the site it was made from: made once per build of the test program
+  // (ctest runs each case in its own process) and shared by the processes that need it.
+  static fs::path bake_dir() {
+    const BakeVariant& v = GetParam();
+    return skylit::test::cached_fixture("extremes_" + v.name, [&v](const fs::path& out) {
+      for (const char* file : {"site.yaml", "box.obj"}) fs::copy_file(*dir_ / file, out / file);
+      std::FILE* quiet = std::fopen("/dev/null", "w");
+      baker::BakeOptions options;
+      options.site_file = out / "site.yaml";
+      options.out_dir = out / "bake";
+      options.frequency = v.frequency;
+      options.samples = v.samples;
+      options.basis = v.basis;
+      options.method = "raytrace";
+      options.previews = false;
+      baker::run_bake(options, quiet);
+      // The PCA form beside the full one: every case checks it too.
+      bake_format::PcaOptions pca;
+      pca.components = v.pca_components;
+      pca.tile = v.pca_tile;
+      baker::compress_bake(out / "bake", pca, quiet);
+      std::fclose(quiet);
+    }) / "bake";
+  }
+  static const bake_format::Manifest& manifest() {
     const BakeVariant& v = GetParam();
     if (auto found = manifests_.find(v.name); found != manifests_.end()) return found->second;
-    std::FILE* quiet = std::fopen("/dev/null", "w");
-    baker::BakeOptions options;
-    options.site_file = *dir_ / "site.yaml";
-    options.out_dir = bake_dir();
-    options.frequency = v.frequency;
-    options.samples = v.samples;
-    options.basis = v.basis;
-    options.method = "raytrace";
-    options.previews = false;
-    baker::run_bake(options, quiet);
-    // The PCA form beside the full one: every case checks it too.
-    bake::PcaOptions pca;
-    pca.components = v.pca_components;
-    pca.tile = v.pca_tile;
-    baker::compress_bake(bake_dir(), pca, quiet);
-    std::fclose(quiet);
-    return manifests_.emplace(v.name, bake::read_manifest(bake_dir())).first->second;
+    return manifests_.emplace(v.name, bake_format::read_manifest(bake_dir())).first->second;
   }
 
-  static sky::CameraCalibration camera(double edge_angle_deg = 90.0) {
-    sky::CameraCalibration c;
+  static camera::CameraCalibration camera(double edge_angle_deg = 90.0) {
+    camera::CameraCalibration c;
     c.image_width = c.image_height = 400;
     c.fx = c.fy = 200.0 / (edge_angle_deg * kDeg);
     c.cx = c.cy = 199.5;
@@ -171,7 +180,7 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
 
   struct Outcome {
     sky::SkyEstimate estimate;
-    std::vector<render::BlendWeights> weights;
+    std::vector<blend::BlendWeights> weights;
     std::vector<std::vector<float>> T;
     std::vector<std::vector<float>> T_pca;  // the same from the bake's PCA form
     std::vector<int> lean_layers;           // layers of the lean form, per plane
@@ -179,9 +188,9 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
 
   // Sky frame → S (and sun) → T for every plane, as skylit-shade does it, on the bake of the
   // test's basis.
-  static Outcome shade(const sky::RadianceFrame& frame, const sky::CameraCalibration& calibration,
+  static Outcome shade(const sky::RadianceFrame& frame, const camera::CameraCalibration& calibration,
                        sky::SunMode sun_mode) {
-    const bake::Manifest& m = manifest();
+    const bake_format::Manifest& m = manifest();
     const geom::Dome dome(GetParam().frequency);
     sky::SkyEstimateOptions options;
     options.sun_mode = sun_mode;
@@ -190,27 +199,27 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
     Outcome o;
     o.estimate = estimator.estimate(frame);
     const std::vector<Eigen::Vector3d> S = sky::layer_radiances(o.estimate.luminance);
-    std::optional<render::SunLight> sun;
-    if (o.estimate.sun) sun = render::SunLight{o.estimate.sun->direction, o.estimate.sun->energy};
+    std::optional<blend::SunLight> sun;
+    if (o.estimate.sun) sun = blend::SunLight{o.estimate.sun->direction, o.estimate.sun->energy};
     for (std::size_t j = 0; j < m.planes.size(); ++j) {
-      const render::BasisImages basis = render::load_basis(bake_dir(), m, static_cast<int>(j));
+      const blend::BasisImages basis = blend::load_basis(bake_dir(), m, static_cast<int>(j));
       std::vector<float> visibility;
       if (sun) {
         visibility.resize(basis.texel_count());
         baker::area_light_visibility(*mesh_, m.planes[j].plane, o.estimate.sun->disc_directions,
                                      o.estimate.sun->disc_weights, visibility);
       }
-      o.weights.push_back(render::blend_weights(basis, S, sun));
+      o.weights.push_back(blend::blend_weights(basis, S, sun));
       std::vector<float> T(basis.texel_count() * 3);
-      render::blend_cpu(basis, o.weights.back(),
+      blend::blend_cpu(basis, o.weights.back(),
                         o.weights.back().sun.isZero(0) ? std::span<const float>() : std::span<const float>(visibility), T);
       // The PCA form: within its bound of the full blend, max |F − F̂| times Σ_l |α_l|
       // (α_l = S_l A_l / D: at most 1 for faces, more where corner coefficients are negative).
-      const render::BasisImages pca =
-          render::load_basis(bake_dir(), m, static_cast<int>(j), render::BasisForm::Pca);
-      const render::BlendWeights pca_weights = render::blend_weights(pca, S, sun);
+      const blend::BasisImages pca =
+          blend::load_basis(bake_dir(), m, static_cast<int>(j), blend::BasisForm::Pca);
+      const blend::BlendWeights pca_weights = blend::blend_weights(pca, S, sun);
       std::vector<float> T_pca(T.size());
-      render::blend_cpu(pca, pca_weights,
+      blend::blend_cpu(pca, pca_weights,
                         pca_weights.sun.isZero(0) ? std::span<const float>() : std::span<const float>(visibility), T_pca);
       for (int c = 0; c < 3; ++c) {
         if (o.weights.back().no_light[static_cast<std::size_t>(c)]) continue;
@@ -225,10 +234,10 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
       // A form within the footprint's tolerance (1e-3) of the full one: blended, finite, in
       // [0, 1] and within the tolerance times Σ|α| (1 for faces; corners' negative coefficients
       // raise it) of T.
-      const auto blend_within_tolerance = [&](const render::BasisImages& form, render::BlendWeights& weights) {
-        weights = render::blend_weights(form, S, sun);
+      const auto blend_within_tolerance = [&](const blend::BasisImages& form, blend::BlendWeights& weights) {
+        weights = blend::blend_weights(form, S, sun);
         std::vector<float> T_form(T.size());
-        render::blend_cpu(form, weights, weights.sun.isZero(0) ? std::span<const float>() : std::span<const float>(visibility),
+        blend::blend_cpu(form, weights, weights.sun.isZero(0) ? std::span<const float>() : std::span<const float>(visibility),
                           T_form);
         for (std::size_t k = 0; k < T.size(); ++k) {
           EXPECT_TRUE(std::isfinite(T_form[k]) && T_form[k] >= 0.0f && T_form[k] <= 1.0f) << "plane " << j;
@@ -244,17 +253,17 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
         return T_form;
       };
       // The lean form: only the layers that hold a shadow.
-      const render::BasisImages lean =
-          render::load_basis(bake_dir(), m, static_cast<int>(j), render::BasisForm::Lean);
+      const blend::BasisImages lean =
+          blend::load_basis(bake_dir(), m, static_cast<int>(j), blend::BasisForm::Lean);
       EXPECT_LE(lean.layers, basis.layers);
-      render::BlendWeights lean_weights;
+      blend::BlendWeights lean_weights;
       const std::vector<float> T_lean = blend_within_tolerance(lean, lean_weights);
       // The cropped form: the lean one with each shadowed layer cropped to its rectangle. Outside
       // it B is within the tolerance of A, so the same bound holds against the full form.
-      const render::BasisImages cropped =
-          render::load_basis(bake_dir(), m, static_cast<int>(j), render::BasisForm::Cropped);
+      const blend::BasisImages cropped =
+          blend::load_basis(bake_dir(), m, static_cast<int>(j), blend::BasisForm::Cropped);
       EXPECT_LE(cropped.half.size(), lean.half.size());
-      render::BlendWeights cropped_weights;
+      blend::BlendWeights cropped_weights;
       const std::vector<float> T_cropped = blend_within_tolerance(cropped, cropped_weights);
       // The same forms blended on the GPU, in every storage each can take.
       expect_gpu_blends(basis, o.weights.back(), visibility, T, j);
@@ -268,9 +277,9 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
     return o;
   }
 
-  static sky::RadianceFrame paint(const sky::CameraCalibration& calibration,
+  static sky::RadianceFrame paint(const camera::CameraCalibration& calibration,
                                   const std::function<Eigen::Vector3d(const Vec3&)>& radiance) {
-    return {skylit::test::paint_sky(sky::Lens(calibration), radiance), cv::Mat()};
+    return {skylit::test::paint_sky(camera::Lens(calibration), radiance), cv::Mat()};
   }
 
   static void expect_finite_unit(const Outcome& o) {
@@ -290,16 +299,16 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
     }
   }
 
-  static bool any_no_light(const render::BlendWeights& w) { return w.no_light[0] || w.no_light[1] || w.no_light[2]; }
+  static bool any_no_light(const blend::BlendWeights& w) { return w.no_light[0] || w.no_light[1] || w.no_light[2]; }
 
-  static fs::path* dir_;
-  static std::map<std::string, bake::Manifest> manifests_;  // by variant name
+  static skylit::test::TempDir* dir_;
+  static std::map<std::string, bake_format::Manifest> manifests_;  // by variant name
   static scene::Mesh* mesh_;
   static gpu::HeadlessContext* context_;  // the GPU blends' (their GL objects die before it)
 };
 
-fs::path* ExtremesTest::dir_ = nullptr;
-std::map<std::string, bake::Manifest> ExtremesTest::manifests_;
+skylit::test::TempDir* ExtremesTest::dir_ = nullptr;
+std::map<std::string, bake_format::Manifest> ExtremesTest::manifests_;
 scene::Mesh* ExtremesTest::mesh_ = nullptr;
 gpu::HeadlessContext* ExtremesTest::context_ = nullptr;
 
@@ -437,7 +446,7 @@ TEST_P(ExtremesTest, EightBitFrameWithAClippedSun) {
 TEST_P(ExtremesTest, NarrowLensesSeeLessOfTheHorizon) {
   // A real lens sees nothing outside its image circle: a mask at the circle's edge.
   const auto lens_of = [&](double half_fov_deg) {
-    sky::CameraCalibration c = camera(half_fov_deg);
+    camera::CameraCalibration c = camera(half_fov_deg);
     cv::Mat mask(c.image_height, c.image_width, CV_8UC1, cv::Scalar(0));
     cv::circle(mask, cv::Point(200, 200), 200, cv::Scalar(255), -1);
     c.mask = *dir_ / ("mask_" + std::to_string(static_cast<int>(half_fov_deg)) + ".png");
@@ -445,14 +454,14 @@ TEST_P(ExtremesTest, NarrowLensesSeeLessOfTheHorizon) {
     return c;
   };
   // 160°: the horizon faces are seen only in part (S from what is seen, coverage says how much).
-  const sky::CameraCalibration wide = lens_of(80.0);
+  const camera::CameraCalibration wide = lens_of(80.0);
   const Outcome o160 = shade(paint(wide, sunny(from_angles(30.0, 60.0), 1e4)), wide, sky::SunMode::Auto);
   expect_finite_unit(o160);
   int partial = 0;
   for (const auto& face : o160.estimate.luminance.faces) partial += face.coverage < 0.95;
   EXPECT_GE(partial, 10);
   // 100°: the horizon band is not seen at all; those faces are filled from their neighbours.
-  const sky::CameraCalibration narrow = lens_of(50.0);
+  const camera::CameraCalibration narrow = lens_of(50.0);
   const Outcome o100 = shade(paint(narrow, sunny(from_angles(30.0, 60.0), 1e4)), narrow, sky::SunMode::Auto);
   expect_finite_unit(o100);
   EXPECT_GT(o100.estimate.luminance.unseen_faces, 0);

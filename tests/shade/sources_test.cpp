@@ -18,10 +18,11 @@
 #include "../support/box_site.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/baker/visibility.hpp"
-#include "skylit/render/cpu_blend.hpp"
+#include "skylit/blend/cpu_blend.hpp"
 #include "skylit/scene/site.hpp"
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/sky_estimate.hpp"
+#include "skylit/camera/lens.hpp"
 #include "../support/sky_paint.hpp"
 #include "../support/suite_setup.hpp"
 
@@ -90,8 +91,8 @@ double disc_visibility(const Vec3& p, const Lamp& lamp) {
 class SourcesShadeTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = new fs::path(skylit::test::make_suite_dir("skylit-sources"));
-    skylit::test::write_box_site(*dir_, "dome:\n  frequency: 2\n"
+    dir_ = new skylit::test::TempDir("skylit-sources-");
+    skylit::test::write_box_site(dir_->path(), "dome:\n  frequency: 2\n"
                                         "planes:\n"
                                         "  - name: ground\n    origin: [-6, -6, 0.01]\n    u: [12, 0, 0]\n"
                                         "    v: [0, 12, 0]\n    resolution: [24, 24]\n");
@@ -104,7 +105,7 @@ class SourcesShadeTest : public ::testing::Test {
     options.previews = false;
     setup_.run([&] {
       baker::run_bake(options, quiet);
-      manifest_ = new bake::Manifest(bake::read_manifest(*dir_ / "bake"));
+      manifest_ = new bake_format::Manifest(bake_format::read_manifest(*dir_ / "bake"));
       const scene::Site site = scene::load_site(*dir_ / "site.yaml");
       mesh_ = new scene::Mesh(scene::load_model(site.model, site.up, site.scale));
     });
@@ -112,15 +113,13 @@ class SourcesShadeTest : public ::testing::Test {
   }
   void SetUp() override { setup_.require(); }
   static void TearDownTestSuite() {
-    std::error_code ignored;
-    fs::remove_all(*dir_, ignored);
     delete dir_;
     delete manifest_;
     delete mesh_;
   }
 
-  static sky::CameraCalibration camera() {
-    sky::CameraCalibration c;
+  static camera::CameraCalibration camera() {
+    camera::CameraCalibration c;
     c.image_width = c.image_height = 400;
     c.fx = c.fy = 200.0 / (90.0 * kDeg);
     c.cx = c.cy = 199.5;
@@ -129,7 +128,7 @@ class SourcesShadeTest : public ::testing::Test {
   }
 
   static sky::RadianceFrame paint(const std::function<Eigen::Vector3d(const Vec3&)>& radiance) {
-    return {skylit::test::paint_sky(sky::Lens(camera()), radiance), cv::Mat()};
+    return {skylit::test::paint_sky(camera::Lens(camera()), radiance), cv::Mat()};
   }
 
   static Eigen::Vector3d lamps_on(const Vec3& d, const Eigen::Vector3d& sky) {
@@ -143,7 +142,7 @@ class SourcesShadeTest : public ::testing::Test {
 
   struct Outcome {
     sky::SkyEstimate estimate;
-    render::BlendWeights weights;
+    blend::BlendWeights weights;
     std::vector<float> T;                // the ground, RGB
     std::vector<double> T_reference;     // blend_reference_sources with the same inputs
   };
@@ -157,8 +156,8 @@ class SourcesShadeTest : public ::testing::Test {
     Outcome o;
     o.estimate = estimator.estimate(frame);
     const std::vector<Eigen::Vector3d> S = sky::layer_radiances(o.estimate.luminance);
-    const render::BasisImages basis = render::load_basis(*dir_ / "bake", *manifest_, 0);
-    std::vector<render::SunLight> lights;
+    const blend::BasisImages basis = blend::load_basis(*dir_ / "bake", *manifest_, 0);
+    std::vector<blend::SunLight> lights;
     std::vector<std::vector<float>> visibility;
     for (const sky::Sun& s : o.estimate.sources) {
       lights.push_back({s.direction, s.energy});
@@ -167,11 +166,11 @@ class SourcesShadeTest : public ::testing::Test {
                                    visibility.back());
     }
     const std::vector<std::span<const float>> views(visibility.begin(), visibility.end());
-    o.weights = render::blend_weights_sources(basis, S, lights);
+    o.weights = blend::blend_weights_sources(basis, S, lights);
     o.T.resize(3 * basis.texel_count());
-    render::blend_cpu_sources(basis, o.weights, views, o.T);
+    blend::blend_cpu_sources(basis, o.weights, views, o.T);
     o.T_reference.resize(o.T.size());
-    render::blend_reference_sources(basis, S, lights, views, o.T_reference);
+    blend::blend_reference_sources(basis, S, lights, views, o.T_reference);
     return o;
   }
 
@@ -183,14 +182,14 @@ class SourcesShadeTest : public ::testing::Test {
     }
   }
 
-  static fs::path* dir_;
+  static skylit::test::TempDir* dir_;
   static inline skylit::test::SuiteSetup setup_;
-  static bake::Manifest* manifest_;
+  static bake_format::Manifest* manifest_;
   static scene::Mesh* mesh_;
 };
 
-fs::path* SourcesShadeTest::dir_ = nullptr;
-bake::Manifest* SourcesShadeTest::manifest_ = nullptr;
+skylit::test::TempDir* SourcesShadeTest::dir_ = nullptr;
+bake_format::Manifest* SourcesShadeTest::manifest_ = nullptr;
 scene::Mesh* SourcesShadeTest::mesh_ = nullptr;
 
 TEST_F(SourcesShadeTest, TwoLampsInABlackSkyCastBothShadows) {
@@ -244,11 +243,11 @@ TEST_F(SourcesShadeTest, OneSourceKeepsTheLampsInTheDome) {
   expect_finite_unit(one);
   EXPECT_TRUE(one.estimate.sources.empty());
   EXPECT_FALSE(one.estimate.sun);
-  const render::BasisImages basis = render::load_basis(*dir_ / "bake", *manifest_, 0);
+  const blend::BasisImages basis = blend::load_basis(*dir_ / "bake", *manifest_, 0);
   const std::vector<Eigen::Vector3d> S = sky::layer_radiances(one.estimate.luminance);
-  const render::BlendWeights w = render::blend_weights(basis, S, std::nullopt);
+  const blend::BlendWeights w = blend::blend_weights(basis, S, std::nullopt);
   std::vector<float> T(one.T.size());
-  render::blend_cpu(basis, w, {}, T);
+  blend::blend_cpu(basis, w, {}, T);
   EXPECT_EQ(T, one.T);
   // Separated, the lamps' shadows are where they belong: against the true T (the dim sky and
   // both lamps integrated against the box ray by ray, green channel) the mean error outside the
@@ -310,7 +309,7 @@ TEST_F(SourcesShadeTest, ExtremesStayFiniteWithSeveralSources) {
   for (int y = 3; y < frame.radiance.rows; y += 23) {
     for (int x = 5; x < frame.radiance.cols; x += 19) frame.radiance.at<cv::Vec3f>(y, x) = cv::Vec3f::all(bad[(x + y) % 3]);
   }
-  const sky::Lens lens(camera());
+  const camera::Lens lens(camera());
   for (const Lamp& lamp : kLamps) {
     const auto p = lens.site_to_pixel(lamp.direction);
     ASSERT_TRUE(p);

@@ -10,10 +10,11 @@
 
 #include <opencv2/core.hpp>
 
-#include "lens_test_support.hpp"
+#include "../support/lens_test_support.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/geom/dome_basis.hpp"
 #include "skylit/sky/luminance.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::sky {
 namespace {
@@ -138,7 +139,7 @@ TEST(CornersLuminance, ALinearSkyInTheUnitDirectionIsCloseButNotExact) {
 TEST(CornersLuminance, TheSunsExclusionKeepsTheFitExact) {
   const geom::Dome& d = dome(2);
   const geom::CornerWeights weights(d);
-  const Lens& lens = sample_lens();
+  const camera::Lens& lens = sample_lens();
   const cv::Mat frame = frame_of(lens, [&](const Vec3& w) { return piecewise_linear(d, weights, w); });
   // A disc of 25 pixels' radius around face 7's centre.
   const int face = 7;
@@ -163,8 +164,8 @@ TEST(CornersLuminance, TheSunsExclusionKeepsTheFitExact) {
 
 TEST(CornersLuminance, FacesSeenOnASliverCarryTheirMeanAndAreFlagged) {
   // A 150° lens: the horizon faces are seen on a strip, those beyond it not at all.
-  const CameraCalibration c = lens_testing::equidistant(400, 75.0);
-  const Lens lens(c);
+  const camera::CameraCalibration c = lens_testing::equidistant(400, 75.0);
+  const camera::Lens lens(c);
   const geom::Dome& d = dome(2);
   const geom::CornerWeights weights(d);
   const SkyTable table = build_sky_table(lens, d, {1, geom::DomeBasis::Corners});

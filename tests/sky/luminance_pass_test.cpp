@@ -16,11 +16,12 @@
 
 #include <Eigen/LU>
 
-#include "lens_test_support.hpp"
+#include "../support/lens_test_support.hpp"
 #include "skylit/geom/dome_basis.hpp"
 #include "skylit/sky/luminance.hpp"
 #include "skylit/sky/simulate.hpp"
 #include "skylit/sky/sky_model.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::sky {
 namespace {
@@ -147,10 +148,10 @@ Masks sun_masks(const cv::Mat& frame) {
   return m;
 }
 
-const SkyTable& fitted_table(const Lens& lens, int frequency, int step,
+const SkyTable& fitted_table(const camera::Lens& lens, int frequency, int step,
                              geom::DomeBasis basis = geom::DomeBasis::Corners) {
   // the tests run on one thread
-  static std::map<std::tuple<const Lens*, int, int, geom::DomeBasis>, SkyTable> cache;
+  static std::map<std::tuple<const camera::Lens*, int, int, geom::DomeBasis>, SkyTable> cache;
   const auto key = std::make_tuple(&lens, frequency, step, basis);
   auto it = cache.find(key);
   if (it == cache.end()) it = cache.emplace(key, build_sky_table(lens, dome(frequency), {step, basis})).first;
@@ -282,7 +283,7 @@ INSTANTIATE_TEST_SUITE_P(Cases, FittedPassTest,
 // A lens whose view fills the whole frame: the last run ends at the frame's last pixel, where the
 // pass cannot read past it and copies the run's last samples instead.
 TEST(FittedPass, RunsThatEndAtTheFramesEnd) {
-  const Lens lens(lens_testing::equidistant(203, 60.0));
+  const camera::Lens lens(lens_testing::equidistant(203, 60.0));
   const geom::Dome& d = dome(8);
   for (const geom::DomeBasis basis : {geom::DomeBasis::Corners, geom::DomeBasis::Quadratics}) {
     SCOPED_TRACE(std::string(geom::basis_name(basis)));

@@ -12,10 +12,11 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "lens_test_support.hpp"
+#include "../support/lens_test_support.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/geom/dome_basis.hpp"
 #include "skylit/sky/luminance.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::sky {
 namespace {
@@ -172,7 +173,7 @@ TEST(QuadraticsLuminance, FitASmoothSkyCloserThanTheCorners) {
 TEST(QuadraticsLuminance, TheSunsExclusionKeepsTheFitExact) {
   const geom::Dome& d = dome(2);
   const geom::CornerWeights weights(d);
-  const Lens& lens = sample_lens();
+  const camera::Lens& lens = sample_lens();
   const cv::Mat frame = frame_of(lens, [&](const Vec3& w) { return piecewise_quadratic(d, weights, w); });
   const int face = 7;
   const std::optional<Vec2> at = lens.site_to_pixel(d.face(face).centre);
@@ -191,8 +192,8 @@ TEST(QuadraticsLuminance, TheSunsExclusionKeepsTheFitExact) {
 
 TEST(QuadraticsLuminance, FacesSeenOnASliverFallBackToTheLinearFitThenToTheirMean) {
   // A 150° lens: the horizon faces are seen on strips of several widths.
-  const CameraCalibration c = lens_testing::equidistant(400, 75.0);
-  const Lens lens(c);
+  const camera::CameraCalibration c = lens_testing::equidistant(400, 75.0);
+  const camera::Lens lens(c);
   const geom::Dome& d = dome(2);
   const geom::CornerWeights weights(d);
   const SkyTable table = build_sky_table(lens, d, {1, geom::DomeBasis::Quadratics});

@@ -13,9 +13,10 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "lens_test_support.hpp"
+#include "../support/lens_test_support.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/geom/spherical.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::sky {
 namespace {
@@ -240,8 +241,8 @@ TEST(Luminance, ExcludedPixelsReduceCoverage) {
 // A 160° lens with a circular image: on a ν=4 dome the lowest horizon faces are seen at 10-15 %
 // and, with min_coverage 0.2, are filled from their neighbours.
 TEST(Luminance, UnseenFacesAreFilledFromNeighbours) {
-  const CameraCalibration c = lens_testing::equidistant(1024, 80);
-  const Lens lens(c);
+  const camera::CameraCalibration c = lens_testing::equidistant(1024, 80);
+  const camera::Lens lens(c);
   const SkyTable table = build_sky_table(lens, dome(4), lens_testing::disc_mask(c, 512.0), {2});
   const Rgb a(0.3, 0.6, 1.2), b(2.0, 1.0, 0.5);
   const cv::Mat frame = frame_of(lens, [&](const Vec3& d) {

@@ -18,39 +18,14 @@
 
 #include "skylit/base/error.hpp"
 #include "skylit/base/files.hpp"
+#include "../support/temp_dir.hpp"
 
 namespace skylit::sky {
 namespace {
 
 namespace fs = std::filesystem;
 
-// A fresh directory under the system temp dir, removed with everything in it at scope end.
-class RadiometryTempDir {
- public:
-  RadiometryTempDir() {
-    const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = fs::temp_directory_path() / (std::string("skylit_radiometry_") + info->name() + "_" +
-                                         std::to_string(::getpid()));
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~RadiometryTempDir() {
-    std::error_code ignored;
-    fs::remove_all(path_, ignored);
-  }
-  RadiometryTempDir(const RadiometryTempDir&) = delete;
-  RadiometryTempDir& operator=(const RadiometryTempDir&) = delete;
-
-  fs::path file(const std::string& name) const { return path_ / name; }
-  fs::path write(const std::string& name, const std::string& content) const {
-    std::ofstream out(path_ / name, std::ios::binary);
-    out << content;
-    return path_ / name;
-  }
-
- private:
-  fs::path path_;
-};
+using skylit::test::TempDir;
 
 // Expects InputError whose message contains every one of `parts`.
 template <typename F>
@@ -151,7 +126,7 @@ TEST(Radiometry, ReadsTheRealHdrSkies) {
 }
 
 TEST(Radiometry, ExrRoundTripsFloatHalfAndLuminance) {
-  RadiometryTempDir dir;
+  TempDir dir;
   cv::Mat image(7, 11, CV_32FC3);
   cv::randu(image, cv::Scalar::all(-1.0), cv::Scalar::all(1000.0));
   image.at<cv::Vec3f>(2, 3) = {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity(), 0.5F};
@@ -200,7 +175,7 @@ TEST(Radiometry, ExrRoundTripsFloatHalfAndLuminance) {
 }
 
 TEST(Radiometry, ReadsIntegerAndHdrFormats) {
-  RadiometryTempDir dir;
+  TempDir dir;
   cv::Mat gray(6, 9, CV_8UC1, cv::Scalar(77));
   ASSERT_TRUE(cv::imwrite(dir.file("gray.png").string(), gray));
   const cv::Mat g = read_sky_image(dir.file("gray.png"));
@@ -227,7 +202,7 @@ TEST(Radiometry, ReadsIntegerAndHdrFormats) {
 }
 
 TEST(Radiometry, ReadSkyImageRejectsBadFilesByName) {
-  RadiometryTempDir dir;
+  TempDir dir;
   expect_input_error([&] { (void)read_sky_image(dir.file("missing.png")); }, {"missing.png", "does not exist"});
   expect_input_error([&] { (void)read_sky_image(dir.write("empty.jpg", "")); }, {"empty.jpg", "empty"});
   expect_input_error([&] { (void)read_sky_image(dir.write("junk.png", "not an image at all")); },
@@ -302,7 +277,7 @@ std::string jpeg_with_app1(const std::vector<std::uint8_t>& tiff) {
 }
 
 TEST(Radiometry, ReadsExposureFromExif) {
-  RadiometryTempDir dir;
+  TempDir dir;
   const fs::path file = dir.write("bracket_0.jpg", jpeg_with_app1(exif_tiff(true)));
   const std::optional<Exposure> exposure = read_exposure_metadata(file);
   ASSERT_TRUE(exposure.has_value());
@@ -318,7 +293,7 @@ TEST(Radiometry, ReadsExposureFromExif) {
 }
 
 TEST(Radiometry, ExposureMetadataAbsentOrBroken) {
-  RadiometryTempDir dir;
+  TempDir dir;
   std::vector<std::uint8_t> plain;
   cv::imencode(".jpg", cv::Mat(8, 8, CV_8UC3, cv::Scalar::all(50)), plain);
   EXPECT_FALSE(read_exposure_metadata(dir.write("plain.jpg", std::string(plain.begin(), plain.end()))));
@@ -668,7 +643,7 @@ TEST(Radiometry, CalibrationRejectsBadBrackets) {
 // Response YAML
 
 TEST(Radiometry, ResponseRoundTripsThroughYaml) {
-  RadiometryTempDir dir;
+  TempDir dir;
   ResponseCurve curve = ResponseCurve::srgb(8);
   curve.bgr[0][200] = std::nextafter(curve.bgr[0][200], 1.0F);  // exactness, not just closeness
   save_response(curve, dir.file("response.yaml"));
@@ -700,7 +675,7 @@ std::string ramp(int n, int break_at = -1, const std::string& bad = "") {
 }
 
 TEST(Radiometry, LoadResponseNamesFileAndField) {
-  RadiometryTempDir dir;
+  TempDir dir;
   const std::string good = ramp(256);
   EXPECT_NO_THROW(load_response(dir.write("ok.yaml", curve_yaml(8, good, good, good))));
   expect_input_error([&] { (void)load_response(dir.file("missing.yaml")); }, {"missing.yaml"});
@@ -733,6 +708,21 @@ TEST(Radiometry, LoadResponseNamesFileAndField) {
                      {"nog.yaml", "'g'", "missing"});
   expect_input_error([&] { (void)load_response(dir.write("scalar.yaml", "bits: 8\nb: 1\ng: 1\nr: 1\n")); },
                      {"scalar.yaml:2:", "'b'", "list"});
+}
+
+// skylit-shade and skylit-live look a response up here; only one of the two checked the bit
+// depth of a file's curve before, the other failed later with a message that named no file.
+TEST(Radiometry, ResponseForNamesTheSettingAndChecksTheBitDepth) {
+  TempDir dir;
+  EXPECT_EQ(response_for("srgb", 16).bgr, ResponseCurve::srgb(16).bgr);
+  EXPECT_EQ(response_for("linear", 8).bgr, ResponseCurve::linear(8).bgr);
+  const std::string good = ramp(256);
+  const fs::path file = dir.write("camera.yaml", curve_yaml(8, good, good, good));
+  EXPECT_EQ(response_for(file.string(), 8).bgr, load_response(file).bgr);
+  // A 16-bit frame with a curve for 8-bit codes: the file, its field and line, both depths, the fix.
+  expect_input_error([&] { (void)response_for(file.string(), 16); },
+                     {file.string() + ":1:", "field 'bits'", "8-bit", "16-bit", "Fix: calibrate a response", "srgb"});
+  expect_input_error([&] { (void)response_for((dir.path() / "missing.yaml").string(), 8); }, {"missing.yaml"});
 }
 
 }  // namespace

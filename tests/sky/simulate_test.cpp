@@ -12,7 +12,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/lens.hpp"
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/simulate.hpp"
 #include "skylit/sky/sky_model.hpp"
@@ -20,6 +20,7 @@
 namespace {
 
 using namespace skylit::sky;
+namespace camera = skylit::camera;
 
 constexpr double kPi = std::numbers::pi;
 constexpr double kDeg = kPi / 180.0;
@@ -32,11 +33,11 @@ Vec3 from_angles(double azimuth_deg, double elevation_deg) {
 
 // An equidistant fisheye looking at the zenith with identity R_site_from_camera, as
 // config/sky_camera.yaml: camera x = east, camera y (image down) = north, camera z = up.
-CameraCalibration zenith_fisheye(int size, double focal, std::vector<double> D = {0, 0, 0, 0}) {
-  CameraCalibration c;
+camera::CameraCalibration zenith_fisheye(int size, double focal, std::vector<double> D = {0, 0, 0, 0}) {
+  camera::CameraCalibration c;
   c.image_width = size;
   c.image_height = size;
-  c.model = LensModel::Fisheye;
+  c.model = camera::LensModel::Fisheye;
   c.fx = c.fy = focal;
   c.cx = c.cy = (size - 1) / 2.0;
   c.D = std::move(D);
@@ -99,7 +100,7 @@ TEST(Equirect, ConventionAndRoundTrip) {
 
 TEST(RenderFisheye, ConstantEquirectGivesConstantWhereTheLensSees) {
   // k1 < 0 folds the model over at θ ≈ 105°: the image's corners cannot be imaged.
-  const Lens lens(zenith_fisheye(96, 30.0, {-0.1, 0, 0, 0}));
+  const camera::Lens lens(zenith_fisheye(96, 30.0, {-0.1, 0, 0, 0}));
   const cv::Mat equirect(16, 32, CV_32FC3, cv::Scalar(0.25, 0.5, 2.0));
   const cv::Mat image = render_fisheye(lens, equirect, RenderOptions{3, 0});
   ASSERT_EQ(image.type(), CV_32FC3);
@@ -128,7 +129,7 @@ TEST(RenderFisheye, ConservesTheEnergyOfARealSky) {
   // hemisphere is one fisheye pixel per 0.35°, finer than the equirect's 0.7°.
   const cv::Mat equirect = read_sky_image(std::string(SKYLIT_SOURCE_DIR) + "/data/hdri/park.exr");
   ASSERT_EQ(equirect.type(), CV_32FC3);
-  const Lens lens(zenith_fisheye(512, 511.0 / kPi));
+  const camera::Lens lens(zenith_fisheye(512, 511.0 / kPi));
   const cv::Mat image = render_fisheye(lens, equirect, RenderOptions{4, 0});
   const Eigen::Vector3d expected = equirect_hemisphere_energy(equirect);
   const Eigen::Vector3d got = fisheye_hemisphere_energy(lens, image);
@@ -147,7 +148,7 @@ TEST(RenderFisheye, AzimuthOffsetTurnsTheEquirect) {
   cv::Mat equirect(h, w, CV_32FC3, cv::Scalar::all(0));
   const Vec2 p = equirect_pixel(w, h, from_angles(0, 30));
   equirect(cv::Rect(static_cast<int>(p.x()) - 2, static_cast<int>(p.y()) - 2, 6, 6)).setTo(cv::Scalar::all(100));
-  const Lens lens(zenith_fisheye(128, 127.0 / kPi));
+  const camera::Lens lens(zenith_fisheye(128, 127.0 / kPi));
   for (const double offset_deg : {0.0, 90.0, -45.0}) {
     const cv::Mat image = render_fisheye(lens, equirect, RenderOptions{2, offset_deg * kDeg});
     const cv::Point peak = peak_of(image);
@@ -158,7 +159,7 @@ TEST(RenderFisheye, AzimuthOffsetTurnsTheEquirect) {
 }
 
 TEST(RenderFisheye, SunAppearsWhereTheLensPutsItWithItsEnergy) {
-  const Lens lens(zenith_fisheye(256, 255.0 / kPi));
+  const camera::Lens lens(zenith_fisheye(256, 255.0 / kPi));
   const Eigen::Vector3d irradiance(90, 80, 60);
   for (const auto& [az, el] : {std::pair{120.0, 40.0}, std::pair{300.0, 70.0}, std::pair{10.0, 8.0},
                                std::pair{0.0, 90.0}}) {
@@ -183,7 +184,7 @@ TEST(RenderFisheye, SunAppearsWhereTheLensPutsItWithItsEnergy) {
 
 TEST(RenderFisheye, ClearSkyEnergyMatchesTheModel) {
   const ClearSky sky(from_angles(135, 35), 3.0);
-  const Lens lens(zenith_fisheye(192, 191.0 / kPi));
+  const camera::Lens lens(zenith_fisheye(192, 191.0 / kPi));
   const cv::Mat image = render_fisheye(lens, sky_function(sky), RenderOptions{2, 0});
   // ∫ L dω of the sky by quadrature (fine grid), plus the disc.
   Eigen::Vector3d expected = Eigen::Vector3d::Zero();
@@ -226,7 +227,7 @@ TEST(RenderEquirect, SkyAndSunEnergy) {
   EXPECT_EQ(cv::countNonZero(equirect.rowRange(h / 2, h).reshape(1)), 0);
   EXPECT_GT(equirect_hemisphere_energy(equirect).sum(), sun_energy.sum());
   // A fisheye of the rendered equirect keeps the energy (sun included).
-  const Lens lens(zenith_fisheye(256, 255.0 / kPi));
+  const camera::Lens lens(zenith_fisheye(256, 255.0 / kPi));
   const cv::Mat image = render_fisheye(lens, equirect, RenderOptions{4, 0});
   const Eigen::Vector3d a = equirect_hemisphere_energy(equirect);
   const Eigen::Vector3d b = fisheye_hemisphere_energy(lens, image);
@@ -257,7 +258,7 @@ TEST(To8bit, ClipsAndEncodesSrgb) {
 }
 
 TEST(Render, RejectsBadArguments) {
-  const Lens lens(zenith_fisheye(32, 10.0));
+  const camera::Lens lens(zenith_fisheye(32, 10.0));
   const cv::Mat equirect(8, 16, CV_32FC3, cv::Scalar::all(1));
   EXPECT_THROW(render_fisheye(lens, equirect, RenderOptions{0, 0}), std::invalid_argument);
   EXPECT_THROW(render_fisheye(lens, equirect, RenderOptions{17, 0}), std::invalid_argument);

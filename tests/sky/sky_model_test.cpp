@@ -12,13 +12,14 @@
 
 #include "skylit/base/error.hpp"
 #include "skylit/sky/sky_model.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace {
 
 using skylit::sky::ClearSky;
 using skylit::sky::OvercastSky;
 using skylit::sky::rgb_luminance;
-using skylit::sky::Vec3;
+using skylit::camera::Vec3;
 
 constexpr double kPi = std::numbers::pi;
 constexpr double kDeg = kPi / 180.0;

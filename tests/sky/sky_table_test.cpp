@@ -10,8 +10,10 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "lens_test_support.hpp"
+#include "../support/lens_test_support.hpp"
+#include "../support/temp_dir.hpp"
 #include "skylit/base/error.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::sky {
 namespace {
@@ -111,7 +113,7 @@ TEST(SkyTable, FinerDomeIsCoveredToo) {
 // Every run is what it claims: the sampled pixel of each block, the face that pixel sees, the
 // block's solid angle; runs are maximal and in row-major order.
 TEST(SkyTable, RunsDescribeTheSampledBlocks) {
-  const Lens& lens = sample_lens();
+  const camera::Lens& lens = sample_lens();
   for (const int step : {1, 4}) {
     SCOPED_TRACE("step " + std::to_string(step));
     const SkyTable& table = sample_table(2, step);
@@ -157,7 +159,7 @@ TEST(SkyTable, RunsDescribeTheSampledBlocks) {
 }
 
 TEST(SkyTable, BlockSolidAngle) {
-  const Lens& lens = sample_lens();
+  const camera::Lens& lens = sample_lens();
   const double fx = lens.calibration().fx;
   // At the optical axis one pixel subtends 1/fx² steradians.
   EXPECT_NEAR(block_solid_angle(lens, 511.0, 511.0, 512.0, 512.0) * fx * fx, 1.0, 1e-5);
@@ -175,9 +177,9 @@ TEST(SkyTable, BlockSolidAngle) {
   }
   EXPECT_NEAR(pieces / block_solid_angle(lens, 300, 700, 308, 708), 1.0, 1e-4);
   // A corner the model cannot unproject: 0.
-  CameraCalibration turning = lens_testing::equidistant(1024, 90);
+  camera::CameraCalibration turning = lens_testing::equidistant(1024, 90);
   turning.D = {-0.1, 0, 0, 0};  // stops increasing at θ ≈ 1.83 (θ_d ≈ 1.22)
-  const Lens short_lens(turning);
+  const camera::Lens short_lens(turning);
   EXPECT_EQ(block_solid_angle(short_lens, -0.5, -0.5, 0.5, 0.5), 0.0);
   EXPECT_GT(block_solid_angle(short_lens, 511, 511, 512, 512), 0.0);
 }
@@ -185,8 +187,8 @@ TEST(SkyTable, BlockSolidAngle) {
 // A 160° lens (image edge 80° from the zenith, a circular image): horizon faces are only partly
 // seen, zenith faces wholly.
 TEST(SkyTable, NarrowerLensLeavesHorizonFacesPartlySeen) {
-  const CameraCalibration c = lens_testing::equidistant(1024, 80);
-  const Lens lens(c);
+  const camera::CameraCalibration c = lens_testing::equidistant(1024, 80);
+  const camera::Lens lens(c);
   const cv::Mat circle = lens_testing::disc_mask(c, 512.0);
   const SkyTable table = build_sky_table(lens, dome(2), circle, {1});
   const double cap = 2 * kPi * (1 - std::cos(80.0 * kPi / 180));
@@ -227,25 +229,25 @@ TEST(SkyTable, MaskHidingHalfTheImageHalvesTheTotal) {
 }
 
 TEST(SkyTable, ReadsTheCalibrationsMaskFile) {
-  lens_testing::LensTempDir dir;
-  CameraCalibration c = sample_lens().calibration();
+  skylit::test::TempDir dir;
+  camera::CameraCalibration c = sample_lens().calibration();
   cv::Mat mask(1024, 1024, CV_8UC1, cv::Scalar(255));
   mask.rowRange(0, 300).setTo(0);
   ASSERT_TRUE(cv::imwrite((dir.path() / "mask.png").string(), mask));
   c.file = dir.path() / "camera.yaml";
   c.mask = dir.path() / "mask.png";
-  const SkyTable from_file = build_sky_table(Lens(c), dome(2), {4});
+  const SkyTable from_file = build_sky_table(camera::Lens(c), dome(2), {4});
   const SkyTable given = build_sky_table(sample_lens(), dome(2), mask, {4});
   EXPECT_EQ(from_file.weights, given.weights);
   EXPECT_LT(total_weight(from_file), 0.9 * total_weight(sample_table(2, 4)));
 
   // A mask passed in wins over the file.
   const cv::Mat open(1024, 1024, CV_8UC1, cv::Scalar(255));
-  EXPECT_EQ(build_sky_table(Lens(c), dome(2), open, {4}).weights, sample_table(2, 4).weights);
+  EXPECT_EQ(build_sky_table(camera::Lens(c), dome(2), open, {4}).weights, sample_table(2, 4).weights);
 
-  const auto expect_error = [&](const CameraCalibration& calibration, const std::string& part) {
+  const auto expect_error = [&](const camera::CameraCalibration& calibration, const std::string& part) {
     try {
-      build_sky_table(Lens(calibration), dome(2), {4});
+      build_sky_table(camera::Lens(calibration), dome(2), {4});
       ADD_FAILURE() << "no error for " << part;
     } catch (const InputError& e) {
       const std::string message = e.what();
@@ -254,13 +256,13 @@ TEST(SkyTable, ReadsTheCalibrationsMaskFile) {
       EXPECT_NE(message.find("Fix: "), std::string::npos) << message;
     }
   };
-  CameraCalibration missing = c;
+  camera::CameraCalibration missing = c;
   missing.mask = dir.path() / "nowhere.png";
   expect_error(missing, "does not exist");
-  CameraCalibration garbage = c;
+  camera::CameraCalibration garbage = c;
   garbage.mask = dir.write("garbage.png", "not a png");
   expect_error(garbage, "cannot read the mask image");
-  CameraCalibration small = c;
+  camera::CameraCalibration small = c;
   small.mask = dir.path() / "small.png";
   ASSERT_TRUE(cv::imwrite(small.mask.string(), cv::Mat(100, 200, CV_8UC1, cv::Scalar(255))));
   expect_error(small, "is 200×100 pixels");
@@ -282,9 +284,9 @@ TEST(SkyTable, BadMaskOrStepIsAnInputError) {
 // southern ones stay whole. (Without the circle's mask the equidistant model would go on past
 // 90° in the image's corners, beyond what a real 180° lens sees.)
 TEST(SkyTable, TiltedCameraMovesCoverage) {
-  CameraCalibration c = sample_lens().calibration();
+  camera::CameraCalibration c = sample_lens().calibration();
   c.R_site_from_camera = lens_testing::tilt_about_east(30);
-  const Lens lens(c);
+  const camera::Lens lens(c);
   const cv::Mat circle = lens_testing::disc_mask(c, c.fx * kPi / 2);
   const SkyTable table = build_sky_table(lens, dome(2), circle, {2});
   EXPECT_NEAR(total_weight(table) / (2 * (kPi - kPi / 6)), 1.0, 1e-3);

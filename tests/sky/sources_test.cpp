@@ -12,16 +12,17 @@
 #include "skylit/base/error.hpp"
 #include "skylit/geom/dome.hpp"
 #include "skylit/sky/sky_estimate.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::sky {
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
-CameraCalibration zenith_camera(int size = 400) {
-  CameraCalibration c;
+camera::CameraCalibration zenith_camera(int size = 400) {
+  camera::CameraCalibration c;
   c.image_width = c.image_height = size;
-  c.model = LensModel::Fisheye;
+  c.model = camera::LensModel::Fisheye;
   c.fx = c.fy = (size / 2.0) / (std::numbers::pi / 2.0);
   c.cx = c.cy = (size - 1) / 2.0;
   c.D = {0, 0, 0, 0};
@@ -32,8 +33,8 @@ CameraCalibration zenith_camera(int size = 400) {
 using skylit::test::angle;
 using skylit::test::from_angles;
 
-RadianceFrame paint(const CameraCalibration& c, const std::function<Eigen::Vector3d(const Vec3&)>& radiance) {
-  return {skylit::test::paint_sky(Lens(c), radiance), cv::Mat()};
+RadianceFrame paint(const camera::CameraCalibration& c, const std::function<Eigen::Vector3d(const Vec3&)>& radiance) {
+  return {skylit::test::paint_sky(camera::Lens(c), radiance), cv::Mat()};
 }
 
 // A dim uniform sky with two lamps 4° in radius, brightest at their centres (radiance

@@ -13,6 +13,7 @@
 
 #include "skylit/sky/sky_table.hpp"
 #include "skylit/sky/sun.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::sky {
 namespace {
@@ -20,11 +21,11 @@ namespace {
 constexpr double kDeg = std::numbers::pi / 180.0;
 
 // Like the sample sky camera: equidistant fisheye looking at the zenith, image x towards east.
-CameraCalibration zenith_camera(int size = 512) {
-  CameraCalibration c;
+camera::CameraCalibration zenith_camera(int size = 512) {
+  camera::CameraCalibration c;
   c.image_width = size;
   c.image_height = size;
-  c.model = LensModel::Fisheye;
+  c.model = camera::LensModel::Fisheye;
   c.fx = c.fy = (size / 2.0) / (std::numbers::pi / 2.0);  // 90° at the edge of the circle
   c.cx = c.cy = (size - 1) / 2.0;
   c.D = {0, 0, 0, 0};
@@ -36,7 +37,7 @@ using skylit::test::angle;
 using skylit::test::from_angles;
 
 // Paints every pixel with radiance(direction) (RGB), 0 where the lens sees nothing.
-cv::Mat paint(const Lens& lens, const std::function<Eigen::Vector3d(const Vec3&)>& radiance) {
+cv::Mat paint(const camera::Lens& lens, const std::function<Eigen::Vector3d(const Vec3&)>& radiance) {
   return skylit::test::paint_sky(lens, radiance);
 }
 
@@ -54,7 +55,7 @@ struct DiscSky {
 };
 
 TEST(SunDetector, BlackSkyHasNoSun) {
-  const Lens lens(zenith_camera());
+  const camera::Lens lens(zenith_camera());
   const SunDetector detector(lens, cv::Mat());
   const cv::Mat black(512, 512, CV_32FC3, cv::Scalar(0, 0, 0));
   const SunDetection d = detector.detect(black, cv::Mat());
@@ -64,7 +65,7 @@ TEST(SunDetector, BlackSkyHasNoSun) {
 }
 
 TEST(SunDetector, OvercastSkyHasNoSun) {
-  const Lens lens(zenith_camera());
+  const camera::Lens lens(zenith_camera());
   const SunDetector detector(lens, cv::Mat());
   // CIE overcast: zenith three times the horizon, no compact source.
   const cv::Mat overcast = paint(lens, [](const Vec3& d) {
@@ -76,7 +77,7 @@ TEST(SunDetector, OvercastSkyHasNoSun) {
 }
 
 TEST(SunDetector, FindsADiscWithItsDirectionAndEnergy) {
-  const Lens lens(zenith_camera(1024));
+  const camera::Lens lens(zenith_camera(1024));
   const SunDetector detector(lens, cv::Mat());
   const DiscSky sky{from_angles(135.0, 40.0), 1.0 * kDeg, Eigen::Vector3d(8000, 7000, 6000)};
   const cv::Mat frame = paint(lens, sky);
@@ -103,7 +104,7 @@ TEST(SunDetector, FindsADiscWithItsDirectionAndEnergy) {
 // A glow around the disc (1°–3°, 5× the sky) fainter than disc_factor × the background stays
 // in the dome (sharp sun shadows); a lower disc_factor takes it into the sun term.
 TEST(SunDetector, GlowFainterThanTheDiscFactorStaysInTheDome) {
-  const Lens lens(zenith_camera(1024));
+  const camera::Lens lens(zenith_camera(1024));
   const DiscSky disc_sky{from_angles(135.0, 40.0), 1.0 * kDeg, Eigen::Vector3d(8000, 7000, 6000)};
   const auto sky = [&](const Vec3& d) -> Eigen::Vector3d {
     const double a = angle(d, disc_sky.sun);
@@ -136,7 +137,7 @@ TEST(SunDetector, GlowFainterThanTheDiscFactorStaysInTheDome) {
 }
 
 TEST(SunDetector, ARealSizedSunOfAFewPixels) {
-  const Lens lens(zenith_camera(1024));
+  const camera::Lens lens(zenith_camera(1024));
   const SunDetector detector(lens, cv::Mat());
   const DiscSky sky{from_angles(200.0, 55.0), 0.27 * kDeg, Eigen::Vector3d(1e5, 1e5, 1e5)};
   const SunDetection d = detector.detect(paint(lens, sky), cv::Mat());
@@ -146,7 +147,7 @@ TEST(SunDetector, ARealSizedSunOfAFewPixels) {
 }
 
 TEST(SunDetector, OnlyTheSunInABlackSky) {
-  const Lens lens(zenith_camera());
+  const camera::Lens lens(zenith_camera());
   const SunDetector detector(lens, cv::Mat());
   const Vec3 sun = from_angles(10.0, 70.0);
   const cv::Mat frame = paint(lens, [&](const Vec3& d) {
@@ -160,7 +161,7 @@ TEST(SunDetector, OnlyTheSunInABlackSky) {
 }
 
 TEST(SunDetector, ABroadBrightPatchIsNoCompactSun) {
-  const Lens lens(zenith_camera());
+  const camera::Lens lens(zenith_camera());
   const SunDetector detector(lens, cv::Mat());
   const DiscSky sky{from_angles(90.0, 45.0), 8.0 * kDeg, Eigen::Vector3d(500, 500, 500)};
   const SunDetection d = detector.detect(paint(lens, sky), cv::Mat());
@@ -169,7 +170,7 @@ TEST(SunDetector, ABroadBrightPatchIsNoCompactSun) {
 }
 
 TEST(SunDetector, SunBelowTheHorizonIsNotFound) {
-  const Lens lens(zenith_camera());
+  const camera::Lens lens(zenith_camera());
   const SunDetector detector(lens, cv::Mat());
   const DiscSky sky{from_angles(270.0, -3.0), 0.5 * kDeg, Eigen::Vector3d(1e4, 1e4, 1e4)};
   const SunDetection d = detector.detect(paint(lens, sky), cv::Mat());
@@ -177,7 +178,7 @@ TEST(SunDetector, SunBelowTheHorizonIsNotFound) {
 }
 
 TEST(SunDetector, SunOnTheHorizonIsFoundAboveIt) {
-  const Lens lens(zenith_camera(1024));
+  const camera::Lens lens(zenith_camera(1024));
   const SunDetector detector(lens, cv::Mat());
   const DiscSky sky{from_angles(270.0, 0.0), 0.5 * kDeg, Eigen::Vector3d(1e4, 1e4, 1e4)};
   const SunDetection d = detector.detect(paint(lens, sky), cv::Mat());
@@ -187,7 +188,7 @@ TEST(SunDetector, SunOnTheHorizonIsFoundAboveIt) {
 }
 
 TEST(SunDetector, AClippedSunIsFoundAndSaysSo) {
-  const Lens lens(zenith_camera());
+  const camera::Lens lens(zenith_camera());
   const SunDetector detector(lens, cv::Mat());
   // An 8-bit frame: the sky at half the top code, the sun clipped (contrast only 2).
   const Vec3 sun = from_angles(45.0, 50.0);
@@ -208,7 +209,7 @@ TEST(SunDetector, AClippedSunIsFoundAndSaysSo) {
 }
 
 TEST(SunDetector, BadPixelsNeverBecomeTheSun) {
-  const Lens lens(zenith_camera());
+  const camera::Lens lens(zenith_camera());
   const SunDetector detector(lens, cv::Mat());
   cv::Mat frame = paint(lens, [](const Vec3& d) { return Eigen::Vector3d::Constant(d.z() < 0 ? 0.0 : 1.0); });
   const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
@@ -220,7 +221,7 @@ TEST(SunDetector, BadPixelsNeverBecomeTheSun) {
 }
 
 TEST(SunDetector, MaskedPixelsAreNotSearched) {
-  const Lens lens(zenith_camera());
+  const camera::Lens lens(zenith_camera());
   cv::Mat mask(512, 512, CV_8UC1, cv::Scalar(255));
   const DiscSky sky{from_angles(90.0, 30.0), 0.8 * kDeg, Eigen::Vector3d(1e4, 1e4, 1e4)};
   const auto p = lens.site_to_pixel(sky.sun);
@@ -231,7 +232,7 @@ TEST(SunDetector, MaskedPixelsAreNotSearched) {
 }
 
 TEST(SunDetector, WrongFrameSizeIsAnInputError) {
-  const Lens lens(zenith_camera());
+  const camera::Lens lens(zenith_camera());
   const SunDetector detector(lens, cv::Mat());
   EXPECT_THROW(detector.detect(cv::Mat(100, 100, CV_32FC3, cv::Scalar(0, 0, 0)), cv::Mat()), InputError);
   EXPECT_THROW(detector.detect(cv::Mat(512, 512, CV_8UC3, cv::Scalar(0, 0, 0)), cv::Mat()), InputError);

@@ -1,25 +1,14 @@
 #pragma once
 // The small scene several suites bake: a 2 m cube standing on the ground (box.obj), in a fresh
-// directory of the suite's own, with a site file whose dome and planes each suite gives.
-#include <unistd.h>
-
-#include <chrono>
+// directory of the suite's own (a TempDir, which this brings), with a site file whose dome and
+// planes each suite gives.
 #include <filesystem>
 #include <fstream>
 #include <string>
 
-namespace skylit::test {
+#include "temp_dir.hpp"
 
-// A new directory under the system temp dir, unique to this process and moment (for suites that
-// keep one across their tests; removed by the caller).
-inline std::filesystem::path make_suite_dir(const std::string& prefix) {
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() /
-      (prefix + "-" + std::to_string(::getpid()) + "-" +
-       std::to_string(std::chrono::steady_clock::now().time_since_epoch().count()));
-  std::filesystem::create_directories(dir);
-  return dir;
-}
+namespace skylit::test {
 
 // dir/box.obj (the cube, x and y in [-1, 1], z in [0, 2]) and dir/site.yaml with
 // `dome_and_planes` (the YAML of the site's dome: and planes: sections) after its scene.

@@ -9,7 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "skylit/geom/dome.hpp"
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::test {
 
@@ -23,12 +23,12 @@ inline double angle(const geom::Vec3& a, const geom::Vec3& b) { return std::atan
 
 // The float BGR frame the lens sees of a sky of radiance(direction) (RGB, linear); pixels that
 // see no direction are 0.
-inline cv::Mat paint_sky(const sky::Lens& lens, const std::function<Eigen::Vector3d(const geom::Vec3&)>& radiance) {
-  const sky::CameraCalibration& c = lens.calibration();
+inline cv::Mat paint_sky(const camera::Lens& lens, const std::function<Eigen::Vector3d(const geom::Vec3&)>& radiance) {
+  const camera::CameraCalibration& c = lens.calibration();
   cv::Mat image(c.image_height, c.image_width, CV_32FC3, cv::Scalar(0, 0, 0));
   for (int y = 0; y < image.rows; ++y) {
     for (int x = 0; x < image.cols; ++x) {
-      const auto d = lens.pixel_to_site(sky::Vec2(x, y));
+      const auto d = lens.pixel_to_site(camera::Vec2(x, y));
       if (!d) continue;
       const Eigen::Vector3d l = radiance(*d);
       image.at<cv::Vec3f>(y, x) = cv::Vec3f(static_cast<float>(l.z()), static_cast<float>(l.y()), static_cast<float>(l.x()));

@@ -120,7 +120,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadMap{"ShortPosition", "family: tag36h11\ntags:\n  - id: 1\n    size: 0.2\n    position: [0, 0]\n    orientation: [1, 0, 0, 0]\n",
                "tags.yaml:5:15: field 'tags[0].position': expected a list of 3 numbers"},
         BadMap{"NoTags", "family: tag36h11\ntags: []\n", "field 'tags': the list is empty"},
-        BadMap{"Syntax", "family: [tag36h11\n", "not valid YAML"}),
+        BadMap{"Syntax", "family: [tag36h11\n", "YAML syntax error"}),
     [](const ::testing::TestParamInfo<BadMap>& param_info) { return param_info.param.name; });
 
 TEST(MarkerMap, MissingFileIsNamed) {

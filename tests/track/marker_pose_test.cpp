@@ -19,6 +19,7 @@
 #include "skylit/track/marker_render.hpp"
 #include "skylit/track/marker_tracker.hpp"
 #include "skylit/track/tag_detector.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace {
 
@@ -27,7 +28,7 @@ using namespace marker_scene;
 namespace fs = std::filesystem;
 
 // The corners of the map's tags as a perfect detector would report them, plus noise (pixels).
-std::vector<TagDetection> exact_detections(const MarkerMap& map, const skylit::sky::Lens& lens, const Pose& camera,
+std::vector<TagDetection> exact_detections(const MarkerMap& map, const skylit::camera::Lens& lens, const Pose& camera,
                                            double noise_px = 0, unsigned seed = 1) {
   std::mt19937 random(seed);
   std::normal_distribution<double> noise(0.0, noise_px > 0 ? noise_px : 1.0);
@@ -59,7 +60,7 @@ Errors errors_of(const MarkerSolve& solve, const Pose& truth) {
 // The solver on exact corners.
 
 TEST(MarkerPose, ExactCornersOfFourTagsGiveThePose) {
-  const skylit::sky::Lens lens(hmd_camera());
+  const skylit::camera::Lens lens(hmd_camera());
   const MarkerMap map = wall_of_four();
   for (const Pose& truth : heads_at_three_metres()) {
     const auto detections = exact_detections(map, lens, truth);
@@ -77,7 +78,7 @@ TEST(MarkerPose, ExactCornersOfFourTagsGiveThePose) {
 }
 
 TEST(MarkerPose, ASingleTagReportsBothSolutionsAndTheirAmbiguity) {
-  const skylit::sky::Lens lens(hmd_camera());
+  const skylit::camera::Lens lens(hmd_camera());
   MarkerMap map;
   map.tags = {wall_tag(5, 0.0, 1.6)};
   // Close (1.2 m) and seen 30° from the side: the two planar solutions differ clearly.
@@ -107,15 +108,15 @@ TEST(MarkerPose, ASingleTagReportsBothSolutionsAndTheirAmbiguity) {
 }
 
 TEST(MarkerPose, FisheyeCornersAreUndistortedFirst) {
-  skylit::sky::CameraCalibration c;
+  skylit::camera::CameraCalibration c;
   c.image_width = 1280;
   c.image_height = 720;
-  c.model = skylit::sky::LensModel::Fisheye;
+  c.model = skylit::camera::LensModel::Fisheye;
   c.fx = c.fy = 450;  // equidistant-ish: 160° across the width
   c.cx = 639.5;
   c.cy = 359.5;
   c.D = {0.02, -0.01, 0.002, 0.0};
-  const skylit::sky::Lens lens(c);
+  const skylit::camera::Lens lens(c);
   const MarkerMap map = wall_of_four();
   const Pose truth = head(Vec3(1.5, 1.0, 1.2), Vec3(3.0, 3.0, 2.5), 5);  // tags far off the axis
   const MarkerSolve solve = solve_marker_pose(map, lens, exact_detections(map, lens, truth));
@@ -125,7 +126,7 @@ TEST(MarkerPose, FisheyeCornersAreUndistortedFirst) {
 }
 
 TEST(MarkerPose, NothingToSolveIsFlaggedNotThrown) {
-  const skylit::sky::Lens lens(hmd_camera());
+  const skylit::camera::Lens lens(hmd_camera());
   const MarkerMap map = wall_of_four();
   MarkerSolve solve = solve_marker_pose(map, lens, {});
   EXPECT_FALSE(solve.pose);
@@ -162,7 +163,7 @@ TEST(MarkerPose, NothingToSolveIsFlaggedNotThrown) {
 // Rendered frames through the detector.
 
 struct Rendered {
-  skylit::sky::Lens lens{hmd_camera()};
+  skylit::camera::Lens lens{hmd_camera()};
   TagDetector detector;
 
   MarkerSolve solve(const MarkerMap& truth_map, const MarkerMap& solve_map, const Pose& camera,
@@ -287,7 +288,7 @@ TEST(MarkerPoseRendered, ASingleDistantTagIsFlagged) {
 
 TEST(MarkerTracker, AnswersWithTheLatestAcceptedPoseWhileItIsFresh) {
   const MarkerMap map = wall_of_four();
-  const skylit::sky::Lens lens(hmd_camera());
+  const skylit::camera::Lens lens(hmd_camera());
   MarkerTrackerOptions options;
   options.max_age = 0.2;
   MarkerTracker tracker(map, hmd_camera(), options);
@@ -326,7 +327,7 @@ TEST(MarkerTracker, TagsOfAnotherFamilyAreNotSeen) {
   MarkerMap printed = wall_of_four();
   MarkerMap configured = printed;
   configured.family = "tag25h9";  // the map says 25h9, the site has 36h11
-  const skylit::sky::Lens lens(hmd_camera());
+  const skylit::camera::Lens lens(hmd_camera());
   MarkerTracker tracker(configured, hmd_camera());
   const MarkerSolve solve = tracker.process(render_markers(printed, lens, heads_at_three_metres()[0]), 1.0);
   EXPECT_TRUE(solve.no_tags);
@@ -340,7 +341,7 @@ TEST(MarkerTracker, TagsOfAnotherFamilyAreNotSeen) {
 TEST(MarkerConfig, ReadsTheMapTheCalibrationAndTheKnobs) {
   skylit::test::TempDir dir("skylit_marker_config_");
   save_marker_map(wall_of_four(), dir.path() / "tags.yaml");
-  skylit::sky::save_calibration(hmd_camera(), dir.path() / "hmd.yaml");
+  skylit::camera::save_calibration(hmd_camera(), dir.path() / "hmd.yaml");
   const fs::path file = dir.write("live.yaml",
                                   "pose:\n"
                                   "  kind: markers\n"

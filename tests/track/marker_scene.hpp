@@ -6,7 +6,7 @@
 
 #include <Eigen/Geometry>
 
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/calibration.hpp"
 #include "skylit/track/marker_map.hpp"
 #include "skylit/track/pose.hpp"
 
@@ -18,11 +18,11 @@ using skylit::track::Pose;
 using skylit::track::Vec3;
 
 // fx = 1000 px: 65° across the 1280 px width; mild barrel distortion with a little tangential.
-inline skylit::sky::CameraCalibration hmd_camera() {
-  skylit::sky::CameraCalibration c;
+inline skylit::camera::CameraCalibration hmd_camera() {
+  skylit::camera::CameraCalibration c;
   c.image_width = 1280;
   c.image_height = 720;
-  c.model = skylit::sky::LensModel::Pinhole;
+  c.model = skylit::camera::LensModel::Pinhole;
   c.fx = 1000;
   c.fy = 1000;
   c.cx = 639.5;

@@ -9,6 +9,7 @@
 #include "marker_scene.hpp"
 #include "skylit/track/marker_render.hpp"
 #include "skylit/track/tag_detector.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace {
 
@@ -18,7 +19,7 @@ using namespace marker_scene;
 // One tag of 20 cm 1 m ahead, seen a little from the side and rolled: ~200 px wide.
 struct CloseTag {
   MarkerMap map;
-  skylit::sky::Lens lens{hmd_camera()};
+  skylit::camera::Lens lens{hmd_camera()};
   Pose camera = head(Vec3(0.25, 2.0, 1.55), Vec3(0.0, 3.0, 1.6), 12);
   CloseTag() {
     map.family = "tag36h11";

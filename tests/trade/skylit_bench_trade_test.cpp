@@ -32,7 +32,8 @@ bool dominates(const nlohmann::json& a, const nlohmann::json& b) {
 }
 
 TEST(SkylitBenchTrade, TinyGridWritesTheTableThePlotAndTheParetoFront) {
-  const fs::path out = fs::temp_directory_path() / ("skylit_trade_" + std::to_string(std::random_device{}()));
+  const test::TempDir dir;
+  const fs::path out = dir / "trade";
   const cli_test::Result result = cli_test::run_program(
       kBin / "skylit-bench",
       "trade --site " + (kSource / "config/sample_site.yaml").string() + " --calib " +
@@ -114,16 +115,14 @@ TEST(SkylitBenchTrade, TinyGridWritesTheTableThePlotAndTheParetoFront) {
   EXPECT_EQ(circles, settings.size());
   const std::string md = read_all(out / "trade.md");
   EXPECT_NE(md.find("| Pareto |"), std::string::npos);
-
-  std::error_code ignored;
-  fs::remove_all(out, ignored);
 }
 
 // --sequence on a tiny grid: ΔS thresholds 0 and 0.05, smoothings 0 and 10 s, 24 skies with a
 // passing cloud. Threshold 0 without smoothing blends every frame and is the still-sky path; a
 // large threshold blends fewer and stays within its bound; a long time constant lags the cloud.
 TEST(SkylitBenchTrade, SequenceMeasuresTheChangeThresholdAndTheSmoothing) {
-  const fs::path out = fs::temp_directory_path() / ("skylit_trade_seq_" + std::to_string(std::random_device{}()));
+  const test::TempDir dir;
+  const fs::path out = dir / "trade";
   const double large = 0.05;
   const cli_test::Result result = cli_test::run_program(
       kBin / "skylit-bench",
@@ -184,9 +183,6 @@ TEST(SkylitBenchTrade, SequenceMeasuresTheChangeThresholdAndTheSmoothing) {
 
   const std::string md = read_all(out / "trade.md");
   EXPECT_NE(md.find("Sky sequence"), std::string::npos);
-
-  std::error_code ignored;
-  fs::remove_all(out, ignored);
 }
 
 }  // namespace

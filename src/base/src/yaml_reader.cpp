@@ -1,24 +1,41 @@
 #include "skylit/base/yaml_reader.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <set>
+#include <system_error>
 
 #include "skylit/base/error.hpp"
 
 namespace skylit {
+namespace {
 
-YAML::Node YamlReader::load() const {
+[[noreturn]] void syntax_error(const std::filesystem::path& file, const YAML::ParserException& e,
+                               const std::string& fix) {
+  throw InputError(input_message(file, e.mark.line + 1, e.mark.column + 1, "", "YAML syntax error: " + e.msg, fix));
+}
+
+}  // namespace
+
+YAML::Node YamlReader::load(const std::string& syntax_fix) const {
   if (!std::filesystem::exists(file_)) {
     throw InputError(input_message(file_, -1, -1, "", "the file does not exist", "check the path"));
   }
   try {
     return YAML::LoadFile(file_.string());
   } catch (const YAML::ParserException& e) {
-    throw InputError(input_message(file_, e.mark.line + 1, e.mark.column + 1, "", "not valid YAML: " + e.msg,
-                                   "correct the syntax at that place"));
+    syntax_error(file_, e, syntax_fix);
   } catch (const YAML::BadFile&) {
     throw InputError(input_message(file_, -1, -1, "", "cannot be read", "check its permissions"));
+  }
+}
+
+YAML::Node YamlReader::parse(const std::string& text, const std::string& syntax_fix) const {
+  try {
+    return YAML::Load(text);
+  } catch (const YAML::ParserException& e) {
+    syntax_error(file_, e, syntax_fix);
   }
 }
 
@@ -58,9 +75,17 @@ YAML::Node YamlReader::optional(const YAML::Node& map, const std::string& key) {
 
 YAML::Node YamlReader::require(const YAML::Node& map, const std::string& key, const std::string& field,
                                const std::string& fix) const {
-  const YAML::Node node = optional(map, key);
+  const YAML::Node node = map[key];
   if (!node.IsDefined()) fail(map, field, "required field is missing", "add it: " + fix);
+  if (node.IsNull()) fail(key_node(map, key), field, "the field has no value", fix);
   return node;
+}
+
+YAML::Node YamlReader::key_node(const YAML::Node& map, const std::string& key) {
+  for (const auto& entry : map) {
+    if (entry.first.IsScalar() && entry.first.Scalar() == key) return entry.first;
+  }
+  return map;
 }
 
 std::string YamlReader::text(const YAML::Node& node, const std::string& field, const std::string& fix) const {
@@ -95,15 +120,21 @@ double YamlReader::positive(const YAML::Node& node, const std::string& field, co
 long long YamlReader::integer(const YAML::Node& node, const std::string& field, long long lo, long long hi,
                               const std::string& fix) const {
   if (!node.IsScalar()) fail(node, field, "expected an integer", fix);
+  const std::string& text = node.Scalar();
+  const std::string range = text + " is outside " + std::to_string(lo) + ".." + std::to_string(hi);
   long long value = 0;
   try {
-    value = node.as<long long>();
+    value = node.as<long long>();  // decimal, or hexadecimal with 0x (USB ids)
   } catch (const YAML::BadConversion&) {
-    fail(node, field, "'" + node.Scalar() + "' is not an integer", fix);
+    // Decimal digits that do not fit 64 bits are out of range, not "not an integer".
+    const char* first = text.data() + (text.starts_with('+') ? 1 : 0);
+    long long ignored = 0;
+    if (std::from_chars(first, text.data() + text.size(), ignored).ec == std::errc::result_out_of_range) {
+      fail(node, field, range, fix);
+    }
+    fail(node, field, "expected an integer, got '" + text + "'", fix);
   }
-  if (value < lo || value > hi) {
-    fail(node, field, node.Scalar() + " is outside " + std::to_string(lo) + ".." + std::to_string(hi), fix);
-  }
+  if (value < lo || value > hi) fail(node, field, range, fix);
   return value;
 }
 
@@ -121,8 +152,13 @@ std::vector<double> YamlReader::numbers(const YAML::Node& node, std::size_t coun
   if (!node.IsSequence() || node.size() != count) {
     fail(node, field, "expected a list of " + std::to_string(count) + " numbers", fix);
   }
+  return numbers(node, field, fix);
+}
+
+std::vector<double> YamlReader::numbers(const YAML::Node& node, const std::string& field, const std::string& fix) const {
+  if (!node.IsSequence()) fail(node, field, "expected a list of numbers", fix);
   std::vector<double> values;
-  for (std::size_t i = 0; i < count; ++i) {
+  for (std::size_t i = 0; i < node.size(); ++i) {
     const YAML::Node element = node[i];
     double value = 0;
     bool ok = element.IsScalar();

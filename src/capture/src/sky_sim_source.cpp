@@ -7,7 +7,7 @@
 
 #include "skylit/base/error.hpp"
 #include "skylit/capture/sources.hpp"
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/lens.hpp"
 #include "skylit/sky/simulate.hpp"
 #include "skylit/sky/solar.hpp"
 
@@ -49,7 +49,7 @@ SkySimSource::SkySimSource(const SkySimSettings& settings, FrameChecks checks)
   }
   if (!positive(settings_.gain)) bad_setting("gain", "not a positive number", "give a linear gain, e.g. 1");
   if (!std::isfinite(settings_.azimuth_offset_deg)) bad_setting("azimuth_offset", "not a number", "give degrees, e.g. 90");
-  lens_ = std::make_unique<sky::Lens>(sky::load_calibration(settings_.calibration));
+  lens_ = std::make_unique<camera::Lens>(camera::load_calibration(settings_.calibration));
   if (settings_.sky == SkySimSettings::Sky::Equirect) {
     sky::RenderOptions options;
     options.supersample = settings_.supersample;

@@ -16,23 +16,11 @@ constexpr const char* kDocs = "see docs/live.md (Configuration)";
 constexpr std::array<std::string_view, 15> kTopKeys{"site",     "bake",  "preset",      "sky",    "camera", "pose",   "imu",
                                                     "fusion",   "tracking", "blend", "render", "photometric", "output", "status", "display"};
 constexpr std::array<std::string_view, 1> kRenderKeys{"scale"};
-constexpr std::array<std::string_view, 3> kStorages{"half", "unorm8", "eac"};
-
-BlendSettings::Storage parse_storage(std::string_view name) {
-  return name == "unorm8" ? BlendSettings::Storage::Unorm8 : name == "eac" ? BlendSettings::Storage::Eac : BlendSettings::Storage::Half;
-}
 constexpr std::array<std::string_view, 7> kSkyKeys{"calibration", "source", "response", "rate",
                                                    "sun", "smoothing", "stale_after"};
 constexpr std::array<std::string_view, 2> kCameraKeys{"calibration", "source"};
 constexpr std::array<std::string_view, 7> kBlendKeys{"device",         "threads",          "storage",    "basis",
                                                      "skip_threshold", "change_threshold", "cull_planes"};
-constexpr std::array<std::string_view, 4> kBasisForms{"full", "lean", "pca", "cropped"};
-BlendSettings::Basis parse_basis(std::string_view name) {
-  return name == "pca"       ? BlendSettings::Basis::Pca
-         : name == "lean"    ? BlendSettings::Basis::Lean
-         : name == "cropped" ? BlendSettings::Basis::Cropped
-                             : BlendSettings::Basis::Full;
-}
 constexpr std::array<std::string_view, 1> kTrackingKeys{"fade_s"};
 constexpr std::array<std::string_view, 3> kBlendDevices{"auto", "cpu", "gpu"};
 constexpr std::array<std::string_view, 2> kRecordKeys{"path", "fps"};
@@ -50,6 +38,47 @@ constexpr std::array<std::string_view, 2> kDisplayModes{"mono", "stereo"};
 
 }  // namespace
 
+LivePreset load_live_preset(const PresetsFile& presets, const std::string& name) {
+  constexpr std::array<std::string_view, 7> keys{"basis",     "storage", "skip_threshold", "change_threshold",
+                                                 "smoothing", "sun",     "render_scale"};
+  constexpr std::array<std::string_view, 2> sun_modes{"auto", "off"};
+  const PresetSection s = presets.section(name, "live");
+  const YamlReader& r = s.reader;
+  r.check_keys(s.node, s.field + ".", keys);
+  LivePreset p;
+  p.name = name;
+  if (auto n = YamlReader::optional(s.node, "basis")) p.basis = *blend::parse_form(r.choice(n, s.field_of("basis"), blend::kFormNames));
+  if (auto n = YamlReader::optional(s.node, "storage")) {
+    p.storage = *blend::parse_storage(r.choice(n, s.field_of("storage"), blend::kStorageNames));
+  }
+  if (auto n = YamlReader::optional(s.node, "skip_threshold")) {
+    p.skip_threshold = r.non_negative(n, s.field_of("skip_threshold"), "T units, e.g. 0.002");
+  }
+  if (auto n = YamlReader::optional(s.node, "change_threshold")) {
+    p.change_threshold = r.non_negative(n, s.field_of("change_threshold"), "T units, e.g. 0.002");
+  }
+  if (auto n = YamlReader::optional(s.node, "smoothing")) p.smoothing = r.non_negative(n, s.field_of("smoothing"), "seconds");
+  if (auto n = YamlReader::optional(s.node, "sun")) p.sun = r.choice(n, s.field_of("sun"), sun_modes) == "auto";
+  if (auto n = YamlReader::optional(s.node, "render_scale")) {
+    p.render_scale = r.positive(n, s.field_of("render_scale"), "the building's render scale in (0, 1], e.g. 0.75");
+    if (p.render_scale > 1.0) r.fail(n, s.field_of("render_scale"), "is over 1", "a scale in (0, 1], e.g. 0.75");
+  }
+  if (p.basis == blend::BasisForm::Pca) {
+    // The PCA form is the bake's to store: its section must ask for one.
+    const PresetSection bake = presets.section(name, "bake");
+    const YAML::Node components = YamlReader::optional(bake.node, "pca_components");
+    if (!components || r.integer(components, bake.field_of("pca_components"), 0, 4096, "components") == 0) {
+      r.fail(s.node["basis"], s.field_of("basis"), "pca needs a PCA form in the bake, and bake.pca_components is 0",
+             "set bake.pca_components (e.g. 8), or live.basis: full");
+    }
+    if (p.storage != blend::BasisStorage::Half) {
+      r.fail(s.node["storage"], s.field_of("storage"),
+             std::string(blend::storage_name(p.storage)) + " cannot hold the PCA form's eigen-images", "storage: half");
+    }
+  }
+  return p;
+}
+
 std::filesystem::path presets_file_for(const std::filesystem::path& config_file) {
   const std::filesystem::path beside = config_file.parent_path() / "presets.yaml";
   return std::filesystem::is_regular_file(beside) ? beside : default_presets_file();
@@ -64,36 +93,32 @@ std::string blend_device_name(BlendDevice device) {
   return "auto";
 }
 
-LiveConfig load_live_config(const std::filesystem::path& file) {
-  const YamlReader r(file);
-  const YAML::Node root = r.load();
-  r.expect_map(root, "", "a skylit-live config is a map with site, bake, sky, camera and pose; " + std::string(kDocs));
-  r.check_keys(root, "", kTopKeys);
+namespace {
 
-  LiveConfig c;
-  c.file = file;
-  c.site = r.path(r.require(root, "site", "site", "the site file, e.g. site: sample_site.yaml"), "site", kDocs);
-  c.bake = r.path(r.require(root, "bake", "bake", "the bake folder, e.g. bake: ../build/demo/bake"), "bake", kDocs);
+void apply_preset(const YamlReader& r, const YAML::Node& root, const std::filesystem::path& file, LiveConfig& c) {
   // preset: NAME sets the live settings of a preset (config/presets.yaml, docs/presets.md); the
   // keys below override them.
   if (auto n = YamlReader::optional(root, "preset")) {
     const std::string name = r.text(n, "preset", "a preset's name, e.g. preset: balanced");
     c.presets_file = presets_file_for(file);
-    const std::vector<Preset> presets = load_presets(c.presets_file);
-    const auto found = std::find_if(presets.begin(), presets.end(), [&](const Preset& p) { return p.name == name; });
-    if (found == presets.end()) {
-      r.fail(n, "preset", "no preset '" + name + "' in " + c.presets_file.string(), "use one of " + preset_names(presets));
+    const PresetsFile presets(c.presets_file);
+    const auto& names = presets.names();
+    if (std::find(names.begin(), names.end(), name) == names.end()) {
+      r.fail(n, "preset", "no preset '" + name + "' in " + c.presets_file.string(), "use one of " + presets.names_text());
     }
+    const LivePreset preset = load_live_preset(presets, name);
     c.preset = name;
-    c.sky.sun = found->live.sun;
-    c.sky.smoothing = found->live.smoothing;
-    c.blend.basis = parse_basis(found->live.basis);
-    c.blend.storage = parse_storage(found->live.storage);
-    c.render.scale = found->live.render_scale;
-    c.blend.skip_threshold = found->live.skip_threshold;
-    c.blend.change_threshold = found->live.change_threshold;
+    c.sky.sun = preset.sun;
+    c.sky.smoothing = preset.smoothing;
+    c.blend.basis = preset.basis;
+    c.blend.storage = preset.storage;
+    c.render.scale = preset.render_scale;
+    c.blend.skip_threshold = preset.skip_threshold;
+    c.blend.change_threshold = preset.change_threshold;
   }
+}
 
+void parse_sky(const YamlReader& r, const YAML::Node& root, const std::filesystem::path& file, LiveConfig& c) {
   const YAML::Node sky = r.require(root, "sky", "sky", "the sky camera: calibration and source");
   r.expect_map(sky, "sky", kDocs);
   r.check_keys(sky, "sky.", kSkyKeys);
@@ -111,14 +136,19 @@ LiveConfig load_live_config(const std::filesystem::path& file) {
   }
   if (auto n = YamlReader::optional(sky, "smoothing")) c.sky.smoothing = r.non_negative(n, "sky.smoothing", "seconds, 0 for none");
   if (auto n = YamlReader::optional(sky, "stale_after")) c.sky.stale_after = r.positive(n, "sky.stale_after", "seconds, e.g. 30");
+}
 
+void parse_camera(const YamlReader& r, const YAML::Node& root, const std::filesystem::path& file, LiveConfig& c) {
   const YAML::Node camera = r.require(root, "camera", "camera", "the HMD camera: calibration and source");
   r.expect_map(camera, "camera", kDocs);
   r.check_keys(camera, "camera.", kCameraKeys);
   c.camera.calibration = r.path(r.require(camera, "calibration", "camera.calibration", "the HMD camera's calibration YAML"),
                                 "camera.calibration", kDocs);
   c.camera.source = capture::parse_source_config(r.require(camera, "source", "camera.source", "where camera frames come from"), file);
+}
 
+// pose, and the imu and fusion that correct the marker tracker's poses.
+void parse_pose(const YamlReader& r, const YAML::Node& root, const std::filesystem::path& file, LiveConfig& c) {
   const YAML::Node pose = r.require(root, "pose", "pose", "a fixed pose, a pose track or the marker tracker");
   c.pose = track::parse_pose_config(pose, file);
   if (c.pose.kind == track::PoseConfig::Kind::Markers) {
@@ -148,6 +178,9 @@ LiveConfig load_live_config(const std::filesystem::path& file) {
     }
   }
   if (auto n = YamlReader::optional(root, "fusion")) c.fusion = track::parse_fusion_settings(n, file);
+}
+
+void parse_tracking(const YamlReader& r, const YAML::Node& root, LiveConfig& c) {
   if (auto tracking = YamlReader::optional(root, "tracking")) {
     r.expect_map(tracking, "tracking", "tracking: {fade_s: 0.3}; " + std::string(kDocs));
     r.check_keys(tracking, "tracking.", kTrackingKeys);
@@ -155,7 +188,9 @@ LiveConfig load_live_config(const std::filesystem::path& file) {
       c.tracking.fade_s = r.non_negative(n, "tracking.fade_s", "seconds the building takes to fade out or in, e.g. 0.3 (0: at once)");
     }
   }
+}
 
+void parse_blend(const YamlReader& r, const YAML::Node& root, LiveConfig& c) {
   if (auto blend = YamlReader::optional(root, "blend"); blend && blend.IsScalar()) {
     c.blend.device = parse_blend_device(r, blend, "blend");  // the short form: `blend: cpu`
   } else if (blend) {
@@ -165,15 +200,14 @@ LiveConfig load_live_config(const std::filesystem::path& file) {
     if (auto n = YamlReader::optional(blend, "threads")) {
       c.blend.threads = static_cast<int>(r.integer(n, "blend.threads", 0, 256, "CPU blend threads, 0 for all hardware threads"));
     }
-    if (auto n = YamlReader::optional(blend, "storage")) c.blend.storage = parse_storage(r.choice(n, "blend.storage", kStorages));
-    if (auto n = YamlReader::optional(blend, "basis")) {
-      const std::string form(r.choice(n, "blend.basis", kBasisForms));
-      c.blend.basis = parse_basis(form);
+    if (auto n = YamlReader::optional(blend, "storage")) {
+      c.blend.storage = *blend::parse_storage(r.choice(n, "blend.storage", blend::kStorageNames));
     }
-    if (c.blend.basis == BlendSettings::Basis::Pca && c.blend.storage != BlendSettings::Storage::Half) {
+    if (auto n = YamlReader::optional(blend, "basis")) c.blend.basis = *blend::parse_form(r.choice(n, "blend.basis", blend::kFormNames));
+    if (c.blend.basis == blend::BasisForm::Pca && c.blend.storage != blend::BasisStorage::Half) {
       // A PCA form's eigen-images take either sign; 8-bit and EAC layers store [0, 1] only.
       r.fail(blend["storage"] ? blend["storage"] : blend["basis"], "blend.storage",
-             std::string(c.blend.storage == BlendSettings::Storage::Eac ? "eac" : "unorm8") +
+             std::string(blend::storage_name(c.blend.storage)) +
                  " cannot hold the PCA form's eigen-images, whose values may be negative (blend.basis is pca)",
              "set 'storage: half', or 'basis: full'");
     }
@@ -181,7 +215,9 @@ LiveConfig load_live_config(const std::filesystem::path& file) {
     if (auto n = YamlReader::optional(blend, "change_threshold")) c.blend.change_threshold = r.non_negative(n, "blend.change_threshold", "T units, e.g. 0.002");
     if (auto n = YamlReader::optional(blend, "cull_planes")) c.blend.cull_planes = r.boolean(n, "blend.cull_planes", "true or false");
   }
+}
 
+void parse_render(const YamlReader& r, const YAML::Node& root, LiveConfig& c) {
   if (auto render = YamlReader::optional(root, "render")) {
     r.expect_map(render, "render", "render: {scale: 0.75}; " + std::string(kDocs));
     r.check_keys(render, "render.", kRenderKeys);
@@ -190,7 +226,9 @@ LiveConfig load_live_config(const std::filesystem::path& file) {
       if (c.render.scale > 1.0) r.fail(n, "render.scale", "is over 1", "a scale in (0, 1], e.g. 0.75 (1: the frame's resolution)");
     }
   }
+}
 
+void parse_photometric(const YamlReader& r, const YAML::Node& root, LiveConfig& c) {
   if (auto photometric = YamlReader::optional(root, "photometric")) {
     r.expect_map(photometric, "photometric", kDocs);
     r.check_keys(photometric, "photometric.", kPhotometricKeys);
@@ -229,7 +267,9 @@ LiveConfig load_live_config(const std::filesystem::path& file) {
       }
     }
   }
+}
 
+void parse_output(const YamlReader& r, const YAML::Node& root, LiveConfig& c) {
   if (auto output = YamlReader::optional(root, "output")) {
     r.expect_map(output, "output", kDocs);
     r.check_keys(output, "output.", kOutputKeys);
@@ -242,12 +282,18 @@ LiveConfig load_live_config(const std::filesystem::path& file) {
     }
     if (auto n = YamlReader::optional(output, "window")) c.output.window = r.boolean(n, "output.window", "true or false");
   }
+}
+
+void parse_status(const YamlReader& r, const YAML::Node& root, LiveConfig& c) {
   if (auto status = YamlReader::optional(root, "status")) {
     r.expect_map(status, "status", kDocs);
     r.check_keys(status, "status.", kStatusKeys);
     c.status_listen = r.text(r.require(status, "listen", "status.listen", "ADDR:PORT, e.g. 127.0.0.1:8080"),
                              "status.listen", "ADDR:PORT");
   }
+}
+
+void parse_display(const YamlReader& r, const YAML::Node& root, LiveConfig& c) {
   if (auto display = YamlReader::optional(root, "display")) {
     r.expect_map(display, "display", "display: {profile: hmd/generic.yaml, monitor: NAME, mode: mono | stereo}; see docs/hmd.md");
     r.check_keys(display, "display.", kDisplayKeys);
@@ -258,6 +304,31 @@ LiveConfig load_live_config(const std::filesystem::path& file) {
     if (auto n = YamlReader::optional(display, "mode")) d.stereo = r.choice(n, "display.mode", kDisplayModes) == "stereo";
     c.display = d;
   }
+}
+
+}  // namespace
+
+LiveConfig load_live_config(const std::filesystem::path& file) {
+  const YamlReader r(file);
+  const YAML::Node root = r.load();
+  r.expect_map(root, "", "a skylit-live config is a map with site, bake, sky, camera and pose; " + std::string(kDocs));
+  r.check_keys(root, "", kTopKeys);
+
+  LiveConfig c;
+  c.file = file;
+  c.site = r.path(r.require(root, "site", "site", "the site file, e.g. site: sample_site.yaml"), "site", kDocs);
+  c.bake = r.path(r.require(root, "bake", "bake", "the bake folder, e.g. bake: ../build/demo/bake"), "bake", kDocs);
+  apply_preset(r, root, file, c);
+  parse_sky(r, root, file, c);
+  parse_camera(r, root, file, c);
+  parse_pose(r, root, file, c);
+  parse_tracking(r, root, c);
+  parse_blend(r, root, c);
+  parse_render(r, root, c);
+  parse_photometric(r, root, c);
+  parse_output(r, root, c);
+  parse_status(r, root, c);
+  parse_display(r, root, c);
   return c;
 }
 

@@ -7,6 +7,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "skylit/camera/lens.hpp"
+
 namespace skylit::live {
 namespace {
 
@@ -72,7 +74,7 @@ std::string to_string(BuildingFade::State state) {
   return "shown";
 }
 
-LiveTracking::LiveTracking(const LiveConfig& config, const sky::CameraCalibration& hmd) {
+LiveTracking::LiveTracking(const LiveConfig& config, const camera::CameraCalibration& hmd) {
   if (config.pose.kind != track::PoseConfig::Kind::Markers) {
     configured_ = track::open_pose_source(config.pose);
     return;

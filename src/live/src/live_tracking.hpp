@@ -18,7 +18,7 @@
 
 #include "skylit/live/live_config.hpp"
 #include "skylit/live/status_server.hpp"
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/calibration.hpp"
 #include "skylit/track/fusion.hpp"
 #include "skylit/track/imu.hpp"
 #include "skylit/track/marker_tracker.hpp"
@@ -31,7 +31,7 @@ class LiveTracking {
   // Opens the pose source the config names; with pose.kind markers the tracker (its map, its
   // calibration or `hmd`), and the IMU when the config has one (InputError when it is absent at
   // start: a HID device not plugged in, a recording that is not there).
-  LiveTracking(const LiveConfig& config, const sky::CameraCalibration& hmd);
+  LiveTracking(const LiveConfig& config, const camera::CameraCalibration& hmd);
   ~LiveTracking();
   LiveTracking(const LiveTracking&) = delete;
   LiveTracking& operator=(const LiveTracking&) = delete;

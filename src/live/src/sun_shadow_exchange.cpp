@@ -1,5 +1,5 @@
 // Sun shadow maps drawn on one thread and used on another (see sun_shadow_exchange.hpp).
-#include "sun_shadow_exchange.hpp"
+#include "skylit/live/sun_shadow_exchange.hpp"
 
 #include <stdexcept>
 #include <string>

@@ -19,6 +19,7 @@
 
 #include "skylit/base/error.hpp"
 #include "skylit/gpu/shader.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::render {
 namespace {
@@ -196,8 +197,8 @@ std::string plane_list(const scene::Site& site) {
 
 }  // namespace
 
-Eigen::Vector3d plane_irradiance(const bake::PlaneRecord& plane, std::span<const Eigen::Vector3d> sky,
-                                 const std::optional<SunLight>& sun) {
+Eigen::Vector3d plane_irradiance(const bake_format::PlaneRecord& plane, std::span<const Eigen::Vector3d> sky,
+                                 const std::optional<blend::SunLight>& sun) {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   const std::size_t layers = std::min(sky.size(), plane.unoccluded.size());
   for (std::size_t i = 0; i < layers; ++i) sum += plane.unoccluded[i] * finite_nonnegative(sky[i], nullptr);
@@ -222,14 +223,14 @@ gpu::Texture upload_shadow_ratio(std::span<const float> rgb, int width, int heig
 }
 
 struct Compositor::State {
-  State(const sky::CameraCalibration& hmd, CompositorOptions opts)
+  State(const camera::CameraCalibration& hmd, CompositorOptions opts)
       : options(std::move(opts)), lens(hmd), remap(make_lens_remap(lens, options.lens)) {}
 
   CompositorOptions options;
-  sky::Lens lens;
+  camera::Lens lens;
   LensRemap remap;
   std::vector<scene::PlaneSurface> surfaces;     // per bake plane
-  std::vector<bake::PlaneRecord> planes;         // the manifest's
+  std::vector<bake_format::PlaneRecord> planes;         // the manifest's
   std::vector<int> virtual_planes;               // bake plane indices, in shader order
   std::vector<int> real_planes;
   int layer_count = 0;
@@ -280,7 +281,7 @@ struct Compositor::State {
   CompositeStats stats;
   CompositeTimings timings;
 
-  void check_inputs(const scene::Site& site, const scene::Mesh& mesh, const bake::Manifest& manifest,
+  void check_inputs(const scene::Site& site, const scene::Mesh& mesh, const bake_format::Manifest& manifest,
                     std::span<const float> transfer_values);
   void upload_building(const scene::Mesh& mesh, std::span<const float> transfer_values);
   void make_targets();
@@ -294,7 +295,7 @@ struct Compositor::State {
 };
 
 void Compositor::State::check_inputs(const scene::Site& site, const scene::Mesh& mesh,
-                                     const bake::Manifest& manifest, std::span<const float> transfer_values) {
+                                     const bake_format::Manifest& manifest, std::span<const float> transfer_values) {
   const fs::path manifest_file = "manifest.json";
   const std::string rebake = "use the model, site and bake that belong together (re-bake with skylit-bake "
                              "after changing the model or the site)";
@@ -628,7 +629,7 @@ void Compositor::State::draw_building(const CompositeInput& input, const std::ve
 
   std::vector<Eigen::Vector3f> origin, s_axis, t_axis, normal, irradiance;
   for (int plane : virtual_planes) {
-    const bake::PlaneRecord& record = planes[static_cast<std::size_t>(plane)];
+    const bake_format::PlaneRecord& record = planes[static_cast<std::size_t>(plane)];
     const PlaneGeometry g = plane_geometry(record.plane);
     origin.push_back(g.origin);
     s_axis.push_back(g.s_axis);
@@ -730,8 +731,8 @@ void Compositor::State::draw_composite(const CompositeInput& input) {
   check_gl_error("Compositor: compositing");
 }
 
-Compositor::Compositor(const scene::Site& site, const scene::Mesh& mesh, const bake::Manifest& manifest,
-                       std::span<const float> transfer, const sky::CameraCalibration& hmd, CompositorOptions options)
+Compositor::Compositor(const scene::Site& site, const scene::Mesh& mesh, const bake_format::Manifest& manifest,
+                       std::span<const float> transfer, const camera::CameraCalibration& hmd, CompositorOptions options)
     : state_(std::make_unique<State>(hmd, std::move(options))) {
   State& s = *state_;
   const CompositorOptions& o = s.options;
@@ -763,7 +764,7 @@ Compositor& Compositor::operator=(Compositor&&) noexcept = default;
 
 void Compositor::draw(const CompositeInput& input) {
   State& s = *state_;
-  const sky::CameraCalibration& calibration = s.lens.calibration();
+  const camera::CameraCalibration& calibration = s.lens.calibration();
   if (input.camera.cols != calibration.image_width || input.camera.rows != calibration.image_height ||
       (input.camera.type() != CV_8UC3 && input.camera.type() != CV_32FC3)) {
     throw InputError(input_message(calibration.file, -1, -1, "image_width",
@@ -799,7 +800,7 @@ void Compositor::draw(const CompositeInput& input) {
 cv::Mat Compositor::composite(const CompositeInput& input) {
   draw(input);
   State& s = *state_;
-  const sky::CameraCalibration& calibration = s.lens.calibration();
+  const camera::CameraCalibration& calibration = s.lens.calibration();
   StageClock clock(s.options.time_stages);
 
   const int width = calibration.image_width;
@@ -826,7 +827,7 @@ cv::Mat Compositor::composite(const CompositeInput& input) {
 }
 
 cv::Mat Compositor::read_linear() const {
-  const sky::CameraCalibration& calibration = state_->lens.calibration();
+  const camera::CameraCalibration& calibration = state_->lens.calibration();
   cv::Mat rgba(calibration.image_height, calibration.image_width, CV_32FC4);
   glBindFramebuffer(GL_FRAMEBUFFER, state_->composite_target.get());
   glReadBuffer(GL_COLOR_ATTACHMENT0);
@@ -844,7 +845,7 @@ GLuint Compositor::display_texture() const { return state_->display.get(); }
 const CompositeStats& Compositor::last_stats() const { return state_->stats; }
 const CompositeTimings& Compositor::last_timings() const { return state_->timings; }
 const LensRemap& Compositor::lens_remap() const { return state_->remap; }
-const sky::Lens& Compositor::lens() const { return state_->lens; }
+const camera::Lens& Compositor::lens() const { return state_->lens; }
 const std::vector<scene::PlaneSurface>& Compositor::plane_surfaces() const { return state_->surfaces; }
 
 cv::Mat Compositor::region_mask(int plane, double s0, double s1, double t0, double t1, const CameraPose& pose) const {

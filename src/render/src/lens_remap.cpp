@@ -7,6 +7,7 @@
 #include <numbers>
 
 #include "skylit/base/error.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::render {
 
@@ -16,8 +17,8 @@ std::optional<Eigen::Vector2d> PinholeCamera::project(const Eigen::Vector3d& cam
                          fy * camera_point.y() / camera_point.z() + cy);
 }
 
-LensRemap make_lens_remap(const sky::Lens& lens, const LensRemapOptions& options) {
-  const sky::CameraCalibration& calibration = lens.calibration();
+LensRemap make_lens_remap(const camera::Lens& lens, const LensRemapOptions& options) {
+  const camera::CameraCalibration& calibration = lens.calibration();
   const int width = calibration.image_width;
   const int height = calibration.image_height;
   const double max_angle = std::clamp(options.max_angle_deg, 1.0, 89.0) * std::numbers::pi / 180.0;

@@ -1,5 +1,6 @@
 // Which shadowing planes a camera view can see (plane_view.hpp).
 #include "skylit/render/plane_view.hpp"
+#include "skylit/camera/lens.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -54,19 +55,19 @@ bool plane_in_view(const geom::Plane& plane, const CameraPose& pose, const Pinho
          low_y <= view.height - 0.5 + margin;
 }
 
-PinholeCamera undistorted_view(const sky::CameraCalibration& calibration, double max_angle_deg) {
+PinholeCamera undistorted_view(const camera::CameraCalibration& calibration, double max_angle_deg) {
   PinholeCamera view;
   view.fx = calibration.fx;
   view.fy = calibration.fy;
   const bool distortion = std::any_of(calibration.D.begin(), calibration.D.end(), [](double d) { return d != 0.0; });
-  if (calibration.model == sky::LensModel::Pinhole && !distortion) {
+  if (calibration.model == camera::LensModel::Pinhole && !distortion) {
     view.width = calibration.image_width;
     view.height = calibration.image_height;
     view.cx = calibration.cx;
     view.cy = calibration.cy;
     return view;
   }
-  const sky::Lens lens(calibration);
+  const camera::Lens lens(calibration);
   const double max_angle = std::clamp(max_angle_deg, 1.0, 89.0) * std::numbers::pi / 180.0;
   const double max_tan = std::tan(max_angle);
   double low_x = std::numeric_limits<double>::infinity(), high_x = -low_x;
@@ -115,7 +116,7 @@ PinholeCamera undistorted_view(const sky::CameraCalibration& calibration, double
   return view;
 }
 
-bool plane_in_view(const geom::Plane& plane, const CameraPose& pose, const sky::CameraCalibration& calibration,
+bool plane_in_view(const geom::Plane& plane, const CameraPose& pose, const camera::CameraCalibration& calibration,
                    double margin_px) {
   PlaneViewOptions options;
   options.margin_px = margin_px;

@@ -281,7 +281,7 @@ void SunShadowMap::update(const Eigen::Vector3d& direction, double angular_radiu
   gpu::check_gl_error("sun shadow map: visibility pass");
 }
 
-const SunVisibilityTexture& SunShadowMap::visibility(int plane) const {
+const blend::SunVisibilityTexture& SunShadowMap::visibility(int plane) const {
   if (plane < 0 || plane >= plane_count()) {
     bad_input("plane", "index " + std::to_string(plane) + " is out of range", "use 0 … plane_count() - 1");
   }
@@ -289,7 +289,7 @@ const SunVisibilityTexture& SunShadowMap::visibility(int plane) const {
 }
 
 std::vector<float> SunShadowMap::read_visibility(int plane) const {
-  const SunVisibilityTexture& v = visibility(plane);
+  const blend::SunVisibilityTexture& v = visibility(plane);
   GLint previous = 0;
   glGetIntegerv(GL_FRAMEBUFFER_BINDING, &previous);
   const gpu::Framebuffer framebuffer = gpu::make_framebuffer();

@@ -8,6 +8,7 @@
 
 #include "skylit/base/error.hpp"
 #include "skylit/base/files.hpp"
+#include "skylit/sky/srgb.hpp"
 
 namespace skylit::sky {
 
@@ -46,9 +47,7 @@ cv::Mat tone_map(const cv::Mat& radiance, double percentile, double white) {
       for (int c = 0; c < 3; ++c) {
         double v = in[x][c] * scale;
         if (!std::isfinite(v) || v < 0.0) v = 0.0;
-        v = std::min(v, 1.0);
-        const double encoded = v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
-        o[x][c] = static_cast<unsigned char>(std::lround(255.0 * encoded));
+        o[x][c] = srgb_encode8(v);
       }
     }
   }

@@ -8,20 +8,16 @@
 #include <opencv2/imgproc.hpp>
 
 #include "skylit/sky/image_io.hpp"
+#include "skylit/sky/srgb.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::sky {
 namespace {
 
 double luminance(const Eigen::Vector3d& rgb) { return 0.2126 * rgb.x() + 0.7152 * rgb.y() + 0.0722 * rgb.z(); }
 
-unsigned char srgb8(double v) {
-  v = std::clamp(v, 0.0, 1.0);
-  const double encoded = v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
-  return static_cast<unsigned char>(std::lround(255.0 * encoded));
-}
-
 // The face's outline in pixels: its three great-arc edges sampled finely enough to look round.
-std::vector<cv::Point> outline(const Lens& lens, const geom::SphericalTriangle& t) {
+std::vector<cv::Point> outline(const camera::Lens& lens, const geom::SphericalTriangle& t) {
   constexpr int kStepsPerEdge = 24;
   const std::array<Vec3, 3> corners{t.a, t.b, t.c};
   std::vector<cv::Point> points;
@@ -43,7 +39,7 @@ std::vector<cv::Point> outline(const Lens& lens, const geom::SphericalTriangle& 
 
 }  // namespace
 
-cv::Mat draw_sky_overlay(const Lens& lens, const geom::Dome& dome, const cv::Mat& radiance,
+cv::Mat draw_sky_overlay(const camera::Lens& lens, const geom::Dome& dome, const cv::Mat& radiance,
                          const SkyEstimate& estimate) {
   cv::Mat picture = tone_map(radiance);
   const auto& faces = estimate.luminance.faces;
@@ -61,8 +57,8 @@ cv::Mat draw_sky_overlay(const Lens& lens, const geom::Dome& dome, const cv::Mat
     points = outline(lens, dome.triangle(i));
     if (points.empty()) continue;
     const Eigen::Vector3d s = faces[static_cast<std::size_t>(i)].rgb * scale;
-    cv::fillPoly(tint, std::vector<std::vector<cv::Point>>{points}, cv::Scalar(srgb8(s.z()), srgb8(s.y()), srgb8(s.x())),
-                 cv::LINE_AA);
+    cv::fillPoly(tint, std::vector<std::vector<cv::Point>>{points},
+                 cv::Scalar(srgb_encode8(s.z()), srgb_encode8(s.y()), srgb_encode8(s.x())), cv::LINE_AA);
     if (faces[static_cast<std::size_t>(i)].flags & kFaceUnseen) {
       cv::fillPoly(unseen, std::vector<std::vector<cv::Point>>{points}, cv::Scalar(255));
     }

@@ -18,6 +18,8 @@
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/sky_table.hpp"
 #include "skylit/sky/solar.hpp"
+#include "skylit/sky/srgb.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::sky {
 namespace {
@@ -135,7 +137,7 @@ void deposit_disc(cv::Mat& image, const SunDisc& disc, const DiscTarget& target)
 // Each pixel of the lens's image whose centre unprojects: the mean radiance over its
 // sub-pixel site directions that unproject; other pixels stay 0. Rows run in parallel, so
 // `radiance` is called from several threads at once.
-cv::Mat render_lens(const Lens& lens, const RenderOptions& options,
+cv::Mat render_lens(const camera::Lens& lens, const RenderOptions& options,
                     const std::function<Eigen::Vector3d(const Vec3&)>& radiance) {
   check_options(options);
   const auto& cal = lens.calibration();
@@ -164,7 +166,7 @@ cv::Mat render_lens(const Lens& lens, const RenderOptions& options,
   return out;
 }
 
-double lens_pixel_solid_angle(const Lens& lens, int x, int y) {
+double lens_pixel_solid_angle(const camera::Lens& lens, int x, int y) {
   return block_solid_angle(lens, x - 0.5, y - 0.5, x + 0.5, y + 0.5);
 }
 
@@ -227,7 +229,7 @@ cv::Mat read_equirect(const std::filesystem::path& file) {
   return linearise(image, ResponseCurve::srgb(bits), Exposure{}).radiance;
 }
 
-cv::Mat render_fisheye(const Lens& lens, const cv::Mat& equirect, const RenderOptions& options) {
+cv::Mat render_fisheye(const camera::Lens& lens, const cv::Mat& equirect, const RenderOptions& options) {
   check_equirect(equirect);
   const double offset = options.azimuth_offset;
   return render_lens(lens, options, [&](const Vec3& d) {
@@ -235,7 +237,7 @@ cv::Mat render_fisheye(const Lens& lens, const cv::Mat& equirect, const RenderOp
   });
 }
 
-cv::Mat render_fisheye(const Lens& lens, const SkyFunction& sky, const RenderOptions& options) {
+cv::Mat render_fisheye(const camera::Lens& lens, const SkyFunction& sky, const RenderOptions& options) {
   if (!sky.sky) throw std::invalid_argument("render_fisheye: the sky function is empty");
   cv::Mat out = render_lens(lens, options, sky.sky);
   if (sky.sun) {
@@ -292,9 +294,7 @@ cv::Mat to_8bit(const cv::Mat& radiance, double exposure_scale) {
   constexpr int kLevels = 1 << 16;
   std::vector<std::uint8_t> encode(kLevels);
   for (int i = 0; i < kLevels; ++i) {
-    const double v = static_cast<double>(i) / (kLevels - 1);
-    const double e = v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
-    encode[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(std::lround(std::clamp(e, 0.0, 1.0) * 255.0));
+    encode[static_cast<std::size_t>(i)] = srgb_encode8(static_cast<double>(i) / (kLevels - 1));
   }
   cv::Mat out(radiance.size(), CV_8UC3);
   for (int y = 0; y < radiance.rows; ++y) {
@@ -311,7 +311,7 @@ cv::Mat to_8bit(const cv::Mat& radiance, double exposure_scale) {
   return out;
 }
 
-Eigen::Vector3d fisheye_hemisphere_energy(const Lens& lens, const cv::Mat& radiance) {
+Eigen::Vector3d fisheye_hemisphere_energy(const camera::Lens& lens, const cv::Mat& radiance) {
   const auto& cal = lens.calibration();
   if (radiance.type() != CV_32FC3 || radiance.cols != cal.image_width || radiance.rows != cal.image_height) {
     throw std::invalid_argument("fisheye_hemisphere_energy: not a CV_32FC3 image of the calibration's size");

@@ -5,6 +5,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "skylit/base/error.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::sky {
 namespace {
@@ -15,7 +16,7 @@ double milliseconds_since(std::chrono::steady_clock::time_point start) {
 
 }  // namespace
 
-cv::Mat load_calibration_mask(const CameraCalibration& calibration) {
+cv::Mat load_calibration_mask(const camera::CameraCalibration& calibration) {
   if (calibration.mask.empty()) return {};
   cv::Mat mask = cv::imread(calibration.mask.string(), cv::IMREAD_GRAYSCALE);
   if (mask.empty()) {
@@ -35,7 +36,7 @@ cv::Mat load_calibration_mask(const CameraCalibration& calibration) {
   return mask;
 }
 
-SkyEstimator::SkyEstimator(const CameraCalibration& calibration, const geom::Dome& dome, SkyEstimateOptions options)
+SkyEstimator::SkyEstimator(const camera::CameraCalibration& calibration, const geom::Dome& dome, SkyEstimateOptions options)
     : lens_(calibration), dome_(dome), options_(options), mask_(load_calibration_mask(calibration)) {
   table_ = build_sky_table(lens_, dome_, mask_, options_.table);
   if (options_.max_sources < 1) {

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <exception>
 #include <optional>
 #include <string>
 #include <thread>
@@ -12,6 +11,8 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "skylit/base/error.hpp"
+#include "skylit/base/parallel_for.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::sky {
 namespace {
@@ -30,7 +31,7 @@ std::string size_text(int width, int height) {
 }
 
 // The calibration's mask file, as 8-bit (anything OpenCV reads is converted to grey).
-cv::Mat read_mask(const CameraCalibration& c) {
+cv::Mat read_mask(const camera::CameraCalibration& c) {
   const std::string fix = "point 'mask' at an 8-bit image of " +
                           size_text(c.image_width, c.image_height) +
                           " pixels, 0 where the mount hides the sky (or remove the field)";
@@ -94,7 +95,7 @@ constexpr int kFullMassSubdivisions = 16;
 
 // Rows of blocks [by_begin, by_end). Corner directions are shared by neighbouring blocks, so
 // they are unprojected once per corner row and kept for the next block row.
-void build_band(const Lens& lens, const geom::Dome& dome, const geom::CornerWeights* corners, const cv::Mat& mask,
+void build_band(const camera::Lens& lens, const geom::Dome& dome, const geom::CornerWeights* corners, const cv::Mat& mask,
                 const Axis& ax, const Axis& ay, int by_begin, int by_end, Band& band) {
   const int nbx = ax.blocks();
   const auto unproject_corners = [&](double y, std::vector<std::optional<Vec3>>& row) {
@@ -192,7 +193,7 @@ double corner_conditioning(const Eigen::MatrixXd& m, const Eigen::MatrixXd& full
   return low / reference;
 }
 
-double block_solid_angle(const Lens& lens, double x0, double y0, double x1, double y1) {
+double block_solid_angle(const camera::Lens& lens, double x0, double y0, double x1, double y1) {
   const std::optional<Vec3> d00 = lens.unproject(Vec2(x0, y0));
   const std::optional<Vec3> d10 = lens.unproject(Vec2(x1, y0));
   const std::optional<Vec3> d11 = lens.unproject(Vec2(x1, y1));
@@ -201,13 +202,13 @@ double block_solid_angle(const Lens& lens, double x0, double y0, double x1, doub
   return quad_solid_angle(*d00, *d10, *d11, *d01);
 }
 
-SkyTable build_sky_table(const Lens& lens, const geom::Dome& dome, const SkyTableOptions& options) {
+SkyTable build_sky_table(const camera::Lens& lens, const geom::Dome& dome, const SkyTableOptions& options) {
   return build_sky_table(lens, dome, cv::Mat(), options);
 }
 
-SkyTable build_sky_table(const Lens& lens, const geom::Dome& dome, const cv::Mat& mask_in,
+SkyTable build_sky_table(const camera::Lens& lens, const geom::Dome& dome, const cv::Mat& mask_in,
                          const SkyTableOptions& options) {
-  const CameraCalibration& c = lens.calibration();
+  const camera::CameraCalibration& c = lens.calibration();
   if (options.step < 1) {
     throw InputError(input_message(
         c.file, -1, -1, "step",
@@ -235,26 +236,13 @@ SkyTable build_sky_table(const Lens& lens, const geom::Dome& dome, const cv::Mat
   std::optional<geom::CornerWeights> corners;
   if (options.basis != geom::DomeBasis::Faces) corners.emplace(dome);
 
+  // One band of block rows per thread, each built into its own Band and joined in order below.
   std::vector<Band> bands(static_cast<std::size_t>(threads));
-  std::vector<std::exception_ptr> errors(bands.size());
-  {
-    std::vector<std::jthread> workers;
-    for (int t = 0; t < threads; ++t) {
-      const int begin = static_cast<int>(static_cast<long long>(nby) * t / threads);
-      const int end = static_cast<int>(static_cast<long long>(nby) * (t + 1) / threads);
-      const auto index = static_cast<std::size_t>(t);
-      workers.emplace_back([&, begin, end, index] {
-        try {
-          build_band(lens, dome, corners ? &*corners : nullptr, mask, ax, ay, begin, end, bands[index]);
-        } catch (...) {
-          errors[index] = std::current_exception();
-        }
-      });
-    }
-  }  // joined
-  for (const std::exception_ptr& error : errors) {
-    if (error) std::rethrow_exception(error);
-  }
+  parallel_for(threads, threads, [&](int t) {
+    const int begin = static_cast<int>(static_cast<long long>(nby) * t / threads);
+    const int end = static_cast<int>(static_cast<long long>(nby) * (t + 1) / threads);
+    build_band(lens, dome, corners ? &*corners : nullptr, mask, ax, ay, begin, end, bands[static_cast<std::size_t>(t)]);
+  });
 
   SkyTable table;
   table.image_width = c.image_width;

@@ -9,6 +9,7 @@
 
 #include "skylit/base/error.hpp"
 #include "skylit/sky/sky_table.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::sky {
 namespace {
@@ -63,9 +64,9 @@ void merge_disc(Sun& sun, const std::vector<std::pair<Vec3, double>>& pixels) {
 
 }  // namespace
 
-SunDetector::SunDetector(const Lens& lens, const cv::Mat& mask, SunOptions options)
+SunDetector::SunDetector(const camera::Lens& lens, const cv::Mat& mask, SunOptions options)
     : lens_(&lens), options_(options) {
-  const CameraCalibration& c = lens.calibration();
+  const camera::CameraCalibration& c = lens.calibration();
   if (!mask.empty() && (mask.type() != CV_8UC1 || mask.cols != c.image_width || mask.rows != c.image_height)) {
     throw InputError(input_message(c.file, -1, -1, "mask",
                                    "the sky mask is not an 8-bit single-channel image of " +
@@ -85,7 +86,7 @@ SunDetector::SunDetector(const Lens& lens, const cv::Mat& mask, SunOptions optio
 }
 
 SunDetection SunDetector::detect(const cv::Mat& radiance, const cv::Mat& clipped) const {
-  const CameraCalibration& c = lens_->calibration();
+  const camera::CameraCalibration& c = lens_->calibration();
   if (radiance.type() != CV_32FC3 || radiance.cols != c.image_width || radiance.rows != c.image_height) {
     throw InputError(input_message(c.file, -1, -1, "",
                                    "the sky frame is not a float BGR image of the calibration's size (" +

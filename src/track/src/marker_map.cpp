@@ -2,10 +2,9 @@
 #include "skylit/track/marker_map.hpp"
 
 #include <array>
-#include <charconv>
 #include <cmath>
 #include <map>
-#include <sstream>
+#include <span>
 #include <stdexcept>
 #include <string_view>
 
@@ -14,6 +13,7 @@
 #include "skylit/base/error.hpp"
 #include "skylit/base/files.hpp"
 #include "skylit/base/yaml_reader.hpp"
+#include "skylit/base/yaml_writer.hpp"
 #include "skylit/track/tag_detector.hpp"
 
 namespace skylit::track {
@@ -25,21 +25,6 @@ constexpr std::array<std::string_view, 3> kTopKeys{"family", "size", "tags"};
 constexpr std::array<std::string_view, 5> kTagKeys{"id", "size", "position", "orientation", "R"};
 constexpr double kUnitTolerance = 1e-3;
 const char* const kDocs = "see docs/tracking.md (marker map)";
-
-std::string format_number(double value) {
-  std::array<char, 32> text{};
-  const auto result = std::to_chars(text.data(), text.data() + text.size(), value);
-  return std::string(text.data(), result.ptr);
-}
-
-std::string format_list(const double* values, std::size_t count) {
-  std::string out = "[";
-  for (std::size_t i = 0; i < count; ++i) {
-    if (i > 0) out += ", ";
-    out += format_number(values[i]);
-  }
-  return out + "]";
-}
 
 int family_size(const YamlReader& r, const YAML::Node& node, const std::string& family) {
   try {
@@ -190,20 +175,20 @@ MarkerMap load_marker_map(const fs::path& file) {
 }
 
 std::string marker_map_to_yaml(const MarkerMap& map) {
-  std::ostringstream out;
-  out << "# skylit marker map (format: docs/tracking.md). Site frame: x east, y north, z up, metres.\n"
-      << "# Tag frame: x right, y up as printed, z out of the face; orientation = R_site_from_tag.\n"
-      << "family: " << map.family << "\n"
-      << "tags:\n";
+  using YAML::Key, YAML::Value;
+  YAML::Emitter out;
+  out << YamlCommentLine{"skylit marker map (format: docs/tracking.md). Site frame: x east, y north, z up, metres.\n"
+                         "Tag frame: x right, y up as printed, z out of the face; orientation = R_site_from_tag."}
+      << YAML::BeginMap << Key << "family" << Value << map.family << Key << "tags" << Value << YAML::BeginSeq;
   for (const MarkerTag& tag : map.tags) {
     const Eigen::Quaterniond& q = tag.R_site_from_tag;
     const std::array<double, 4> wxyz{q.w(), q.x(), q.y(), q.z()};
-    out << "  - id: " << tag.id << "\n"
-        << "    size: " << format_number(tag.size) << "\n"
-        << "    position: " << format_list(tag.t_site_from_tag.data(), 3) << "\n"
-        << "    orientation: " << format_list(wxyz.data(), 4) << "\n";
+    out << YAML::BeginMap << Key << "id" << Value << tag.id << Key << "size" << Value << YamlNumber{tag.size}
+        << Key << "position" << Value << YamlNumbers{std::span<const double>(tag.t_site_from_tag.data(), 3)}
+        << Key << "orientation" << Value << YamlNumbers{wxyz} << YAML::EndMap;
   }
-  return out.str();
+  out << YAML::EndSeq << YAML::EndMap;
+  return yaml_document(out);
 }
 
 void save_marker_map(const MarkerMap& map, const fs::path& file) {

@@ -1,5 +1,6 @@
 // Head pose from the visible tags: IPPE per tag for the starts, Levenberg–Marquardt over all.
 #include "skylit/track/marker_pose.hpp"
+#include "skylit/camera/lens.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -76,7 +77,7 @@ void to_cv(const CameraFromSite& c, cv::Mat& rvec, cv::Mat& tvec) {
 }
 
 // Sum of squared pixel errors of one tag's corners under a pose.
-double tag_squared_error(const Observation& o, const CameraFromSite& c, const sky::Lens& lens) {
+double tag_squared_error(const Observation& o, const CameraFromSite& c, const camera::Lens& lens) {
   double sum = 0;
   for (std::size_t k = 0; k < 4; ++k) {
     const Vec3 camera = c.R * o.site[k] + c.t;
@@ -87,7 +88,7 @@ double tag_squared_error(const Observation& o, const CameraFromSite& c, const sk
   return sum;
 }
 
-double rms_over(std::span<const Observation* const> tags, const CameraFromSite& c, const sky::Lens& lens) {
+double rms_over(std::span<const Observation* const> tags, const CameraFromSite& c, const camera::Lens& lens) {
   double sum = 0;
   for (const Observation* o : tags) sum += tag_squared_error(*o, c, lens);
   return std::sqrt(sum / (4.0 * static_cast<double>(tags.size())));
@@ -153,7 +154,7 @@ struct Solution {
 // refined in that order; a start near one already refined is skipped (it would fall into the
 // same minimum), and the search stops once two different minima are known. The best, and the
 // best that differs from it.
-std::optional<Solution> solve_over(std::span<const Observation* const> tags, const sky::Lens& lens,
+std::optional<Solution> solve_over(std::span<const Observation* const> tags, const camera::Lens& lens,
                                    const MarkerPoseOptions& options) {
   std::vector<const Observation*> by_size(tags.begin(), tags.end());
   std::stable_sort(by_size.begin(), by_size.end(),
@@ -217,7 +218,7 @@ std::string MarkerSolve::describe_flags() const {
   return text.empty() ? "ok" : text;
 }
 
-MarkerSolve solve_marker_pose(const MarkerMap& map, const sky::Lens& lens, std::span<const TagDetection> detections,
+MarkerSolve solve_marker_pose(const MarkerMap& map, const camera::Lens& lens, std::span<const TagDetection> detections,
                               const MarkerPoseOptions& options) {
   check_options(options);
   MarkerSolve result;

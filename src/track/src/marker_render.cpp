@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "skylit/track/tag_detector.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::track {
 namespace {
@@ -22,7 +23,7 @@ struct PixelBox {
 // The tag's paper outline in the frame (points along its edges, padded), or the whole frame when
 // part of it cannot be projected.
 PixelBox tag_box(const std::array<Vec3, 4>& paper_corners, const Eigen::Matrix3d& camera_from_site, const Vec3& centre,
-                 const sky::Lens& lens, int width, int height) {
+                 const camera::Lens& lens, int width, int height) {
   constexpr int kPointsPerEdge = 16;
   constexpr double kPadPx = 3;
   double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
@@ -51,9 +52,9 @@ PixelBox tag_box(const std::array<Vec3, 4>& paper_corners, const Eigen::Matrix3d
 
 }  // namespace
 
-cv::Mat render_markers(const MarkerMap& map, const sky::Lens& lens, const Pose& camera, const MarkerRenderOptions& options) {
+cv::Mat render_markers(const MarkerMap& map, const camera::Lens& lens, const Pose& camera, const MarkerRenderOptions& options) {
   if (options.supersampling < 1) throw std::invalid_argument("render_markers: supersampling must be ≥ 1");
-  const sky::CameraCalibration& calibration = lens.calibration();
+  const camera::CameraCalibration& calibration = lens.calibration();
   const int width = calibration.image_width, height = calibration.image_height;
   cv::Mat1f grey(height, width, static_cast<float>(options.background));
 

@@ -8,6 +8,7 @@
 #include <opencv2/core/mat.hpp>
 
 #include "skylit/base/error.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::track {
 namespace {
@@ -24,7 +25,7 @@ bool accepted(const MarkerSolve& solve, const MarkerTrackerOptions& options) {
 
 }  // namespace
 
-MarkerTracker::MarkerTracker(MarkerMap map, const sky::CameraCalibration& camera, const MarkerTrackerOptions& options)
+MarkerTracker::MarkerTracker(MarkerMap map, const camera::CameraCalibration& camera, const MarkerTrackerOptions& options)
     : map_(std::move(map)),
       lens_(camera),
       options_(options),
@@ -38,7 +39,7 @@ MarkerTracker::MarkerTracker(MarkerMap map, const sky::CameraCalibration& camera
 }
 
 MarkerSolve MarkerTracker::process(const cv::Mat& frame, double timestamp) {
-  const sky::CameraCalibration& c = lens_.calibration();
+  const camera::CameraCalibration& c = lens_.calibration();
   if (frame.cols != c.image_width || frame.rows != c.image_height) {
     throw InputError(input_message(c.file, -1, -1, "image_width",
                                    "the camera's frames are " + std::to_string(frame.cols) + "×" + std::to_string(frame.rows) +
@@ -89,11 +90,11 @@ std::optional<MarkerSolve> MarkerTracker::latest_solve() const {
   return latest_;
 }
 
-std::unique_ptr<MarkerTracker> open_marker_tracker(const PoseConfig& config, const sky::CameraCalibration* camera) {
+std::unique_ptr<MarkerTracker> open_marker_tracker(const PoseConfig& config, const camera::CameraCalibration* camera) {
   if (config.kind != PoseConfig::Kind::Markers) throw std::invalid_argument("open_marker_tracker: the pose config is not of kind markers");
   MarkerMap map = load_marker_map(config.marker_map);
   if (!config.marker_calibration.empty()) {
-    return std::make_unique<MarkerTracker>(std::move(map), sky::load_calibration(config.marker_calibration), config.markers);
+    return std::make_unique<MarkerTracker>(std::move(map), camera::load_calibration(config.marker_calibration), config.markers);
   }
   if (camera == nullptr) throw std::invalid_argument("open_marker_tracker: no camera calibration in the config nor given");
   return std::make_unique<MarkerTracker>(std::move(map), *camera, config.markers);

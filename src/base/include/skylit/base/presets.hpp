@@ -1,53 +1,50 @@
 #pragma once
-// Named settings (config/presets.yaml, docs/presets.md): fast, balanced, accurate. Each names the
-// bake's settings (what skylit-bake --preset NAME uses) and the live service's (what a
-// skylit-live config's `preset: NAME` sets before its own keys, which override them). Chosen
-// from the trade table (skylit-bench trade, bench/RESULTS.md).
-//
-//   balanced:
-//     bake: {frequency: 2, basis: corners, samples: 16, pca_components: 0}
-//     live: {basis: full, storage: half, skip_threshold: 0, change_threshold: 0.002,
-//            smoothing: 0, sun: auto}
+// The presets file (config/presets.yaml, docs/presets.md): named settings, one section per layer
+// they configure (bake:, live:). This reads the file's shape; each layer types its own section
+// (baker/preset.hpp, live/live_config.hpp).
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
+
+#include <yaml-cpp/yaml.h>
+
+#include "skylit/base/yaml_reader.hpp"
 
 namespace skylit {
 
-struct BakePreset {
-  int frequency = 2;
-  std::string basis = "faces";   // faces | corners
-  int samples = 16;
-  int pca_components = 0;        // 0: no PCA form stored
-  int pca_tile = 0;              // clustered PCA: tiles of this many texels (0: one set per plane)
-};
-
-struct LivePreset {
-  std::string basis = "full";    // blend.basis: full | lean | pca
-  std::string storage = "half";  // blend.storage: half | unorm8 | eac
-  double skip_threshold = 0.0;   // blend.skip_threshold (S threshold)
-  double change_threshold = 0.002;  // blend.change_threshold (ΔS threshold)
-  double smoothing = 0.0;        // sky.smoothing, seconds
-  bool sun = true;               // sky.sun: auto (true) | off
-  double render_scale = 1.0;     // render.scale: the building's render resolution, (0, 1]
-};
-
-struct Preset {
-  std::string name;
-  BakePreset bake;
-  LivePreset live;
-};
-
-// The presets file the tools use when none is given: presets.yaml in the source tree's config/.
+// The presets the tools use when none is given: presets.yaml in the source tree's config/.
 std::filesystem::path default_presets_file();
 
-// Every preset of `file`, in file order. InputError (file, line, field, fix) for anything wrong.
-std::vector<Preset> load_presets(const std::filesystem::path& file);
+// One section of one preset, with the reader that names the file, line and field in errors.
+struct PresetSection {
+  YamlReader reader;
+  YAML::Node node;        // a map (every preset has every section)
+  std::string field;      // "balanced.bake": the prefix of the section's fields in messages
+  // "balanced.bake.frequency"
+  std::string field_of(std::string_view key) const { return field + "." + std::string(key); }
+};
 
-// The preset `name` of `file`; InputError naming the file and the valid names when there is none.
-Preset find_preset(const std::filesystem::path& file, const std::string& name);
+class PresetsFile {
+ public:
+  // Parses `file`: a map of names, each {bake: {...}, live: {...}}. InputError (file, line, field,
+  // fix) for anything else, or for a file without presets.
+  explicit PresetsFile(std::filesystem::path file);
 
-// "fast, balanced, accurate": the names of `presets`, comma-separated.
-std::string preset_names(const std::vector<Preset>& presets);
+  const std::filesystem::path& file() const { return reader_.file(); }
+  // In file order.
+  const std::vector<std::string>& names() const { return names_; }
+  // "fast, balanced, accurate".
+  std::string names_text() const;
+
+  // Section `section` ("bake" or "live") of preset `name`; InputError naming the file and the
+  // valid names when there is no such preset.
+  PresetSection section(const std::string& name, std::string_view section) const;
+
+ private:
+  YamlReader reader_;
+  YAML::Node root_;
+  std::vector<std::string> names_;
+};
 
 }  // namespace skylit

@@ -5,6 +5,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <yaml-cpp/yaml.h>
 
@@ -14,8 +15,14 @@ class YamlReader {
  public:
   explicit YamlReader(std::filesystem::path file) : file_(std::move(file)) {}
 
+  // How to mend a YAML syntax error, unless a reader says more (its schema's documentation).
+  static constexpr const char* kSyntaxFix = "correct the YAML syntax at that line (indentation, colons, brackets)";
+
   // Parses the file (InputError naming it when missing, unreadable or not YAML, with the line).
-  YAML::Node load() const;
+  // An empty file gives a null node.
+  YAML::Node load(const std::string& syntax_fix = kSyntaxFix) const;
+  // Parses text already read from the file (a reader that looks at the text first).
+  YAML::Node parse(const std::string& text, const std::string& syntax_fix = kSyntaxFix) const;
 
   [[noreturn]] void fail(const YAML::Node& node, const std::string& field, const std::string& problem,
                          const std::string& fix) const;
@@ -26,8 +33,13 @@ class YamlReader {
 
   // The value of `key`, or an undefined node when absent or null.
   static YAML::Node optional(const YAML::Node& map, const std::string& key);
+  // The value of `key`: a missing key is reported at its map ("add it: FIX"), a key without a
+  // value at the key itself.
   YAML::Node require(const YAML::Node& map, const std::string& key, const std::string& field,
                      const std::string& fix) const;
+  // The node of the key `key` in `map` (for errors about a null value, whose own mark points past
+  // it), or `map` itself when absent.
+  static YAML::Node key_node(const YAML::Node& map, const std::string& key);
 
   std::string text(const YAML::Node& node, const std::string& field, const std::string& fix) const;
   double number(const YAML::Node& node, const std::string& field, const std::string& fix) const;
@@ -39,6 +51,8 @@ class YamlReader {
   // Exactly `count` numbers in a sequence.
   std::vector<double> numbers(const YAML::Node& node, std::size_t count, const std::string& field,
                               const std::string& fix) const;
+  // A sequence of finite numbers, of any length.
+  std::vector<double> numbers(const YAML::Node& node, const std::string& field, const std::string& fix) const;
   // One of `choices`.
   std::string choice(const YAML::Node& node, const std::string& field, std::span<const std::string_view> choices) const;
   // A path, relative to the config file's folder unless absolute.

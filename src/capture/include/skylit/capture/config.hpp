@@ -1,13 +1,6 @@
 #pragma once
-// A frame source described in a config file, and the factory that opens it.
-//
-//   source:
-//     kind: images            # images | video | v4l2 | libcamera | sky-sim
-//     name: sky               # optional: how the source is named in messages and status
-//     path: recordings/sky/   # images: a folder or a glob; video: file
-//     ...                     # the kind's own fields (docs/live.md, "Frame sources")
-//
-// Relative paths are taken from the config file's folder.
+// A frame source described in a config file, and the factory that opens it (docs/live.md,
+// "Frame sources").
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -25,6 +18,15 @@ class Node;
 
 namespace skylit::capture {
 
+// A `source:` node of a config file:
+//
+//   source:
+//     kind: images            # images | video | v4l2 | libcamera | sky-sim
+//     name: sky               # optional: how the source is named in messages and status
+//     path: recordings/sky/   # images: a folder or a glob; video: file
+//     ...                     # the kind's own fields (docs/live.md, "Frame sources")
+//
+// Relative paths are taken from the config file's folder.
 struct SourceConfig {
   std::string name;  // empty: the source's describe()
   std::variant<ImagesSettings, VideoSettings, V4l2Settings, LibcameraSettings, SkySimSettings> settings{};

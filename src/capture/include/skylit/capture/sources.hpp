@@ -16,7 +16,7 @@ namespace cv {
 class VideoCapture;
 }
 
-namespace skylit::sky {
+namespace skylit::camera {
 class Lens;
 }
 
@@ -188,7 +188,7 @@ class SkySimSource final : public FrameSource {
   cv::Mat render(std::int64_t k) const;  // linear radiance of frame k
   Frame make_frame(const cv::Mat& radiance, std::int64_t k, std::optional<double> exposure_time) const;
   SkySimSettings settings_;
-  std::unique_ptr<sky::Lens> lens_;
+  std::unique_ptr<camera::Lens> lens_;
   cv::Mat equirect_render_;  // Sky::Equirect: rendered once
   std::int64_t next_ = 0;
   std::int64_t sequence_ = 0;

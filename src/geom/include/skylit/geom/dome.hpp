@@ -1,10 +1,5 @@
 #pragma once
 // The class-I geodesic dome over the upper hemisphere (site frame, z up).
-//
-// An icosahedron with a vertex at the zenith; every face is cut into ν² triangles and the grid
-// points are projected onto the unit sphere. For even ν the horizon lies on edges, so the upper
-// hemisphere holds exactly 10ν² faces (ν=2 → 40, 4 → 160, 6 → 360, 8 → 640). A face is the
-// spherical triangle spanned by its three vertices (great-arc edges).
 #include <array>
 #include <vector>
 
@@ -12,6 +7,7 @@
 
 namespace skylit::geom {
 
+// A face is the spherical triangle spanned by its three vertices (great-arc edges).
 struct DomeFace {
   std::array<int, 3> vertex;     // into Dome::vertices(), counter-clockwise seen from outside
   Vec3 centre;                   // unit direction of the vertex mean
@@ -21,6 +17,9 @@ struct DomeFace {
   std::array<int, 3> neighbour;
 };
 
+// An icosahedron with a vertex at the zenith; every face is cut into ν² triangles and the grid
+// points are projected onto the unit sphere. For even ν the horizon lies on edges, so the upper
+// hemisphere holds exactly 10ν² faces (ν=2 → 40, 4 → 160, 6 → 360, 8 → 640).
 class Dome {
  public:
   // Throws std::invalid_argument unless frequency is even and ≥ 2 (and ≤ 64).

@@ -1,5 +1,17 @@
 #pragma once
 // The radiance basis over the dome: how the sky's radiance L(ω) is represented face by face.
+#include <array>
+#include <optional>
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "skylit/geom/dome.hpp"
+
+namespace skylit::geom {
+
+// The bases:
 //
 //   faces    one constant per face (the paper's): L ≈ Σ_f S_f 1_f(ω)            1 layer per face
 //   corners  discontinuous piecewise linear: per face f three hats λ_{f,k}(ω), the barycentric
@@ -17,17 +29,6 @@
 // face's flat triangle (L = a + b·p, p where the ray meets the triangle) by the corners. A sky
 // linear in the unit direction (a + b·ω) is not quite: p = ω/(s·ω) bends by up to 1 − cos of
 // the face's radius (the fit misses the vertex values by up to 5% of |b| at ν = 2, 1.3% at ν = 4).
-#include <array>
-#include <optional>
-#include <string_view>
-#include <vector>
-
-#include <Eigen/Core>
-
-#include "skylit/geom/dome.hpp"
-
-namespace skylit::geom {
-
 enum class DomeBasis { Faces, Corners, Quadratics };
 
 std::string_view basis_name(DomeBasis basis);                   // "faces" | "corners" | "quadratics"

@@ -1,5 +1,94 @@
 #pragma once
 // skylit-live's configuration: one YAML file, paths relative to it (docs/live.md, "Configuration").
+#include <array>
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "skylit/base/presets.hpp"
+#include "skylit/blend/forms.hpp"
+#include "skylit/capture/config.hpp"
+#include "skylit/track/fusion.hpp"
+#include "skylit/track/imu.hpp"
+#include "skylit/track/pose.hpp"
+
+namespace skylit::live {
+
+struct SkySettings {
+  std::filesystem::path calibration;
+  capture::SourceConfig source;
+  std::string response = "srgb";      // srgb | linear | a response file (skylit-sky response)
+  double rate = 1.0;                  // estimates per second at most; 0: every frame
+  bool sun = true;                    // sun separation (auto)
+  double smoothing = 0.0;             // seconds
+  double stale_after = 30.0;          // seconds
+};
+
+struct CameraSettings {
+  std::filesystem::path calibration;
+  capture::SourceConfig source;
+};
+
+// Where the shadow ratios are blended: on the CPU (on the sky thread, right after S) or on the GPU
+// (on the render thread); auto picks the CPU when the GL renderer is a software one.
+enum class BlendDevice { Auto, Cpu, Gpu };
+std::string blend_device_name(BlendDevice device);  // "auto", "cpu", "gpu"
+
+struct BlendSettings {
+  BlendDevice device = BlendDevice::Auto;
+  int threads = 2;                    // CPU blend threads, the sky thread included (0: all hardware threads)
+  // blend.storage (GPU blend): half floats, 8-bit, or EAC R11 blocks.
+  blend::BasisStorage storage = blend::BasisStorage::Half;
+  // blend.basis: full (every layer), lean (the layers that hold a shadow and one of ones, T
+  // within 1e-3; docs/baker.md) or pca (each plane's PCA form, K + 1 layers, docs/bake-format.md;
+  // the bake must have one: skylit-bake compress) or cropped (lean with each shadowed layer
+  // cropped to the rectangle it shadows: the CPU blend reads only the rectangles, the GPU blend
+  // holds them in an atlas of pages; any storage).
+  blend::BasisForm basis = blend::BasisForm::Full;
+  double skip_threshold = 0.0;
+  double change_threshold = 0.002;
+  // Blend only the planes the current view can see (render::plane_in_view); a plane that comes
+  // back into view is blended for the current sky before it is drawn. false: every plane, every sky.
+  bool cull_planes = true;
+};
+
+// What the service shows when the pose is lost and when it returns (docs/live.md, "Tracking lost").
+struct TrackingSettings {
+  double fade_s = 0.3;   // seconds from full opacity to none, and back; 0: at once
+};
+
+struct PhotometricSettings {
+  Eigen::Vector3d scale = Eigen::Vector3d::Ones();
+  // Estimated from a reference region of a real plane instead, when set.
+  std::optional<std::string> plane;
+  std::array<double, 4> region{0, 1, 0, 1};       // s0, s1, t0, t1 on the plane
+  Eigen::Vector3d albedo = Eigen::Vector3d::Constant(0.2);
+  int every = 30;                                 // frames between estimates
+};
+
+struct OutputSettings {
+  std::filesystem::path record;   // empty: none
+  std::optional<double> record_fps;  // a recorded video's frame rate; none: the HMD camera's
+  bool window = false;
+};
+
+// How the building is rendered (render::CompositorOptions).
+struct RenderSettings {
+  // The pinhole render's resolution against the frame's (render::LensRemapOptions::render_scale):
+  // the building's fill cost goes as its square (docs/live.md, "Rendering and compositing").
+  double scale = 1.0;
+};
+
+// The HMD display (docs/hmd.md): a profile, the monitor to fill, one render or one per eye.
+struct DisplaySettings {
+  std::filesystem::path profile;
+  std::string monitor;   // empty: a window
+  bool stereo = false;
+};
+
+// The config file:
 //
 //   site: sample_site.yaml              # the site the bake was made for
 //   bake: ../build/demo/bake            # the bake folder (skylit-bake's output)
@@ -50,94 +139,6 @@
 //     profile: hmd/generic.yaml         # an HMD profile (config/hmd/)
 //     monitor: HDMI-1                   # full screen on this monitor; omit for a window
 //     mode: stereo                      # stereo (a render per eye) or mono (default)
-#include <array>
-#include <filesystem>
-#include <optional>
-#include <string>
-
-#include <Eigen/Core>
-
-#include "skylit/capture/config.hpp"
-#include "skylit/track/fusion.hpp"
-#include "skylit/track/imu.hpp"
-#include "skylit/track/pose.hpp"
-
-namespace skylit::live {
-
-struct SkySettings {
-  std::filesystem::path calibration;
-  capture::SourceConfig source;
-  std::string response = "srgb";      // srgb | linear | a response file (skylit-sky response)
-  double rate = 1.0;                  // estimates per second at most; 0: every frame
-  bool sun = true;                    // sun separation (auto)
-  double smoothing = 0.0;             // seconds
-  double stale_after = 30.0;          // seconds
-};
-
-struct CameraSettings {
-  std::filesystem::path calibration;
-  capture::SourceConfig source;
-};
-
-// Where the shadow ratios are blended: on the CPU (on the sky thread, right after S) or on the GPU
-// (on the render thread); auto picks the CPU when the GL renderer is a software one.
-enum class BlendDevice { Auto, Cpu, Gpu };
-std::string blend_device_name(BlendDevice device);  // "auto", "cpu", "gpu"
-
-struct BlendSettings {
-  BlendDevice device = BlendDevice::Auto;
-  int threads = 2;                    // CPU blend threads, the sky thread included (0: all hardware threads)
-  // blend.storage (GPU blend): half floats, 8-bit, or EAC R11 blocks (render::BasisStorage).
-  enum class Storage { Half, Unorm8, Eac };
-  Storage storage = Storage::Half;
-  // blend.basis: full (every layer), lean (the layers that hold a shadow and one of ones, T
-  // within 1e-3; docs/baker.md) or pca (each plane's PCA form, K + 1 layers, docs/bake-format.md;
-  // the bake must have one: skylit-bake compress) or cropped (lean with each shadowed layer
-  // cropped to the rectangle it shadows: the CPU blend reads only the rectangles, the GPU blend
-  // holds them in an atlas of pages; any storage).
-  enum class Basis { Full, Lean, Pca, Cropped };
-  Basis basis = Basis::Full;
-  double skip_threshold = 0.0;
-  double change_threshold = 0.002;
-  // Blend only the planes the current view can see (render::plane_in_view); a plane that comes
-  // back into view is blended for the current sky before it is drawn. false: every plane, every sky.
-  bool cull_planes = true;
-};
-
-// What the service shows when the pose is lost and when it returns (docs/live.md, "Tracking lost").
-struct TrackingSettings {
-  double fade_s = 0.3;   // seconds from full opacity to none, and back; 0: at once
-};
-
-struct PhotometricSettings {
-  Eigen::Vector3d scale = Eigen::Vector3d::Ones();
-  // Estimated from a reference region of a real plane instead, when set.
-  std::optional<std::string> plane;
-  std::array<double, 4> region{0, 1, 0, 1};       // s0, s1, t0, t1 on the plane
-  Eigen::Vector3d albedo = Eigen::Vector3d::Constant(0.2);
-  int every = 30;                                 // frames between estimates
-};
-
-struct OutputSettings {
-  std::filesystem::path record;   // empty: none
-  std::optional<double> record_fps;  // a recorded video's frame rate; none: the HMD camera's
-  bool window = false;
-};
-
-// How the building is rendered (render::CompositorOptions).
-struct RenderSettings {
-  // The pinhole render's resolution against the frame's (render::LensRemapOptions::render_scale):
-  // the building's fill cost goes as its square (docs/live.md, "Rendering and compositing").
-  double scale = 1.0;
-};
-
-// The HMD display (docs/hmd.md): a profile, the monitor to fill, one render or one per eye.
-struct DisplaySettings {
-  std::filesystem::path profile;
-  std::string monitor;   // empty: a window
-  bool stereo = false;
-};
-
 struct LiveConfig {
   std::filesystem::path file;
   std::filesystem::path site;
@@ -159,6 +160,23 @@ struct LiveConfig {
   std::optional<std::string> status_listen;  // "ADDR:PORT"
   std::optional<DisplaySettings> display;    // set: the window shows the HMD display
 };
+
+// A preset's live settings (the `live:` section of config/presets.yaml, docs/presets.md): what a
+// config's `preset: NAME` sets before its own keys, which override them.
+struct LivePreset {
+  std::string name;
+  blend::BasisForm basis = blend::BasisForm::Full;          // blend.basis
+  blend::BasisStorage storage = blend::BasisStorage::Half;  // blend.storage
+  double skip_threshold = 0.0;                              // blend.skip_threshold, T units
+  double change_threshold = 0.002;                          // blend.change_threshold, T units
+  double smoothing = 0.0;                                   // sky.smoothing, seconds
+  bool sun = true;                                          // sky.sun: auto (true) | off
+  double render_scale = 1.0;                                // render.scale, (0, 1]
+};
+
+// The live section of preset `name`, checked against its bake section (the PCA form needs
+// bake.pca_components). InputError (file, line, field, fix) for anything wrong.
+LivePreset load_live_preset(const PresetsFile& presets, const std::string& name);
 
 // The presets a config file's `preset` is looked up in: presets.yaml in its folder when there is
 // one, else skylit::default_presets_file() (config/presets.yaml of the source tree).

@@ -48,13 +48,11 @@ class Service {
   std::unique_ptr<State> state_;
 };
 
-// The frame log written beside a recording (CSV: frame, file, timestamp, sky_timestamp, sky_utc,
-// sun_elevation_deg, sun_azimuth_deg; a line per frame): `live.mp4` → `live.csv`, a folder of PNGs
-// → its `frames.csv` (which the images source reads back).
-std::filesystem::path frame_log_path(const std::filesystem::path& record);
-
-// Refuses a bake that was not made for this site: dome frequency, basis and the planes (names,
-// geometry, resolution) must agree. InputError listing every difference and the fix.
-void check_bake_matches_site(const std::filesystem::path& bake_dir, const std::filesystem::path& site_file);
+// Refuses a bake that was not made for this site: the planes (names, geometry, resolution) must
+// agree, and so must the dome's frequency and basis, unless the bake was made with the preset the
+// config names (skylit-bake --preset P, then `preset: P`), whose dome replaces the site's. A bake
+// made with a preset needs that preset in the config. InputError listing every difference and the fix.
+void check_bake_matches_site(const std::filesystem::path& bake_dir, const std::filesystem::path& site_file,
+                             const std::string& config_preset = "");
 
 }  // namespace skylit::live

@@ -2,32 +2,6 @@
 // The composite the HMD shows: the camera image as the background, the virtual building's
 // shadow on the real ground, and the building itself, sky-lit, drawn with depth from the camera
 // pose through the HMD camera's calibrated lens (docs/live.md, "Rendering and compositing").
-//
-// Per output pixel p, with the ray the lens model gives p:
-//   background  B = camera(p), linear (8-bit frames are sRGB-decoded; float frames are linear),
-//               × T_j(x) where the ray meets a real plane j first (x the hit point);
-//   building    radiance L = k ⊙ ρ/π · E (ρ the glTF base colour × texture, k the photometric
-//               match), with
-//                 E = T_j(x) ⊙ (Σ_i S_i A_{j,i} + E_sun max(0, n_j·ω_sun))  where a virtual
-//                     plane j covers the fragment (within cover_distance of its rectangle,
-//                     normals within cover_max_angle_deg): exact, and no double occlusion;
-//                 E = Σ_i S_i t_{v,i} (interpolated) + E_sun max(0, n·ω_sun) V_sun  elsewhere,
-//                     V_sun from the sun's shadow map (SunShadowMap; 1 without one);
-//   output      L over B, except where a real plane is nearer than the building by more than
-//               occlusion_margin (the real surface hides it);
-//   faded       (1 − α) camera(p) + α output, α = CompositeInput::opacity: α = 1 is the output,
-//               α = 0 the camera image unchanged (no building, no shadows).
-// The building is rendered with a pinhole camera and distorted to the lens through a per-pixel
-// ray table (lens_remap.hpp); the camera's pixels are never resampled.
-//
-// Speed (a software renderer, llvmpipe, runs every branch of a shader for a group of pixels):
-// the shaders are compiled for the site (its numbers of real and virtual planes; with and
-// without the sun's shadow map), the building gets a depth pre-pass so that each render texel
-// is shaded once, and the sun's soft shadow is sampled through SunShadowMap's minimum/maximum
-// pyramid (bench/RESULTS.md, "Compositor").
-//
-// Everything runs in the OpenGL ES context current when the Compositor is made (it must stay
-// current for every call, and alive until the Compositor is destroyed).
 #include <array>
 #include <cstdint>
 #include <filesystem>
@@ -41,15 +15,15 @@
 #include <Eigen/Core>
 #include <opencv2/core/mat.hpp>
 
-#include "skylit/bake/format.hpp"
+#include "skylit/bake_format/manifest.hpp"
 #include "skylit/gpu/gl.hpp"
-#include "skylit/render/cpu_blend.hpp"
+#include "skylit/blend/cpu_blend.hpp"
 #include "skylit/render/lens_remap.hpp"
 #include "skylit/render/photometric.hpp"
 #include "skylit/render/sun_shadow_map.hpp"
 #include "skylit/scene/mesh.hpp"
 #include "skylit/scene/site.hpp"
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::render {
 
@@ -82,10 +56,10 @@ struct CompositeInput {
   cv::Mat camera;
   CameraPose pose;
   // S_i, RGB, one per basis layer of the bake (per dome face with the faces basis; the layers
-  // blend_weights takes). Non-finite or negative values count as 0 (and are counted in
+  // blend::blend_weights takes). Non-finite or negative values count as 0 (and are counted in
   // CompositeStats): one bad sky frame must not blank the display.
   std::span<const Eigen::Vector3d> sky;
-  std::optional<SunLight> sun;
+  std::optional<blend::SunLight> sun;
   // One per bake plane (manifest order): a texture whose texel (col, row) holds T of plane texel
   // (col, row) in rgb (RGBA8, RGBA16F or RGBA32F), filtered bilinearly: through the compositor's
   // own sampler where float textures are filterable (OES_texture_float_linear), else in the
@@ -127,21 +101,46 @@ struct CompositeTimings {
 
 // The unoccluded irradiance of plane `plane` (RGB): D_j = Σ_i S_i A_{j,i} + E_sun max(0, n_j·ω_sun),
 // the denominator of its shadow ratio. Non-finite or negative S_i count as 0.
-Eigen::Vector3d plane_irradiance(const bake::PlaneRecord& plane, std::span<const Eigen::Vector3d> sky,
-                                 const std::optional<SunLight>& sun);
+Eigen::Vector3d plane_irradiance(const bake_format::PlaneRecord& plane, std::span<const Eigen::Vector3d> sky,
+                                 const std::optional<blend::SunLight>& sun);
 
-// A shadow-ratio texture from CPU data (blend_cpu's output: width × height × 3 floats, RGB, row-major
+// A shadow-ratio texture from CPU data (blend::blend_cpu's output: width × height × 3 floats, RGB, row-major
 // texels): RGBA32F, T in rgb. For the CPU blend path and for tests.
 gpu::Texture upload_shadow_ratio(std::span<const float> rgb, int width, int height);
 
+// Per output pixel p, with the ray the lens model gives p:
+//   background  B = camera(p), linear (8-bit frames are sRGB-decoded; float frames are linear),
+//               × T_j(x) where the ray meets a real plane j first (x the hit point);
+//   building    radiance L = k ⊙ ρ/π · E (ρ the glTF base colour × texture, k the photometric
+//               match), with
+//                 E = T_j(x) ⊙ (Σ_i S_i A_{j,i} + E_sun max(0, n_j·ω_sun))  where a virtual
+//                     plane j covers the fragment (within cover_distance of its rectangle,
+//                     normals within cover_max_angle_deg): exact, and no double occlusion;
+//                 E = Σ_i S_i t_{v,i} (interpolated) + E_sun max(0, n·ω_sun) V_sun  elsewhere,
+//                     V_sun from the sun's shadow map (SunShadowMap; 1 without one);
+//   output      L over B, except where a real plane is nearer than the building by more than
+//               occlusion_margin (the real surface hides it);
+//   faded       (1 − α) camera(p) + α output, α = CompositeInput::opacity: α = 1 is the output,
+//               α = 0 the camera image unchanged (no building, no shadows).
+// The building is rendered with a pinhole camera and distorted to the lens through a per-pixel
+// ray table (lens_remap.hpp); the camera's pixels are never resampled.
+//
+// Speed (a software renderer, llvmpipe, runs every branch of a shader for a group of pixels):
+// the shaders are compiled for the site (its numbers of real and virtual planes; with and
+// without the sun's shadow map), the building gets a depth pre-pass so that each render texel
+// is shaded once, and the sun's soft shadow is sampled through SunShadowMap's minimum/maximum
+// pyramid (bench/RESULTS.md, "Compositor").
+//
+// Everything runs in the OpenGL ES context current when the Compositor is made (it must stay
+// current for every call, and alive until the Compositor is destroyed).
 class Compositor {
  public:
   // transfer: the bake's transfer.npy, vertex_count × layer_count floats (vertex-major). The site
   // names each bake plane's surface (matched by name); the mesh must be the one the bake was made
   // from (same vertex order). InputError naming the file and the fix when they do not fit, or when
   // there are more than kMaxVirtualPlanes virtual or kMaxRealPlanes real planes.
-  Compositor(const scene::Site& site, const scene::Mesh& mesh, const bake::Manifest& manifest,
-             std::span<const float> transfer, const sky::CameraCalibration& hmd,
+  Compositor(const scene::Site& site, const scene::Mesh& mesh, const bake_format::Manifest& manifest,
+             std::span<const float> transfer, const camera::CameraCalibration& hmd,
              CompositorOptions options = {});
   ~Compositor();
   Compositor(Compositor&&) noexcept;
@@ -167,7 +166,7 @@ class Compositor {
   const CompositeTimings& last_timings() const;
 
   const LensRemap& lens_remap() const;
-  const sky::Lens& lens() const;
+  const camera::Lens& lens() const;
   // Which bake planes are real (manifest order).
   const std::vector<scene::PlaneSurface>& plane_surfaces() const;
 

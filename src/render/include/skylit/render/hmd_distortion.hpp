@@ -2,17 +2,6 @@
 // The HMD's lens correction: each eye's image is drawn onto the panel through a mesh that
 // pre-distorts it (barrel) so that the lens (pincushion) shows it straight, per colour channel, so
 // that the lens's chromatic aberration is cancelled too (docs/hmd.md).
-//
-// The mapping, for a panel point p in eye e's viewport (pixels from its top-left), lens centre c
-// and radius R (HmdProfile): channel ch of p shows the eye image at
-//     q_ch = c + (p − c) · (1 + k1 r² + k2 r⁴ + k3 r⁶),   r = |p − c| / R
-// in viewport pixels; the eye image is fitted into the viewport with its aspect ratio kept and its
-// centre on the lens centre. A point that falls outside the image shows black.
-//
-// The GPU pass evaluates the mapping at the vertices of a grid per eye (texture coordinates per
-// channel computed on the CPU) and interpolates it linearly between them; the fragment shader
-// samples the eye image once per channel. distort_reference is the exact mapping per pixel on the
-// CPU, the pass's reference.
 #include <array>
 #include <filesystem>
 #include <memory>
@@ -31,6 +20,12 @@
 
 namespace skylit::render {
 
+// The mapping, for a panel point p in eye e's viewport (pixels from its top-left), lens centre c
+// and radius R (HmdProfile): channel ch of p shows the eye image at
+//     q_ch = c + (p − c) · (1 + k1 r² + k2 r⁴ + k3 r⁶),   r = |p − c| / R
+// in viewport pixels; the eye image is fitted into the viewport with its aspect ratio kept and its
+// centre on the lens centre. A point that falls outside the image shows black.
+//
 // Where channel `channel` (0 red, 1 green, 2 blue) of the panel point `p` (pixels of eye `eye`'s
 // viewport, from its top-left corner; a pixel's centre is at +0.5) samples an eye image of
 // image_width × image_height: texture coordinates, (0, 0) the image's top-left corner, (1, 1) its
@@ -44,6 +39,11 @@ Eigen::Vector2d eye_image_coordinate(const HmdProfile& profile, int eye, int cha
 std::optional<Eigen::Vector2d> panel_point_of(const HmdProfile& profile, int eye, int channel,
                                               const Eigen::Vector2d& uv, int image_width, int image_height);
 
+// The GPU pass evaluates the mapping at the vertices of a grid per eye (texture coordinates per
+// channel computed on the CPU) and interpolates it linearly between them; the fragment shader
+// samples the eye image once per channel. distort_reference is the exact mapping per pixel on the
+// CPU, the pass's reference.
+//
 // One vertex of the distortion mesh: its panel position in pixels (x across the whole panel,
 // y from the top) and a texture coordinate per channel.
 struct DistortionVertex {

@@ -2,14 +2,14 @@
 // The HMD camera's lens, for drawing the building: the building is rendered with an ideal
 // pinhole camera, and the render is then distorted to the real lens through a table that gives,
 // for every camera pixel, the ray the calibrated lens model says it sees (built once on the CPU,
-// with sky::Lens). The camera's own pixels are never resampled: what the user sees of the real
+// with camera::Lens). The camera's own pixels are never resampled: what the user sees of the real
 // world stays exactly as the camera recorded it (docs/live.md, "Rendering and compositing").
 #include <optional>
 
 #include <Eigen/Core>
 #include <opencv2/core/mat.hpp>
 
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::render {
 
@@ -45,6 +45,6 @@ struct LensRemap {
 };
 
 // Throws InputError (naming the calibration's file) when no pixel of the image can be unprojected.
-LensRemap make_lens_remap(const sky::Lens& lens, const LensRemapOptions& options = {});
+LensRemap make_lens_remap(const camera::Lens& lens, const LensRemapOptions& options = {});
 
 }  // namespace skylit::render

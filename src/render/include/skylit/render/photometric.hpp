@@ -2,14 +2,6 @@
 // Photometric match: the scale (and white balance) from the building's radiance to the camera's
 // linear pixel values, so that the virtual building is as bright and as coloured as the real
 // ground beside it.
-//
-// The renderer computes radiance L = ρ/π · E from the sky parameters S (relative units); the
-// camera records a linear value P = k ⊙ L per channel, k folding in exposure, gain, lens
-// transmission and white balance. k is set in the config, or estimated from a reference region
-// of real ground of known albedo ρ that nothing virtual shadows: there E is the plane's
-// unoccluded irradiance D = Σ_i S_i A_i + E_sun max(0, n·ω_sun), so each pixel gives
-// k = P / (ρ/π · D), and the estimate is the per-channel median over the region's pixels
-// (robust to a stray object, a puddle or a person crossing it).
 #include <cstdint>
 #include <string>
 
@@ -18,6 +10,13 @@
 
 namespace skylit::render {
 
+// The renderer computes radiance L = ρ/π · E from the sky parameters S (relative units); the
+// camera records a linear value P = k ⊙ L per channel, k folding in exposure, gain, lens
+// transmission and white balance. k is set in the config, or estimated from a reference region
+// of real ground of known albedo ρ that nothing virtual shadows: there E is the plane's
+// unoccluded irradiance D = Σ_i S_i A_i + E_sun max(0, n·ω_sun), so each pixel gives
+// k = P / (ρ/π · D), and the estimate is the per-channel median over the region's pixels
+// (robust to a stray object, a puddle or a person crossing it).
 struct PhotometricMatch {
   Eigen::Vector3d scale = Eigen::Vector3d::Ones();  // k, RGB: camera linear value per unit radiance
 };

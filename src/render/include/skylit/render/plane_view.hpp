@@ -1,14 +1,10 @@
 #pragma once
 // Whether a shadowing plane can show in a frame: the live service blends T only for the planes
 // the current view can see (docs/live.md, "Blend: only the planes in view").
-//
-// The test is conservative: it may call a plane that no pixel shows "in view" (it compares
-// bounding rectangles, and grows the view by a margin), never the other way round, since a plane
-// wrongly left out would be drawn with a T of an older sky.
 #include "skylit/geom/plane.hpp"
 #include "skylit/render/compositor.hpp"
 #include "skylit/render/lens_remap.hpp"
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/calibration.hpp"
 
 namespace skylit::render {
 
@@ -29,6 +25,10 @@ struct PlaneViewOptions {
 // at z = near and the bounding rectangle of its projection is tested against the image
 // rectangle [-0.5, width − 0.5] × [-0.5, height − 0.5] grown by margin_px. False for a plane
 // entirely behind the camera (or nearer than `near`) or entirely beside the view.
+//
+// The test is conservative: it may call a plane that no pixel shows "in view" (it compares
+// bounding rectangles, and grows the view by a margin), never the other way round, since a plane
+// wrongly left out would be drawn with a T of an older sky.
 bool plane_in_view(const geom::Plane& plane, const CameraPose& pose, const PinholeCamera& view,
                    const PlaneViewOptions& options = {});
 
@@ -41,10 +41,10 @@ bool plane_in_view(const geom::Plane& plane, const CameraPose& pose, const Pinho
 // positions of those rays (radial distortion maps the image's border to the rays' outer bounds),
 // capped at max_angle_deg where the border lies beyond it or cannot be unprojected.
 // The compositor's own LensRemap::pinhole is the same bound taken over every pixel.
-PinholeCamera undistorted_view(const sky::CameraCalibration& calibration, double max_angle_deg = 75.0);
+PinholeCamera undistorted_view(const camera::CameraCalibration& calibration, double max_angle_deg = 75.0);
 
 // plane_in_view through undistorted_view(calibration) with the given margin (its pixels).
-bool plane_in_view(const geom::Plane& plane, const CameraPose& pose, const sky::CameraCalibration& calibration,
+bool plane_in_view(const geom::Plane& plane, const CameraPose& pose, const camera::CameraCalibration& calibration,
                    double margin_px);
 
 }  // namespace skylit::render

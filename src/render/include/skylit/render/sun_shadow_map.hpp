@@ -2,17 +2,6 @@
 // The sun's real-time shadow: the site mesh's depth seen from the sun (orthographic, fitted to
 // the bounds of the mesh and the shadowing planes), and from it the visible fraction of the
 // sun's disc at every texel of every plane, for the GPU blend's sun term (gpu_blend.hpp).
-//
-// The penumbra follows the sun's angular radius times the distance to the occluder (percentage-
-// closer soft shadows, shaders/sun_shadow.glsl). The same map shades anything else: a shader
-// that appends shaders/sun_shadow.glsl ("// library: sun_shadow.glsl") gets
-// sun_visibility(world_position), and bind() sets its uniforms. With each update the map also
-// gets a pyramid of its minimum and maximum depths, from which the library decides the points
-// plainly lit or in umbra with four texel reads instead of its search and filter taps, for the
-// same answer, and narrows the search elsewhere; a shader opts in by defining SUN_SHADOW_MINMAX
-// and is bound with two units.
-//
-// Holds GL names: create, use and destroy it with the same GL context current, on one thread.
 #include <cstdint>
 #include <filesystem>
 #include <span>
@@ -22,7 +11,7 @@
 
 #include "skylit/geom/plane.hpp"
 #include "skylit/gpu/gl.hpp"
-#include "skylit/render/gpu_blend.hpp"
+#include "skylit/blend/gpu_blend.hpp"
 #include "skylit/scene/mesh.hpp"
 
 namespace skylit::render {
@@ -50,6 +39,16 @@ struct SunShadowSampling {
   GLuint minmax_texture = 0;
 };
 
+// The penumbra follows the sun's angular radius times the distance to the occluder (percentage-
+// closer soft shadows, shaders/sun_shadow.glsl). The same map shades anything else: a shader
+// that appends shaders/sun_shadow.glsl ("// library: sun_shadow.glsl") gets
+// sun_visibility(world_position), and bind() sets its uniforms. With each update the map also
+// gets a pyramid of its minimum and maximum depths, from which the library decides the points
+// plainly lit or in umbra with four texel reads instead of its search and filter taps, for the
+// same answer, and narrows the search elsewhere; a shader opts in by defining SUN_SHADOW_MINMAX
+// and is bound with two units.
+//
+// Holds GL names: create, use and destroy it with the same GL context current, on one thread.
 class SunShadowMap {
  public:
   // Uploads the mesh (copied; the caller may drop it) and allocates the depth map and one
@@ -63,9 +62,9 @@ class SunShadowMap {
   void update(const Eigen::Vector3d& direction, double angular_radius);
 
   int plane_count() const { return static_cast<int>(planes_.size()); }
-  // V over plane `plane` (its texels, as the basis images), for GpuBlender::blend. Valid after
+  // V over plane `plane` (its texels, as the basis images), for blend::GpuBlender::blend. Valid after
   // the first update.
-  const SunVisibilityTexture& visibility(int plane) const;
+  const blend::SunVisibilityTexture& visibility(int plane) const;
   // V of every texel of the plane, row-major (for tests and tools; blocks until the GPU is done).
   std::vector<float> read_visibility(int plane) const;
 
@@ -84,7 +83,7 @@ class SunShadowMap {
   struct PlaneTarget {
     geom::Plane plane;
     gpu::Texture texture;
-    SunVisibilityTexture visibility;
+    blend::SunVisibilityTexture visibility;
   };
 
   SunShadowOptions options_;

@@ -2,22 +2,6 @@
 // Luminance parameters: the mean radiance S_i of every dome face, per colour channel, from a
 // linear radiance frame and the sky table (paper 003, section 3.1, with the radiometric care it
 // left as future work).
-//
-//     S_i = Σ_p w_p L_p / Σ_p w_p     over the sampled pixels p that see face i
-//
-// Bad pixels never propagate: NaN, ±Inf and negative values count as 0 and are counted. Faces
-// the lens does not see (coverage under a threshold) are filled from their neighbours.
-//
-// With a corners table (SkyTable::basis) each face also gets three corner coefficients, the
-// least-squares fit of the linear hats to its pixels (the local L2 projection):
-//
-//     [S_{i,0} S_{i,1} S_{i,2}]ᵀ = M_i⁻¹ Σ_p w_p λ_p L_p,     M_i = Σ_p w_p λ_p λ_pᵀ
-//
-// over the same pixels as S_i. Corner coefficients may be negative (a linear fit to a sky that
-// is not linear across the face); the blend keeps T in [0, 1]. A quadratics table fits the six
-// quadratic Bernstein functions φ the same way (M_i = Σ_p w_p φ_p φ_pᵀ, 6×6); a face whose
-// pixels cannot pin six functions down but can pin three gets the linear fit, written in the
-// quadratic functions (geom::corner_to_quadratic), and kFaceFitLinear.
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -30,6 +14,8 @@
 
 namespace skylit::sky {
 
+// Bad pixels never propagate: NaN, ±Inf and negative values count as 0 and are counted. Faces
+// the lens does not see (coverage under a threshold) are filled from their neighbours.
 enum FaceFlag : std::uint32_t {
   kFaceUnseen = 1u << 0,      // coverage under the threshold: S filled from neighbouring faces
   kFaceClipped = 1u << 1,     // some of its pixels are clipped: S is a lower bound
@@ -43,6 +29,20 @@ enum FaceFlag : std::uint32_t {
   kFaceFitLinear = 1u << 5,
 };
 
+// The luminance parameter of face i, per colour channel:
+//
+//     S_i = Σ_p w_p L_p / Σ_p w_p     over the sampled pixels p that see face i
+//
+// With a corners table (SkyTable::basis) each face also gets three corner coefficients, the
+// least-squares fit of the linear hats to its pixels (the local L2 projection):
+//
+//     [S_{i,0} S_{i,1} S_{i,2}]ᵀ = M_i⁻¹ Σ_p w_p λ_p L_p,     M_i = Σ_p w_p λ_p λ_pᵀ
+//
+// over the same pixels as S_i. Corner coefficients may be negative (a linear fit to a sky that
+// is not linear across the face); the blend keeps T in [0, 1]. A quadratics table fits the six
+// quadratic Bernstein functions φ the same way (M_i = Σ_p w_p φ_p φ_pᵀ, 6×6); a face whose
+// pixels cannot pin six functions down but can pin three gets the linear fit, written in the
+// quadratic functions (geom::corner_to_quadratic), and kFaceFitLinear.
 struct FaceLuminance {
   Eigen::Vector3d rgb = Eigen::Vector3d::Zero();  // S_i, linear, R G B: the face's mean
   // Corners and quadratics bases: the coefficient S_{i,k} of each of the face's functions, R G B

@@ -2,19 +2,19 @@
 // From camera frames to linear radiance: reading sky images, camera response curves (sRGB, or
 // calibrated from an exposure bracket with Debevec's method), exposure and gain, and merging a
 // bracket to HDR.
-//
-// Colour order: every cv::Mat here is OpenCV's BGR; radiance images are CV_32FC3, linear,
-// relative units (code value through the inverse response, divided by exposure time × gain).
 #include <array>
 #include <filesystem>
 #include <optional>
 #include <span>
+#include <string>
 #include <vector>
 
 #include <opencv2/core/mat.hpp>
 
 namespace skylit::sky {
 
+// Colour order: every cv::Mat here is OpenCV's BGR; radiance images are CV_32FC3, linear,
+// relative units (code value through the inverse response, divided by exposure time × gain).
 struct Exposure {
   double time_s = 1.0;   // exposure time, seconds
   double gain = 1.0;     // linear sensor gain (ISO / 100 for a camera that reports ISO)
@@ -36,6 +36,10 @@ ResponseCurve calibrate_response(std::span<const cv::Mat> frames, std::span<cons
 // YAML: {bits: 8, b: [...], g: [...], r: [...]}; atomic write; InputError naming file and field.
 void save_response(const ResponseCurve& curve, const std::filesystem::path& file);
 ResponseCurve load_response(const std::filesystem::path& file);
+// The response a setting names for frames of `bits` (8 or 16): "srgb", "linear" or a response
+// file. A file's curve must be for that bit depth (InputError naming the file, its 'bits' and the
+// fix otherwise): every program that takes a response setting looks it up here.
+ResponseCurve response_for(const std::string& setting, int bits);
 
 // A frame read as it is stored: 8/16-bit BGR (gray expanded, alpha dropped) or float BGR (EXR,
 // HDR: taken as linear radiance). InputError naming the file for an unreadable or empty image.

@@ -4,7 +4,22 @@
 // function), as linear float frames or clipped 8-bit frames. Feeds the live path's tests and
 // demos with skies whose answer is known. Write the frames with write_sky_exr (radiometry.hpp)
 // in float: the sun exceeds half's range.
-//
+#include <chrono>
+#include <filesystem>
+#include <functional>
+#include <optional>
+
+#include <Eigen/Core>
+#include <opencv2/core/mat.hpp>
+
+#include "skylit/camera/lens.hpp"
+#include "skylit/sky/sky_model.hpp"
+
+namespace skylit::sky {
+
+using Vec2 = Eigen::Vector2d;
+using Vec3 = Eigen::Vector3d;
+
 // Equirectangular convention (site frame, x east, y north, z up), for a W × H image with pixel
 // centres at integer coordinates (OpenCV's convention, as the lens models):
 //   azimuth   az = 2π (x + 0.5) / W − π     from north towards east: the image's vertical centre
@@ -15,19 +30,7 @@
 //                                           (last row) the nadir; the horizon is edge row H/2.
 //   direction  (sin az cos el, cos az cos el, sin el)
 // Images are OpenCV BGR; the sky functions return RGB (Eigen r, g, b).
-#include <chrono>
-#include <filesystem>
-#include <functional>
-#include <optional>
-
-#include <Eigen/Core>
-#include <opencv2/core/mat.hpp>
-
-#include "skylit/sky/calibration.hpp"
-#include "skylit/sky/sky_model.hpp"
-
-namespace skylit::sky {
-
+//
 // Unit site direction of the continuous pixel position (x, y) of a w × h equirect.
 Vec3 equirect_direction(int width, int height, double x, double y);
 // Continuous pixel position of a site direction (any length > 0): x in [−0.5, W − 0.5),
@@ -79,11 +82,11 @@ struct RenderOptions {
 // unprojects) is the mean over the supersample² sub-pixel positions that unproject of a
 // bilinear lookup, wrapped in azimuth; other pixels are 0. CV_32FC3 BGR, calibration size.
 // std::invalid_argument for an empty or non-CV_32FC3 equirect or supersample outside 1..16.
-cv::Mat render_fisheye(const Lens& lens, const cv::Mat& equirect, const RenderOptions& options = {});
+cv::Mat render_fisheye(const camera::Lens& lens, const cv::Mat& equirect, const RenderOptions& options = {});
 // The same for an analytic sky; the sun's disc is deposited so that Σ L_p Ω_p over the pixels
 // it covers (Ω_p from block_solid_angle) equals its irradiance (within 0.1% where the lens sees
 // it whole).
-cv::Mat render_fisheye(const Lens& lens, const SkyFunction& sky, const RenderOptions& options = {});
+cv::Mat render_fisheye(const camera::Lens& lens, const SkyFunction& sky, const RenderOptions& options = {});
 // An equirect of an analytic sky (CV_32FC3 BGR), sun disc deposited the same way with
 // equirect_pixel_solid_angle. azimuth_offset is ignored.
 cv::Mat render_equirect(const SkyFunction& sky, int width, int height, const RenderOptions& options = {});
@@ -95,7 +98,7 @@ cv::Mat to_8bit(const cv::Mat& radiance, double exposure_scale);
 // Σ_p L_p Ω_p (RGB) over the pixels of a sky-camera image whose centre direction is above the
 // horizon, Ω_p from block_solid_angle of the pixel: the image's estimate of ∫ L dω over the
 // upper hemisphere (for checks and tests).
-Eigen::Vector3d fisheye_hemisphere_energy(const Lens& lens, const cv::Mat& radiance);
+Eigen::Vector3d fisheye_hemisphere_energy(const camera::Lens& lens, const cv::Mat& radiance);
 // The same for an equirect: the exact ∫ L dω over its upper half (a row cut by the horizon
 // counts by its upper part).
 Eigen::Vector3d equirect_hemisphere_energy(const cv::Mat& equirect);

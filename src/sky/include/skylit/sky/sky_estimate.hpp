@@ -7,13 +7,16 @@
 #include <vector>
 
 #include "skylit/geom/dome.hpp"
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/lens.hpp"
 #include "skylit/sky/luminance.hpp"
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/sky_table.hpp"
 #include "skylit/sky/sun.hpp"
 
 namespace skylit::sky {
+
+using Vec2 = Eigen::Vector2d;
+using Vec3 = Eigen::Vector3d;
 
 enum class SunMode { Off, Auto };
 
@@ -26,7 +29,7 @@ struct SkyEstimateOptions {
   // after the sun test, the detector looks again up to N − 1 more times with `lamp` options, each
   // found source's disc set to its background first (detect → remove → detect again); when the
   // sun test fails the first lamp is the brightest compact source. Every source's disc is left
-  // out of S, and each is its own separated term (render::blend_weights with several SunLights).
+  // out of S, and each is its own separated term (blend::blend_weights with several SunLights).
   // Indoors (many ceiling lamps) 16 sources bring the warehouse from 0.0231 to 0.0086 RMS
   // (bench/RESULTS.md, "Separated sources (issue 3)").
   int max_sources = 1;
@@ -50,19 +53,19 @@ struct SkyEstimate {
 class SkyEstimator {
  public:
   // Reads calibration.mask when it names a file (InputError naming the calibration otherwise).
-  SkyEstimator(const CameraCalibration& calibration, const geom::Dome& dome, SkyEstimateOptions options = {});
+  SkyEstimator(const camera::CameraCalibration& calibration, const geom::Dome& dome, SkyEstimateOptions options = {});
   SkyEstimator(const SkyEstimator&) = delete;
   SkyEstimator& operator=(const SkyEstimator&) = delete;
 
   SkyEstimate estimate(const RadianceFrame& frame) const;
 
-  const Lens& lens() const { return lens_; }
+  const camera::Lens& lens() const { return lens_; }
   const SkyTable& table() const { return table_; }
   const geom::Dome& dome() const { return dome_; }
   const SkyEstimateOptions& options() const { return options_; }
 
  private:
-  Lens lens_;
+  camera::Lens lens_;
   const geom::Dome& dome_;
   SkyEstimateOptions options_;
   cv::Mat mask_;
@@ -73,6 +76,6 @@ class SkyEstimator {
 
 // The mask named by a calibration (CV_8U, image size), or an empty Mat when it names none.
 // InputError naming the calibration file and the field `mask` when unreadable or mis-sized.
-cv::Mat load_calibration_mask(const CameraCalibration& calibration);
+cv::Mat load_calibration_mask(const camera::CameraCalibration& calibration);
 
 }  // namespace skylit::sky

@@ -2,12 +2,6 @@
 // Analytic skies for simulation and tests: a clear sky (Preetham, Shirley, Smits 1999: Perez
 // luminance distribution and xyY chromaticity, in linear sRGB) with a solar disc, and the CIE
 // standard overcast sky.
-//
-// Units: RGB radiance whose luminance (0.2126 R + 0.7152 G + 0.0722 B) is in kcd/m², the unit
-// of Preetham's zenith luminance; irradiances are then in klx. Nothing downstream depends on
-// the absolute scale, but the sun/sky ratio is physical (see ClearSky). Site frame: x east,
-// y north, z up. Both skies are 0 below the horizon (no ground term: the sky camera's table
-// leaves those pixels out anyway).
 #include <Eigen/Core>
 
 namespace skylit::sky {
@@ -17,6 +11,11 @@ using Vec3 = Eigen::Vector3d;
 // The sun's mean angular radius (0.2666°, i.e. a disc 0.53° wide), radians.
 inline constexpr double kSunAngularRadius = 0.00465;
 
+// Units: RGB radiance whose luminance (0.2126 R + 0.7152 G + 0.0722 B) is in kcd/m², the unit
+// of Preetham's zenith luminance; irradiances are then in klx. Nothing downstream depends on
+// the absolute scale, but the sun/sky ratio is physical (see ClearSky). Site frame: x east,
+// y north, z up.
+//
 // A uniform solar disc: radiance irradiance / solid_angle() inside, 0 outside.
 struct SunDisc {
   Vec3 direction = Vec3::UnitZ();                          // unit, site frame
@@ -27,6 +26,8 @@ struct SunDisc {
   bool contains(const Vec3& unit_direction) const;
 };
 
+// Both skies (ClearSky, OvercastSky) are 0 below the horizon (no ground term: the sky camera's
+// table leaves those pixels out anyway).
 class ClearSky {
  public:
   // `sun_direction` (site frame, any length > 0) may be below the horizon: the sky then fades

@@ -1,17 +1,6 @@
 #pragma once
 // Temporal smoothing of the luminance parameters: a sky camera's frames carry noise and
-// flicker (exposure steps, compression) that would make shadows shimmer. Each frame moves the
-// smoothed S towards the new one by
-//
-//     α = 1 − exp(−Δt / τ)         Δt: time since the previous frame, τ: the time constant
-//
-// the exact discretisation of a first-order low-pass for a sky held between frames, so that the
-// response depends on elapsed time, not on the frame rate: after a step the smoothed value has
-// covered 1 − exp(−t/τ) of it at time t, whatever the frame spacing. The sun's energy is
-// smoothed the same way; its direction is taken as measured.
-//
-// The sky also jumps for real: when the sun appears or disappears (a cloud's edge), smoothing
-// would fade a shadow in or out over τ, so the smoother restarts from the new frame instead.
+// flicker (exposure steps, compression) that would make shadows shimmer.
 #include <optional>
 #include <span>
 #include <vector>
@@ -22,6 +11,17 @@
 
 namespace skylit::sky {
 
+// Each frame moves the smoothed S towards the new one by
+//
+//     α = 1 − exp(−Δt / τ)         Δt: time since the previous frame, τ: the time constant
+//
+// the exact discretisation of a first-order low-pass for a sky held between frames, so that the
+// response depends on elapsed time, not on the frame rate: after a step the smoothed value has
+// covered 1 − exp(−t/τ) of it at time t, whatever the frame spacing. The sun's energy is
+// smoothed the same way; its direction is taken as measured.
+//
+// The sky also jumps for real: when the sun appears or disappears (a cloud's edge), smoothing
+// would fade a shadow in or out over τ, so the smoother restarts from the new frame instead.
 class SkySmoother {
  public:
   // time_constant_s: τ in seconds, 0 = off (every frame passes unchanged). InputError when

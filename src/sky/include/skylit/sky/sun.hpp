@@ -1,14 +1,6 @@
 #pragma once
 // The sun in a sky frame: found when it is a compact source far brighter than the sky around
 // it (a clear sky), absent otherwise (overcast: forcing a sun there makes shadows worse).
-//
-// Under a clear sky most of the light comes from a disc 0.5° wide that a 40-face dome would
-// move up to ~15° to a face centre. A detected sun is taken out of the dome (its pixels are
-// excluded from the luminance parameters) and returned as a directional light:
-//
-//     E_sun = Σ_p w_p (L_p − L_background)     over the disc's pixels, per channel
-//
-// the irradiance it gives a surface that faces it, in the same relative units as S.
 #include <optional>
 #include <string>
 #include <vector>
@@ -16,10 +8,20 @@
 #include <Eigen/Core>
 #include <opencv2/core/mat.hpp>
 
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/lens.hpp"
 
 namespace skylit::sky {
 
+using Vec2 = Eigen::Vector2d;
+using Vec3 = Eigen::Vector3d;
+
+// Under a clear sky most of the light comes from a disc 0.5° wide that a 40-face dome would
+// move up to ~15° to a face centre. A detected sun is taken out of the dome (its pixels are
+// excluded from the luminance parameters) and returned as a directional light:
+//
+//     E_sun = Σ_p w_p (L_p − L_background)     over the disc's pixels, per channel
+//
+// the irradiance it gives a surface that faces it, in the same relative units as S.
 struct Sun {
   Vec3 direction = Vec3::UnitZ();                        // unit, site frame, towards the sun
   double angular_radius = 0;                             // radians, of the disc's core (over half the peak)
@@ -70,7 +72,7 @@ struct SunDetection {
 class SunDetector {
  public:
   // `mask`: CV_8U image-sized, 0 = hidden; may be empty (calibration.mask is not read here).
-  SunDetector(const Lens& lens, const cv::Mat& mask, SunOptions options = {});
+  SunDetector(const camera::Lens& lens, const cv::Mat& mask, SunOptions options = {});
 
   // `radiance`: CV_32FC3 BGR linear (non-finite and negative values count as 0); `clipped`:
   // CV_8U (255 = clipped) or empty. InputError when sizes or types do not match the lens.
@@ -79,7 +81,7 @@ class SunDetector {
   const SunOptions& options() const { return options_; }
 
  private:
-  const Lens* lens_;
+  const camera::Lens* lens_;
   SunOptions options_;
   cv::Mat sky_;   // CV_8U, 255 where the pixel sees the sky
 };

@@ -2,33 +2,6 @@
 // Head pose from the HMD's gyro and the marker tracker's camera poses: gyro integration between
 // camera poses, corrected by them, predicted to the display time, smoothed by a One Euro filter,
 // with a tracking state and a confidence the renderer fades the building with.
-//
-// Orientation: an error-state Kalman filter over (rotation error, gyro bias), 6 states. Why not
-// a complementary filter: the camera poses come at 30 Hz, late and sometimes not at all, and a
-// complementary filter with a fixed gain either lets the gyro bias drift show during a gap or
-// passes camera noise through; the Kalman gain weighs each camera pose by how far the gyro has
-// drifted since the last one, and estimating the bias keeps a gap of a second or two within a
-// fraction of a degree. Late camera poses are applied at their own time: the filter keeps a
-// short history of states and re-integrates the gyro samples that came after.
-//
-// Position: a constant-velocity Kalman filter per axis on the camera positions (the gyro tells
-// nothing of position; double-integrating the accelerometer drifts by metres within a second).
-// Between camera poses and for prediction it is extrapolated by its velocity, for at most
-// max_prediction; without camera poses it is held.
-//
-// States (all at the requested time t):
-//   Initializing  no camera pose yet: pose_at() gives nullopt
-//   Tracking      a camera pose within camera_timeout
-//   Coasting      none for longer: with a live gyro the orientation continues and the position is
-//                 held, the confidence falls to 0 at lost_after; without the gyro the pose is
-//                 held and the confidence falls to 0 at hold_without_imu
-//   Lost          beyond: pose_at() gives nullopt; the next camera pose starts again, the
-//                 confidence rising from 0 over reacquire_fade (no jump of the building)
-// The IMU is Live (a sample within imu_timeout of t), Gone (samples came, then stopped: the
-// fusion falls back to the camera poses alone) or None (no sample ever).
-//
-// Thread safety: every member may be called from any thread (one mutex), so an IMU thread, the
-// tracker and the renderer can share one fusion.
 #include <cstddef>
 #include <deque>
 #include <filesystem>
@@ -79,6 +52,16 @@ struct FusionSettings {
   bool filter_rotation_with_gyro = false;
 };
 
+// States (all at the requested time t):
+//   Initializing  no camera pose yet: pose_at() gives nullopt
+//   Tracking      a camera pose within camera_timeout
+//   Coasting      none for longer: with a live gyro the orientation continues and the position is
+//                 held, the confidence falls to 0 at lost_after; without the gyro the pose is
+//                 held and the confidence falls to 0 at hold_without_imu
+//   Lost          beyond: pose_at() gives nullopt; the next camera pose starts again, the
+//                 confidence rising from 0 over reacquire_fade (no jump of the building)
+// The IMU is Live (a sample within imu_timeout of t), Gone (samples came, then stopped: the
+// fusion falls back to the camera poses alone) or None (no sample ever).
 enum class TrackingState { Initializing, Tracking, Coasting, Lost };
 enum class ImuLink { None, Live, Gone };
 const char* to_string(TrackingState state);
@@ -102,6 +85,21 @@ struct FusionCounters {
   std::size_t out_of_order_imu_samples = 0;   // older than the history, dropped
 };
 
+// Orientation: an error-state Kalman filter over (rotation error, gyro bias), 6 states. Why not
+// a complementary filter: the camera poses come at 30 Hz, late and sometimes not at all, and a
+// complementary filter with a fixed gain either lets the gyro bias drift show during a gap or
+// passes camera noise through; the Kalman gain weighs each camera pose by how far the gyro has
+// drifted since the last one, and estimating the bias keeps a gap of a second or two within a
+// fraction of a degree. Late camera poses are applied at their own time: the filter keeps a
+// short history of states and re-integrates the gyro samples that came after.
+//
+// Position: a constant-velocity Kalman filter per axis on the camera positions (the gyro tells
+// nothing of position; double-integrating the accelerometer drifts by metres within a second).
+// Between camera poses and for prediction it is extrapolated by its velocity, for at most
+// max_prediction; without camera poses it is held.
+//
+// Thread safety: every member may be called from any thread (one mutex), so an IMU thread, the
+// tracker and the renderer can share one fusion.
 class PoseFusion final : public PoseSource {
  public:
   explicit PoseFusion(const FusionSettings& settings = {});

@@ -1,12 +1,6 @@
 #pragma once
 // The HMD's inertial measurement unit: one interface for a HID device (hid_imu.hpp) and a
 // recording replayed from CSV.
-//
-// Frames and clocks: a sample's gyro and accelerometer are in the IMU frame (right-handed, the
-// axes of the profile's `axes` mapping); R_camera_from_imu turns IMU vectors into the HMD camera
-// frame (OpenCV's x right, y down, z forward). Timestamps are seconds on the host's steady clock
-// (CLOCK_MONOTONIC), the clock the camera frames are stamped with, so IMU samples and camera poses
-// can be put on one time line.
 #include <cstddef>
 #include <filesystem>
 #include <memory>
@@ -23,6 +17,11 @@ class Node;
 
 namespace skylit::track {
 
+// Frames and clocks: a sample's gyro and accelerometer are in the IMU frame (right-handed, the
+// axes of the profile's `axes` mapping); R_camera_from_imu turns IMU vectors into the HMD camera
+// frame (OpenCV's x right, y down, z forward). Timestamps are seconds on the host's steady clock
+// (CLOCK_MONOTONIC), the clock the camera frames are stamped with, so IMU samples and camera poses
+// can be put on one time line.
 struct ImuSample {
   double timestamp = 0;                 // seconds, host steady clock
   Eigen::Vector3d gyro = Eigen::Vector3d::Zero();   // rad/s, IMU frame

@@ -1,21 +1,5 @@
 #pragma once
 // A marker map: where the AprilTags placed on a site are (docs/tracking.md).
-//
-//   family: tag36h11              # libapriltag's family name
-//   size: 0.20                    # optional default edge length for the tags below, metres
-//   tags:
-//     - id: 0
-//       size: 0.20                # edge of the black square whose corners are detected, metres
-//       position: [0, 3, 1.5]     # the tag's centre in the site frame (x east, y north, z up)
-//       orientation: [qw, qx, qy, qz]   # R_site_from_tag, unit quaternion
-//       # or, instead of orientation:
-//       R: [r00, r01, r02, r10, r11, r12, r20, r21, r22]   # R_site_from_tag, row-major
-//
-// The tag frame: origin at the tag's centre, x to the right and y up as the tag is printed and
-// seen from the front, z out of the printed face towards the viewer. Identity = the tag lying on
-// the ground face up, its top edge towards north. Corners, in this order (libapriltag's):
-//   0 = (−s/2, −s/2, 0) bottom-left, 1 = (s/2, −s/2, 0) bottom-right,
-//   2 = (s/2, s/2, 0) top-right,     3 = (−s/2, s/2, 0) top-left.
 #include <array>
 #include <filesystem>
 #include <optional>
@@ -27,6 +11,11 @@
 
 namespace skylit::track {
 
+// The tag frame: origin at the tag's centre, x to the right and y up as the tag is printed and
+// seen from the front, z out of the printed face towards the viewer. Identity = the tag lying on
+// the ground face up, its top edge towards north. Corners, in this order (libapriltag's):
+//   0 = (−s/2, −s/2, 0) bottom-left, 1 = (s/2, −s/2, 0) bottom-right,
+//   2 = (s/2, s/2, 0) top-right,     3 = (−s/2, s/2, 0) top-left.
 struct MarkerTag {
   int id = 0;
   double size = 0;  // metres
@@ -34,6 +23,17 @@ struct MarkerTag {
   Eigen::Vector3d t_site_from_tag = Eigen::Vector3d::Zero();  // the tag's centre
 };
 
+// A marker map file (YAML):
+//
+//   family: tag36h11              # libapriltag's family name
+//   size: 0.20                    # optional default edge length for the tags below, metres
+//   tags:
+//     - id: 0
+//       size: 0.20                # edge of the black square whose corners are detected, metres
+//       position: [0, 3, 1.5]     # the tag's centre in the site frame (x east, y north, z up)
+//       orientation: [qw, qx, qy, qz]   # R_site_from_tag, unit quaternion
+//       # or, instead of orientation:
+//       R: [r00, r01, r02, r10, r11, r12, r20, r21, r22]   # R_site_from_tag, row-major
 struct MarkerMap {
   std::filesystem::path file;  // where it came from (messages); may be empty
   std::string family = "tag36h11";

@@ -1,17 +1,11 @@
 #pragma once
 // The camera's pose from the tags of a marker map seen in one frame.
-//
-// The corners are undistorted through the camera's calibrated lens (pinhole or fisheye), each
-// tag gives its two planar solutions (IPPE), every solution is refined by Levenberg–Marquardt
-// over every corner of every tag, and the best one is kept. A tag whose corners then reproject
-// badly is dropped (leave-one-out: the tag whose removal leaves the others agreeing best) and the
-// pose solved again. Errors are in pixels of the (distorted) frame.
 #include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/lens.hpp"
 #include "skylit/track/marker_map.hpp"
 #include "skylit/track/marker_options.hpp"
 #include "skylit/track/pose.hpp"
@@ -19,6 +13,7 @@
 
 namespace skylit::track {
 
+// Errors are in pixels of the (distorted) frame.
 struct TagResidual {
   int id = 0;
   double rms_px = 0;   // RMS reprojection error of the tag's four corners under the pose
@@ -49,8 +44,14 @@ struct MarkerSolve {
   std::string describe_flags() const;
 };
 
+// The corners are undistorted through the camera's calibrated lens (pinhole or fisheye), each
+// tag gives its two planar solutions (IPPE), every solution is refined by Levenberg–Marquardt
+// over every corner of every tag, and the best one is kept. A tag whose corners then reproject
+// badly is dropped (leave-one-out: the tag whose removal leaves the others agreeing best) and the
+// pose solved again.
+//
 // std::invalid_argument when the options are out of range.
-MarkerSolve solve_marker_pose(const MarkerMap& map, const sky::Lens& lens, std::span<const TagDetection> detections,
+MarkerSolve solve_marker_pose(const MarkerMap& map, const camera::Lens& lens, std::span<const TagDetection> detections,
                               const MarkerPoseOptions& options = {});
 
 }  // namespace skylit::track

@@ -1,18 +1,13 @@
 #pragma once
 // The marker tracker as a pose source: frames of the HMD camera go in (process), the pose of the
 // latest frame whose solve was accepted comes out (pose_at).
-//
-// A solve is accepted when it has a pose and is not high_error, nor (unless the options accept
-// them) ambiguous or from a single distant tag. Every solve, accepted or not, is kept for status.
-// process() runs on the camera's thread; pose_at, describe and latest_solve may be called from
-// any thread.
 #include <filesystem>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
 
-#include "skylit/sky/calibration.hpp"
+#include "skylit/camera/lens.hpp"
 #include "skylit/track/marker_map.hpp"
 #include "skylit/track/marker_options.hpp"
 #include "skylit/track/marker_pose.hpp"
@@ -25,12 +20,16 @@ class Mat;
 
 namespace skylit::track {
 
+// A solve is accepted when it has a pose and is not high_error, nor (unless the options accept
+// them) ambiguous or from a single distant tag. Every solve, accepted or not, is kept for status.
+// process() runs on the camera's thread; pose_at, describe and latest_solve may be called from
+// any thread.
 class MarkerTracker final : public PoseSource {
  public:
   // The detector's family is the map's (options.detector.family is overridden). std::invalid_argument
   // for options out of range; InputError (naming the calibration file) for a calibration that
   // does not validate.
-  MarkerTracker(MarkerMap map, const sky::CameraCalibration& camera, const MarkerTrackerOptions& options = {});
+  MarkerTracker(MarkerMap map, const camera::CameraCalibration& camera, const MarkerTrackerOptions& options = {});
 
   // Detects the map's tags in `frame` (8-bit grey or BGR, the calibration's size: InputError
   // naming the calibration otherwise), solves the pose and keeps it when accepted.
@@ -47,7 +46,7 @@ class MarkerTracker final : public PoseSource {
 
  private:
   MarkerMap map_;
-  sky::Lens lens_;
+  camera::Lens lens_;
   MarkerTrackerOptions options_;
   TagDetector detector_;
   mutable std::mutex mutex_;  // guards the three below
@@ -60,6 +59,6 @@ class MarkerTracker final : public PoseSource {
 // when the config names none, `camera` (the HMD camera's calibration of the live config).
 // std::invalid_argument when the config is not of kind markers or there is no calibration.
 std::unique_ptr<MarkerTracker> open_marker_tracker(const PoseConfig& config,
-                                                   const sky::CameraCalibration* camera = nullptr);
+                                                   const camera::CameraCalibration* camera = nullptr);
 
 }  // namespace skylit::track

@@ -2,9 +2,6 @@
 // The One Euro filter (Casiez, Roussel, Vogel, CHI 2012): a low-pass filter whose cutoff rises
 // with speed, so a still head is steady (low cutoff: jitter removed) and a moving head is
 // followed closely (high cutoff: little lag).
-//
-//   cutoff = min_cutoff + beta · |filtered speed|,  speed filtered at d_cutoff
-//   alpha  = 1 / (1 + 1 / (2π · cutoff · Δt))
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -12,6 +9,10 @@
 
 namespace skylit::track {
 
+// The filter at each step:
+//
+//   cutoff = min_cutoff + beta · |filtered speed|,  speed filtered at d_cutoff
+//   alpha  = 1 / (1 + 1 / (2π · cutoff · Δt))
 struct OneEuroSettings {
   bool enabled = true;
   double min_cutoff = 1.0;  // Hz: the cutoff at rest; lower removes more jitter, lags more

@@ -1,10 +1,6 @@
 #pragma once
 // Where a camera is: one interface for a fixed pose from the config, a recorded pose track
 // (CSV) and the marker tracker (marker_tracker.hpp).
-//
-// Frames: the site frame is x east, y north, z up, metres; the camera frame is OpenCV's (x right,
-// y down, z forward). A camera point p maps to the site as R_site_from_camera · p +
-// t_site_from_camera, so t is the camera's position.
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -24,6 +20,9 @@ namespace skylit::track {
 
 using Vec3 = Eigen::Vector3d;
 
+// Frames: the site frame is x east, y north, z up, metres; the camera frame is OpenCV's (x right,
+// y down, z forward). A camera point p maps to the site as R_site_from_camera · p +
+// t_site_from_camera, so t is the camera's position.
 struct Pose {
   double timestamp = 0;  // seconds, on the clock of the frames the pose belongs to
   Eigen::Quaterniond R_site_from_camera = Eigen::Quaterniond::Identity();  // unit

@@ -1,10 +1,5 @@
 #pragma once
 // AprilTag detection (Debian's libapriltag, hidden behind this header).
-//
-// Corners are in OpenCV's pixel convention (pixel centres at integers; libapriltag puts them at
-// +0.5, which is undone here) and in the marker map's corner order (docs/tracking.md): as the
-// tag is printed and seen from the front, 0 = bottom-left, 1 = bottom-right, 2 = top-right,
-// 3 = top-left (libapriltag's order: counter-clockwise on the page).
 #include <array>
 #include <memory>
 #include <span>
@@ -22,6 +17,10 @@ class Mat;
 
 namespace skylit::track {
 
+// Corners are in OpenCV's pixel convention (pixel centres at integers; libapriltag puts them at
+// +0.5, which is undone here) and in the marker map's corner order (docs/tracking.md): as the
+// tag is printed and seen from the front, 0 = bottom-left, 1 = bottom-right, 2 = top-right,
+// 3 = top-left (libapriltag's order: counter-clockwise on the page).
 struct TagDetection {
   int id = 0;
   std::array<Eigen::Vector2d, 4> corners;  // pixels, the order above

@@ -1,0 +1,1 @@
+// The stub that each shared precompiled header (cmake/SharedPch.cmake) is compiled with.

@@ -1,0 +1,23 @@
+#pragma once
+// A preset's bake settings (the `bake:` section of config/presets.yaml, docs/presets.md): what
+// skylit-bake --preset NAME bakes with, unless its own options say otherwise.
+#include <string>
+
+#include "skylit/base/presets.hpp"
+#include "skylit/geom/dome_basis.hpp"
+
+namespace skylit::baker {
+
+struct BakePreset {
+  std::string name;
+  int frequency = 2;                              // dome frequency ν, even
+  geom::DomeBasis basis = geom::DomeBasis::Faces;
+  int samples = 16;                               // visibility samples per face
+  int pca_components = 0;                         // 0: no PCA form stored
+  int pca_tile = 0;                               // clustered PCA: tiles of this many texels (0: one set per plane)
+};
+
+// The bake section of preset `name`. InputError (file, line, field, fix) for anything wrong.
+BakePreset load_bake_preset(const PresetsFile& presets, const std::string& name);
+
+}  // namespace skylit::baker

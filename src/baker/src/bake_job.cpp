@@ -1,0 +1,726 @@
+#include "skylit/baker/bake_job.hpp"
+
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <ctime>
+#include <set>
+#include <span>
+#include <sstream>
+
+#include <spdlog/spdlog.h>
+
+#include "skylit/bake_format/footprint.hpp"
+#include "skylit/base/error.hpp"
+#include "skylit/base/files.hpp"
+#include "skylit/base/progress.hpp"
+#include "skylit/baker/preview.hpp"
+#include "skylit/baker/visibility.hpp"
+#include "skylit/geom/spherical.hpp"
+#include "skylit/scene/site.hpp"
+#include "skylit/bake_format/parts.hpp"
+#include "skylit/bake_format/arrays.hpp"
+
+namespace skylit::baker {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr const char* kGenerator = "skylit-bake 0.1.0";
+constexpr int kMaxSamples = 1024;
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+std::string utc_now() {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return text;
+}
+
+double peak_memory_mib() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
+}
+
+std::string cli_error(const std::string& option, const std::string& problem, const std::string& fix) {
+  return "option " + option + ": " + problem + ". Fix: " + fix;
+}
+
+void validate_options(const BakeOptions& o) {
+  if (o.frequency && (*o.frequency < 2 || *o.frequency > 64 || *o.frequency % 2 != 0)) {
+    throw InputError(cli_error("--frequency", "got " + std::to_string(*o.frequency),
+                               "use an even dome frequency from 2 to 64 (2 → 40 faces, 4 → 160, 8 → 640)"));
+  }
+  if (o.samples < 1 || o.samples > kMaxSamples) {
+    throw InputError(cli_error("--samples", "got " + std::to_string(o.samples),
+                               "use 1 (face centre) up to " + std::to_string(kMaxSamples)));
+  }
+  if (o.method != "auto" && o.method != "raster" && o.method != "raytrace") {
+    throw InputError(cli_error("--method", "unknown method '" + o.method + "'", "use auto, raster or raytrace"));
+  }
+  if (o.resolution) {
+    const auto [w, h] = *o.resolution;
+    if (w < 1 || h < 1 || w > scene::kMaxPlaneResolution || h > scene::kMaxPlaneResolution) {
+      throw InputError(cli_error("--resolution", "got " + std::to_string(w) + "x" + std::to_string(h),
+                                 "use WxH with each side from 1 to " +
+                                     std::to_string(scene::kMaxPlaneResolution)));
+    }
+  }
+  if (o.shadow_map_resolution != 0 && (o.shadow_map_resolution < 64 || o.shadow_map_resolution > 16384)) {
+    throw InputError(cli_error("--shadow-map", "got " + std::to_string(o.shadow_map_resolution),
+                               "use 64 to 16384 texels, or leave it out to choose from the planes"));
+  }
+  if (o.resume && o.force) {
+    throw InputError(cli_error("--resume/--force", "both given",
+                               "use --resume to continue an interrupted bake, --force to start over"));
+  }
+}
+
+// Shadow-map texels about half the finest plane texel, within what GPUs take comfortably.
+int auto_shadow_map_resolution(const scene::Mesh& mesh, const std::vector<geom::Plane>& planes) {
+  Eigen::Vector3d lo = mesh.bounds_min().cast<double>();
+  Eigen::Vector3d hi = mesh.bounds_max().cast<double>();
+  double finest = std::numeric_limits<double>::infinity();
+  for (const geom::Plane& p : planes) {
+    const std::array<geom::Vec3, 4> corners{p.origin, p.origin + p.u, p.origin + p.v,
+                                            p.origin + p.u + p.v};
+    for (const geom::Vec3& c : corners) {
+      lo = lo.cwiseMin(c);
+      hi = hi.cwiseMax(c);
+    }
+    finest = std::min({finest, p.u.norm() / p.width, p.v.norm() / p.height});
+  }
+  const double wanted = 2.0 * (hi - lo).norm() / finest;
+  int resolution = 1024;
+  while (resolution < wanted && resolution < 8192) resolution *= 2;
+  return resolution;
+}
+
+std::vector<int> faces_of_shard(int face_count, const std::optional<Shard>& shard) {
+  std::vector<int> faces;
+  for (int i = 0; i < face_count; ++i) {
+    if (!shard || i % shard->count == shard->index) faces.push_back(i);
+  }
+  return faces;
+}
+
+bake_format::Plan make_plan(const BakeOptions& o, const scene::Site& site, const scene::Mesh& mesh) {
+  bake_format::Plan plan;
+  // Absolute paths: shards of one bake may run from different working directories.
+  plan.site_file = fs::absolute(o.site_file).lexically_normal().string();
+  plan.site_sha256 = sha256_file(o.site_file);
+  plan.model_file = fs::absolute(site.model).lexically_normal().string();
+  plan.model_sha256 = sha256_file(site.model);
+  plan.frequency = o.frequency.value_or(site.dome_frequency);
+  plan.basis = o.basis.value_or(site.dome_basis);
+  plan.samples = o.samples;
+  plan.method = o.method;
+  plan.preset = o.preset;
+  plan.planes = site.planes;
+  if (o.resolution) {
+    for (geom::Plane& p : plan.planes) std::tie(p.width, p.height) = *o.resolution;
+  }
+  plan.shadow_map_resolution =
+      o.method == "raster"
+          ? (o.shadow_map_resolution ? o.shadow_map_resolution : auto_shadow_map_resolution(mesh, plan.planes))
+          : 0;
+  plan.vertex_count = mesh.vertex_count();
+  plan.triangle_count = mesh.triangle_count();
+  return plan;
+}
+
+std::unique_ptr<VisibilityEngine> make_engine(const bake_format::Plan& plan, const scene::Mesh& mesh,
+                                              const fs::path& shader_dir, int threads) {
+  if (plan.method == "raytrace") {
+    RaytraceOptions options;
+    options.threads = threads;
+    return make_raytrace_engine(mesh, plan.planes, options);
+  }
+  RasterOptions options;
+  options.shadow_map_resolution = plan.shadow_map_resolution;
+  options.shader_dir = shader_dir;
+  return make_raster_engine(mesh, plan.planes, options);
+}
+
+// Prepares out_dir for a new, resumed or forced bake; returns the faces already done.
+std::set<int> prepare_output(const BakeOptions& o, const bake_format::Plan& plan, const bake_format::PartStore& parts,
+                             int face_count) {
+  ensure_writable_directory(o.out_dir);
+  const fs::path manifest = o.out_dir / "manifest.json";
+  const std::optional<bake_format::Plan> existing_plan = fs::exists(parts.dir() / "plan.json")
+                                                      ? parts.read_plan()
+                                                      : std::nullopt;
+  if (fs::exists(manifest) && !o.force) {
+    throw InputError("output directory '" + o.out_dir.string() +
+                     "' already holds a finished bake. Fix: pass --force to replace it, or choose "
+                     "another directory with -o");
+  }
+  if (o.force) {
+    // Invalidate first: from here on the directory is never a bake that verify accepts until
+    // the new manifest is written.
+    fs::remove(manifest);
+    fs::remove_all(parts.dir());
+  } else if (existing_plan && !o.resume && !o.shard) {
+    throw InputError("output directory '" + o.out_dir.string() +
+                     "' holds an interrupted bake. Fix: pass --resume to continue it, or --force "
+                     "to start over");
+  }
+  fs::create_directories(parts.dir());
+  std::set<int> done;
+  if (existing_plan && fs::exists(parts.dir() / "plan.json")) {
+    if (!(*existing_plan == plan)) {
+      throw InputError("the interrupted bake in '" + o.out_dir.string() +
+                       "' was planned differently: " + existing_plan->difference(plan) +
+                       ". Fix: rerun with the same site and options, or pass --force to start over");
+    }
+    for (int i = 0; i < face_count; ++i) {
+      if (parts.has(i, plan)) done.insert(i);
+    }
+  } else {
+    parts.write_plan(plan);
+  }
+  return done;
+}
+
+// A basis with fewer directions per face than it has functions is refused: say where the basis
+// came from.
+void check_basis_samples(const BakeOptions& o, const bake_format::Plan& plan) {
+  const int needed = min_samples_per_face(plan.basis);
+  if (plan.samples >= needed) return;
+  const std::string name(geom::basis_name(plan.basis));
+  const std::string source = o.basis ? "--basis " + name : "dome.basis: " + name + " in " + o.site_file.string();
+  throw InputError(cli_error("--samples", "got " + std::to_string(plan.samples) + " with " + source,
+                             "the " + name + " basis resolves " + std::to_string(needed) +
+                                 " functions per face and needs at least " + std::to_string(needed) +
+                                 " samples per face: pass --samples " +
+                                 std::to_string(plan.basis == geom::DomeBasis::Quadratics ? 64 : 16) +
+                                 " (or --basis faces)"));
+}
+
+bake_format::Manifest manifest_for(const bake_format::Plan& plan, const geom::Dome& dome) {
+  bake_format::Manifest m;
+  m.generator = kGenerator;
+  m.created_utc = utc_now();
+  m.plan = plan;
+  for (int i = 0; i < dome.face_count(); ++i) {
+    const geom::DomeFace& f = dome.face(i);
+    bake_format::FaceRecord r;
+    r.index = i;
+    r.direction = f.centre;
+    r.solid_angle = f.solid_angle;
+    for (int k = 0; k < 3; ++k) r.vertices[static_cast<std::size_t>(k)] = dome.vertices()[static_cast<std::size_t>(f.vertex[static_cast<std::size_t>(k)])];
+    r.neighbours = f.neighbour;
+    m.faces.push_back(r);
+  }
+  const std::vector<geom::FaceQuadrature> quadratures = face_quadratures(dome, plan.basis);
+  for (const geom::Plane& p : plan.planes) {
+    bake_format::PlaneRecord r;
+    r.plane = p;
+    r.file = "planes/" + p.name + ".exr";
+    r.unoccluded = layer_cosine_integrals(dome, plan.basis, quadratures, p.normal());
+    m.planes.push_back(std::move(r));
+  }
+  return m;
+}
+
+// What of the plane's basis a blend needs (bake/footprint.hpp): said, so that a site's planes
+// can be placed and sized for what they shadow.
+void log_footprint(const bake_format::PlaneRecord& record, const bake_format::ImageStack& stack, std::FILE* log) {
+  if (!log) return;
+  const bake_format::PlaneFootprint f = bake_format::analyse_footprint(stack, record.unoccluded);
+  constexpr double kMiB = 1024.0 * 1024.0;
+  const double layer_mib = static_cast<double>(f.texels) * 2.0 / kMiB;  // half floats
+  const double cropped = f.shadowed > 0 ? static_cast<double>(f.shadowed_texels) /
+                                              (static_cast<double>(f.shadowed) * static_cast<double>(f.texels))
+                                        : 0.0;
+  std::fprintf(log,
+               "skylit-bake: plane '%s': %d of %d layers hold a shadow (%d the plane cannot see, %d unshadowed): the "
+               "lean form blends %d layers, %.1f MiB instead of %.1f MiB; the cropped form (each shadowed layer cut to the "
+               "rectangle it shadows) keeps %.0f%% of their texels, %.1f MiB\n",
+               record.plane.name.c_str(), f.shadowed, stack.layers, f.dark, f.unshadowed, f.needed_layers(),
+               layer_mib * f.needed_layers(), layer_mib * stack.layers, 100.0 * cropped,
+               static_cast<double>(f.shadowed_texels) * 2.0 / kMiB + (f.unshadowed > 0 ? layer_mib : 0.0));
+}
+
+// Options checked before any work, so that a typo does not cost a bake.
+void check_pca_input(const std::optional<bake_format::PcaOptions>& options) {
+  if (!options) return;
+  try {
+    bake_format::check_pca_options(*options);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(std::string(e.what()) + ". Fix: give --pca-components K (>= 1), --pca-variance F (0 < F <= 1) "
+                     "or --pca-max-error E (> 0), and --pca-tile N of 0 (the whole plane) or at least 2 texels");
+  }
+}
+
+// Writes the PCA form of one plane beside its full image (planes/<name>.pca.exr, .pca.npy) and
+// records it; the files still need listing in the manifest.
+void write_pca_form(const fs::path& out_dir, const bake_format::Manifest& manifest, bake_format::PlaneRecord& record,
+                    const bake_format::ImageStack& stack, const bake_format::PcaOptions& options, std::FILE* log) {
+  const auto start = std::chrono::steady_clock::now();
+  // Each layer's direction: its face's centre.
+  std::vector<Vec3> directions;
+  const std::size_t per_face = static_cast<std::size_t>(manifest.plan.layers_per_face());
+  for (std::size_t l = 0; l < manifest.layer_count(); ++l) directions.push_back(manifest.faces[l / per_face].direction);
+  const bake_format::PcaBasis pca = bake_format::compress_pca(stack, record.unoccluded, options, directions);
+  bake_format::PcaRecord r;
+  const fs::path stem = fs::path(record.file).replace_extension();
+  r.file = stem.string() + ".pca.exr";
+  r.coefficients = stem.string() + ".pca.npy";
+  r.components = pca.components;
+  r.max_error = pca.max_error;
+  r.rms_error = pca.rms_error;
+  r.variance_kept = pca.variance_kept;
+  r.sky_correlation_deg = options.sky_correlation_deg;
+  r.tile = pca.tile;
+  bake_format::write_exr_stack(out_dir / r.file, pca.images, bake_format::pca_layer_names(pca.components));
+  const auto n = static_cast<std::size_t>(pca.source_layers), k = static_cast<std::size_t>(pca.components);
+  if (pca.tile > 0) {
+    const std::size_t shape[] = {static_cast<std::size_t>(pca.tile_count()), n, k};
+    bake_format::write_npy(out_dir / r.coefficients, pca.coefficients, shape);
+  } else {
+    const std::size_t shape[] = {n, k};
+    bake_format::write_npy(out_dir / r.coefficients, pca.coefficients, shape);
+  }
+  if (log) {
+    const std::string tiles = pca.tile > 0 ? " in each of " + std::to_string(pca.tile_count()) + " tiles of " +
+                                                 std::to_string(pca.tile) + "x" + std::to_string(pca.tile) + " texels"
+                                           : "";
+    std::fprintf(log,
+                 "skylit-bake: plane '%s': PCA keeps K = %d component(s) of %d layers%s (%.2f%% of the variance), "
+                 "so the blend reads %d layers instead of %d; |T - T_full| <= %.4f (RMS %.5f of the fractions), in %.1f s\n",
+                 record.plane.name.c_str(), pca.components, pca.source_layers, tiles.c_str(), 100.0 * pca.variance_kept,
+                 pca.components + 1, pca.source_layers, pca.max_error, pca.rms_error, seconds_since(start));
+  }
+  record.pca = std::move(r);
+}
+
+// Assembles the final files from the parts, writes the manifest last, then removes the parts.
+std::uint64_t finalize(const fs::path& out_dir, bake_format::Manifest manifest, const scene::Mesh& mesh,
+                       const geom::Dome& dome, bool previews, const std::optional<bake_format::PcaOptions>& pca,
+                       std::FILE* log) {
+  const auto start = std::chrono::steady_clock::now();
+  const bake_format::PartStore parts(out_dir / "parts");
+  const bake_format::Plan& plan = manifest.plan;
+  const int n = dome.face_count();
+  const int per_face = plan.layers_per_face();
+  const std::size_t layers = static_cast<std::size_t>(n) * static_cast<std::size_t>(per_face);
+  fs::create_directories(out_dir / "planes");
+  if (previews) fs::create_directories(out_dir / "preview");
+
+  const std::vector<std::string> layer_names = bake_format::layer_names(plan.basis, n);
+
+  // Per-vertex transfer t_{v,l} = A_l(n_v) · f_{v,l}, filled while the parts are read; A_l(n_v)
+  // of every vertex first (one row per vertex, as transfer.npy).
+  const std::size_t vertex_count = mesh.vertex_count();
+  std::vector<float> transfer(vertex_count * layers, 0.0f);
+  const std::vector<geom::FaceQuadrature> quadratures = face_quadratures(dome, plan.basis);
+  std::vector<double> vertex_unoccluded(vertex_count * layers);
+  for (std::size_t v = 0; v < vertex_count; ++v) {
+    const std::vector<double> a = layer_cosine_integrals(dome, plan.basis, quadratures, mesh.normals[v].cast<double>());
+    std::copy(a.begin(), a.end(), vertex_unoccluded.begin() + static_cast<std::ptrdiff_t>(v * layers));
+  }
+  const auto add_vertex_fractions = [&](int face, const bake_format::FacePart& part) {
+    for (int k = 0; k < per_face; ++k) {
+      const std::size_t l = static_cast<std::size_t>(face * per_face + k);
+      const float* f = part.vertex_fractions.data() + static_cast<std::size_t>(k) * vertex_count;
+      for (std::size_t v = 0; v < vertex_count; ++v) {
+        transfer[v * layers + l] = static_cast<float>(vertex_unoccluded[v * layers + l] * f[v]);
+      }
+    }
+  };
+
+  Progress progress("assemble", static_cast<std::int64_t>(plan.planes.size()) * n, log);
+  for (std::size_t j = 0; j < plan.planes.size(); ++j) {
+    const geom::Plane& p = plan.planes[j];
+    bake_format::ImageStack stack;
+    stack.width = p.width;
+    stack.height = p.height;
+    stack.layers = static_cast<int>(layers);
+    stack.data.assign(static_cast<std::size_t>(p.width) * p.height * layers, 0.0f);
+    for (int i = 0; i < n; ++i) {
+      const bake_format::FacePart part = parts.read(i, plan);
+      const std::vector<float>& f = part.plane_fractions.at(j);
+      for (int k = 0; k < per_face; ++k) {
+        const int l = i * per_face + k;
+        const double a = manifest.planes[j].unoccluded[static_cast<std::size_t>(l)];
+        std::span<float> layer = stack.layer(l);
+        const float* fk = f.data() + static_cast<std::size_t>(k) * layer.size();
+        for (std::size_t t = 0; t < layer.size(); ++t) layer[t] = static_cast<float>(a * fk[t]);
+      }
+      if (j == 0) add_vertex_fractions(i, part);
+      progress.advance();
+    }
+    const fs::path file = out_dir / manifest.planes[j].file;
+    bake_format::write_exr_stack(file, stack, layer_names);
+    log_footprint(manifest.planes[j], stack, log);
+    if (previews) write_plane_previews(out_dir / "preview", manifest, static_cast<int>(j), stack);
+    manifest.files.push_back({manifest.planes[j].file, 0, ""});
+    if (pca) {
+      write_pca_form(out_dir, manifest, manifest.planes[j], stack, *pca, log);
+      manifest.files.push_back({manifest.planes[j].pca->file, 0, ""});
+      manifest.files.push_back({manifest.planes[j].pca->coefficients, 0, ""});
+    }
+  }
+  if (plan.planes.empty()) {
+    // Transfer vectors still need every face's vertex fractions.
+    for (int i = 0; i < n; ++i) add_vertex_fractions(i, parts.read(i, plan));
+  }
+  progress.finish();
+
+  const std::size_t transfer_shape[] = {vertex_count, layers};
+  bake_format::write_npy(out_dir / manifest.transfer_file, transfer, transfer_shape);
+  std::vector<float> vertices;
+  vertices.reserve(vertex_count * 6);
+  for (std::size_t v = 0; v < vertex_count; ++v) {
+    for (int k = 0; k < 3; ++k) vertices.push_back(mesh.positions[v][k]);
+    for (int k = 0; k < 3; ++k) vertices.push_back(mesh.normals[v][k]);
+  }
+  const std::size_t vertices_shape[] = {vertex_count, 6};
+  bake_format::write_npy(out_dir / manifest.vertices_file, vertices, vertices_shape);
+  manifest.files.push_back({manifest.transfer_file, 0, ""});
+  manifest.files.push_back({manifest.vertices_file, 0, ""});
+
+  manifest.finalize_seconds = seconds_since(start);
+  bake_format::write_manifest(out_dir, manifest);
+  fs::remove_all(parts.dir());
+
+  std::uint64_t bytes = 0;
+  for (const bake_format::FileRecord& f : manifest.files) bytes += fs::file_size(out_dir / f.path);
+  return bytes;
+}
+
+struct LoadedSite {
+  scene::Site site;
+  scene::Mesh mesh;
+};
+
+LoadedSite load(const fs::path& site_file) {
+  LoadedSite loaded{scene::load_site(site_file), {}};
+  loaded.mesh = scene::load_model(loaded.site.model, loaded.site.up, loaded.site.scale);
+  return loaded;
+}
+
+void log_summary(std::FILE* log, const bake_format::Plan& plan, const BakeSummary& s, const fs::path& dir) {
+  if (!log) return;
+  std::fprintf(log,
+               "skylit-bake: %s — %zu plane(s), dome ν=%d (%d faces, %s basis), %d sample(s)/face, %s; "
+               "%d face(s) baked, %d resumed, in %s; %.1f MiB written; peak memory %.0f MiB\n",
+               s.complete ? "bake complete" : "shard done", plan.planes.size(), plan.frequency,
+               s.faces_total, std::string(geom::basis_name(plan.basis)).c_str(), plan.samples, plan.method.c_str(), s.faces_baked, s.faces_skipped,
+               format_duration(s.seconds).c_str(), static_cast<double>(s.bytes_written) / (1024.0 * 1024.0),
+               peak_memory_mib());
+  if (s.complete) {
+    std::fprintf(log, "skylit-bake: %s (previews in %s)\n", dir.string().c_str(),
+                 (dir / "preview").string().c_str());
+  }
+}
+
+}  // namespace
+
+std::vector<geom::Vec3> face_sample_directions(const geom::Dome& dome, int face, int samples) {
+  if (samples == 1) return {dome.face(face).centre};
+  return geom::stratified_samples(dome.triangle(face), samples, static_cast<std::uint64_t>(face));
+}
+
+std::vector<geom::FaceQuadrature> face_quadratures(const geom::Dome& dome, geom::DomeBasis basis) {
+  std::vector<geom::FaceQuadrature> quadratures;
+  if (basis == geom::DomeBasis::Faces) return quadratures;
+  for (int i = 0; i < dome.face_count(); ++i) {
+    quadratures.push_back(geom::face_quadrature(dome, i, geom::kDefaultQuadratureSubdivisions, basis));
+  }
+  return quadratures;
+}
+
+std::vector<double> layer_cosine_integrals(const geom::Dome& dome, geom::DomeBasis basis,
+                                           const std::vector<geom::FaceQuadrature>& quadratures, const geom::Vec3& n) {
+  std::vector<double> a;
+  a.reserve(static_cast<std::size_t>(dome.face_count() * geom::layers_per_face(basis)));
+  for (int i = 0; i < dome.face_count(); ++i) {
+    if (basis == geom::DomeBasis::Faces) {
+      a.push_back(geom::cosine_integral(dome.triangle(i), n));
+    } else {
+      const std::vector<double> layers =
+          geom::layer_cosine_integrals(dome, i, quadratures.at(static_cast<std::size_t>(i)), n);
+      a.insert(a.end(), layers.begin(), layers.end());
+    }
+  }
+  return a;
+}
+
+Shard parse_shard(const std::string& text) {
+  const auto slash = text.find('/');
+  const auto fail = [&] {
+    return InputError(cli_error("--shard", "got '" + text + "'",
+                                "write I/N with 0 ≤ I < N, e.g. --shard 0/4 for the first of four slices"));
+  };
+  if (slash == std::string::npos) throw fail();
+  Shard shard;
+  try {
+    std::size_t used_i = 0, used_n = 0;
+    shard.index = std::stoi(text.substr(0, slash), &used_i);
+    shard.count = std::stoi(text.substr(slash + 1), &used_n);
+    if (used_i != slash || used_n != text.size() - slash - 1) throw fail();
+  } catch (const std::logic_error&) {
+    throw fail();
+  }
+  if (shard.count < 1 || shard.index < 0 || shard.index >= shard.count) throw fail();
+  return shard;
+}
+
+std::optional<Shard> shard_from_environment() {
+  const auto env_int = [](const char* name) -> std::optional<int> {
+    const char* value = std::getenv(name);
+    if (!value || !*value) return std::nullopt;
+    char* end = nullptr;
+    const long parsed = std::strtol(value, &end, 10);
+    if (*end != '\0') {
+      throw InputError(std::string("environment variable ") + name + "='" + value +
+                       "' is not an integer. Fix: unset it or set it to the task index");
+    }
+    return static_cast<int>(parsed);
+  };
+  if (const auto id = env_int("SLURM_ARRAY_TASK_ID")) {
+    const auto count = env_int("SLURM_ARRAY_TASK_COUNT");
+    if (!count) {
+      throw InputError("SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not. Fix: run as a "
+                       "Slurm job array (sbatch --array=0-N), or pass --shard I/N");
+    }
+    const int first = env_int("SLURM_ARRAY_TASK_MIN").value_or(0);
+    return parse_shard(std::to_string(*id - first) + "/" + std::to_string(*count));
+  }
+  if (const auto index = env_int("JOB_COMPLETION_INDEX")) {
+    const auto count = env_int("SKYLIT_SHARD_COUNT");
+    if (!count) {
+      throw InputError("JOB_COMPLETION_INDEX is set but SKYLIT_SHARD_COUNT is not. Fix: set "
+                       "SKYLIT_SHARD_COUNT to the Job's .spec.completions, or pass --shard I/N");
+    }
+    return parse_shard(std::to_string(*index) + "/" + std::to_string(*count));
+  }
+  return std::nullopt;
+}
+
+std::string resolve_method(const BakeOptions& options) {
+  if (options.method != "auto") return options.method;
+  if (!options.force) {
+    // A resumed bake, or another shard into the same folder, must run the engine its plan names.
+    const bake_format::PartStore parts(options.out_dir / "parts");
+    if (fs::exists(parts.dir() / "plan.json")) {
+      if (const std::optional<bake_format::Plan> plan = parts.read_plan()) {
+        spdlog::info("method auto: {}, the engine of the interrupted bake in {}", plan->method,
+                     options.out_dir.string());
+        return plan->method;
+      }
+    }
+  }
+  const EngineChoice choice = choose_engine();
+  spdlog::info("method auto: {}", choice.reason);
+  return choice.method;
+}
+
+BakeSummary run_bake(const BakeOptions& given, std::FILE* log) {
+  const auto start = std::chrono::steady_clock::now();
+  validate_options(given);
+  check_pca_input(given.pca);
+  const LoadedSite loaded = load(given.site_file);
+  BakeOptions options = given;
+  options.method = resolve_method(given);
+  const bake_format::Plan plan = make_plan(options, loaded.site, loaded.mesh);
+  check_basis_samples(options, plan);
+  const geom::Dome dome(plan.frequency);
+  const bake_format::PartStore parts(options.out_dir / "parts");
+  const std::set<int> done = prepare_output(options, plan, parts, dome.face_count());
+
+  std::vector<int> todo;
+  const std::vector<int> shard_faces = faces_of_shard(dome.face_count(), options.shard);
+  BakeSummary summary;
+  summary.faces_total = dome.face_count();
+  for (int i : shard_faces) {
+    if (done.count(i)) {
+      ++summary.faces_skipped;
+    } else {
+      todo.push_back(i);
+    }
+  }
+
+  if (!todo.empty()) {
+    auto engine = make_engine(plan, loaded.mesh, options.shader_dir, options.threads);
+    summary.engine_description = engine->name();
+    spdlog::info("engine: {}; {} face(s) to bake{}", engine->name(), todo.size(),
+                 options.shard ? fmt::format(" (shard {}/{})", options.shard->index, options.shard->count) : "");
+    Progress progress("bake", static_cast<std::int64_t>(todo.size()), log);
+    const geom::CornerWeights corner_weights(dome);
+    const auto per_face = static_cast<std::size_t>(plan.layers_per_face());
+    // The engines weigh up to three layers at once (kEngineLayers); a basis with more functions
+    // per face is baked in groups of three, each seeing the same directions.
+    const std::size_t groups = (per_face + kEngineLayers - 1) / kEngineLayers;
+    for (int i : todo) {
+      const std::vector<geom::Vec3> directions = face_sample_directions(dome, i, plan.samples);
+      // Corners and quadratics: each sample weighs the face's functions at its barycentric
+      // coordinates in the face.
+      std::vector<geom::LayerValues> values;
+      if (plan.basis != geom::DomeBasis::Faces) {
+        for (const geom::Vec3& d : directions) values.push_back(geom::layer_values(plan.basis, corner_weights(i, d)));
+      }
+      bake_format::FacePart part;
+      part.face = i;
+      for (std::size_t j = 0; j < plan.planes.size(); ++j) {
+        part.plane_fractions.emplace_back(per_face * static_cast<std::size_t>(plan.planes[j].width) *
+                                          static_cast<std::size_t>(plan.planes[j].height));
+      }
+      part.vertex_fractions.resize(per_face * loaded.mesh.vertex_count());
+      for (std::size_t g = 0; g < groups; ++g) {
+        const std::size_t first = g * kEngineLayers;
+        const std::size_t count = std::min(kEngineLayers, per_face - first);
+        std::vector<SampleWeights> weights;
+        for (const geom::LayerValues& v : values) {
+          SampleWeights w{0.0f, 0.0f, 0.0f};
+          for (std::size_t k = 0; k < count; ++k) w[k] = static_cast<float>(v[first + k]);
+          weights.push_back(w);
+        }
+        engine->set_weighted_directions(directions, weights, static_cast<int>(count));
+        for (std::size_t j = 0; j < plan.planes.size(); ++j) {
+          const std::size_t texels =
+              static_cast<std::size_t>(plan.planes[j].width) * static_cast<std::size_t>(plan.planes[j].height);
+          std::span<float> out(part.plane_fractions[j]);
+          engine->plane_fractions(static_cast<int>(j), out.subspan(first * texels, count * texels));
+        }
+        const std::size_t vertices = loaded.mesh.vertex_count();
+        std::span<float> out(part.vertex_fractions);
+        engine->vertex_fractions(out.subspan(first * vertices, count * vertices));
+      }
+      parts.write(part);
+      ++summary.faces_baked;
+      progress.advance();
+    }
+    progress.finish();
+  }
+
+  const bool whole = !options.shard || options.shard->count == 1;
+  if (whole) {
+    bake_format::Manifest manifest = manifest_for(plan, dome);
+    manifest.bake_seconds = seconds_since(start);
+    summary.bytes_written = finalize(options.out_dir, manifest, loaded.mesh, dome, options.previews, options.pca, log);
+    summary.complete = true;
+  }
+  summary.seconds = seconds_since(start);
+  log_summary(log, plan, summary, options.out_dir);
+  if (!whole && log) {
+    std::fprintf(log, "skylit-bake: join the shards with: skylit-bake merge DIR... -o OUT_DIR\n");
+  }
+  return summary;
+}
+
+BakeSummary merge_bakes(const std::vector<fs::path>& shard_dirs, const fs::path& out_dir, bool previews,
+                        std::FILE* log, const std::optional<bake_format::PcaOptions>& pca) {
+  const auto start = std::chrono::steady_clock::now();
+  check_pca_input(pca);
+  if (shard_dirs.empty()) {
+    throw InputError("merge needs at least one shard directory. Fix: skylit-bake merge DIR... -o OUT_DIR");
+  }
+  std::optional<bake_format::Plan> plan;
+  for (const fs::path& dir : shard_dirs) {
+    const bake_format::PartStore store(dir / "parts");
+    const std::optional<bake_format::Plan> shard_plan = store.read_plan();
+    if (!shard_plan) {
+      throw InputError("'" + dir.string() + "' holds no bake parts (no parts/plan.json). Fix: name the "
+                       "directories that skylit-bake --shard wrote");
+    }
+    if (!plan) {
+      plan = shard_plan;
+    } else if (!(*plan == *shard_plan)) {
+      throw InputError("'" + dir.string() + "' was baked from a different plan than '" + shard_dirs[0].string() +
+                       "': " + plan->difference(*shard_plan) + ". Fix: bake every shard with the same site and options");
+    }
+  }
+  const geom::Dome dome(plan->frequency);
+  ensure_writable_directory(out_dir);
+  if (fs::exists(out_dir / "manifest.json")) {
+    throw InputError("output directory '" + out_dir.string() +
+                     "' already holds a finished bake. Fix: choose another directory with -o");
+  }
+  const bake_format::PartStore out_parts(out_dir / "parts");
+  fs::create_directories(out_parts.dir());
+  if (const auto existing = out_parts.read_plan(); existing && !(*existing == *plan)) {
+    throw InputError("'" + out_dir.string() + "' holds parts of a different bake: " + existing->difference(*plan) +
+                     ". Fix: choose another directory with -o");
+  }
+  out_parts.write_plan(*plan);
+
+  std::vector<int> missing;
+  for (int i = 0; i < dome.face_count(); ++i) {
+    if (out_parts.has(i, *plan)) continue;
+    bool found = false;
+    for (const fs::path& dir : shard_dirs) {
+      const bake_format::PartStore store(dir / "parts");
+      if (store.has(i, *plan)) {
+        if (fs::weakly_canonical(store.dir()) != fs::weakly_canonical(out_parts.dir())) {
+          out_parts.write(store.read(i, *plan));  // read checks the checksum
+        }
+        found = true;
+        break;
+      }
+    }
+    if (!found) missing.push_back(i);
+  }
+  if (!missing.empty()) {
+    std::ostringstream list;
+    for (std::size_t k = 0; k < missing.size() && k < 20; ++k) list << (k ? ", " : "") << missing[k];
+    if (missing.size() > 20) list << ", … (" << missing.size() << " in all)";
+    throw InputError("merge: " + std::to_string(missing.size()) + " of " + std::to_string(dome.face_count()) +
+                     " faces are in none of the shards (faces " + list.str() +
+                     "). Fix: run the missing shards (skylit-bake SITE -o DIR --shard I/N) and merge again");
+  }
+
+  const scene::Mesh mesh = [&] {
+    const scene::Site site = scene::load_site(plan->site_file);
+    scene::Mesh m = scene::load_model(site.model, site.up, site.scale);
+    if (sha256_file(site.model) != plan->model_sha256 || m.vertex_count() != plan->vertex_count) {
+      throw InputError("the model '" + site.model.string() +
+                       "' changed since the shards were baked. Fix: re-bake the shards");
+    }
+    return m;
+  }();
+  bake_format::Manifest manifest = manifest_for(*plan, dome);
+  BakeSummary summary;
+  summary.faces_total = dome.face_count();
+  summary.faces_skipped = dome.face_count();
+  summary.bytes_written = finalize(out_dir, manifest, mesh, dome, previews, pca, log);
+  summary.complete = true;
+  summary.seconds = seconds_since(start);
+  log_summary(log, *plan, summary, out_dir);
+  return summary;
+}
+
+void compress_bake(const fs::path& bake_dir, const bake_format::PcaOptions& options, std::FILE* log) {
+  check_pca_input(options);
+  const bake_format::VerifyReport report = bake_format::verify(bake_dir);
+  if (!report.ok) {
+    std::string problems;
+    for (const std::string& p : report.problems) problems += "\n  " + p;
+    throw InputError(bake_dir.string() + " is not a verified bake:" + problems);
+  }
+  bake_format::Manifest manifest = report.manifest;
+  for (bake_format::PlaneRecord& record : manifest.planes) {
+    if (record.pca) {
+      const std::set<std::string> old{record.pca->file, record.pca->coefficients};
+      std::erase_if(manifest.files, [&](const bake_format::FileRecord& f) { return old.count(f.path) > 0; });
+    }
+    const bake_format::ImageStack stack = bake_format::read_exr_stack(bake_dir / record.file);
+    write_pca_form(bake_dir, manifest, record, stack, options, log);
+    manifest.files.push_back({record.pca->file, 0, ""});
+    manifest.files.push_back({record.pca->coefficients, 0, ""});
+  }
+  bake_format::write_manifest(bake_dir, manifest);
+}
+
+}  // namespace skylit::baker

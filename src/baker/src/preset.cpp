@@ -1,0 +1,40 @@
+#include "skylit/baker/preset.hpp"
+
+#include <array>
+#include <string_view>
+
+namespace skylit::baker {
+namespace {
+
+constexpr std::array<std::string_view, 5> kKeys{"frequency", "basis", "samples", "pca_components", "pca_tile"};
+constexpr std::array<std::string_view, 3> kBases{"faces", "corners", "quadratics"};
+
+}  // namespace
+
+BakePreset load_bake_preset(const PresetsFile& presets, const std::string& name) {
+  const PresetSection s = presets.section(name, "bake");
+  const YamlReader& r = s.reader;
+  r.check_keys(s.node, s.field + ".", kKeys);
+  BakePreset p;
+  p.name = name;
+  const YAML::Node frequency = r.require(s.node, "frequency", s.field_of("frequency"), "an even dome frequency, e.g. 2");
+  p.frequency = static_cast<int>(r.integer(frequency, s.field_of("frequency"), 1, 64, "an even dome frequency, e.g. 2"));
+  if (p.frequency % 2 != 0) r.fail(frequency, s.field_of("frequency"), "must be even", "e.g. 2 or 4");
+  const std::string basis =
+      r.choice(r.require(s.node, "basis", s.field_of("basis"), "faces, corners or quadratics"), s.field_of("basis"), kBases);
+  p.basis = *geom::parse_basis(basis);
+  p.samples = static_cast<int>(r.integer(r.require(s.node, "samples", s.field_of("samples"), "samples per face, e.g. 16"),
+                                         s.field_of("samples"), 1, 4096, "samples per face, e.g. 16"));
+  if (auto n = YamlReader::optional(s.node, "pca_components")) {
+    p.pca_components = static_cast<int>(
+        r.integer(n, s.field_of("pca_components"), 0, 4096, "principal components stored, 0 for none"));
+  }
+  if (auto n = YamlReader::optional(s.node, "pca_tile")) {
+    p.pca_tile = static_cast<int>(r.integer(n, s.field_of("pca_tile"), 0, 1 << 20,
+                                            "texels per side of a clustered-PCA tile, 0 for one set per plane"));
+    if (p.pca_tile == 1) r.fail(n, s.field_of("pca_tile"), "a tile holds at least 2 × 2 texels", "use 0 or e.g. 64");
+  }
+  return p;
+}
+
+}  // namespace skylit::baker

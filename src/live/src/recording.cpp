@@ -1,0 +1,77 @@
+#include "recording.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <exception>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "skylit/base/error.hpp"
+
+namespace skylit::live {
+
+namespace fs = std::filesystem;
+
+Recorder::~Recorder() {
+  try {
+    finish({});
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "skylit-live: the recording's last frames were lost: %s\n", e.what());
+  }
+}
+
+void Recorder::write(const cv::Mat& frame, const RecordedFrame& info, const FrameRate& camera_rate) {
+  if (recorder_kind(path_) != "video") {
+    write_image(frame, info);
+    return;
+  }
+  if (writer_.isOpened()) {
+    write_video(frame, info);
+    return;
+  }
+  pending_.push_back({frame.clone(), info});
+  if (!fps_ && !camera_rate.settled && pending_.size() < kMaxPendingFrames) return;
+  open(pending_.front().first.size(), camera_rate);
+  flush_pending();
+}
+
+void Recorder::finish(const FrameRate& camera_rate) {
+  if (pending_.empty()) return;
+  if (!writer_.isOpened()) open(pending_.front().first.size(), camera_rate);
+  flush_pending();
+}
+
+void Recorder::open(cv::Size size, const FrameRate& camera_rate) {
+  double fps = fps_ ? *fps_ : camera_rate.hz ? *camera_rate.hz : fallback_fps_ ? *fallback_fps_ : 30.0;
+  fps = std::clamp(fps, 0.1, 1000.0);
+  if (!path_.parent_path().empty()) fs::create_directories(path_.parent_path());
+  const int fourcc = path_.extension() == ".avi" ? cv::VideoWriter::fourcc('M', 'J', 'P', 'G')
+                                                 : cv::VideoWriter::fourcc('m', 'p', '4', 'v');
+  if (!writer_.open(path_.string(), fourcc, fps, size)) {
+    throw InputError("--record " + path_.string() +
+                     ": cannot open a video writer (no codec for this extension?); fix: use .avi, or a folder");
+  }
+  opened_fps_ = fps;
+}
+
+void Recorder::flush_pending() {
+  for (auto& [image, info] : pending_) write_video(image, info);
+  pending_.clear();
+}
+
+void Recorder::write_video(const cv::Mat& frame, const RecordedFrame& info) {
+  writer_.write(frame);
+  log_.add(count_, path_.filename().string(), info);
+  ++count_;
+}
+
+void Recorder::write_image(const cv::Mat& frame, const RecordedFrame& info) {
+  if (count_ == 0) fs::create_directories(path_);
+  char name[32];
+  std::snprintf(name, sizeof name, "frame_%06lld.png", static_cast<long long>(count_));
+  if (!cv::imwrite((path_ / name).string(), frame)) throw InputError("--record: cannot write " + (path_ / name).string());
+  log_.add(count_, name, info);
+  ++count_;
+}
+
+}  // namespace skylit::live

@@ -1,0 +1,179 @@
+#pragma once
+// The service's shared state (Service::State): what it loaded, the threads' hand-over, counters
+// and statistics. Each thread's work is in a file of its own: the sky thread (sky_thread.cpp),
+// the camera thread (service.cpp), the render thread (render_loop.cpp), /status and /metrics
+// (status_report.cpp).
+#include <atomic>
+#include <cstdint>
+#include <future>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <span>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core/mat.hpp>
+
+#include "live_tracking.hpp"
+#include "service_metrics.hpp"
+#include "skylit/bake_format/manifest.hpp"
+#include "skylit/blend/basis.hpp"
+#include "skylit/blend/cpu_blend.hpp"
+#include "skylit/blend/cpu_blender.hpp"
+#include "skylit/camera/calibration.hpp"
+#include "skylit/capture/config.hpp"
+#include "skylit/capture/frame_source.hpp"
+#include "skylit/capture/reconnecting_source.hpp"
+#include "skylit/geom/dome.hpp"
+#include "skylit/gpu/egl_context.hpp"
+#include "skylit/live/frame_stats.hpp"
+#include "skylit/live/mailbox.hpp"
+#include "skylit/live/service.hpp"
+#include "skylit/live/status_server.hpp"
+#include "skylit/live/sun_shadow_exchange.hpp"
+#include "skylit/render/photometric.hpp"
+#include "skylit/scene/mesh.hpp"
+#include "skylit/scene/site.hpp"
+#include "skylit/sky/sky_estimate.hpp"
+
+namespace skylit::live {
+
+// What the sky thread hands to the render thread.
+struct SkyState {
+  std::uint64_t sequence = 0;
+  double frame_timestamp = 0;   // the sky frame's own time
+  std::optional<std::chrono::sys_seconds> utc;  // the sky frame's wall-clock time, when its source knows it
+  double received = 0;          // steady seconds when it was estimated
+  std::vector<Eigen::Vector3d> S;  // one RGB per bake layer
+  std::optional<blend::SunLight> sun;
+  double sun_angular_radius = 0;
+  std::string sun_reason;
+  int unseen_faces = 0;
+  std::int64_t bad_pixels = 0;
+  std::int64_t clipped_pixels = 0;
+  bool sun_clipped = false;
+  double estimate_ms = 0;
+  // With the blend on the CPU: T of every plane (RGBA floats, blend::CpuBlender::rgba), blended on
+  // the sky thread for this S and sun. A plane's pointer changes only when its blend ran, so the
+  // render thread uploads what changed, even when it missed the skies in between. Null for a
+  // plane out of view (blend.cull_planes): the render thread blends it when it comes into view.
+  std::vector<std::shared_ptr<const std::vector<float>>> shadow_ratios;
+  // The sun's visibility V over each plane behind this sky's blends (empty without a sun shadow
+  // map) and its revision: what the render thread needs to blend a plane the sky thread left out.
+  std::vector<std::shared_ptr<const std::vector<float>>> sun_visibility;
+  std::uint64_t sun_revision = 0;
+  // The sun's shadow map for this sky's sun, drawn and complete on the sky thread (the newest
+  // one, also when the sun has not moved since: a sky the render thread missed still brings it);
+  // null without a sun. The render thread switches to it when it differs from the one it has.
+  SunShadowHandle sun_map;
+  double cpu_blend_ms = 0;        // the CPU blend of every plane
+  double sun_visibility_ms = 0;   // the sky thread's sun shadow map, and V read back for the CPU blend (when the sun moved)
+};
+
+// One plane's view of the current frame (blend.cull_planes): the render thread writes in_view
+// from each frame's pose, the sky thread reads it to leave out the planes no view can see.
+struct PlaneView {
+  std::atomic<bool> in_view{true};                  // true until a pose says otherwise
+  std::atomic<std::int64_t> blends_out_of_view{0};  // blends of a new sky left out, the plane out of view
+  std::atomic<std::int64_t> blends_on_return{0};    // blends run as the plane came back into view
+};
+
+// With the blend on the CPU: one plane's blender, used by the sky thread for each new sky and by
+// the render thread for a plane that comes into view with T of an older sky.
+struct SharedCpuBlend {
+  SharedCpuBlend(const blend::BasisImages& basis, double skip_threshold, double change_threshold)
+      : ratios(basis, skip_threshold, change_threshold) {}
+  std::mutex mutex;
+  blend::CpuBlender ratios;
+};
+
+// A software GL renderer draws on the CPU: there the CPU blend is the faster one by far.
+bool software_renderer(const std::string& renderer);
+
+// The image as a JPEG for /sky.jpg and /frame.jpg; empty for an empty image.
+std::vector<std::uint8_t> encode_jpeg(const cv::Mat& image);
+
+// A source that answers "not yet" at once (a folder whose files have gone, a camera that is down
+// between reconnection attempts) would have its thread spin: such an answer waits a little.
+void pause_after_quick_not_yet(const capture::FrameResult& result, Clock::time_point asked);
+
+struct Service::State {
+  LiveConfig config;
+  ServiceOptions options;
+  std::atomic<bool> running{true};
+  Counters counters;
+  double started = now_seconds();
+
+  // Loaded once.
+  scene::Site site;
+  scene::Mesh mesh;
+  bake_format::Manifest manifest;
+  std::vector<float> transfer;
+  std::vector<blend::BasisImages> bases;
+  camera::CameraCalibration sky_calibration, hmd_calibration;
+  std::unique_ptr<geom::Dome> dome;
+  std::unique_ptr<sky::SkyEstimator> estimator;
+  std::unique_ptr<capture::FrameSource> sky_source, camera_source;
+  // The ReconnectingSource inside each (the service always reopens what fails).
+  const capture::ReconnectingSource* sky_reconnecting = nullptr;
+  const capture::ReconnectingSource* camera_reconnecting = nullptr;
+  std::unique_ptr<LiveTracking> tracking;  // the pose: fixed, a track, or the marker tracker (and IMU)
+  std::unique_ptr<BuildingFade> fade;      // the building's opacity as the pose is lost and returns
+  SourceActivity sky_activity, camera_activity;
+  FrameRateMeter camera_rate;
+  ArrivalTimes camera_arrivals;
+
+  // Where T is blended, decided in run() once the GL renderer is known (before the sky thread starts).
+  std::atomic<bool> blend_decided{false};
+  std::atomic<bool> blend_on_cpu{false};
+  std::string renderer;             // GL_RENDERER; written before blend_decided is set
+  // The render thread has a sky: the building and its shadows are drawn (before: the camera image).
+  std::atomic<bool> sky_drawn{false};
+  // One per plane (manifest order).
+  std::unique_ptr<PlaneView[]> plane_views;
+  // With the blend on the CPU: made by the sky thread before it is ready, then shared.
+  std::vector<std::unique_ptr<SharedCpuBlend>> cpu_blends;
+
+  // The sun's shadow maps: drawn on the sky thread in a GL context that shares objects with the
+  // render thread's (share_group, set by run() before the sky thread starts), used by the render
+  // thread. Declared before the mailboxes, whose skies hold handles to its maps.
+  gpu::HeadlessContext::ShareGroup share_group;
+  SunShadowExchange sun_maps;
+
+  // Hand-over.
+  Mailbox<SkyState> sky_box;
+  Mailbox<capture::Frame> camera_box;
+  Latest<SkyState> latest_sky;
+  Latest<std::vector<std::uint8_t>> sky_jpeg;
+  Latest<cv::Mat> latest_frame;
+
+  // Statistics (render thread writes, status reads).
+  mutable std::mutex stats_mutex;
+  FrameTimes frame_times{600}, blend_times{600}, upload_times{600}, composite_times{600}, record_times{600};
+  FrameTimes sun_shadow_times{600}, sky_sun_visibility_times{600};
+  FrameTimes sky_change_frame_times{600};  // frames that took a new sky (its shadow map and T)
+  // From the camera thread receiving a frame to its composite being done (shown, recorded): the
+  // part of motion-to-photon latency the service adds (docs/live.md, "Latency").
+  FrameTimes latency_times{600};
+  double record_fps = 0;
+  std::optional<render::PhotometricMatch> photometric;
+  std::int64_t blend_skipped_layers = 0;
+
+  std::unique_ptr<StatusServer> status;
+  std::thread sky_thread, camera_thread;
+
+  // The threads' work: the sky thread's (sky_thread.cpp), the camera thread's, and the render
+  // thread's, run() (render_loop.cpp).
+  class SkyThread;
+  class RenderLoop;
+  void sky_loop(std::promise<void>& ready);
+  void camera_loop();
+  nlohmann::json status_report() const;
+  nlohmann::json source_report(const capture::FrameSource& source, const capture::ReconnectingSource* reconnecting,
+                               const SourceActivity& activity, double now) const;
+};
+
+}  // namespace skylit::live

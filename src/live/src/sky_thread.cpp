@@ -1,0 +1,277 @@
+// The sky thread: sky frames → S and the sun, smoothed over time; the sun's shadow map when the
+// sun moved; with the blend on the CPU, T of every plane in view; each sky handed to the render
+// thread and to /status.
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <memory>
+#include <optional>
+#include <span>
+#include <thread>
+#include <vector>
+
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include "service_state.hpp"
+#include "skylit/blend/workers.hpp"
+#include "skylit/sky/overlay.hpp"
+#include "skylit/sky/radiometry.hpp"
+#include "skylit/sky/sky_smoothing.hpp"
+
+namespace skylit::live {
+namespace {
+
+// How much lower the sky thread's CPU priority is than the render thread's (nice levels).
+constexpr int kSkyThreadNiceness = 10;
+
+// The sun's shadow map is drawn again (by the sky thread) when the sun has moved by more than a
+// tenth of its radius.
+bool sun_moved(const Eigen::Vector3d& drawn_for, const Eigen::Vector3d& sun, double angular_radius) {
+  return drawn_for.dot(sun) < std::cos(std::max(1e-4, 0.1 * angular_radius));
+}
+double shadow_angular_radius(double estimated) { return std::max(estimated, 0.0047); }  // the real sun's at least
+
+std::vector<geom::Plane> bake_planes(const bake_format::Manifest& manifest) {
+  std::vector<geom::Plane> planes;
+  for (const auto& record : manifest.planes) planes.push_back(record.plane);
+  return planes;
+}
+
+// A sky frame's estimate on its way out: what the render thread takes, and what /sky.jpg's
+// overlay is drawn from.
+struct EstimatedSky {
+  SkyState state;
+  sky::RadianceFrame radiance;
+  sky::SkyEstimate estimate;
+};
+
+}  // namespace
+
+// When the sky may have a sun, this thread draws the sun's shadow maps (sun_maps), in a GL
+// context of its own that shares objects with the render thread's: the render thread never
+// draws one, it switches to each finished map (the building's own sun shadow; with the GPU
+// blend, the planes' V). With the blend on the CPU its objects live here too: the blend
+// threads, each plane's T, and V of each map read back for it.
+class Service::State::SkyThread {
+ public:
+  explicit SkyThread(State& state) : s(state), cpu(state.blend_on_cpu) {}
+  void run(std::promise<void>& ready);
+
+ private:
+  static void lower_priority();
+  void set_up();
+  std::optional<capture::Frame> next_frame();
+  EstimatedSky estimate(const capture::Frame& frame);
+  bool draw_sun_map(SkyState& state);
+  void blend_planes(SkyState& state);
+  void publish(EstimatedSky& sky);
+
+  State& s;
+  const bool cpu;
+  std::unique_ptr<blend::BlendWorkers> workers;
+  std::optional<gpu::HeadlessContext> context;
+  // Destroys the maps in this thread's context before the context goes (declared after it).
+  struct MapsOwner {
+    SunShadowExchange* maps = nullptr;
+    ~MapsOwner() {
+      if (maps == nullptr) return;
+      try {
+        maps->destroy();
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "skylit-live: destroying the sun shadow maps: %s\n", e.what());
+      }
+    }
+  } maps_owner;
+  bool shadow_maps = false;
+  SunShadowHandle last_map;
+  std::vector<std::shared_ptr<const std::vector<float>>> visibility;
+  std::uint64_t sun_revision = 0;
+  Eigen::Vector3d shadow_direction = Eigen::Vector3d::Zero();
+  std::optional<sky::SkySmoother> smoother;  // made once the thread is set up
+  double last_estimate = -1e300, last_overlay = -1e300;
+  std::uint64_t sequence = 0;
+};
+
+void Service::State::sky_loop(std::promise<void>& ready) { SkyThread(*this).run(ready); }
+
+void Service::State::SkyThread::run(std::promise<void>& ready) {
+  lower_priority();
+  try {
+    set_up();
+    ready.set_value();
+  } catch (...) {
+    ready.set_exception(std::current_exception());
+    return;
+  }
+  smoother.emplace(s.config.sky.smoothing);
+  while (s.running) {
+    // 1. The next sky frame, when one is due (sky.rate).
+    const std::optional<capture::Frame> frame = next_frame();
+    if (!frame) continue;
+    try {
+      // 2. S and the sun from it, smoothed over time.
+      EstimatedSky sky = estimate(*frame);
+      // 3. The sun's shadow map for a sun that moved, complete before the sky is handed over.
+      if (!draw_sun_map(sky.state)) break;  // closed: the service is stopping
+      // 4. With the blend on the CPU: T of every plane in view, so that the render thread only uploads it.
+      if (cpu) blend_planes(sky.state);
+      // 5. To the render thread, and to /status.
+      publish(sky);
+    } catch (const std::exception& e) {
+      ++s.counters.sky_errors;
+    }
+  }
+}
+
+void Service::State::SkyThread::lower_priority() {
+  // This thread's work (the sky estimate, the sun's shadow map, the CPU blend; in the demo also
+  // the simulated sky) yields the cores to the render thread's: it runs niced, and so do the
+  // blend threads it starts, which inherit its niceness (llvmpipe's rasterizer threads are the
+  // process's, shared with the render thread, and keep theirs). On a machine with few cores a
+  // new sky then no longer slows the frames composited meanwhile; it comes a little later
+  // instead. (Per thread on Linux; where it fails, nothing changes.)
+  const auto thread = static_cast<id_t>(::gettid());
+  errno = 0;
+  const int niceness = ::getpriority(PRIO_PROCESS, thread);
+  if (errno == 0) static_cast<void>(::setpriority(PRIO_PROCESS, thread, std::min(niceness + kSkyThreadNiceness, 19)));
+}
+
+void Service::State::SkyThread::set_up() {
+  if (cpu) {
+    workers = std::make_unique<blend::BlendWorkers>(s.config.blend.threads);
+    for (const auto& basis : s.bases) {
+      s.cpu_blends.push_back(std::make_unique<SharedCpuBlend>(basis, s.config.blend.skip_threshold, s.config.blend.change_threshold));
+    }
+    if (s.config.sky.sun) visibility.resize(s.bases.size());
+  }
+  if (s.config.sky.sun) {
+    context.emplace(s.share_group);
+    s.sun_maps.create(s.mesh, bake_planes(s.manifest));
+    maps_owner.maps = &s.sun_maps;
+    shadow_maps = true;
+  }
+}
+
+std::optional<capture::Frame> Service::State::SkyThread::next_frame() {
+  capture::FrameResult result;
+  const auto asked = Clock::now();
+  try {
+    result = s.sky_source->next(0.2);
+  } catch (const std::exception& e) {
+    ++s.counters.sky_errors;
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    return std::nullopt;
+  }
+  if (result.status == capture::FrameStatus::EndOfStream) {
+    s.sky_activity.ended = true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));  // the last S stays (and goes stale)
+    return std::nullopt;
+  }
+  if (result.status != capture::FrameStatus::Ready) {
+    pause_after_quick_not_yet(result, asked);
+    return std::nullopt;
+  }
+  ++s.counters.sky_frames;
+  s.sky_activity.frame();
+  const capture::Frame& frame = result.frame;
+  if (s.config.sky.rate > 0 && frame.timestamp - last_estimate < 1.0 / s.config.sky.rate) return std::nullopt;
+  last_estimate = frame.timestamp;
+  return std::move(result.frame);
+}
+
+EstimatedSky Service::State::SkyThread::estimate(const capture::Frame& frame) {
+  const auto t0 = Clock::now();
+  sky::Exposure exposure;
+  if (frame.exposure_time) exposure.time_s = *frame.exposure_time;
+  if (frame.gain) exposure.gain = *frame.gain;
+  const int bits = frame.image.depth() == CV_16U ? 16 : 8;
+  const sky::RadianceFrame radiance =
+      frame.image.depth() == CV_32F ? sky::linearise(frame.image, sky::ResponseCurve::linear(8), exposure)
+                                    : sky::linearise(frame.image, sky::response_for(s.config.sky.response, bits), exposure);
+  sky::SkyEstimate estimate = smoother->smooth(frame.timestamp, s.estimator->estimate(radiance));
+  SkyState state;
+  state.sequence = ++sequence;
+  state.frame_timestamp = frame.timestamp;
+  state.utc = frame.utc;
+  state.received = now_seconds();
+  state.S = sky::layer_radiances(estimate.luminance);
+  if (estimate.sun) {
+    state.sun = blend::SunLight{estimate.sun->direction, estimate.sun->energy};
+    state.sun_angular_radius = estimate.sun->angular_radius;
+    state.sun_clipped = estimate.sun->clipped;
+  }
+  state.sun_reason = estimate.sun_reason;
+  state.unseen_faces = estimate.luminance.unseen_faces;
+  state.bad_pixels = estimate.luminance.nan_pixels + estimate.luminance.inf_pixels + estimate.luminance.negative_pixels;
+  state.clipped_pixels = estimate.luminance.clipped_pixels;
+  state.estimate_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  return {std::move(state), radiance, std::move(estimate)};
+}
+
+// False when the maps are closed (the service is stopping).
+bool Service::State::SkyThread::draw_sun_map(SkyState& state) {
+  if (state.sun && shadow_maps && sun_moved(shadow_direction, state.sun->direction, state.sun_angular_radius)) {
+    const auto sun_start = Clock::now();
+    SunShadowHandle map = s.sun_maps.draw(state.sun->direction, shadow_angular_radius(state.sun_angular_radius));
+    if (!map) return false;
+    last_map = std::move(map);
+    shadow_direction = state.sun->direction;
+    ++sun_revision;
+    if (cpu) {
+      for (std::size_t j = 0; j < visibility.size(); ++j) {
+        visibility[j] = std::make_shared<const std::vector<float>>(last_map->map().read_visibility(static_cast<int>(j)));
+      }
+    }
+    state.sun_visibility_ms = std::chrono::duration<double, std::milli>(Clock::now() - sun_start).count();
+  }
+  if (state.sun) state.sun_map = last_map;
+  return true;
+}
+
+void Service::State::SkyThread::blend_planes(SkyState& state) {
+  const auto blend_start = Clock::now();
+  state.sun_visibility = visibility;
+  state.sun_revision = sun_revision;
+  for (std::size_t j = 0; j < s.cpu_blends.size(); ++j) {
+    if (s.config.blend.cull_planes && !s.plane_views[j].in_view) {
+      ++s.plane_views[j].blends_out_of_view;
+      state.shadow_ratios.push_back(nullptr);
+      continue;
+    }
+    const blend::BlendWeights weights = blend::blend_weights(s.bases[j], state.S, state.sun);
+    const std::span<const float> sun_visibility =
+        shadow_maps && visibility[j] ? std::span<const float>(*visibility[j]) : std::span<const float>();
+    std::lock_guard blend_lock(s.cpu_blends[j]->mutex);
+    const bool ran = s.cpu_blends[j]->ratios.blend(weights, sun_visibility, sun_revision, workers.get());
+    ++(ran ? s.counters.blends_run : s.counters.blends_skipped);
+    state.shadow_ratios.push_back(s.cpu_blends[j]->ratios.rgba());
+  }
+  state.cpu_blend_ms = std::chrono::duration<double, std::milli>(Clock::now() - blend_start).count();
+  std::lock_guard lock(s.stats_mutex);
+  s.blend_times.add(state.cpu_blend_ms / 1e3, now_seconds());
+}
+
+void Service::State::SkyThread::publish(EstimatedSky& sky) {
+  SkyState& state = sky.state;
+  if (state.sun_visibility_ms > 0) {
+    std::lock_guard lock(s.stats_mutex);
+    s.sky_sun_visibility_times.add(state.sun_visibility_ms / 1e3, now_seconds());
+  }
+  ++s.counters.sky_estimates;
+  if (s.status && state.received - last_overlay >= 1.0) {
+    last_overlay = state.received;
+    s.sky_jpeg.set(encode_jpeg(sky::draw_sky_overlay(s.estimator->lens(), *s.dome, sky.radiance.radiance, sky.estimate)));
+  }
+  {
+    SkyState for_status = state;
+    for_status.sun_map = nullptr;  // /status holds no map: a slot is free once the render thread is done with it
+    s.latest_sky.set(std::move(for_status));
+  }
+  s.sky_box.put(std::move(state));
+}
+
+}  // namespace skylit::live

@@ -1,0 +1,230 @@
+// /status and /metrics: the service's state as JSON (status_report) and as Prometheus text, from
+// its counters, statistics and sources.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "service_state.hpp"
+#include "skylit/blend/forms.hpp"
+#include "skylit/sky/solar.hpp"
+
+namespace skylit::live {
+
+// A source's connection: running, reconnecting (down, reopened with backoff) or ended (a finite
+// source has no more frames); reopening attempts (successful or not), the last failure's message
+// and the time since its last frame.
+nlohmann::json Service::State::source_report(const capture::FrameSource& source,
+                                             const capture::ReconnectingSource* reconnecting,
+                                             const SourceActivity& activity, double now) const {
+  nlohmann::json j;
+  j["source"] = source.describe();
+  const std::optional<capture::ReconnectStatus> link =
+      reconnecting ? std::optional(reconnecting->status()) : std::nullopt;
+  j["state"] = link && !link->connected ? "reconnecting" : activity.ended ? "ended" : "running";
+  j["reconnect_attempts"] = link ? link->reconnects + link->failed_attempts : 0;
+  j["reconnects"] = link ? link->reconnects : 0;
+  j["last_error"] = link ? link->last_error : std::string();
+  if (link && !link->connected) j["next_attempt_in_s"] = link->next_attempt_in_s;
+  const double last = activity.last_frame;
+  j["seconds_since_frame"] = last < 0 ? nlohmann::json(nullptr) : nlohmann::json(now - last);
+  return j;
+}
+
+nlohmann::json Service::State::status_report() const {
+  nlohmann::json j;
+  const double now = now_seconds();
+  j["uptime_s"] = now - started;
+  // Before the first sky the building is not drawn: its shading and shadows need S.
+  j["state"] = sky_drawn ? "running" : "waiting for sky";
+  {
+    std::lock_guard lock(stats_mutex);
+    j["frame_rate"] = frame_times.rate();
+    j["frame_time_ms"] = {{"p50", 1e3 * frame_times.percentile(0.5)}, {"p99", 1e3 * frame_times.percentile(0.99)}};
+    j["latency_ms"] = {{"p50", 1e3 * latency_times.percentile(0.5)}, {"p99", 1e3 * latency_times.percentile(0.99)}};
+    j["sky_change_frame_ms"] = {{"p50", 1e3 * sky_change_frame_times.percentile(0.5)},
+                                {"p99", 1e3 * sky_change_frame_times.percentile(0.99)}};
+    j["stage_ms_p50"] = {{"sun_shadow", 1e3 * sun_shadow_times.percentile(0.5)},
+                         {"blend", 1e3 * blend_times.percentile(0.5)},
+                         {"upload", 1e3 * upload_times.percentile(0.5)},
+                         {"sky_sun_visibility", 1e3 * sky_sun_visibility_times.percentile(0.5)},
+                         {"composite", 1e3 * composite_times.percentile(0.5)},
+                         {"record", 1e3 * record_times.percentile(0.5)}};
+    if (photometric) j["photometric_scale"] = {photometric->scale.x(), photometric->scale.y(), photometric->scale.z()};
+    if (record_fps > 0) j["record_fps"] = record_fps;
+  }
+  j["frames"] = counters.frames.load();
+  j["frames_without_sky"] = counters.frames_without_sky.load();
+  j["dropped_frames"] = camera_box.overwritten();
+  nlohmann::json camera_json = source_report(*camera_source, camera_reconnecting, camera_activity, now);
+  camera_json["frames"] = counters.camera_frames.load();
+  camera_json["malformed"] = camera_source->counts().dropped();
+  camera_json["errors"] = counters.camera_errors.load();
+  const FrameRate rate = camera_rate.rate();
+  camera_json["frame_rate_hz"] = rate.hz ? nlohmann::json(*rate.hz) : nlohmann::json(nullptr);
+  j["camera"] = camera_json;
+  nlohmann::json pose_json = tracking->report();
+  pose_json["missing"] = counters.pose_missing.load();
+  pose_json["fade"] = {{"state", to_string(fade->state())}, {"opacity", fade->opacity()}, {"fade_s", fade->fade_s()}};
+  j["pose"] = pose_json;
+  // How much of the building (and its shadows) the frames show: 1 tracked, 0 lost (BuildingFade).
+  j["opacity"] = fade->opacity();
+  nlohmann::json sky_json = source_report(*sky_source, sky_reconnecting, sky_activity, now);
+  sky_json["frames"] = counters.sky_frames.load();
+  sky_json["estimates"] = counters.sky_estimates.load();
+  sky_json["malformed"] = sky_source->counts().dropped();
+  sky_json["errors"] = counters.sky_errors.load();
+  std::vector<std::string> flags;
+  if (camera_json["state"] == "reconnecting") flags.push_back("camera_reconnecting");
+  if (sky_json["state"] == "reconnecting") flags.push_back("sky_reconnecting");
+  if (const auto latest = latest_sky.get()) {
+    const double age = now - latest->received;
+    sky_json["age_s"] = age;
+    sky_json["utc"] = latest->utc ? nlohmann::json(sky::format_utc(*latest->utc)) : nlohmann::json(nullptr);
+    sky_json["estimate_ms"] = latest->estimate_ms;
+    nlohmann::json S = nlohmann::json::array();
+    for (const auto& v : latest->S) S.push_back({v.x(), v.y(), v.z()});
+    sky_json["S"] = S;
+    sky_json["unseen_faces"] = latest->unseen_faces;
+    sky_json["bad_pixels"] = latest->bad_pixels;
+    sky_json["clipped_pixels"] = latest->clipped_pixels;
+    sky_json["sun_reason"] = latest->sun_reason;
+    if (latest->sun) {
+      const auto& d = latest->sun->direction;
+      sky_json["sun"] = {{"direction", {d.x(), d.y(), d.z()}},
+                         {"elevation_deg", std::asin(std::clamp(d.z(), -1.0, 1.0)) * 180 / M_PI},
+                         {"azimuth_deg", std::atan2(d.x(), d.y()) * 180 / M_PI},
+                         {"energy", {latest->sun->energy.x(), latest->sun->energy.y(), latest->sun->energy.z()}},
+                         {"angular_radius_deg", latest->sun_angular_radius * 180 / M_PI},
+                         {"clipped", latest->sun_clipped}};
+      if (latest->sun_clipped) flags.push_back("sun_clipped");
+    } else {
+      sky_json["sun"] = nullptr;
+    }
+    if (age > config.sky.stale_after) flags.push_back("sky_stale");
+    if (latest->unseen_faces > 0) flags.push_back("faces_unseen");
+    if (latest->bad_pixels > 0) flags.push_back("bad_pixels");
+  } else {
+    sky_json["age_s"] = nullptr;
+    flags.push_back("no_sky_yet");
+  }
+  tracking->add_flags(flags);
+  if (const BuildingFade::State state = fade->state(); state == BuildingFade::State::FadingOut || state == BuildingFade::State::Hidden) {
+    flags.push_back("pose_lost");  // the building fades out, or is hidden, until a pose returns
+  }
+  j["sky"] = sky_json;
+  j["blends"] = {{"run", counters.blends_run.load()}, {"skipped", counters.blends_skipped.load()}};
+  // The sun's shadow maps, all drawn on the sky thread: drawn, switched to by the render thread
+  // (a skipped one was overtaken by a newer sun before a frame took it), and draws that waited
+  // for the render thread to free a map.
+  const SunShadowExchange::Counts maps = sun_maps.counts();
+  j["sun_shadow_maps"] = {{"drawn_on", "sky thread"}, {"drawn", maps.drawn}, {"taken", maps.taken},
+                          {"slot_waits", maps.slot_waits}};
+  nlohmann::json blend_json;
+  blend_json["setting"] = blend_device_name(config.blend.device);
+  blend_json["basis"] = std::string(blend::form_name(config.blend.basis));
+  nlohmann::json planes_json = nlohmann::json::array();
+  for (std::size_t k = 0; k < bases.size() && k < manifest.planes.size(); ++k) {
+    nlohmann::json plane;
+    plane["name"] = manifest.planes[k].plane.name;
+    plane["layers"] = bases[k].layers;                  // the images each blend sums
+    plane["source_layers"] = bases[k].source_layers();  // the dome's layers S is given for
+    if (config.blend.basis == blend::BasisForm::Pca && manifest.planes[k].pca) plane["max_error"] = manifest.planes[k].pca->max_error;
+    // blend.cull_planes: whether the latest pose can see the plane, the blends of new skies left
+    // out while it could not, and those run as it came back into view.
+    plane["in_view"] = plane_views[k].in_view.load();
+    plane["blends_out_of_view"] = plane_views[k].blends_out_of_view.load();
+    plane["blends_on_return"] = plane_views[k].blends_on_return.load();
+    planes_json.push_back(plane);
+  }
+  blend_json["planes"] = planes_json;
+  blend_json["cull_planes"] = config.blend.cull_planes;
+  if (blend_decided) {
+    blend_json["device"] = blend_on_cpu ? "cpu" : "gpu";
+    blend_json["renderer"] = renderer;
+    blend_json["software_renderer"] = software_renderer(renderer);
+  } else {
+    blend_json["device"] = nullptr;  // decided when run() has its GL context
+  }
+  j["blend"] = blend_json;
+  j["flags"] = flags;
+  return j;
+}
+
+std::string Service::status_json() const { return state_->status_report().dump(2) + "\n"; }
+
+std::string Service::metrics_text() const {
+  const State& s = *state_;
+  const nlohmann::json j = s.status_report();
+  std::vector<Metric> m;
+  m.push_back({"skylit_frames_total", "Frames composited.", "counter", double(s.counters.frames.load()), ""});
+  m.push_back({"skylit_dropped_frames_total", "Camera frames replaced before the renderer took them.", "counter",
+               double(s.camera_box.overwritten()), ""});
+  m.push_back({"skylit_camera_frames_total", "Camera frames received.", "counter", double(s.counters.camera_frames.load()), ""});
+  m.push_back({"skylit_camera_malformed_total", "Camera frames dropped as malformed.", "counter",
+               double(s.camera_source->counts().dropped()), ""});
+  m.push_back({"skylit_sky_frames_total", "Sky frames received.", "counter", double(s.counters.sky_frames.load()), ""});
+  m.push_back({"skylit_sky_estimates_total", "Sky estimates made.", "counter", double(s.counters.sky_estimates.load()), ""});
+  m.push_back({"skylit_sky_malformed_total", "Sky frames dropped as malformed.", "counter",
+               double(s.sky_source->counts().dropped()), ""});
+  m.push_back({"skylit_pose_missing_total", "Frames without a pose at their time.", "counter",
+               double(s.counters.pose_missing.load()), ""});
+  m.push_back({"skylit_blends_total", "Plane blends run.", "counter", double(s.counters.blends_run.load()), "result=\"run\""});
+  m.push_back({"skylit_blends_total", "Plane blends run.", "counter", double(s.counters.blends_skipped.load()), "result=\"skipped\""});
+  m.push_back({"skylit_frame_rate", "Frames per second over the last 600 frames.", "gauge", j["frame_rate"].get<double>(), ""});
+  m.push_back({"skylit_frame_time_seconds", "Frame time percentiles over the last 600 frames.", "gauge",
+               j["frame_time_ms"]["p50"].get<double>() / 1e3, "quantile=\"0.5\""});
+  m.push_back({"skylit_frame_time_seconds", "Frame time percentiles over the last 600 frames.", "gauge",
+               j["frame_time_ms"]["p99"].get<double>() / 1e3, "quantile=\"0.99\""});
+  const auto& sky = j["sky"];
+  m.push_back({"skylit_sky_age_seconds", "Age of the newest sky estimate.", "gauge",
+               sky["age_s"].is_null() ? std::numeric_limits<double>::infinity() : sky["age_s"].get<double>(), ""});
+  m.push_back({"skylit_sun_detected", "1 while the newest sky has a sun.", "gauge", sky.contains("sun") && !sky["sun"].is_null() ? 1.0 : 0.0, ""});
+  if (sky.contains("S")) {
+    const char* channels[3] = {"r", "g", "b"};
+    for (std::size_t i = 0; i < sky["S"].size(); ++i) {
+      for (int c = 0; c < 3; ++c) {
+        m.push_back({"skylit_sky_luminance", "Luminance parameter S per bake layer and channel.", "gauge",
+                     sky["S"][i][static_cast<std::size_t>(c)].get<double>(),
+                     "layer=\"" + std::to_string(i) + "\",channel=\"" + channels[c] + "\""});
+      }
+    }
+  }
+  for (const char* name : {"camera", "sky"}) {
+    const auto& source = j[name];
+    const std::string label = std::string("source=\"") + name + "\"";
+    for (const char* state : {"running", "reconnecting", "ended"}) {
+      m.push_back({"skylit_source_state", "1 for the state each source is in (running, reconnecting, ended).", "gauge",
+                   source["state"] == state ? 1.0 : 0.0, label + ",state=\"" + state + "\""});
+    }
+    m.push_back({"skylit_source_reconnect_attempts_total", "Attempts at reopening a source that failed.", "counter",
+                 source["reconnect_attempts"].get<double>(), label});
+    m.push_back({"skylit_source_seconds_since_frame", "Seconds since the source's last frame (+Inf before the first).", "gauge",
+                 source["seconds_since_frame"].is_null() ? std::numeric_limits<double>::infinity()
+                                                         : source["seconds_since_frame"].get<double>(),
+                 label});
+  }
+  m.push_back({"skylit_building_opacity", "How much of the building and its shadows is shown: 1 tracked, 0 tracking lost.",
+               "gauge", s.fade->opacity(), ""});
+  m.push_back({"skylit_waiting_for_sky", "1 while no sky is known (the camera image is shown alone).", "gauge",
+               j["state"] == "waiting for sky" ? 1.0 : 0.0, ""});
+  if (!j["blend"]["device"].is_null()) {
+    m.push_back({"skylit_blend_on_cpu", "1 when the shadow ratios are blended on the CPU, 0 on the GPU.", "gauge",
+                 j["blend"]["device"] == "cpu" ? 1.0 : 0.0, ""});
+  }
+  for (const auto& plane : j["blend"]["planes"]) {
+    const std::string label = "plane=\"" + plane["name"].get<std::string>() + "\"";
+    m.push_back({"skylit_plane_in_view", "1 while the latest pose can see the plane (blend.cull_planes).", "gauge",
+                 plane["in_view"].get<bool>() ? 1.0 : 0.0, label});
+    m.push_back({"skylit_plane_blends_out_of_view_total", "Blends of a new sky left out, the plane out of view.",
+                 "counter", plane["blends_out_of_view"].get<double>(), label});
+  }
+  s.tracking->add_metrics(m);
+  for (const auto& flag : j["flags"]) {
+    m.push_back({"skylit_flag", "1 for each condition the status reports.", "gauge", 1.0, "flag=\"" + flag.get<std::string>() + "\""});
+  }
+  return prometheus_text(m);
+}
+
+}  // namespace skylit::live

@@ -1,0 +1,38 @@
+#pragma once
+// Textures filled from the CPU frame after frame, each allocated once and rewritten in place:
+// an 8-bit image for the display, and a plane's shadow ratio T blended on the CPU. They must be
+// used and destroyed while their GL context is current.
+#include <vector>
+
+#include <GLES3/gl31.h>
+
+#include <opencv2/core/mat.hpp>
+
+#include "skylit/gpu/gl.hpp"
+
+namespace skylit::render {
+
+// An 8-bit image (grey, or BGR sRGB codes) as an RGBA8 texture of its codes, row 0 the image's top, for
+// gpu::WindowContext::present. Allocated again only when the size changes.
+class ImageTexture {
+ public:
+  GLuint upload(const cv::Mat& codes);
+
+ private:
+  gpu::Texture texture_;
+  cv::Size size_;
+};
+
+// The CPU blend's T of one plane on the GPU, for the compositor: RGBA32F, rewritten in place.
+class ShadowRatioTexture {
+ public:
+  ShadowRatioTexture(int width, int height);
+  void upload(const std::vector<float>& rgba);
+  GLuint get() const { return texture_.get(); }
+
+ private:
+  int width_, height_;
+  gpu::Texture texture_;
+};
+
+}  // namespace skylit::render

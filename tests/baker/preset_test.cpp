@@ -1,0 +1,70 @@
+// The bake sections of config/presets.yaml: every shipped preset's bake loads, typed, and a wrong
+// field says what is wrong and where.
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include "../support/temp_dir.hpp"
+#include "skylit/base/error.hpp"
+#include "skylit/baker/bake_job.hpp"
+#include "skylit/baker/preset.hpp"
+
+namespace skylit::baker {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string error_of(const auto& call) {
+  try {
+    call();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(BakePreset, TheShippedOnesLoad) {
+  const PresetsFile presets(default_presets_file());
+  for (const std::string& name : presets.names()) {
+    SCOPED_TRACE(name);
+    const BakePreset p = load_bake_preset(presets, name);
+    EXPECT_EQ(p.name, name);
+    EXPECT_EQ(p.frequency % 2, 0);
+    EXPECT_GE(p.samples, min_samples_per_face(p.basis));
+    EXPECT_GE(p.pca_components, 0);
+  }
+  // The accurate preset is at least as fine as the fast one.
+  EXPECT_GE(load_bake_preset(presets, "accurate").frequency, load_bake_preset(presets, "fast").frequency);
+}
+
+TEST(BakePreset, ABadFieldIsNamed) {
+  const test::TempDir dir;
+  const fs::path file = dir / "presets.yaml";
+  const auto error_for = [&](const std::string& bake) {
+    std::ofstream(file) << "quick:\n  bake: " << bake << "\n  live: {basis: full}\n";
+    return error_of([&] { (void)load_bake_preset(PresetsFile(file), "quick"); });
+  };
+  std::string message = error_for("{frequency: 3, basis: faces, samples: 4}");
+  EXPECT_NE(message.find("quick.bake.frequency"), std::string::npos) << message;
+  EXPECT_NE(message.find(file.string()), std::string::npos) << message;
+  message = error_for("{frequency: 2, basis: hexagons, samples: 4}");
+  EXPECT_NE(message.find("quick.bake.basis"), std::string::npos) << message;
+  message = error_for("{frequency: 2, basis: faces, smaples: 4}");
+  EXPECT_NE(message.find("smaples"), std::string::npos) << message;
+  message = error_for("{frequency: 2, basis: faces, samples: 4, pca_components: 4, pca_tile: 1}");
+  EXPECT_NE(message.find("quick.bake.pca_tile"), std::string::npos) << message;
+
+  std::ofstream(file) << "quick:\n  bake: {frequency: 2, basis: corners, samples: 4, pca_components: 4, pca_tile: 64}\n"
+                         "  live: {basis: pca}\n";
+  const BakePreset p = load_bake_preset(PresetsFile(file), "quick");
+  EXPECT_EQ(p.basis, geom::DomeBasis::Corners);
+  EXPECT_EQ(p.pca_components, 4);
+  EXPECT_EQ(p.pca_tile, 64);
+  fs::remove(file);
+}
+
+}  // namespace
+}  // namespace skylit::baker

@@ -1,0 +1,93 @@
+// What every program does alike (docs/architecture.md, "Conventions every program keeps"): an
+// input file that is not there exits 2 with a message naming it, an option the program does not
+// know exits 2 too, --help exits 0. Nothing here does any work: each case costs a program start.
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "cli_support.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+using skylit::cli_test::kBin;
+using skylit::cli_test::kSource;
+using skylit::cli_test::Result;
+using skylit::cli_test::TempDir;
+
+struct Program {
+  std::string name;
+  // Arguments with @MISSING@ where a file that is not there goes (every other input exists);
+  // @DIR@ is a folder for outputs, @SRC@ the source tree.
+  std::string args;
+};
+// CTest lists a case by its program, not as a dump of the struct's bytes.
+void PrintTo(const Program& program, std::ostream* os) { *os << program.name; }
+
+std::string substitute(std::string text, const std::string& name, const std::string& value) {
+  for (auto at = text.find(name); at != std::string::npos; at = text.find(name, at + value.size())) {
+    text.replace(at, name.size(), value);
+  }
+  return text;
+}
+
+class SkylitCli : public ::testing::TestWithParam<Program> {
+ protected:
+  Result run(const std::string& args) const {
+    std::string expanded = substitute(args, "@DIR@", dir_.path().string());
+    expanded = substitute(expanded, "@SRC@", kSource.string());
+    expanded = substitute(expanded, "@MISSING@", missing().string());
+    return skylit::cli_test::run_program(kBin / GetParam().name, expanded);
+  }
+  fs::path missing() const { return dir_ / "not_here.yaml"; }
+  TempDir dir_;
+};
+
+TEST_P(SkylitCli, AMissingInputFileIsAnInputErrorNamingIt) {
+  ASSERT_TRUE(fs::exists(kBin / GetParam().name)) << "build " << GetParam().name << " first";
+  fs::create_directories(dir_ / "bake");
+  const Result r = run(GetParam().args);
+  EXPECT_EQ(r.status, 2) << GetParam().args << "\n" << r.output;
+  EXPECT_NE(r.output.find(missing().string()), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("internal error"), std::string::npos) << r.output;
+}
+
+TEST_P(SkylitCli, AnUnknownOptionIsAnInputErrorAndHelpIsNot) {
+  ASSERT_TRUE(fs::exists(kBin / GetParam().name)) << "build " << GetParam().name << " first";
+  // (A program with required options may name those first.)
+  const Result unknown = run("--no-such-option");
+  EXPECT_EQ(unknown.status, 2) << unknown.output;
+  EXPECT_NE(unknown.output.find(GetParam().name + ": error: "), std::string::npos) << unknown.output;
+  const Result help = run("--help");
+  EXPECT_EQ(help.status, 0) << help.output;
+  EXPECT_NE(help.output.find("--help"), std::string::npos) << help.output;
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Programs, SkylitCli,
+    ::testing::Values(
+        Program{"skylit-bake", "@MISSING@ -o @DIR@/out"},
+        Program{"skylit-shade",
+                "--bake @DIR@/bake --sky @MISSING@ --sky-calib @SRC@/config/sky_camera.yaml -o @DIR@/out"},
+        Program{"skylit-sky", "--calib @SRC@/config/sky_camera.yaml --equirect @MISSING@ -o @DIR@/out.exr"},
+        Program{"skylit-compose",
+                "--site @MISSING@ --bake @DIR@/bake --sky-calib @SRC@/config/sky_camera.yaml --sky "
+                "@SRC@/data/hdri/park.exr --hmd-calib @SRC@/config/hmd_camera.yaml --camera @SRC@/data/hdri/park.exr "
+                "-o @DIR@/out.png"},
+        Program{"skylit-calib", "sky-orientation --calib @MISSING@ --level-compass 0"},
+        Program{"skylit-camera-sim", "--calib @MISSING@ -o @DIR@/out"},
+        Program{"skylit-contact-sheet", "@MISSING@ -o @DIR@/sheet.png"},
+        Program{"skylit-live", "@MISSING@"},
+        Program{"skylit-bench", "trade --site @MISSING@ --out @DIR@/trade"}),
+    [](const ::testing::TestParamInfo<Program>& param_info) {
+      std::string name = param_info.param.name.substr(std::string("skylit-").size());
+      for (char& c : name) {
+        if (c == '-') c = '_';
+      }
+      return name;
+    });
+
+}  // namespace

@@ -1,0 +1,30 @@
+#pragma once
+// Command-line parsing every program shares: a wrong option, a missing argument or an input file
+// that is not there is an input error, exit status 2 (docs/architecture.md), whatever code CLI11
+// gives it; --help and --version print on stdout and exit 0.
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+namespace skylit::tools {
+
+// Parses argv into `app`. nullopt when the program is to go on; else the status for main to
+// return, the help, version or error already printed. Errors read "PROGRAM: error: MESSAGE".
+inline std::optional<int> parse_command_line(CLI::App& app, int argc, const char* const* argv) {
+  const std::string program =
+      app.get_name().empty() && argc > 0 ? std::filesystem::path(argv[0]).filename().string()
+                                         : std::filesystem::path(app.get_name()).filename().string();
+  app.failure_message([program](const CLI::App*, const CLI::Error& e) {
+    return program + ": error: " + e.what() + "\nRun with --help for more information.\n";
+  });
+  try {
+    app.parse(argc, argv);
+    return std::nullopt;
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;
+  }
+}
+
+}  // namespace skylit::tools

@@ -1,0 +1,205 @@
+// skylit-bake: bakes a site's basis shadow images and transfer vectors, verifies and merges bakes.
+#include <cstdio>
+#include <iostream>
+#include <regex>
+
+#include <CLI/CLI.hpp>
+#include <spdlog/spdlog.h>
+
+#include "skylit/base/error.hpp"
+#include "skylit/base/presets.hpp"
+#include "skylit/baker/preset.hpp"
+#include "skylit/baker/bake_job.hpp"
+#include "skylit/baker/error_budget.hpp"
+#include "command_line.hpp"
+
+namespace {
+
+std::pair<int, int> parse_resolution(const std::string& text) {
+  static const std::regex pattern(R"((\d{1,6})[xX](\d{1,6}))");
+  std::smatch match;
+  if (!std::regex_match(text, match, pattern)) {
+    throw skylit::InputError("option --resolution: got '" + text +
+                             "'. Fix: write WxH, e.g. --resolution 512x256");
+  }
+  return {std::stoi(match[1]), std::stoi(match[2])};
+}
+
+int run_verify(const std::filesystem::path& dir) {
+  const skylit::bake_format::VerifyReport report = skylit::bake_format::verify(dir);
+  if (report.ok) {
+    const auto& m = report.manifest;
+    std::printf("%s: OK — schema %d, %s, dome ν=%d (%zu faces, %s basis, %zu layers), %zu plane(s), %zu file(s) "
+                "verified\n",
+                dir.string().c_str(), m.schema_version, m.generator.c_str(), m.plan.frequency, m.faces.size(),
+                std::string(skylit::geom::basis_name(m.plan.basis)).c_str(), m.layer_count(), m.planes.size(),
+                m.files.size());
+    return 0;
+  }
+  std::fprintf(stderr, "%s: NOT a valid bake (%zu problem(s)):\n", dir.string().c_str(), report.problems.size());
+  for (const std::string& p : report.problems) std::fprintf(stderr, "  - %s\n", p.c_str());
+  return 1;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"skylit-bake: basis shadow images and transfer vectors for a site",
+               "skylit-bake"};
+  app.set_version_flag("--version", "skylit-bake 0.1.0");
+
+  skylit::baker::BakeOptions options;
+  std::string site, out, resolution, shard;
+  int frequency = 0;
+  bool quiet = false;
+  app.add_option("site", site, "site description (YAML)")->check(CLI::ExistingFile);
+  app.add_option("-o,--output", out, "bake directory to write");
+  app.add_option("--frequency", frequency, "dome frequency ν (even; overrides the site's)");
+  std::string basis;
+  app.add_option("--basis", basis, "radiance basis: faces (one layer per face), corners (three, linear across "
+                                   "the face; needs --samples >= 3) or quadratics (six, quadratic across the "
+                                   "face; needs --samples >= 6); overrides the site's dome.basis");
+  app.add_option("--samples", options.samples, "samples per face: 1 = face centre (the paper), K > 1 = area light")
+      ->capture_default_str();
+  options.method = "auto";
+  app.add_option("--method", options.method,
+                 "auto (raster on a GPU, raytrace where OpenGL ES runs in software), raster (OpenGL ES) or raytrace "
+                 "(Embree, the reference)")
+      ->capture_default_str();
+  app.add_option("--resolution", resolution, "set every plane to WxH texels");
+  app.add_option("--shard", shard, "bake slice I of N (I/N, 0-based); also from SLURM_ARRAY_TASK_ID/COUNT or "
+                                   "JOB_COMPLETION_INDEX with SKYLIT_SHARD_COUNT");
+  app.add_flag("--resume", options.resume, "continue an interrupted bake in the output directory");
+  app.add_flag("--force", options.force, "replace a bake already in the output directory");
+  app.add_option("--shadow-map", options.shadow_map_resolution, "raster: shadow-map resolution (default: from the planes)");
+  app.add_option("--threads", options.threads, "raytrace: threads (default: all cores)");
+  app.add_option("--shader-dir", options.shader_dir, "where the GLSL shaders are (default: installed or source tree)");
+  skylit::baker::ErrorBudgetOptions budget;
+  app.add_option("--error-budget", budget.budget,
+                 "pick the cheapest dome (frequency, samples) whose shadow ratios stay within this RMS error of a "
+                 "denser bake over clear and overcast test skies (docs/baker.md)");
+  app.add_option("--latitude", budget.latitude_deg, "with --error-budget: the site's latitude for the test skies' sun")
+      ->capture_default_str();
+  std::string preset_name, presets_file = skylit::default_presets_file().string();
+  app.add_option("--preset", preset_name,
+                 "bake with a preset's settings: fast, balanced, accurate (docs/presets.md); --frequency, --basis, "
+                 "--samples and --pca-components given too override it");
+  app.add_option("--presets", presets_file, "the presets file for --preset")->capture_default_str();
+  bool no_previews = false;
+  app.add_flag("--no-previews", no_previews, "skip the preview contact sheets");
+  app.add_flag("-q,--quiet", quiet, "only warnings and errors");
+  // The PCA form (docs/bake-format.md): K is the smallest count meeting every option given.
+  skylit::bake_format::PcaOptions pca;
+  const auto add_pca_options = [&pca](CLI::App* to) {
+    to->add_option("--pca-components", pca.components, "also store the basis compressed to at least K principal components");
+    to->add_option("--pca-variance", pca.variance, "... keeping at least this fraction of the variance (0 < F <= 1)");
+    to->add_option("--pca-max-error", pca.max_error, "... with |T - T_full| at most E for every sky (E > 0)");
+    to->add_option("--pca-sky-correlation", pca.sky_correlation_deg,
+                   "components for skies whose radiance correlates over this many degrees (0: plain PCA)");
+    to->add_option("--pca-tile", pca.tile,
+                   "clustered PCA: each tile of N x N texels gets its own components (0: the whole plane)");
+  };
+  add_pca_options(&app);
+
+  auto* verify = app.add_subcommand("verify", "check a bake directory: version, files, checksums, shapes");
+  std::string verify_dir;
+  verify->add_option("bake_dir", verify_dir, "bake directory")->required()->check(CLI::ExistingDirectory);
+
+  auto* merge = app.add_subcommand("merge", "join the shards of a bake into one finished bake");
+  std::vector<std::string> merge_dirs;
+  std::string merge_out;
+  bool merge_no_previews = false;
+  merge->add_option("shard_dirs", merge_dirs, "shard directories")->required()->check(CLI::ExistingDirectory);
+  merge->add_option("-o,--output", merge_out, "finished bake directory")->required();
+  merge->add_flag("--no-previews", merge_no_previews, "skip the preview contact sheets");
+  add_pca_options(merge);
+
+  auto* compress = app.add_subcommand("compress", "add (or replace) the PCA form of every plane of a finished bake");
+  std::string compress_dir;
+  compress->add_option("bake_dir", compress_dir, "bake directory")->required()->check(CLI::ExistingDirectory);
+  add_pca_options(compress);
+
+  // -q after a subcommand too, as a user types it.
+  for (CLI::App* sub : {verify, merge, compress}) sub->add_flag("-q,--quiet", quiet, "only warnings and errors");
+
+  if (const auto status = skylit::tools::parse_command_line(app, argc, argv)) return *status;
+  // Progress and summaries go to `log`; -q leaves warnings and errors only.
+  std::FILE* const log = quiet ? nullptr : stderr;
+  spdlog::set_level(quiet ? spdlog::level::warn : spdlog::level::info);
+  spdlog::set_pattern("skylit-bake: %^%l%$: %v");
+
+  const auto want_pca = [&pca]() -> std::optional<skylit::bake_format::PcaOptions> {
+    if (!pca.components && !pca.variance && !pca.max_error) return std::nullopt;
+    return pca;
+  };
+  try {
+    if (*verify) return run_verify(verify_dir);
+    if (*merge) {
+      std::vector<std::filesystem::path> dirs(merge_dirs.begin(), merge_dirs.end());
+      skylit::baker::merge_bakes(dirs, merge_out, !merge_no_previews, log, want_pca());
+      return 0;
+    }
+    if (*compress) {
+      if (!want_pca()) {
+        throw skylit::InputError("compress needs --pca-components K, --pca-variance F or --pca-max-error E");
+      }
+      skylit::baker::compress_bake(compress_dir, pca, log);
+      return 0;
+    }
+    if (site.empty() || out.empty()) {
+      std::fprintf(stderr,
+                   "%s\nskylit-bake: error: a bake needs SITE and -o BAKE_DIR (or a subcommand: verify, merge, "
+                   "compress)\n",
+                   app.help().c_str());
+      return 2;
+    }
+    options.site_file = site;
+    options.out_dir = out;
+    if (!preset_name.empty()) {
+      const skylit::baker::BakePreset preset =
+          skylit::baker::load_bake_preset(skylit::PresetsFile(presets_file), preset_name);
+      if (!app.count("--frequency")) frequency = preset.frequency;
+      if (!app.count("--basis")) basis = std::string(skylit::geom::basis_name(preset.basis));
+      if (!app.count("--samples")) options.samples = preset.samples;
+      if (!pca.components && !pca.variance && !pca.max_error && preset.pca_components > 0) {
+        pca.components = preset.pca_components;
+        if (!app.count("--pca-tile")) pca.tile = preset.pca_tile;
+      }
+      options.preset = preset.name;
+      spdlog::info("preset {} ({}): frequency {}, basis {}, samples {}, PCA components {}{}", preset.name, presets_file,
+                   frequency, basis, options.samples, pca.components ? std::to_string(*pca.components) : "none",
+                   pca.tile > 0 ? " in tiles of " + std::to_string(pca.tile) + " texels" : "");
+    }
+    options.pca = want_pca();
+    if (frequency != 0 || app.count("--frequency")) options.frequency = frequency;
+    if (app.count("--basis") || !preset_name.empty()) {
+      options.basis = skylit::geom::parse_basis(basis);
+      if (!options.basis) {
+        throw skylit::InputError("option --basis: got '" + basis + "'. Fix: use --basis faces, corners or quadratics");
+      }
+    }
+    if (!resolution.empty()) options.resolution = parse_resolution(resolution);
+    options.shard = shard.empty() ? skylit::baker::shard_from_environment()
+                                  : std::optional(skylit::baker::parse_shard(shard));
+    options.previews = !no_previews;
+    if (app.count("--error-budget")) {
+      if (app.count("--samples")) {
+        throw skylit::InputError("options --error-budget and --samples: the budget picks the samples. Fix: drop one");
+      }
+      skylit::baker::run_error_budget_bake(options, budget, log);
+      return 0;
+    }
+    if (app.count("--latitude")) {
+      throw skylit::InputError("option --latitude only sets the test skies of --error-budget. Fix: drop it, or add "
+                               "--error-budget E");
+    }
+    skylit::baker::run_bake(options, log);
+    return 0;
+  } catch (const skylit::InputError& e) {
+    std::fprintf(stderr, "skylit-bake: error: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "skylit-bake: internal error: %s\n", e.what());
+    return 3;
+  }
+}
