@@ -11,13 +11,17 @@
 namespace skylit::tools {
 
 // Parses argv into `app`. nullopt when the program is to go on; else the status for main to
-// return, the help, version or error already printed. Errors read "PROGRAM: error: MESSAGE".
+// return, the help, version or error already printed. Errors read as every other input error:
+// "PROGRAM: error: CLI11'S MESSAGE. Fix: ...".
 inline std::optional<int> parse_command_line(CLI::App& app, int argc, const char* const* argv) {
   const std::string program =
       app.get_name().empty() && argc > 0 ? std::filesystem::path(argv[0]).filename().string()
                                          : std::filesystem::path(app.get_name()).filename().string();
   app.failure_message([program](const CLI::App*, const CLI::Error& e) {
-    return program + ": error: " + e.what() + "\nRun with --help for more information.\n";
+    const std::string fix = dynamic_cast<const CLI::ValidationError*>(&e) != nullptr
+                                ? "give an existing file or a valid value"
+                                : "correct the command line";
+    return program + ": error: " + e.what() + ". Fix: " + fix + " (" + program + " --help lists the options)\n";
   });
   try {
     app.parse(argc, argv);

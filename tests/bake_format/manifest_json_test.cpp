@@ -107,6 +107,7 @@ TEST(PlanJson, EqualityAndDifferenceCoverEveryField) {
   differs([](Plan& x) { x.frequency = 4; }, "frequency: 2 vs 4");
   differs([](Plan& x) { x.method = "raster"; }, "method");
   differs([](Plan& x) { x.shadow_map_resolution = 2048; }, "shadow_map_resolution");
+  differs([](Plan& x) { x.preset = "balanced"; }, "preset");
   differs([](Plan& x) { x.vertex_count = 4; }, "vertex_count");
   differs([](Plan& x) { x.triangle_count = 9; }, "triangle_count");
   differs([](Plan& x) { x.planes.pop_back(); }, "planes: 2 ['ground', 'wall'] vs 1 ['ground']");

@@ -7,7 +7,7 @@
 #include "skylit/bake_format/parts.hpp"
 
 namespace skylit::bake_format {
-namespace {
+namespace verify_test {  // named, not anonymous: the test program is one unity build
 
 using nlohmann::json;
 namespace fs = std::filesystem;

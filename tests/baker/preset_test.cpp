@@ -41,7 +41,7 @@ TEST(BakePreset, TheShippedOnesLoad) {
 }
 
 TEST(BakePreset, ABadFieldIsNamed) {
-  const test::TempDir dir;
+  const skylit::test::TempDir dir;
   const fs::path file = dir / "presets.yaml";
   const auto error_for = [&](const std::string& bake) {
     std::ofstream(file) << "quick:\n  bake: " << bake << "\n  live: {basis: full}\n";

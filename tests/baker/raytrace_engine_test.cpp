@@ -15,7 +15,7 @@
 #include "box_scene.hpp"
 
 namespace skylit::baker {
-namespace {
+namespace raytrace_engine_test {  // named, not anonymous: the test program is one unity build
 
 using test::Box;
 using test::direction;
@@ -350,7 +350,7 @@ TEST(RaytraceEngine, RejectsMisuse) {
 }  // namespace skylit::baker
 
 namespace skylit::baker {
-namespace {
+namespace raytrace_engine_test {
 
 TEST(WeightedPlaneVisibility, SumsRadianceWeightedCosinesOfTheVisibleDirections) {
   const std::vector<Box> boxes{kUnitBox, {{0.8, -1.5, 0.0}, {1.2, -0.2, 2.0}}};
@@ -387,7 +387,7 @@ TEST(WeightedPlaneVisibility, SumsRadianceWeightedCosinesOfTheVisibleDirections)
 }  // namespace skylit::baker
 
 namespace skylit::baker {
-namespace {
+namespace raytrace_engine_test {
 
 TEST(AreaLightVisibility, WeighsEachDirectionByItsShareAndCosine) {
   const std::vector<Box> boxes{kUnitBox};

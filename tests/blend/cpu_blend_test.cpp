@@ -15,7 +15,7 @@
 #include "skylit/blend/half.hpp"
 
 namespace skylit::blend {
-namespace {
+namespace cpu_blend_test {  // named, not anonymous: the test program is one unity build
 
 using test::make_basis;
 using test::random_scene;

@@ -21,7 +21,7 @@
 #include "skylit/blend/gpu_blend.hpp"
 
 namespace skylit::blend {
-namespace {
+namespace eac_test {  // named, not anonymous: the test program is one unity build
 
 using test::make_basis;
 using test::random_scene;

@@ -26,7 +26,7 @@
 #include "skylit/blend/half.hpp"
 
 namespace skylit::blend {
-namespace {
+namespace gpu_blend_test {  // named, not anonymous: the test program is one unity build
 
 namespace fs = std::filesystem;
 using test::make_basis;

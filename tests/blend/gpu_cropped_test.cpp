@@ -21,7 +21,7 @@
 #include "skylit/blend/gpu_blend.hpp"
 
 namespace skylit::blend {
-namespace {
+namespace gpu_cropped_test {  // named, not anonymous: the test program is one unity build
 
 constexpr double kUnitRoundoff = 0x1p-24;
 constexpr double kHalfUlpBelowOne = 0x1p-11;

@@ -13,7 +13,7 @@
 #include "skylit/bake_format/arrays.hpp"
 
 namespace skylit::blend {
-namespace {
+namespace load_basis_test {  // named, not anonymous: the test program is one unity build
 
 namespace fs = std::filesystem;
 using bake_format::test::TempDir;

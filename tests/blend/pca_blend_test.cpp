@@ -19,7 +19,7 @@
 #include "skylit/blend/gpu_blend.hpp"
 
 namespace skylit::blend {
-namespace {
+namespace pca_blend_test {  // named, not anonymous: the test program is one unity build
 
 namespace fs = std::filesystem;
 using bake_format::test::pca_components;

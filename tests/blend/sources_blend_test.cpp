@@ -14,7 +14,7 @@
 #include "skylit/base/error.hpp"
 
 namespace skylit::blend {
-namespace {
+namespace sources_blend_test {  // named, not anonymous: the test program is one unity build
 
 using test::random_scene;
 

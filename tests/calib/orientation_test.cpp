@@ -14,7 +14,7 @@
 #include "skylit/calib/orientation.hpp"
 #include "skylit/sky/solar.hpp"
 
-namespace {
+namespace orientation_test {  // named, not anonymous: the test program is one unity build
 
 using skylit::calib::SunObservation;
 using skylit::calib::Vec3;

@@ -24,7 +24,7 @@
 #include "synthetic_markers.hpp"
 #include "synthetic_sky.hpp"
 
-namespace {
+namespace skylit_calib_cli_test {  // named, not anonymous: the test program is one unity build
 
 namespace fs = std::filesystem;
 using skylit::cli_test::Result;

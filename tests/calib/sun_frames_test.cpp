@@ -24,7 +24,7 @@
 #include "skylit/camera/lens.hpp"
 #include "synthetic_sky.hpp"
 
-namespace {
+namespace sun_frames_test {  // named, not anonymous: the test program is one unity build
 
 namespace fs = std::filesystem;
 using skylit::calib::Vec3;

@@ -9,7 +9,7 @@
 
 #include "cli_support.hpp"
 
-namespace {
+namespace skylit_cli_test {  // named, not anonymous: the test program is one unity build
 
 namespace fs = std::filesystem;
 
@@ -90,4 +90,4 @@ INSTANTIATE_TEST_SUITE_P(
       return name;
     });
 
-}  // namespace
+}  // namespace skylit_cli_test

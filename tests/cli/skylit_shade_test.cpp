@@ -19,7 +19,7 @@
 #include "skylit/sky/radiometry.hpp"
 #include "cli_support.hpp"
 
-namespace {
+namespace skylit_shade_test {  // named, not anonymous: the test program is one unity build
 
 namespace fs = std::filesystem;
 

@@ -26,7 +26,7 @@
 
 namespace fs = std::filesystem;
 
-namespace {
+namespace skylit_sky_test {  // named, not anonymous: the test program is one unity build
 
 using skylit::cli_test::Result;
 using SkyTempDir = skylit::cli_test::TempDir;
@@ -71,7 +71,6 @@ std::vector<std::string> lines_of(const fs::path& file) {
   return lines;
 }
 
-}  // namespace
 
 TEST(SkylitSky, EquirectToExrAndPng) {
   SkyTempDir dir;
@@ -167,7 +166,6 @@ TEST(SkylitSky, BadCalibrationIsReportedWithFileAndField) {
   EXPECT_FALSE(fs::exists(dir / "out.exr"));
 }
 
-namespace {
 
 struct BadCase {
   std::string name;
@@ -178,7 +176,6 @@ struct BadCase {
 // CTest lists a case by its name, not as a dump of the struct's bytes.
 void PrintTo(const BadCase& c, std::ostream* os) { *os << c.name; }
 
-}  // namespace
 
 class SkylitSkyBadInput : public ::testing::TestWithParam<BadCase> {};
 
@@ -230,7 +227,6 @@ INSTANTIATE_TEST_SUITE_P(
                 "--azimuth-offset"}),
     [](const ::testing::TestParamInfo<BadCase>& param_info) { return param_info.param.name; });
 
-namespace {
 
 TEST(SkylitSkyResponse, CalibratesACurveFromABracketAndPlotsIt) {
   SkyTempDir dir;

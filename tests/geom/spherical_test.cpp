@@ -9,7 +9,7 @@
 #include <stdexcept>
 
 namespace skylit::geom {
-namespace {
+namespace spherical_test {  // named, not anonymous: the test program is one unity build
 
 constexpr double kPi = std::numbers::pi;
 

@@ -16,7 +16,7 @@
 #include "skylit/gpu/shader.hpp"
 
 namespace skylit::gpu {
-namespace {
+namespace shader_test {  // named, not anonymous: the test program is one unity build
 
 namespace fs = std::filesystem;
 

@@ -17,15 +17,6 @@ namespace {
 using namespace std::chrono_literals;
 using nlohmann::json;
 
-std::int64_t frames_of(const json& status) { return status["frames"].get<std::int64_t>(); }
-
-bool has_flag(const json& status, const std::string& flag) {
-  for (const auto& f : status["flags"]) {
-    if (f.get<std::string>() == flag) return true;
-  }
-  return false;
-}
-
 TEST(ServiceFaults, ASkyFolderThatDisappearsLeavesTheLastSkyFlaggedStale) {
   RigOptions rig_options;
   rig_options.sky_frames = 2;

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -267,6 +268,15 @@ inline int max_difference(const cv::Mat& a, const cv::Mat& b) {
   double max = 0;
   cv::minMaxLoc(difference.reshape(1), nullptr, &max);
   return static_cast<int>(max);
+}
+
+// Frames composited so far, by the service's status report.
+inline std::int64_t frames_of(const nlohmann::json& status) { return status["frames"].get<std::int64_t>(); }
+
+// Whether the status report raises `flag`.
+inline bool has_flag(const nlohmann::json& status, const std::string& flag) {
+  const auto& flags = status["flags"];
+  return std::any_of(flags.begin(), flags.end(), [&](const nlohmann::json& f) { return f == flag; });
 }
 
 }  // namespace skylit::live_test

@@ -18,8 +18,6 @@ namespace {
 using namespace std::chrono_literals;
 using nlohmann::json;
 
-std::int64_t frames_of(const json& status) { return status["frames"].get<std::int64_t>(); }
-
 std::string read_bytes(const fs::path& file) {
   std::ostringstream out;
   out << std::ifstream(file, std::ios::binary).rdbuf();

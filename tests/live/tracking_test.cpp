@@ -82,11 +82,6 @@ Pose pose_from_status(const nlohmann::json& last) {
   return pose;
 }
 
-bool has_flag(const nlohmann::json& status, const std::string& flag) {
-  const auto& flags = status["flags"];
-  return std::any_of(flags.begin(), flags.end(), [&](const nlohmann::json& f) { return f == flag; });
-}
-
 bool has_pose(const nlohmann::json& status) { return status["frames"].get<std::int64_t>() >= 3 && !status["pose"]["last"].is_null(); }
 
 TEST(LiveTracking, MarkersGiveTheRecordedPose) {

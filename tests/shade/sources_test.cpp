@@ -27,7 +27,7 @@
 #include "../support/suite_setup.hpp"
 
 namespace skylit {
-namespace {
+namespace sources_test {  // named, not anonymous: the test program is one unity build
 
 namespace fs = std::filesystem;
 using geom::Vec3;

@@ -19,7 +19,7 @@
 #include "skylit/camera/lens.hpp"
 
 namespace skylit::sky {
-namespace {
+namespace luminance_test {  // named, not anonymous: the test program is one unity build
 
 using lens_testing::dome;
 using lens_testing::frame_of;

@@ -41,7 +41,7 @@ void expect_input_error(F&& f, const std::vector<std::string>& parts) {
 }
 
 // IEC 61966-2-1 forward transfer (linear → encoded, both in [0, 1]).
-double srgb_encode(double linear) {
+double reference_srgb_encode(double linear) {
   return linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1.0 / 2.4) - 0.055;
 }
 
@@ -57,7 +57,7 @@ TEST(Radiometry, SrgbCurveInvertsTheForwardFormula) {
     EXPECT_FLOAT_EQ(channel.back(), 1.0F);
     for (std::size_t z = 0; z < channel.size(); ++z) {
       // Back through the forward formula: the code again, to well under a code (float storage).
-      EXPECT_NEAR(srgb_encode(channel[z]) * 255.0, static_cast<double>(z), 1e-3) << "code " << z;
+      EXPECT_NEAR(reference_srgb_encode(channel[z]) * 255.0, static_cast<double>(z), 1e-3) << "code " << z;
       if (z > 0) {
         EXPECT_GT(channel[z], channel[z - 1]);
       }
@@ -70,7 +70,7 @@ TEST(Radiometry, SrgbCurveInvertsTheForwardFormula) {
   const ResponseCurve wide = ResponseCurve::srgb(16);
   ASSERT_EQ(wide.bgr[2].size(), 65536U);
   for (std::size_t z = 0; z < 65536; z += 97) {
-    EXPECT_NEAR(srgb_encode(wide.bgr[2][z]) * 65535.0, static_cast<double>(z), 0.05) << "code " << z;
+    EXPECT_NEAR(reference_srgb_encode(wide.bgr[2][z]) * 65535.0, static_cast<double>(z), 0.05) << "code " << z;
   }
 }
 
@@ -432,7 +432,7 @@ TEST(Radiometry, MergesAnSrgbBracketBackToRadiance) {
   std::vector<cv::Mat> frames;
   for (int k = 0; k < 5; ++k) {
     exposures.push_back({std::pow(12.0, k) / 4.0, 4.0});  // gain enters like time
-    frames.push_back(render_8bit(truth, exposures.back().time_s * exposures.back().gain, srgb_encode));
+    frames.push_back(render_8bit(truth, exposures.back().time_s * exposures.back().gain, reference_srgb_encode));
   }
   // Given out of order: the merge sorts by exposure.
   std::swap(frames[0], frames[3]);

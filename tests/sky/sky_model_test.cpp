@@ -14,7 +14,7 @@
 #include "skylit/sky/sky_model.hpp"
 #include "skylit/camera/lens.hpp"
 
-namespace {
+namespace sky_model_test {  // named, not anonymous: the test program is one unity build
 
 using skylit::sky::ClearSky;
 using skylit::sky::OvercastSky;
@@ -46,7 +46,6 @@ double hemisphere_integral(const std::function<double(const Vec3&)>& f, bool cos
   return sum * (1.0 / rings) * (2 * kPi / sectors);
 }
 
-}  // namespace
 
 TEST(ClearSky, SymmetricAboutTheSunsVerticalPlane) {
   const ClearSky sky(from_angles(130, 35), 3.0);
@@ -212,3 +211,4 @@ TEST(SkyModel, XyYToSrgb) {
   EXPECT_NEAR(rgb_luminance(skylit::sky::xyY_to_linear_srgb(0.25, 0.27, 3.0)), 3.0, 3e-3);
   EXPECT_EQ(skylit::sky::xyY_to_linear_srgb(0.3, 0.0, 1.0), Eigen::Vector3d::Zero());
 }
+}  // namespace sky_model_test

@@ -11,7 +11,7 @@
 #include "skylit/base/error.hpp"
 #include "skylit/sky/solar.hpp"
 
-namespace {
+namespace solar_test {  // named, not anonymous: the test program is one unity build
 
 using namespace std::chrono;
 using skylit::sky::format_utc;
@@ -61,7 +61,6 @@ sys_seconds crossing(sys_seconds a, sys_seconds b, double lat, double lon) {
   return a;
 }
 
-}  // namespace
 
 // NREL's SPA report (Reda and Andreas 2004, NREL/TP-560-34302, appendix A.5): Golden, Colorado,
 // 2003-10-17 12:30:30 local (UTC−7), 39.742476° N, 105.1786° W: topocentric zenith 50.11162°,
@@ -205,3 +204,4 @@ TEST(ParseUtc, RejectsBadTimesNamingTheValue) {
     EXPECT_NE(std::string(e.what()).find("no time zone"), std::string::npos) << e.what();
   }
 }
+}  // namespace solar_test

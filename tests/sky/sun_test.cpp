@@ -16,7 +16,7 @@
 #include "skylit/camera/lens.hpp"
 
 namespace skylit::sky {
-namespace {
+namespace sun_test {  // named, not anonymous: the test program is one unity build
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 

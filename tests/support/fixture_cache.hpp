@@ -20,6 +20,12 @@ namespace skylit::test {
 
 namespace cache_detail {
 
+// This test program's file name: each program keeps its own fixtures (two programs may name
+// fixtures alike, and neither may remove the other's while it reads them).
+inline std::string program_name() {
+  return std::filesystem::read_symlink("/proc/self/exe").filename().string();
+}
+
 // "<size>-<mtime ns>" of this test program: what a fixture made by it is valid for.
 inline std::string program_key() {
   struct stat st{};
@@ -52,11 +58,11 @@ class FileLock {
 // The folder of fixture `name` (letters, digits and '_'), made by `make(folder)` when this
 // build of the test program has not made it yet. `make` writes into the empty folder it is given;
 // the folder is published only when `make` returns, so a failed or killed maker leaves nothing
-// that a later test would trust. Fixtures of earlier builds of the program are removed.
+// that a later test would trust. Fixtures of earlier builds of this program are removed.
 inline std::filesystem::path cached_fixture(const std::string& name,
                                             const std::function<void(const std::filesystem::path&)>& make) {
   namespace fs = std::filesystem;
-  const fs::path root = fs::path(SKYLIT_BINARY_DIR) / "test-fixtures";
+  const fs::path root = fs::path(SKYLIT_BINARY_DIR) / "test-fixtures" / cache_detail::program_name();
   fs::create_directories(root);
   const cache_detail::FileLock lock(root / (name + ".lock"));
   const std::string key = cache_detail::program_key();

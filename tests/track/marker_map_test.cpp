@@ -12,7 +12,7 @@
 #include "skylit/base/error.hpp"
 #include "skylit/track/marker_map.hpp"
 
-namespace {
+namespace marker_map_test {  // named, not anonymous: the test program is one unity build
 
 using namespace skylit::track;
 namespace fs = std::filesystem;

@@ -21,7 +21,7 @@
 #include "skylit/track/tag_detector.hpp"
 #include "skylit/camera/lens.hpp"
 
-namespace {
+namespace marker_pose_test {  // named, not anonymous: the test program is one unity build
 
 using namespace skylit::track;
 using namespace marker_scene;

@@ -13,7 +13,7 @@
 #include "skylit/base/error.hpp"
 #include "skylit/track/pose.hpp"
 
-namespace {
+namespace pose_test {  // named, not anonymous: the test program is one unity build
 
 using namespace skylit::track;
 namespace fs = std::filesystem;

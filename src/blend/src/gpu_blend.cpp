@@ -605,9 +605,20 @@ bool GpuBlender::unchanged_since_last(const BlendWeights& weights, const SunVisi
   return bound.maxCoeff() <= options_.change_threshold;
 }
 
-bool GpuBlender::blend(const BlendWeights& weights, const SunVisibilityTexture* sun) {
-  const std::size_t layers = static_cast<std::size_t>(layers_);
-  const std::size_t tiles = static_cast<std::size_t>(tile_count_);
+// The slices (or pages) the shader reads with their weights, and what was summed and skipped.
+struct GpuBlender::SliceList {
+  std::vector<SliceWeights> slices;
+  std::vector<TileRecord> tile_records;
+  std::size_t read = 0;  // slice_count: entries per tile (whole layers)
+  double skipped = 0.0;
+  int skipped_count = 0;
+  int summed = 0;
+};
+
+// InputError unless the weights are this basis's and the sun's visibility is there when needed.
+void GpuBlender::check_blend_input(const BlendWeights& weights, const SunVisibilityTexture* sun) const {
+  const auto layers = static_cast<std::size_t>(layers_);
+  const auto tiles = static_cast<std::size_t>(tile_count_);
   const std::size_t weight_count = layers * tiles;  // face[t · layers + i]: layer i within tile t
   if (weights.face.size() != weight_count) {
     bad_input("weights.face", std::to_string(weights.face.size()) + " weights for the " + std::to_string(weight_count) +
@@ -643,13 +654,17 @@ bool GpuBlender::blend(const BlendWeights& weights, const SunVisibilityTexture* 
                 "pass this plane's visibility texture");
     }
   }
-  if (unchanged_since_last(weights, sun)) return false;
+}
 
-  // skip_threshold: leave out the layers of least possible contribution while their bounds add
-  // up to no more than the threshold; the rest are summed in ascending layer (slice) order. A
-  // tiled basis weighs (tile, layer) pairs: face index i is layer i % layers of tile i / layers.
+// skip_threshold: leave out the layers of least possible contribution while their bounds add
+// up to no more than the threshold; the rest are summed in ascending layer (slice) order. A
+// tiled basis weighs (tile, layer) pairs: face index i is layer i % layers of tile i / layers.
+// keep[a] and contribution[a] for each active weight a.
+void GpuBlender::choose_skipped(const BlendWeights& weights, std::vector<double>& contribution,
+                                std::vector<bool>& keep) const {
+  const auto layers = static_cast<std::size_t>(layers_);
   const std::size_t active = weights.active.size();
-  std::vector<double> contribution(active);
+  contribution.assign(active, 0.0);
   for (std::size_t a = 0; a < active; ++a) {
     const auto i = static_cast<std::size_t>(weights.active[a]);
     contribution[a] =
@@ -658,110 +673,139 @@ bool GpuBlender::blend(const BlendWeights& weights, const SunVisibilityTexture* 
   std::vector<std::size_t> order(active);
   std::iota(order.begin(), order.end(), std::size_t{0});
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return contribution[a] < contribution[b]; });
-  std::vector<bool> keep(active, true);
+  keep.assign(active, true);
   double candidates = 0.0;
   for (const std::size_t a : order) {
     if (candidates + contribution[a] > options_.skip_threshold) break;
     candidates += contribution[a];
     keep[a] = false;
   }
+}
+
+// A cropped basis: each layer is kept or skipped for the whole plane, and each tile reads its pages.
+GpuBlender::SliceList GpuBlender::paged_slices(const BlendWeights& weights, const std::vector<double>& contribution,
+                                               const std::vector<bool>& keep) const {
+  const auto layers = static_cast<std::size_t>(layers_);
+  const std::size_t active = weights.active.size();
   const bool scaled = options_.storage != BasisStorage::Half;  // layers stored as B / max_i
   const int per_slice = layers_per_slice_;
-  std::vector<SliceWeights> slices;
-  std::vector<TileRecord> tile_records;
-  std::size_t read = 0;  // slice_count: entries per tile (whole layers)
-  double skipped = 0.0;
-  int skipped_count = 0;
-  int summed = 0;
-  if (paged_) {
-    // Each layer is kept or skipped for the whole plane. A tile starts from the fills of the
-    // kept layers whose rectangle misses it (the sum of all kept fills less those of the layers
-    // in its pages, in double) and reads each of its pages that holds a kept layer, the others'
-    // channels weighing 0.
-    std::vector<std::array<float, 3>> kept_weight(layers, std::array<float, 3>{0.0f, 0.0f, 0.0f});
-    std::vector<bool> kept(layers, false);
-    std::array<double, 3> all_fills{0.0, 0.0, 0.0};
-    for (std::size_t a = 0; a < active; ++a) {
-      const auto i = static_cast<std::size_t>(weights.active[a]);
-      if (!keep[a]) {
-        skipped += contribution[a];
-        ++skipped_count;
-        continue;
-      }
-      kept[i] = true;
-      for (int c = 0; c < 3; ++c) {
-        kept_weight[i][static_cast<std::size_t>(c)] = weights.face[i][c];
-        all_fills[static_cast<std::size_t>(c)] += static_cast<double>(weights.face[i][c]) * static_cast<double>(fills_[i]);
-      }
-      ++summed;
+  SliceList list;
+  std::vector<SliceWeights>& slices = list.slices;
+  std::vector<TileRecord>& tile_records = list.tile_records;
+  double& skipped = list.skipped;
+  int& skipped_count = list.skipped_count;
+  int& summed = list.summed;
+  // Each layer is kept or skipped for the whole plane. A tile starts from the fills of the
+  // kept layers whose rectangle misses it (the sum of all kept fills less those of the layers
+  // in its pages, in double) and reads each of its pages that holds a kept layer, the others'
+  // channels weighing 0.
+  std::vector<std::array<float, 3>> kept_weight(layers, std::array<float, 3>{0.0f, 0.0f, 0.0f});
+  std::vector<bool> kept(layers, false);
+  std::array<double, 3> all_fills{0.0, 0.0, 0.0};
+  for (std::size_t a = 0; a < active; ++a) {
+    const auto i = static_cast<std::size_t>(weights.active[a]);
+    if (!keep[a]) {
+      skipped += contribution[a];
+      ++skipped_count;
+      continue;
     }
-    tile_records.resize(static_cast<std::size_t>(page_tiles_));
-    for (std::size_t t = 0; t < tile_records.size(); ++t) {
-      std::array<double, 3> constant = all_fills;
-      const auto first = static_cast<GLint>(slices.size());
-      for (int p = page_begin_[t]; p < page_begin_[t + 1]; ++p) {
-        const std::array<GLint, 3>& origin = page_origin_[static_cast<std::size_t>(p)];
-        SliceWeights entry{{}, {}, {}, {origin[0], origin[1], origin[2], 0}};
-        bool any = false;
-        for (int c = 0; c < per_slice; ++c) {
-          const int k = page_layers_[static_cast<std::size_t>(p) * static_cast<std::size_t>(per_slice) + static_cast<std::size_t>(c)];
-          if (k < 0 || !kept[static_cast<std::size_t>(k)]) continue;
-          any = true;
-          const std::array<float, 3>& w = kept_weight[static_cast<std::size_t>(k)];
-          const float fill = fills_[static_cast<std::size_t>(k)];
-          for (std::size_t ch = 0; ch < 3; ++ch) constant[ch] -= static_cast<double>(w[ch]) * static_cast<double>(fill);
-          const float scale = scaled ? layer_max_[static_cast<std::size_t>(k)] : 1.0f;
-          entry.red[static_cast<std::size_t>(c)] = w[0] * scale;
-          entry.green[static_cast<std::size_t>(c)] = w[1] * scale;
-          entry.blue[static_cast<std::size_t>(c)] = w[2] * scale;
-        }
-        if (any) slices.push_back(entry);
-      }
-      TileRecord& record = tile_records[t];
-      record.constant = {static_cast<float>(constant[0]), static_cast<float>(constant[1]), static_cast<float>(constant[2]), 0.0f};
-      record.range = {first, static_cast<GLint>(slices.size()) - first, 0, 0};
+    kept[i] = true;
+    for (int c = 0; c < 3; ++c) {
+      kept_weight[i][static_cast<std::size_t>(c)] = weights.face[i][c];
+      all_fills[static_cast<std::size_t>(c)] += static_cast<double>(weights.face[i][c]) * static_cast<double>(fills_[i]);
     }
-  } else {
-    // A slice is read when one of its layers is kept (in any tile); then all its active layers
-    // are summed (they come with the fetch), and only the layers of unread slices count as
-    // skipped. Every tile reads the same slices, in ascending order: tile t's weights are entries
-    // t · read … (t + 1) · read − 1 (zero for a layer the tile does not weigh).
-    std::vector<bool> slice_read(static_cast<std::size_t>(slices_), false);
-    for (std::size_t a = 0; a < active; ++a) {
-      const int layer = weights.active[a] % layers_;
-      if (keep[a]) slice_read[static_cast<std::size_t>(layer / per_slice)] = true;
-    }
-    std::vector<int> position(static_cast<std::size_t>(slices_), -1);  // in each tile's list
-    std::vector<SliceWeights> tile_slices;                              // one tile's list, weights 0
-    for (int slice = 0; slice < slices_; ++slice) {
-      if (!slice_read[static_cast<std::size_t>(slice)]) continue;
-      position[static_cast<std::size_t>(slice)] = static_cast<int>(tile_slices.size());
-      tile_slices.push_back(SliceWeights{{}, {}, {}, {slice, 0, 0, 0}});
-    }
-    read = tile_slices.size();
-    slices.reserve(read * tiles);
-    for (std::size_t t = 0; t < tiles; ++t) slices.insert(slices.end(), tile_slices.begin(), tile_slices.end());
-    for (std::size_t a = 0; a < active; ++a) {
-      const auto i = static_cast<std::size_t>(weights.active[a]);
-      const std::size_t tile = i / layers;
-      const std::size_t layer = i % layers;
-      const std::size_t slice = layer / static_cast<std::size_t>(per_slice);
-      if (!slice_read[slice]) {
-        skipped += contribution[a];
-        ++skipped_count;
-        continue;
-      }
-      SliceWeights& entry = slices[tile * read + static_cast<std::size_t>(position[slice])];
-      const std::size_t c = layer % static_cast<std::size_t>(per_slice);
-      const float scale = scaled ? layer_max_[layer] : 1.0f;
-      const Eigen::Vector3f& w = weights.face[i];
-      entry.red[c] = w.x() * scale;
-      entry.green[c] = w.y() * scale;
-      entry.blue[c] = w.z() * scale;
-      ++summed;
-    }
+    ++summed;
   }
+  tile_records.resize(static_cast<std::size_t>(page_tiles_));
+  for (std::size_t t = 0; t < tile_records.size(); ++t) {
+    std::array<double, 3> constant = all_fills;
+    const auto first = static_cast<GLint>(slices.size());
+    for (int p = page_begin_[t]; p < page_begin_[t + 1]; ++p) {
+      const std::array<GLint, 3>& origin = page_origin_[static_cast<std::size_t>(p)];
+      SliceWeights entry{{}, {}, {}, {origin[0], origin[1], origin[2], 0}};
+      bool any = false;
+      for (int c = 0; c < per_slice; ++c) {
+        const int k = page_layers_[static_cast<std::size_t>(p) * static_cast<std::size_t>(per_slice) + static_cast<std::size_t>(c)];
+        if (k < 0 || !kept[static_cast<std::size_t>(k)]) continue;
+        any = true;
+        const std::array<float, 3>& w = kept_weight[static_cast<std::size_t>(k)];
+        const float fill = fills_[static_cast<std::size_t>(k)];
+        for (std::size_t ch = 0; ch < 3; ++ch) constant[ch] -= static_cast<double>(w[ch]) * static_cast<double>(fill);
+        const float scale = scaled ? layer_max_[static_cast<std::size_t>(k)] : 1.0f;
+        entry.red[static_cast<std::size_t>(c)] = w[0] * scale;
+        entry.green[static_cast<std::size_t>(c)] = w[1] * scale;
+        entry.blue[static_cast<std::size_t>(c)] = w[2] * scale;
+      }
+      if (any) slices.push_back(entry);
+    }
+    TileRecord& record = tile_records[t];
+    record.constant = {static_cast<float>(constant[0]), static_cast<float>(constant[1]), static_cast<float>(constant[2]), 0.0f};
+    record.range = {first, static_cast<GLint>(slices.size()) - first, 0, 0};
+  }
+  return list;
+}
 
+// Whole layers (plain or tiled): the slices any tile reads, the same list for every tile.
+GpuBlender::SliceList GpuBlender::layer_slices(const BlendWeights& weights, const std::vector<double>& contribution,
+                                               const std::vector<bool>& keep) const {
+  const auto layers = static_cast<std::size_t>(layers_);
+  const auto tiles = static_cast<std::size_t>(tile_count_);
+  const std::size_t active = weights.active.size();
+  const bool scaled = options_.storage != BasisStorage::Half;  // layers stored as B / max_i
+  const int per_slice = layers_per_slice_;
+  SliceList list;
+  std::vector<SliceWeights>& slices = list.slices;
+  std::size_t& read = list.read;
+  double& skipped = list.skipped;
+  int& skipped_count = list.skipped_count;
+  int& summed = list.summed;
+  // A slice is read when one of its layers is kept (in any tile); then all its active layers
+  // are summed (they come with the fetch), and only the layers of unread slices count as
+  // skipped. Every tile reads the same slices, in ascending order: tile t's weights are entries
+  // t · read … (t + 1) · read − 1 (zero for a layer the tile does not weigh).
+  std::vector<bool> slice_read(static_cast<std::size_t>(slices_), false);
+  for (std::size_t a = 0; a < active; ++a) {
+    const int layer = weights.active[a] % layers_;
+    if (keep[a]) slice_read[static_cast<std::size_t>(layer / per_slice)] = true;
+  }
+  std::vector<int> position(static_cast<std::size_t>(slices_), -1);  // in each tile's list
+  std::vector<SliceWeights> tile_slices;                              // one tile's list, weights 0
+  for (int slice = 0; slice < slices_; ++slice) {
+    if (!slice_read[static_cast<std::size_t>(slice)]) continue;
+    position[static_cast<std::size_t>(slice)] = static_cast<int>(tile_slices.size());
+    tile_slices.push_back(SliceWeights{{}, {}, {}, {slice, 0, 0, 0}});
+  }
+  read = tile_slices.size();
+  slices.reserve(read * tiles);
+  for (std::size_t t = 0; t < tiles; ++t) slices.insert(slices.end(), tile_slices.begin(), tile_slices.end());
+  for (std::size_t a = 0; a < active; ++a) {
+    const auto i = static_cast<std::size_t>(weights.active[a]);
+    const std::size_t tile = i / layers;
+    const std::size_t layer = i % layers;
+    const std::size_t slice = layer / static_cast<std::size_t>(per_slice);
+    if (!slice_read[slice]) {
+      skipped += contribution[a];
+      ++skipped_count;
+      continue;
+    }
+    SliceWeights& entry = slices[tile * read + static_cast<std::size_t>(position[slice])];
+    const std::size_t c = layer % static_cast<std::size_t>(per_slice);
+    const float scale = scaled ? layer_max_[layer] : 1.0f;
+    const Eigen::Vector3f& w = weights.face[i];
+    entry.red[c] = w.x() * scale;
+    entry.green[c] = w.y() * scale;
+    entry.blue[c] = w.z() * scale;
+    ++summed;
+  }
+  return list;
+}
+
+// Uploads the slice weights and tile records and runs the compute shader over the plane.
+void GpuBlender::dispatch(const SliceList& list, const BlendWeights& weights, const SunVisibilityTexture* sun,
+                          bool use_sun) {
+  const std::vector<SliceWeights>& slices = list.slices;
+  const std::vector<TileRecord>& tile_records = list.tile_records;
+  const std::size_t read = list.read;
   glUseProgram(program_.get());
   glBindBuffer(GL_SHADER_STORAGE_BUFFER, weight_buffer_.get());
   if (!slices.empty()) {
@@ -793,6 +837,22 @@ bool GpuBlender::blend(const BlendWeights& weights, const SunVisibilityTexture* 
                   GL_TEXTURE_UPDATE_BARRIER_BIT);
   gpu::check_gl_error("GPU blend of plane '" + name_ + "'");
 
+}
+
+bool GpuBlender::blend(const BlendWeights& weights, const SunVisibilityTexture* sun) {
+  check_blend_input(weights, sun);
+  const bool use_sun = !weights.sun.isZero(0);
+  if (unchanged_since_last(weights, sun)) return false;
+  std::vector<double> contribution;
+  std::vector<bool> keep;
+  choose_skipped(weights, contribution, keep);
+  const SliceList list = paged_ ? paged_slices(weights, contribution, keep) : layer_slices(weights, contribution, keep);
+  dispatch(list, weights, sun, use_sun);
+
+  const std::vector<SliceWeights>& slices = list.slices;
+  const std::size_t read = list.read;
+  const int summed = list.summed, skipped_count = list.skipped_count;
+  const double skipped = list.skipped;
   has_result_ = true;
   last_face_ = weights.face;
   last_sun_ = weights.sun;

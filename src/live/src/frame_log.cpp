@@ -86,8 +86,9 @@ class LogColumns {
     if (f == nullptr || f->text.empty()) return std::nullopt;
     try {
       return sky::parse_utc(f->text);
-    } catch (const InputError& e) {
-      throw InputError(input_message(log_, row.line, f->column, name, e.what(), kLogFix));
+    } catch (const InputError&) {
+      throw InputError(input_message(log_, row.line, f->column, name,
+                                     "'" + f->text + "' is not a time like 2026-06-21T09:30:00Z", kLogFix));
     }
   }
 

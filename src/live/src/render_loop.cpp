@@ -90,7 +90,11 @@ class Service::State::RenderLoop {
   bool take_sky(FrameStageTimes& times);
   void upload_sky_ratios(FrameStageTimes& times);
   void note_sky(bool sky_changed);
-  std::optional<double> pose_frame(const capture::Frame& frame, bool& has_pose);
+  struct FramePose {
+    bool has_pose = false;            // the frame has its own pose (last_pose keeps the last one)
+    std::optional<double> arrived;    // when the camera thread received it, when known
+  };
+  FramePose pose_frame(const capture::Frame& frame);
   void blend_behind_sky(FrameStageTimes& times, bool sky_changed);
   cv::Mat composite_and_show(FrameStageTimes& times, const capture::Frame& frame, double opacity);
   void record(FrameStageTimes& times, const capture::Frame& frame, const cv::Mat& composite, double opacity);
@@ -179,22 +183,21 @@ std::int64_t Service::State::RenderLoop::run() {
     if (sky_changed) upload_sky_ratios(times);
     note_sky(sky_changed);
     // 4. The pose at the frame's time, and the planes it can see.
-    bool has_pose = false;
-    const std::optional<double> arrived = pose_frame(*frame, has_pose);
+    const FramePose posed = pose_frame(*frame);
     // 5. T of the current sky for every plane in view that lacks it.
     if (sky) blend_behind_sky(times, sky_changed);
     // 6. The building's opacity: without a pose it fades out at the last one; a pose back after a
     //    loss fades it in from nothing (BuildingFade), so it never jumps to the new pose at full
     //    opacity. Before the sky is known the building would be drawn unlit (black): the camera
     //    image alone.
-    const double opacity = s.fade->next(has_pose, frame->timestamp);
+    const double opacity = s.fade->next(posed.has_pose, frame->timestamp);
     if (sky && !last_pose) continue;  // nothing to draw from yet
     // 7. The composite, shown.
     const cv::Mat composite = composite_and_show(times, *frame, opacity);
     // 8. Recorded, and kept for /frame.jpg.
     record(times, *frame, composite, opacity);
     // 9. The frame's times into the statistics, and the progress line.
-    keep_times(times, arrived, sky_changed);
+    keep_times(times, posed.arrived, sky_changed);
     if (s.options.frames && frames >= *s.options.frames) break;
   }
   return finish();
@@ -375,9 +378,8 @@ void Service::State::RenderLoop::note_sky(bool sky_changed) {
   }
 }
 
-// The frame's pose (`has_pose`: whether it has its own; last_pose keeps the last one) and which
-// planes it can see. Returns when the camera thread received the frame, when known.
-std::optional<double> Service::State::RenderLoop::pose_frame(const capture::Frame& frame, bool& has_pose) {
+// The frame's pose, and which planes it can see.
+Service::State::RenderLoop::FramePose Service::State::RenderLoop::pose_frame(const capture::Frame& frame) {
   // The frame is shown after the time it has waited since it came and the time a frame takes
   // to draw (the median of the last ones): the latency the pipeline adds, for status.
   double display_delay = 0;
@@ -387,7 +389,6 @@ std::optional<double> Service::State::RenderLoop::pose_frame(const capture::Fram
     display_delay = now_seconds() - *arrived + s.frame_times.percentile(0.5);
   }
   std::optional<track::Pose> pose = s.tracking->pose_for_frame(frame.timestamp, display_delay);
-  has_pose = pose.has_value();
   if (pose) {
     render::CameraPose camera_pose;
     camera_pose.R_site_from_camera = pose->R_site_from_camera.toRotationMatrix();
@@ -404,7 +405,7 @@ std::optional<double> Service::State::RenderLoop::pose_frame(const capture::Fram
       s.plane_views[j].in_view = in_view[j] != 0;
     }
   }
-  return arrived;
+  return {pose.has_value(), arrived};
 }
 
 // GPU: blended here; CPU: a plane the sky thread left out, blended here on the CPU before it is

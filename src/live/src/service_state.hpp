@@ -156,7 +156,7 @@ struct Service::State {
   FrameTimes sun_shadow_times{600}, sky_sun_visibility_times{600};
   FrameTimes sky_change_frame_times{600};  // frames that took a new sky (its shadow map and T)
   // From the camera thread receiving a frame to its composite being done (shown, recorded): the
-  // part of motion-to-photon latency the service adds (docs/live.md, "Latency").
+  // part of motion-to-photon latency the service adds (docs/live.md, "Running the service").
   FrameTimes latency_times{600};
   double record_fps = 0;
   std::optional<render::PhotometricMatch> photometric;

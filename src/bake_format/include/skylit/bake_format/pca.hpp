@@ -1,6 +1,6 @@
 #pragma once
 // A plane's basis images compressed by principal components of their visible fractions, so that
-// the blend reads K + 1 layers instead of n (docs/bake-format.md, "PCA form").
+// the blend reads K + 1 layers instead of n (docs/bake-format.md, "The PCA form").
 #include <optional>
 #include <span>
 #include <vector>

@@ -161,7 +161,15 @@ class GpuBlender {
   double skipped_bound() const { return skipped_bound_; }   // Σ c_i of those (≤ skip_threshold)
 
  private:
+  struct SliceList;
+  void check_blend_input(const BlendWeights& weights, const SunVisibilityTexture* sun) const;
   bool unchanged_since_last(const BlendWeights& weights, const SunVisibilityTexture* sun) const;
+  void choose_skipped(const BlendWeights& weights, std::vector<double>& contribution, std::vector<bool>& keep) const;
+  SliceList paged_slices(const BlendWeights& weights, const std::vector<double>& contribution,
+                         const std::vector<bool>& keep) const;
+  SliceList layer_slices(const BlendWeights& weights, const std::vector<double>& contribution,
+                         const std::vector<bool>& keep) const;
+  void dispatch(const SliceList& list, const BlendWeights& weights, const SunVisibilityTexture* sun, bool use_sun);
   void upload_layers(const BasisImages& basis);  // whole layers, one or more per slice
   void upload_pages(const BasisImages& basis);   // a cropped basis, in pages of an atlas
 

@@ -121,7 +121,7 @@ struct DisplaySettings {
 //     storage: half | unorm8 | eac      # gpu: how the basis is stored
 //     basis: full | lean | pca | cropped  # every layer; only those that hold a shadow; the PCA
 //                                       # form; lean with each layer cropped to what it shadows
-//     skip_threshold: 0                 # T units (docs/live.md, "Blend"); both devices
+//     skip_threshold: 0                 # T units (docs/live.md, "GPU blend"); both devices
 //     change_threshold: 0.002
 //     cull_planes: true                 # blend only the planes the current view can see
 //   render:

@@ -1,6 +1,6 @@
 #pragma once
 // The sun's shadow maps, drawn on one thread and used on another without the user ever waiting
-// for one to be drawn (docs/live.md, "Sun shadow map").
+// for one to be drawn (docs/live.md, "The sun's shadow map off the render thread").
 #include <condition_variable>
 #include <cstdint>
 #include <memory>

@@ -1,6 +1,6 @@
 #pragma once
 // Whether a shadowing plane can show in a frame: the live service blends T only for the planes
-// the current view can see (docs/live.md, "Blend: only the planes in view").
+// the current view can see (docs/live.md, "Only the planes in view").
 #include "skylit/geom/plane.hpp"
 #include "skylit/render/compositor.hpp"
 #include "skylit/render/lens_remap.hpp"

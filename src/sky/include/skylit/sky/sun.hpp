@@ -46,7 +46,7 @@ struct SunOptions {
   double background_outer_deg = 15.0;
   // Disc pixels: luminance > background × disc_factor, connected, and within halo_radius of the
   // peak. The glow fainter than 10× the background stays in the dome: taken into the sun term
-  // it blurs the sun's shadows (park, bench/RESULTS.md "Accuracy": RMS 0.0132 at 3×, 0.0107 at
+  // it blurs the sun's shadows (park, bench/RESULTS.md "Accuracy of the sky stage": RMS 0.0132 at 3×, 0.0107 at
   // 10×; no other sky changed), and the dome carries a glow a few degrees wide well.
   double disc_factor = 10.0;
   double halo_radius_deg = 5.0;
