@@ -6,7 +6,8 @@
 #   bench/gpu_standalone.sh INCLUDE_DIR LIB_DIR OUT_DIR
 #
 # INCLUDE_DIR holds the headers: EGL/, GLES2/, GLES3/, KHR/ (Khronos), Eigen/ or eigen3/Eigen/
-# (Eigen 3.4), nlohmann/ (json_fwd.hpp, named by the bake format's header; header-only). On a
+# (Eigen 3.4), nlohmann/ (json_fwd.hpp, named by the bake format's header; header-only), Imath/
+# (half.h: the half-float conversions, used without Imath's library). On a
 # Debian machine /usr/include holds them all. LIB_DIR holds libEGL.so.1 and libGLESv2.so.2
 # (linked by path; the program finds them there at run time). OUT_DIR receives gpu_blend_bench,
 # which finds the shaders in this checkout's shaders/ (or $SKYLIT_SHADER_DIR).
@@ -23,7 +24,7 @@ out_dir=$(cd "$3" && pwd)
 repo=$(cd "$(dirname "$0")/.." && pwd)
 
 missing=0
-for header in EGL/egl.h GLES2/gl2ext.h GLES3/gl31.h KHR/khrplatform.h nlohmann/json_fwd.hpp; do
+for header in EGL/egl.h GLES2/gl2ext.h GLES3/gl31.h KHR/khrplatform.h nlohmann/json_fwd.hpp Imath/half.h; do
   if [ ! -f "$include_dir/$header" ]; then
     echo "$0: $include_dir/$header is missing" >&2
     missing=1
@@ -50,7 +51,7 @@ set -x
 g++ -std=c++20 -O2 -pthread \
   -I"$repo/src/base/include" -I"$repo/src/geom/include" -I"$repo/src/bake_format/include" \
   -I"$repo/src/gpu/include" -I"$repo/src/blend/include" -I"$include_dir" -I"$eigen_dir" \
-  -DSKYLIT_SOURCE_SHADER_DIR="\"$repo/shaders\"" -DSKYLIT_INSTALL_SHADER_DIR="\"/usr/local/share/skylit/shaders\"" \
+  -DIMATH_HALF_NO_LOOKUP_TABLE -DSKYLIT_SOURCE_SHADER_DIR="\"$repo/shaders\"" -DSKYLIT_INSTALL_SHADER_DIR="\"/usr/local/share/skylit/shaders\"" \
   "$repo/bench/gpu_blend_bench.cpp" "$repo/bench/gpu_standalone_files.cpp" \
   "$repo/src/blend/src/gpu_blend.cpp" "$repo/src/blend/src/cpu_blend.cpp" "$repo/src/blend/src/kernel.cpp" \
   "$repo/src/blend/src/half.cpp" "$repo/src/blend/src/workers.cpp" "$repo/src/blend/src/eac.cpp" \

@@ -1,14 +1,12 @@
-// Half-float conversions: skylit's own (blend/half.hpp, the bake's storage) against Imath's
-// (Debian's libimath, which OpenEXR uses), to say where Imath's would do as well. Scalar both
-// ways over every one of the 65 536 halves and over a plane's worth of floats; the bulk F16C path
-// (halves_to_floats) beside them.
+// Half-float conversions (blend/half.hpp, the bake's storage): the scalar ones, which are
+// Imath's, both ways over every one of the 65 536 halves and over a plane's worth of floats,
+// and the bulk F16C path (halves_to_floats) beside them. bench/RESULTS.md ("Half floats") has
+// the figures of skylit's own integer conversions that Imath's replaced.
 #include <benchmark/benchmark.h>
 
 #include <cstdint>
 #include <random>
 #include <vector>
-
-#include <Imath/half.h>
 
 #include "skylit/blend/half.hpp"
 
@@ -20,7 +18,7 @@ std::vector<std::uint16_t> every_half() {
   return h;
 }
 
-// Visible fractions and steradians as a bake holds them: [0, 0.1], a few exact zeros and ones.
+// Steradians as a bake holds them: [0, 0.1], with a few exact zeros.
 std::vector<float> basis_like_floats(std::size_t n) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> u(0.0f, 0.1f);
@@ -30,7 +28,7 @@ std::vector<float> basis_like_floats(std::size_t n) {
   return f;
 }
 
-void HalfToFloat_Skylit(benchmark::State& state) {
+void HalfToFloat(benchmark::State& state) {
   const auto h = every_half();
   for (auto _ : state) {
     float sum = 0;
@@ -39,20 +37,9 @@ void HalfToFloat_Skylit(benchmark::State& state) {
   }
   state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(h.size()));
 }
-BENCHMARK(HalfToFloat_Skylit);
+BENCHMARK(HalfToFloat);
 
-void HalfToFloat_Imath(benchmark::State& state) {
-  const auto h = every_half();
-  for (auto _ : state) {
-    float sum = 0;
-    for (const std::uint16_t v : h) sum += imath_half_to_float(v);
-    benchmark::DoNotOptimize(sum);
-  }
-  state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(h.size()));
-}
-BENCHMARK(HalfToFloat_Imath);
-
-void HalvesToFloats_SkylitBulk(benchmark::State& state) {
+void HalvesToFloats_Bulk(benchmark::State& state) {
   const auto h = every_half();
   std::vector<float> out(h.size());
   for (auto _ : state) {
@@ -61,9 +48,9 @@ void HalvesToFloats_SkylitBulk(benchmark::State& state) {
   }
   state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(h.size()));
 }
-BENCHMARK(HalvesToFloats_SkylitBulk);
+BENCHMARK(HalvesToFloats_Bulk);
 
-void FloatToHalf_Skylit(benchmark::State& state) {
+void FloatToHalf(benchmark::State& state) {
   const auto f = basis_like_floats(1 << 18);
   for (auto _ : state) {
     std::uint32_t sum = 0;
@@ -72,35 +59,8 @@ void FloatToHalf_Skylit(benchmark::State& state) {
   }
   state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(f.size()));
 }
-BENCHMARK(FloatToHalf_Skylit);
+BENCHMARK(FloatToHalf);
 
-void FloatToHalf_Imath(benchmark::State& state) {
-  const auto f = basis_like_floats(1 << 18);
-  for (auto _ : state) {
-    std::uint32_t sum = 0;
-    for (const float v : f) sum += imath_float_to_half(v);
-    benchmark::DoNotOptimize(sum);
-  }
-  state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(f.size()));
-}
-BENCHMARK(FloatToHalf_Imath);
-
-// Whether the two agree, as a counter (0 = every half and every float above converts the same).
-void Disagreements(benchmark::State& state) {
-  const auto h = every_half();
-  const auto f = basis_like_floats(1 << 18);
-  std::int64_t differ = 0;
-  for (auto _ : state) {
-    differ = 0;
-    for (const std::uint16_t v : h) {
-      const float a = skylit::blend::half_to_float(v), b = imath_half_to_float(v);
-      differ += (a != b && !(a != a && b != b)) ? 1 : 0;  // NaNs compare unequal to themselves
-    }
-    for (const float v : f) differ += skylit::blend::float_to_half(v) != imath_float_to_half(v) ? 1 : 0;
-  }
-  state.counters["disagreements"] = static_cast<double>(differ);
-}
-BENCHMARK(Disagreements)->Iterations(1);
 
 }  // namespace
 
