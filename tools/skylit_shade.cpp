@@ -148,9 +148,8 @@ std::vector<std::vector<float>> sun_visibility(const Options& o, const skylit::b
   return visibility;
 }
 
-int run(const Options& o) {
-  const auto start = Clock::now();
-  const fs::path out_dir = o.out_dir;
+// InputError for option values that contradict each other.
+void check_options(const Options& o) {
   if (o.sun != "auto" && o.sun != "off") {
     throw InputError("option --sun: got '" + o.sun + "'. Fix: use --sun auto (separate a compact sun) or --sun off");
   }
@@ -159,13 +158,139 @@ int run(const Options& o) {
                      ". Fix: use --sources 1 (the sun alone), or N > 1 with --sun auto to separate further compact "
                      "sources");
   }
-  const skylit::bake_format::VerifyReport report = skylit::bake_format::verify(o.bake_dir);
+}
+
+// The bake's manifest, after verify has found nothing wrong with it (InputError listing every problem).
+skylit::bake_format::Manifest verified_manifest(const Options& o) {
+  skylit::bake_format::VerifyReport report = skylit::bake_format::verify(o.bake_dir);
   if (!report.ok) {
     std::string problems;
     for (const std::string& p : report.problems) problems += "\n  - " + p;
     throw InputError(o.bake_dir + ": not a valid bake:" + problems);
   }
-  const skylit::bake_format::Manifest& manifest = report.manifest;
+  return std::move(report.manifest);
+}
+
+// One plane's T under the sky: blended, written as EXR and PNG, summarised for sky.json.
+nlohmann::json shade_plane(const Options& o, const skylit::bake_format::Manifest& manifest, std::size_t j,
+                           std::span<const Eigen::Vector3d> S, std::span<const skylit::blend::SunLight> lights,
+                           const std::vector<std::vector<std::vector<float>>>& visibility, double& blend_ms) {
+  const fs::path out_dir = o.out_dir;
+  skylit::blend::BlendOptions blend_options;
+  blend_options.threads = o.threads;
+  const skylit::blend::BasisImages basis = skylit::blend::load_basis(o.bake_dir, manifest, static_cast<int>(j));
+  const auto t = Clock::now();
+  const skylit::blend::BlendWeights weights = skylit::blend::blend_weights_sources(basis, S, lights, blend_options);
+  std::vector<float> rgb(basis.texel_count() * 3);
+  std::vector<std::span<const float>> v;
+  for (const auto& source : visibility) v.emplace_back(source[j]);
+  const skylit::blend::BlendStats stats = skylit::blend::blend_cpu_sources(basis, weights, v, rgb, blend_options);
+  const double ms = ms_since(t);
+  blend_ms += ms;
+
+  cv::Mat image(basis.height, basis.width, CV_32FC3);
+  double sum = 0, lowest = 1;
+  for (int row = 0; row < basis.height; ++row) {
+    auto* out = image.ptr<cv::Vec3f>(row);
+    for (int col = 0; col < basis.width; ++col) {
+      const float* texel = &rgb[(static_cast<std::size_t>(row) * basis.width + col) * 3];
+      out[col] = cv::Vec3f(texel[2], texel[1], texel[0]);
+      const double y = 0.2126 * texel[0] + 0.7152 * texel[1] + 0.0722 * texel[2];
+      sum += y;
+      lowest = std::min(lowest, y);
+    }
+  }
+  skylit::sky::write_sky_exr(out_dir / (basis.name + ".exr"), image);
+  skylit::sky::write_image(out_dir / (basis.name + ".png"), skylit::sky::to_8bit_linear(image));
+  const bool no_light = weights.no_light[0] || weights.no_light[1] || weights.no_light[2];
+  nlohmann::json plane{{"name", basis.name},
+                       {"width", basis.width},
+                       {"height", basis.height},
+                       {"mean_T", sum / static_cast<double>(basis.texel_count())},
+                       {"min_T", lowest},
+                       {"denominator", vec(weights.denominator)},
+                       {"no_light", {weights.no_light[0], weights.no_light[1], weights.no_light[2]}},
+                       {"active_faces", weights.active.size()},
+                       {"clamped", stats.clamped},
+                       {"max_above_one", stats.max_above_one},
+                       {"blend_ms", ms}};
+  spdlog::info("plane '{}': mean T {:.3f}, min {:.3f}{}", basis.name, sum / static_cast<double>(basis.texel_count()),
+               lowest, no_light ? " (no light reaches it: T = 1)" : "");
+  return plane;
+}
+
+// Each face's S (and its corner or quadratic coefficients), as sky.json lists them.
+nlohmann::json faces_json(const skylit::geom::Dome& dome, const skylit::sky::SkyEstimate& estimate,
+                          skylit::geom::DomeBasis basis) {
+  nlohmann::json faces = nlohmann::json::array();
+  for (int i = 0; i < dome.face_count(); ++i) {
+    const auto& f = estimate.luminance.faces[static_cast<std::size_t>(i)];
+    nlohmann::json face{{"index", i},
+                        {"direction", vec(dome.face(i).centre)},
+                        {"solid_angle", dome.face(i).solid_angle},
+                        {"S", vec(f.rgb)},
+                        {"coverage", f.coverage},
+                        {"clipped_fraction", f.clipped_fraction},
+                        {"flags", face_flag_names(f.flags)}};
+    if (basis == skylit::geom::DomeBasis::Corners) {
+      // S at the face's vertices (layers 3i, 3i+1, 3i+2), with where each vertex is.
+      nlohmann::json corners = nlohmann::json::array();
+      for (std::size_t k = 0; k < 3; ++k) {
+        const auto vertex = static_cast<std::size_t>(dome.face(i).vertex[k]);
+        corners.push_back({{"vertex", vertex}, {"direction", vec(dome.vertices()[vertex])}, {"S", vec(f.coefficients[k])}});
+      }
+      face["corners"] = std::move(corners);
+    } else if (basis == skylit::geom::DomeBasis::Quadratics) {
+      // The six coefficients (layers 6i..6i+5): λ_k² at vertex k, then 2λ_kλ_l on the edges.
+      static constexpr std::array<const char*, 6> kFunctions{"vertex 0", "vertex 1", "vertex 2",
+                                                             "edge 01",  "edge 12",  "edge 20"};
+      nlohmann::json quadratics = nlohmann::json::array();
+      for (std::size_t k = 0; k < kFunctions.size(); ++k) {
+        quadratics.push_back({{"function", kFunctions[k]}, {"S", vec(f.coefficients[k])}});
+      }
+      face["quadratics"] = std::move(quadratics);
+    }
+    faces.push_back(std::move(face));
+  }
+  return faces;
+}
+
+// A separated source as sky.json lists it: where, how large and how bright.
+nlohmann::json source_json(const skylit::sky::Sun& s) {
+  const double elevation = std::asin(std::clamp(s.direction.z(), -1.0, 1.0)) * 180.0 / 3.141592653589793;
+  const double azimuth = std::fmod(std::atan2(s.direction.x(), s.direction.y()) * 180.0 / 3.141592653589793 + 360.0, 360.0);
+  return nlohmann::json{{"direction", vec(s.direction)},
+                        {"azimuth_deg", azimuth},
+                        {"elevation_deg", elevation},
+                        {"angular_radius_deg", s.angular_radius * 180.0 / 3.141592653589793},
+                        {"energy", vec(s.energy)},
+                        {"background", vec(s.background)},
+                        {"contrast", s.contrast},
+                        {"pixels", s.pixel_count},
+                        {"clipped", s.clipped}};
+}
+
+// What the sky stage counted that a user should know about.
+void report_pixels_and_faces(const skylit::sky::Luminance& l) {
+  if (l.nan_pixels + l.inf_pixels + l.negative_pixels > 0) {
+    spdlog::warn("{} NaN, {} Inf and {} negative pixel(s) counted as 0", l.nan_pixels, l.inf_pixels, l.negative_pixels);
+  }
+  if (l.unseen_faces > 0) spdlog::warn("{} face(s) the lens does not see were filled from their neighbours", l.unseen_faces);
+  if (l.corners_from_mean > 0) {
+    spdlog::info("{} face(s) seen too little to fit their functions carry their mean in each", l.corners_from_mean);
+  }
+  if (l.linear_fits > 0) {
+    spdlog::info("{} face(s) seen too little for a quadratic fit carry a linear one", l.linear_fits);
+  }
+  if (l.no_face_seen) spdlog::warn("the frame sees no face of the dome: every S is 0 and T = 1");
+  if (l.clipped_pixels > 0) spdlog::warn("{} clipped pixel(s): the sky there is brighter than measured", l.clipped_pixels);
+}
+
+int run(const Options& o) {
+  const auto start = Clock::now();
+  const fs::path out_dir = o.out_dir;
+  check_options(o);
+  const skylit::bake_format::Manifest manifest = verified_manifest(o);
   skylit::ensure_writable_directory(out_dir);
 
   const skylit::geom::Dome dome(manifest.plan.frequency);
@@ -203,79 +328,11 @@ int run(const Options& o) {
 
   nlohmann::json planes_json = nlohmann::json::array();
   double blend_ms = 0;
-  skylit::blend::BlendOptions blend_options;
-  blend_options.threads = o.threads;
   for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
-    const skylit::blend::BasisImages basis = skylit::blend::load_basis(o.bake_dir, manifest, static_cast<int>(j));
-    t = Clock::now();
-    const skylit::blend::BlendWeights weights = skylit::blend::blend_weights_sources(basis, S, lights, blend_options);
-    std::vector<float> rgb(basis.texel_count() * 3);
-    std::vector<std::span<const float>> v;
-    for (const auto& source : visibility) v.emplace_back(source[j]);
-    const skylit::blend::BlendStats stats = skylit::blend::blend_cpu_sources(basis, weights, v, rgb, blend_options);
-    const double ms = ms_since(t);
-    blend_ms += ms;
-
-    cv::Mat image(basis.height, basis.width, CV_32FC3);
-    double sum = 0, lowest = 1;
-    for (int row = 0; row < basis.height; ++row) {
-      auto* out = image.ptr<cv::Vec3f>(row);
-      for (int col = 0; col < basis.width; ++col) {
-        const float* texel = &rgb[(static_cast<std::size_t>(row) * basis.width + col) * 3];
-        out[col] = cv::Vec3f(texel[2], texel[1], texel[0]);
-        const double y = 0.2126 * texel[0] + 0.7152 * texel[1] + 0.0722 * texel[2];
-        sum += y;
-        lowest = std::min(lowest, y);
-      }
-    }
-    skylit::sky::write_sky_exr(out_dir / (basis.name + ".exr"), image);
-    skylit::sky::write_image(out_dir / (basis.name + ".png"), skylit::sky::to_8bit_linear(image));
-    const bool no_light = weights.no_light[0] || weights.no_light[1] || weights.no_light[2];
-    planes_json.push_back({{"name", basis.name},
-                           {"width", basis.width},
-                           {"height", basis.height},
-                           {"mean_T", sum / static_cast<double>(basis.texel_count())},
-                           {"min_T", lowest},
-                           {"denominator", vec(weights.denominator)},
-                           {"no_light", {weights.no_light[0], weights.no_light[1], weights.no_light[2]}},
-                           {"active_faces", weights.active.size()},
-                           {"clamped", stats.clamped},
-                           {"max_above_one", stats.max_above_one},
-                           {"blend_ms", ms}});
-    spdlog::info("plane '{}': mean T {:.3f}, min {:.3f}{}", basis.name, sum / static_cast<double>(basis.texel_count()),
-                 lowest, no_light ? " (no light reaches it: T = 1)" : "");
+    planes_json.push_back(shade_plane(o, manifest, j, S, lights, visibility, blend_ms));
   }
 
-  nlohmann::json faces = nlohmann::json::array();
-  for (int i = 0; i < dome.face_count(); ++i) {
-    const auto& f = estimate.luminance.faces[static_cast<std::size_t>(i)];
-    nlohmann::json face{{"index", i},
-                        {"direction", vec(dome.face(i).centre)},
-                        {"solid_angle", dome.face(i).solid_angle},
-                        {"S", vec(f.rgb)},
-                        {"coverage", f.coverage},
-                        {"clipped_fraction", f.clipped_fraction},
-                        {"flags", face_flag_names(f.flags)}};
-    if (manifest.plan.basis == skylit::geom::DomeBasis::Corners) {
-      // S at the face's vertices (layers 3i, 3i+1, 3i+2), with where each vertex is.
-      nlohmann::json corners = nlohmann::json::array();
-      for (std::size_t k = 0; k < 3; ++k) {
-        const auto vertex = static_cast<std::size_t>(dome.face(i).vertex[k]);
-        corners.push_back({{"vertex", vertex}, {"direction", vec(dome.vertices()[vertex])}, {"S", vec(f.coefficients[k])}});
-      }
-      face["corners"] = std::move(corners);
-    } else if (manifest.plan.basis == skylit::geom::DomeBasis::Quadratics) {
-      // The six coefficients (layers 6i..6i+5): λ_k² at vertex k, then 2λ_kλ_l on the edges.
-      static constexpr std::array<const char*, 6> kFunctions{"vertex 0", "vertex 1", "vertex 2",
-                                                             "edge 01",  "edge 12",  "edge 20"};
-      nlohmann::json quadratics = nlohmann::json::array();
-      for (std::size_t k = 0; k < kFunctions.size(); ++k) {
-        quadratics.push_back({{"function", kFunctions[k]}, {"S", vec(f.coefficients[k])}});
-      }
-      face["quadratics"] = std::move(quadratics);
-    }
-    faces.push_back(std::move(face));
-  }
+  const nlohmann::json faces = faces_json(dome, estimate, manifest.plan.basis);
   const auto& l = estimate.luminance;
   nlohmann::json sky{{"bake", o.bake_dir},
                      {"frames", o.sky},
@@ -294,19 +351,6 @@ int run(const Options& o) {
                      {"sun_reason", estimate.sun_reason},
                      {"max_sources", o.sources},
                      {"planes", planes_json}};
-  const auto source_json = [](const skylit::sky::Sun& s) {
-    const double elevation = std::asin(std::clamp(s.direction.z(), -1.0, 1.0)) * 180.0 / 3.141592653589793;
-    const double azimuth = std::fmod(std::atan2(s.direction.x(), s.direction.y()) * 180.0 / 3.141592653589793 + 360.0, 360.0);
-    return nlohmann::json{{"direction", vec(s.direction)},
-                          {"azimuth_deg", azimuth},
-                          {"elevation_deg", elevation},
-                          {"angular_radius_deg", s.angular_radius * 180.0 / 3.141592653589793},
-                          {"energy", vec(s.energy)},
-                          {"background", vec(s.background)},
-                          {"contrast", s.contrast},
-                          {"pixels", s.pixel_count},
-                          {"clipped", s.clipped}};
-  };
   sky["sun"] = estimate.sun ? source_json(*estimate.sun) : nlohmann::json(nullptr);
   // Every separated source, the sun first when there is one ("sun": true on it).
   nlohmann::json sources_json = nlohmann::json::array();
@@ -324,18 +368,7 @@ int run(const Options& o) {
   skylit::sky::write_image(out_dir / "sky_overlay.png",
                            skylit::sky::draw_sky_overlay(estimator.lens(), dome, frame.radiance, estimate));
 
-  if (l.nan_pixels + l.inf_pixels + l.negative_pixels > 0) {
-    spdlog::warn("{} NaN, {} Inf and {} negative pixel(s) counted as 0", l.nan_pixels, l.inf_pixels, l.negative_pixels);
-  }
-  if (l.unseen_faces > 0) spdlog::warn("{} face(s) the lens does not see were filled from their neighbours", l.unseen_faces);
-  if (l.corners_from_mean > 0) {
-    spdlog::info("{} face(s) seen too little to fit their functions carry their mean in each", l.corners_from_mean);
-  }
-  if (l.linear_fits > 0) {
-    spdlog::info("{} face(s) seen too little for a quadratic fit carry a linear one", l.linear_fits);
-  }
-  if (l.no_face_seen) spdlog::warn("the frame sees no face of the dome: every S is 0 and T = 1");
-  if (l.clipped_pixels > 0) spdlog::warn("{} clipped pixel(s): the sky there is brighter than measured", l.clipped_pixels);
+  report_pixels_and_faces(l);
   spdlog::info("sun: {}", estimate.sun_reason);
   if (o.sources > 1) {
     spdlog::info("{} separated source(s) (at most {}): {}", estimate.sources.size(), o.sources, estimate.sources_reason);
