@@ -1,5 +1,6 @@
 // skylit-live as a process, as systemd runs it: SIGTERM ends it with exit status 0 and a closed,
 // readable recording.
+#include <cctype>
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -58,6 +59,17 @@ std::string read_text(const fs::path& file) {
   return out.str();
 }
 
+// The largest frame count the progress lines of `text` report ("skylit-live: N frames, ...").
+long logged_frames(const std::string& text) {
+  long most = 0;
+  for (std::size_t at = text.find(" frames, "); at != std::string::npos; at = text.find(" frames, ", at + 1)) {
+    std::size_t begin = at;
+    while (begin > 0 && std::isdigit(static_cast<unsigned char>(text[begin - 1]))) --begin;
+    if (begin < at) most = std::max(most, std::stol(text.substr(begin, at - begin)));
+  }
+  return most;
+}
+
 TEST(SkylitLive, SigtermEndsItCleanlyWithAReadableRecording) {
   const Rig rig;  // the camera loops at 30 frames per second: it runs until told to stop
   const fs::path program = cli_test::kBin / "skylit-live";
@@ -73,7 +85,13 @@ TEST(SkylitLive, SigtermEndsItCleanlyWithAReadableRecording) {
     std::this_thread::sleep_for(50ms);
   }
   ASSERT_NE(read_text(log).find(" frames, "), std::string::npos) << read_text(log);
-  std::this_thread::sleep_for(1s);  // a second of recording
+  // Ten more frames recorded (the progress line counts them; it is written once a second).
+  const long first = logged_frames(read_text(log));
+  while (logged_frames(read_text(log)) < first + 10 && std::chrono::steady_clock::now() < end) {
+    if (wait_child(pid, 0s)) break;
+    std::this_thread::sleep_for(50ms);
+  }
+  ASSERT_GE(logged_frames(read_text(log)), first + 10) << read_text(log);
   ASSERT_EQ(::kill(pid, SIGTERM), 0);
   std::optional<int> status = wait_child(pid, 30s);
   if (!status) {
