@@ -3,11 +3,11 @@
 # parsed once per build instead of once per file. A target that reuses it gets the same libraries
 # (their include paths and definitions must match for GCC to accept the header; where they do not,
 # GCC quietly parses the headers as usual).
-set(SKYLIT_PCH_STUB ${CMAKE_CURRENT_LIST_DIR}/pch_stub.cpp)
+set(SKYLIT_PCH_SOURCE ${CMAKE_CURRENT_LIST_DIR}/pch_source.cpp)
 
 function(skylit_shared_pch name)
   cmake_parse_arguments(ARG "" "" "HEADERS;LIBS;DEFINITIONS;OPTIONS" ${ARGN})
-  add_library(${name} OBJECT ${SKYLIT_PCH_STUB})
+  add_library(${name} OBJECT ${SKYLIT_PCH_SOURCE})
   target_link_libraries(${name} PUBLIC ${ARG_LIBS})
   target_compile_definitions(${name} PUBLIC ${ARG_DEFINITIONS})
   skylit_warnings(${name})

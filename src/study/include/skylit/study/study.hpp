@@ -1,6 +1,6 @@
 #pragma once
 // The parts of the accuracy study (bench/accuracy_study.cpp) that the trade table
-// (tools/skylit_bench.cpp, `skylit-bench trade`) shares with it: the dense reference over an
+// (study/trade.hpp, `skylit-bench trade`) shares with it: the dense reference over an
 // equirect sky, the sun as the equirect has it, the site at a coarser resolution, error
 // statistics; and the compositor's benchmark view (bench/compose_bench.cpp).
 #include <chrono>

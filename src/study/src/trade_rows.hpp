@@ -1,0 +1,139 @@
+#pragma once
+// The trade table's rows (private to the study module): the grid's settings, the measured results,
+// the forms a basis is measured in, and how the table is written.
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <tuple>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "skylit/bake_format/manifest.hpp"
+#include "skylit/blend/basis.hpp"
+#include "skylit/blend/forms.hpp"
+#include "skylit/geom/plane.hpp"
+#include "skylit/study/study.hpp"
+
+namespace skylit::study::trade {
+
+struct BakeKey {
+  int frequency = 2;
+  geom::DomeBasis basis = geom::DomeBasis::Faces;
+  int samples = 16;
+  int texel_scale = 8;
+  auto tie() const { return std::tie(frequency, basis, samples, texel_scale); }
+  bool operator<(const BakeKey& o) const { return tie() < o.tie(); }
+  std::string name() const {
+    return "nu" + std::to_string(frequency) + "_" + std::string(geom::basis_name(basis)) + "_k" + std::to_string(samples) +
+           "_s" + std::to_string(texel_scale);
+  }
+};
+
+struct Form {
+  blend::BasisForm form = blend::BasisForm::Full;
+  int components = 0;  // Pca
+  int tile = 0;        // Pca: clustered, tiles of this many texels of the bake's planes (0: none)
+  std::string name() const {
+    if (form == blend::BasisForm::Pca) {
+      // Appended piece by piece: GCC 12 warns falsely (-Wrestrict) on "literal" + string here.
+      std::string text = "pca";
+      text += std::to_string(components);
+      if (tile > 0) {
+        text += 't';
+        text += std::to_string(tile);
+      }
+      return text;
+    }
+    return form == blend::BasisForm::Lean ? "lean" : form == blend::BasisForm::Cropped ? "cropped" : "full";
+  }
+};
+
+Form parse_form(const std::string& text);
+
+struct Setting {
+  BakeKey bake;
+  Form form;
+  int bits = 16;
+  bool sun = true;
+  double skip_threshold = 0;
+  double change_threshold = 0.002;
+  double smoothing = 0;
+  double render_scale = 1.0;
+  std::string label() const {
+    char text[160];
+    std::snprintf(text, sizeof text, "%s %s %db%s S%g", bake.name().c_str(), form.name().c_str(), bits,
+                  sun ? " sun" : " nosun", skip_threshold);
+    std::string s = text;
+    char live[64];
+    std::snprintf(live, sizeof live, " dS%g", change_threshold);
+    s += live;
+    if (smoothing > 0.0) {
+      std::snprintf(live, sizeof live, " tau%g", smoothing);
+      s += live;
+    }
+    if (render_scale != 1.0) s += " r" + std::to_string(static_cast<int>(std::lround(render_scale * 100)));
+    return s;
+  }
+};
+
+// The setting on the sky sequence (--sequence): per frame, the errors of the live path's T
+// (smoother, change threshold) and of a fresh blend of the frame's own estimate (the still-sky
+// path), against the frame's reference; and how many planes re-blended.
+struct SequenceResult {
+  std::vector<double> rms, p99, max, still_rms, still_max;
+  std::vector<int> blended;  // planes whose blend ran, per frame
+  int planes = 0;
+  int sun_redraws = 0;       // frames whose sun visibility was recomputed (the sun moved): they re-blend
+};
+
+struct Result {
+  Setting setting;
+  std::optional<SequenceResult> sequence;
+  study::Errors error;
+  std::map<std::string, double> rms_per_sky;
+  std::optional<double> edge_m, edge_deg;  // sunny skies only
+  double bake_seconds = 0;
+  std::uint64_t bake_bytes = 0;
+  std::uint64_t gpu_bytes = 0;
+  int layers = 0;               // stored layers per plane, summed over planes
+  int skipped_layers = 0;       // by the S threshold, summed over planes (first sky)
+  double blend_ms = 0;
+  double blend_cpu_ms = 0;      // process CPU time per blend
+  double frame_ms = 0;
+  double frame_cpu_ms = 0;      // process CPU time per frame (llvmpipe's threads included)
+  double whole_frame_ms = 0;      // wall: frame_ms + blend_ms
+  double whole_frame_cpu_ms = 0;  // process CPU time: frame_cpu_ms + blend_cpu_ms
+  double cost_ms = 0;             // what the plot and the Pareto front use (--clock)
+  bool pareto = false;
+};
+
+// ---- the forms a basis is measured in (trade_forms.cpp) ----
+
+std::uint64_t directory_bytes(const std::filesystem::path& dir);
+void quantise_to_unorm8(blend::BasisImages& basis);
+blend::BasisImages upsampled(const blend::BasisImages& b, int width, int height);
+std::vector<float> upsampled(const std::vector<float>& v, int w, int h, int width, int height);
+double cpu_ms_since(std::clock_t t);
+std::vector<std::pair<double, double>> edge_points(const std::vector<double>& y, const geom::Plane& plane, double level);
+std::pair<double, int> edge_displacement(const std::vector<float>& T, const std::vector<Eigen::Vector3d>& reference,
+                                         const geom::Plane& plane);
+
+// ---- what is written (trade_report.cpp) ----
+
+void mark_pareto(std::vector<Result>& results);
+std::string svg_plot(const std::vector<Result>& results, const std::string& title, const std::string& x_label);
+double mean_of(const std::vector<double>& v);
+double max_of(const std::vector<double>& v);
+double blend_fraction(const SequenceResult& q);
+nlohmann::json sequence_json(const Result& r);
+nlohmann::json to_json(const Result& r);
+std::string markdown_table(const std::vector<Result>& results);
+
+}  // namespace skylit::study::trade
