@@ -51,7 +51,10 @@ demo: build
 	@echo "      the live service's recordings $(DEMO_OUT)/live.mp4 and live_park.mp4 (frame logs live*.csv),"
 	@echo "      their contact sheets $(DEMO_OUT)/contact_sheet.png and contact_sheet_park.png"
 
+# Builds the benchmarks (left out of `build`, see CMakeLists.txt) and runs the bake benchmark;
+# the others are run by hand (bench/RESULTS.md names the command of each figure).
 bench: build
+	cmake --build $(BUILD) -j $(JOBS) --target benchmarks
 	bash bench/run_bake_bench.sh
 
 clean:

@@ -18,6 +18,9 @@ find_package(glfw3 3.3 REQUIRED)
 pkg_check_modules(EGL REQUIRED IMPORTED_TARGET egl)
 pkg_check_modules(GLESV2 REQUIRED IMPORTED_TARGET glesv2)
 pkg_check_modules(EXIF REQUIRED IMPORTED_TARGET libexif)
+# Every file that includes <httplib.h> must link this: its definitions (OpenSSL, zlib, Brotli
+# support) change httplib's classes, and two layouts in one program crash it.
+pkg_check_modules(HTTPLIB REQUIRED IMPORTED_TARGET cpp-httplib)
 # Used by later modules (tracking, IMU, cameras); found now so the build knows them.
 pkg_check_modules(APRILTAG REQUIRED IMPORTED_TARGET apriltag)
 pkg_check_modules(HIDAPI REQUIRED IMPORTED_TARGET hidapi-hidraw)

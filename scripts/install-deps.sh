@@ -5,7 +5,7 @@
 set -euo pipefail
 
 packages=(
-  build-essential cmake ninja-build pkg-config
+  build-essential cmake ninja-build pkg-config lld
   libopencv-dev libeigen3-dev
   libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri libglfw3-dev
   libembree-dev libtinygltf-dev libtinyobjloader-dev

@@ -2,6 +2,7 @@
 // Command-line parsing every program shares: a wrong option, a missing argument or an input file
 // that is not there is an input error, exit status 2 (docs/architecture.md), whatever code CLI11
 // gives it; --help and --version print on stdout and exit 0.
+#include <cstdio>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -29,6 +30,20 @@ inline std::optional<int> parse_command_line(CLI::App& app, int argc, const char
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;
   }
+}
+
+// --version: "PROGRAM VERSION", the project's version (CMakeLists.txt) for every program.
+inline void add_version_flag(CLI::App& app) {
+  app.set_version_flag("--version", app.get_name() + " " + SKYLIT_VERSION);
+}
+
+// -q, --quiet for a program whose stdout carries only its reports and progress, and stderr its
+// warnings and errors: quiet_stdout() after parsing sends stdout to /dev/null.
+inline void add_quiet_flag(CLI::App& app, bool& quiet) {
+  app.add_flag("-q,--quiet", quiet, "only warnings and errors");
+}
+inline void quiet_stdout() {
+  if (std::freopen("/dev/null", "w", stdout) == nullptr) std::fclose(stdout);
 }
 
 }  // namespace skylit::tools

@@ -16,7 +16,7 @@
 
 int main(int argc, char** argv) {
   namespace fs = std::filesystem;
-  CLI::App app{"skylit-sample-site: writes data/models/gate.glb and config/sample_site.yaml"};
+  CLI::App app{"skylit-sample-site: writes data/models/gate.glb and config/sample_site.yaml", "skylit-sample-site"};
   std::string root = ".";
   app.add_option("--root", root, "repository root to write into")->capture_default_str();
   if (const auto status = skylit::tools::parse_command_line(app, argc, argv)) return *status;

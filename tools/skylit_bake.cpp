@@ -41,160 +41,187 @@ int run_verify(const std::filesystem::path& dir) {
   return 1;
 }
 
+// Everything the command line sets: the bake's options and what the subcommands take.
+struct CommandLine {
+  skylit::baker::BakeOptions options;
+  std::string site, out, resolution, shard, basis;
+  int frequency = 0;
+  bool quiet = false;
+  bool no_previews = false;
+  skylit::baker::ErrorBudgetOptions budget;
+  std::string preset_name, presets_file = skylit::default_presets_file().string();
+  // The PCA form (docs/bake-format.md): K is the smallest count meeting every option given.
+  skylit::bake_format::PcaOptions pca;
+  CLI::App* verify = nullptr;
+  std::string verify_dir;
+  CLI::App* merge = nullptr;
+  std::vector<std::string> merge_dirs;
+  std::string merge_out;
+  bool merge_no_previews = false;
+  CLI::App* compress = nullptr;
+  std::string compress_dir;
+
+  std::optional<skylit::bake_format::PcaOptions> wanted_pca() const {
+    if (!pca.components && !pca.variance && !pca.max_error) return std::nullopt;
+    return pca;
+  }
+};
+
+void add_pca_options(CLI::App& to, skylit::bake_format::PcaOptions& pca) {
+  to.add_option("--pca-components", pca.components, "also store the basis compressed to at least K principal components");
+  to.add_option("--pca-variance", pca.variance, "... keeping at least this fraction of the variance (0 < F <= 1)");
+  to.add_option("--pca-max-error", pca.max_error, "... with |T - T_full| at most E for every sky (E > 0)");
+  to.add_option("--pca-sky-correlation", pca.sky_correlation_deg,
+                "components for skies whose radiance correlates over this many degrees (0: plain PCA)");
+  to.add_option("--pca-tile", pca.tile,
+                "clustered PCA: each tile of N x N texels gets its own components (0: the whole plane)");
+}
+
+void add_bake_options(CLI::App& app, CommandLine& c) {
+  app.add_option("site", c.site, "site description (YAML)")->check(CLI::ExistingFile);
+  app.add_option("-o,--output", c.out, "bake directory to write");
+  app.add_option("--frequency", c.frequency, "dome frequency ν (even; overrides the site's)");
+  app.add_option("--basis", c.basis, "radiance basis: faces (one layer per face), corners (three, linear across "
+                                     "the face; needs --samples >= 3) or quadratics (six, quadratic across the "
+                                     "face; needs --samples >= 6); overrides the site's dome.basis");
+  app.add_option("--samples", c.options.samples, "samples per face: 1 = face centre (the paper), K > 1 = area light")
+      ->capture_default_str();
+  c.options.method = "auto";
+  app.add_option("--method", c.options.method,
+                 "auto (raster on a GPU, raytrace where OpenGL ES runs in software), raster (OpenGL ES) or raytrace "
+                 "(Embree, the reference)")
+      ->capture_default_str();
+  app.add_option("--resolution", c.resolution, "set every plane to WxH texels");
+  app.add_option("--shard", c.shard, "bake slice I of N (I/N, 0-based); also from SLURM_ARRAY_TASK_ID/COUNT or "
+                                     "JOB_COMPLETION_INDEX with SKYLIT_SHARD_COUNT");
+  app.add_flag("--resume", c.options.resume, "continue an interrupted bake in the output directory");
+  app.add_flag("--force", c.options.force, "replace a bake already in the output directory");
+  app.add_option("--shadow-map", c.options.shadow_map_resolution, "raster: shadow-map resolution (default: from the planes)");
+  app.add_option("--threads", c.options.threads, "raytrace: threads (default: all cores)");
+  app.add_option("--shader-dir", c.options.shader_dir, "where the GLSL shaders are (default: installed or source tree)");
+  app.add_option("--error-budget", c.budget.budget,
+                 "pick the cheapest dome (frequency, samples) whose shadow ratios stay within this RMS error of a "
+                 "denser bake over clear and overcast test skies (docs/baker.md)");
+  app.add_option("--latitude", c.budget.latitude_deg, "with --error-budget: the site's latitude for the test skies' sun")
+      ->capture_default_str();
+  app.add_option("--preset", c.preset_name,
+                 "bake with a preset's settings: fast, balanced, accurate (docs/presets.md); --frequency, --basis, "
+                 "--samples and --pca-components given too override it");
+  app.add_option("--presets", c.presets_file, "the presets file for --preset")->capture_default_str();
+  app.add_flag("--no-previews", c.no_previews, "skip the preview contact sheets");
+  app.add_flag("-q,--quiet", c.quiet, "only warnings and errors");
+  add_pca_options(app, c.pca);
+}
+
+void add_subcommands(CLI::App& app, CommandLine& c) {
+  c.verify = app.add_subcommand("verify", "check a bake directory: version, files, checksums, shapes");
+  c.verify->add_option("bake_dir", c.verify_dir, "bake directory")->required()->check(CLI::ExistingDirectory);
+
+  c.merge = app.add_subcommand("merge", "join the shards of a bake into one finished bake");
+  c.merge->add_option("shard_dirs", c.merge_dirs, "shard directories")->required()->check(CLI::ExistingDirectory);
+  c.merge->add_option("-o,--output", c.merge_out, "finished bake directory")->required();
+  c.merge->add_flag("--no-previews", c.merge_no_previews, "skip the preview contact sheets");
+  add_pca_options(*c.merge, c.pca);
+
+  c.compress = app.add_subcommand("compress", "add (or replace) the PCA form of every plane of a finished bake");
+  c.compress->add_option("bake_dir", c.compress_dir, "bake directory")->required()->check(CLI::ExistingDirectory);
+  add_pca_options(*c.compress, c.pca);
+
+  // -q after a subcommand too, as a user types it.
+  for (CLI::App* sub : {c.verify, c.merge, c.compress}) sub->add_flag("-q,--quiet", c.quiet, "only warnings and errors");
+}
+
+// --preset fills in what the command line does not give.
+void apply_preset(const CLI::App& app, CommandLine& c) {
+  const skylit::baker::BakePreset preset =
+      skylit::baker::load_bake_preset(skylit::PresetsFile(c.presets_file), c.preset_name);
+  if (!app.count("--frequency")) c.frequency = preset.frequency;
+  if (!app.count("--basis")) c.basis = std::string(skylit::geom::basis_name(preset.basis));
+  if (!app.count("--samples")) c.options.samples = preset.samples;
+  if (!c.wanted_pca() && preset.pca_components > 0) {
+    c.pca.components = preset.pca_components;
+    if (!app.count("--pca-tile")) c.pca.tile = preset.pca_tile;
+  }
+  c.options.preset = preset.name;
+  spdlog::info("preset {} ({}): frequency {}, basis {}, samples {}, PCA components {}{}", preset.name, c.presets_file,
+               c.frequency, c.basis, c.options.samples, c.pca.components ? std::to_string(*c.pca.components) : "none",
+               c.pca.tile > 0 ? " in tiles of " + std::to_string(c.pca.tile) + " texels" : "");
+}
+
+// A bake of SITE into -o, plain or picked by --error-budget.
+int run_bake(const CLI::App& app, CommandLine& c, std::FILE* log) {
+  if (c.site.empty() || c.out.empty()) {
+    std::fprintf(stderr,
+                 "%s\nskylit-bake: error: a bake needs SITE and -o BAKE_DIR (or a subcommand: verify, merge, "
+                 "compress)\n",
+                 app.help().c_str());
+    return 2;
+  }
+  skylit::baker::BakeOptions& options = c.options;
+  options.site_file = c.site;
+  options.out_dir = c.out;
+  if (!c.preset_name.empty()) apply_preset(app, c);
+  options.pca = c.wanted_pca();
+  if (c.frequency != 0 || app.count("--frequency")) options.frequency = c.frequency;
+  if (app.count("--basis") || !c.preset_name.empty()) {
+    options.basis = skylit::geom::parse_basis(c.basis);
+    if (!options.basis) {
+      throw skylit::InputError("option --basis: got '" + c.basis + "'. Fix: use --basis faces, corners or quadratics");
+    }
+  }
+  if (!c.resolution.empty()) options.resolution = parse_resolution(c.resolution);
+  options.shard = c.shard.empty() ? skylit::baker::shard_from_environment()
+                                  : std::optional(skylit::baker::parse_shard(c.shard));
+  options.previews = !c.no_previews;
+  if (app.count("--error-budget")) {
+    if (app.count("--samples")) {
+      throw skylit::InputError("options --error-budget and --samples: the budget picks the samples. Fix: drop one");
+    }
+    skylit::baker::run_error_budget_bake(options, c.budget, log);
+    return 0;
+  }
+  if (app.count("--latitude")) {
+    throw skylit::InputError("option --latitude only sets the test skies of --error-budget. Fix: drop it, or add "
+                             "--error-budget E");
+  }
+  skylit::baker::run_bake(options, log);
+  return 0;
+}
+
+int run(const CLI::App& app, CommandLine& c, std::FILE* log) {
+  if (*c.verify) return run_verify(c.verify_dir);
+  if (*c.merge) {
+    std::vector<std::filesystem::path> dirs(c.merge_dirs.begin(), c.merge_dirs.end());
+    skylit::baker::merge_bakes(dirs, c.merge_out, !c.merge_no_previews, log, c.wanted_pca());
+    return 0;
+  }
+  if (*c.compress) {
+    if (!c.wanted_pca()) {
+      throw skylit::InputError("compress needs --pca-components K, --pca-variance F or --pca-max-error E");
+    }
+    skylit::baker::compress_bake(c.compress_dir, c.pca, log);
+    return 0;
+  }
+  return run_bake(app, c, log);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"skylit-bake: basis shadow images and transfer vectors for a site",
                "skylit-bake"};
-  app.set_version_flag("--version", "skylit-bake 0.1.0");
-
-  skylit::baker::BakeOptions options;
-  std::string site, out, resolution, shard;
-  int frequency = 0;
-  bool quiet = false;
-  app.add_option("site", site, "site description (YAML)")->check(CLI::ExistingFile);
-  app.add_option("-o,--output", out, "bake directory to write");
-  app.add_option("--frequency", frequency, "dome frequency ν (even; overrides the site's)");
-  std::string basis;
-  app.add_option("--basis", basis, "radiance basis: faces (one layer per face), corners (three, linear across "
-                                   "the face; needs --samples >= 3) or quadratics (six, quadratic across the "
-                                   "face; needs --samples >= 6); overrides the site's dome.basis");
-  app.add_option("--samples", options.samples, "samples per face: 1 = face centre (the paper), K > 1 = area light")
-      ->capture_default_str();
-  options.method = "auto";
-  app.add_option("--method", options.method,
-                 "auto (raster on a GPU, raytrace where OpenGL ES runs in software), raster (OpenGL ES) or raytrace "
-                 "(Embree, the reference)")
-      ->capture_default_str();
-  app.add_option("--resolution", resolution, "set every plane to WxH texels");
-  app.add_option("--shard", shard, "bake slice I of N (I/N, 0-based); also from SLURM_ARRAY_TASK_ID/COUNT or "
-                                   "JOB_COMPLETION_INDEX with SKYLIT_SHARD_COUNT");
-  app.add_flag("--resume", options.resume, "continue an interrupted bake in the output directory");
-  app.add_flag("--force", options.force, "replace a bake already in the output directory");
-  app.add_option("--shadow-map", options.shadow_map_resolution, "raster: shadow-map resolution (default: from the planes)");
-  app.add_option("--threads", options.threads, "raytrace: threads (default: all cores)");
-  app.add_option("--shader-dir", options.shader_dir, "where the GLSL shaders are (default: installed or source tree)");
-  skylit::baker::ErrorBudgetOptions budget;
-  app.add_option("--error-budget", budget.budget,
-                 "pick the cheapest dome (frequency, samples) whose shadow ratios stay within this RMS error of a "
-                 "denser bake over clear and overcast test skies (docs/baker.md)");
-  app.add_option("--latitude", budget.latitude_deg, "with --error-budget: the site's latitude for the test skies' sun")
-      ->capture_default_str();
-  std::string preset_name, presets_file = skylit::default_presets_file().string();
-  app.add_option("--preset", preset_name,
-                 "bake with a preset's settings: fast, balanced, accurate (docs/presets.md); --frequency, --basis, "
-                 "--samples and --pca-components given too override it");
-  app.add_option("--presets", presets_file, "the presets file for --preset")->capture_default_str();
-  bool no_previews = false;
-  app.add_flag("--no-previews", no_previews, "skip the preview contact sheets");
-  app.add_flag("-q,--quiet", quiet, "only warnings and errors");
-  // The PCA form (docs/bake-format.md): K is the smallest count meeting every option given.
-  skylit::bake_format::PcaOptions pca;
-  const auto add_pca_options = [&pca](CLI::App* to) {
-    to->add_option("--pca-components", pca.components, "also store the basis compressed to at least K principal components");
-    to->add_option("--pca-variance", pca.variance, "... keeping at least this fraction of the variance (0 < F <= 1)");
-    to->add_option("--pca-max-error", pca.max_error, "... with |T - T_full| at most E for every sky (E > 0)");
-    to->add_option("--pca-sky-correlation", pca.sky_correlation_deg,
-                   "components for skies whose radiance correlates over this many degrees (0: plain PCA)");
-    to->add_option("--pca-tile", pca.tile,
-                   "clustered PCA: each tile of N x N texels gets its own components (0: the whole plane)");
-  };
-  add_pca_options(&app);
-
-  auto* verify = app.add_subcommand("verify", "check a bake directory: version, files, checksums, shapes");
-  std::string verify_dir;
-  verify->add_option("bake_dir", verify_dir, "bake directory")->required()->check(CLI::ExistingDirectory);
-
-  auto* merge = app.add_subcommand("merge", "join the shards of a bake into one finished bake");
-  std::vector<std::string> merge_dirs;
-  std::string merge_out;
-  bool merge_no_previews = false;
-  merge->add_option("shard_dirs", merge_dirs, "shard directories")->required()->check(CLI::ExistingDirectory);
-  merge->add_option("-o,--output", merge_out, "finished bake directory")->required();
-  merge->add_flag("--no-previews", merge_no_previews, "skip the preview contact sheets");
-  add_pca_options(merge);
-
-  auto* compress = app.add_subcommand("compress", "add (or replace) the PCA form of every plane of a finished bake");
-  std::string compress_dir;
-  compress->add_option("bake_dir", compress_dir, "bake directory")->required()->check(CLI::ExistingDirectory);
-  add_pca_options(compress);
-
-  // -q after a subcommand too, as a user types it.
-  for (CLI::App* sub : {verify, merge, compress}) sub->add_flag("-q,--quiet", quiet, "only warnings and errors");
-
+  skylit::tools::add_version_flag(app);
+  CommandLine command_line;
+  add_bake_options(app, command_line);
+  add_subcommands(app, command_line);
   if (const auto status = skylit::tools::parse_command_line(app, argc, argv)) return *status;
-  // Progress and summaries go to `log`; -q leaves warnings and errors only.
-  std::FILE* const log = quiet ? nullptr : stderr;
-  spdlog::set_level(quiet ? spdlog::level::warn : spdlog::level::info);
-  spdlog::set_pattern("skylit-bake: %^%l%$: %v");
 
-  const auto want_pca = [&pca]() -> std::optional<skylit::bake_format::PcaOptions> {
-    if (!pca.components && !pca.variance && !pca.max_error) return std::nullopt;
-    return pca;
-  };
+  // Progress and summaries go to `log`; -q leaves warnings and errors only.
+  std::FILE* const log = command_line.quiet ? nullptr : stderr;
+  spdlog::set_level(command_line.quiet ? spdlog::level::warn : spdlog::level::info);
+  spdlog::set_pattern("skylit-bake: %^%l%$: %v");
   try {
-    if (*verify) return run_verify(verify_dir);
-    if (*merge) {
-      std::vector<std::filesystem::path> dirs(merge_dirs.begin(), merge_dirs.end());
-      skylit::baker::merge_bakes(dirs, merge_out, !merge_no_previews, log, want_pca());
-      return 0;
-    }
-    if (*compress) {
-      if (!want_pca()) {
-        throw skylit::InputError("compress needs --pca-components K, --pca-variance F or --pca-max-error E");
-      }
-      skylit::baker::compress_bake(compress_dir, pca, log);
-      return 0;
-    }
-    if (site.empty() || out.empty()) {
-      std::fprintf(stderr,
-                   "%s\nskylit-bake: error: a bake needs SITE and -o BAKE_DIR (or a subcommand: verify, merge, "
-                   "compress)\n",
-                   app.help().c_str());
-      return 2;
-    }
-    options.site_file = site;
-    options.out_dir = out;
-    if (!preset_name.empty()) {
-      const skylit::baker::BakePreset preset =
-          skylit::baker::load_bake_preset(skylit::PresetsFile(presets_file), preset_name);
-      if (!app.count("--frequency")) frequency = preset.frequency;
-      if (!app.count("--basis")) basis = std::string(skylit::geom::basis_name(preset.basis));
-      if (!app.count("--samples")) options.samples = preset.samples;
-      if (!pca.components && !pca.variance && !pca.max_error && preset.pca_components > 0) {
-        pca.components = preset.pca_components;
-        if (!app.count("--pca-tile")) pca.tile = preset.pca_tile;
-      }
-      options.preset = preset.name;
-      spdlog::info("preset {} ({}): frequency {}, basis {}, samples {}, PCA components {}{}", preset.name, presets_file,
-                   frequency, basis, options.samples, pca.components ? std::to_string(*pca.components) : "none",
-                   pca.tile > 0 ? " in tiles of " + std::to_string(pca.tile) + " texels" : "");
-    }
-    options.pca = want_pca();
-    if (frequency != 0 || app.count("--frequency")) options.frequency = frequency;
-    if (app.count("--basis") || !preset_name.empty()) {
-      options.basis = skylit::geom::parse_basis(basis);
-      if (!options.basis) {
-        throw skylit::InputError("option --basis: got '" + basis + "'. Fix: use --basis faces, corners or quadratics");
-      }
-    }
-    if (!resolution.empty()) options.resolution = parse_resolution(resolution);
-    options.shard = shard.empty() ? skylit::baker::shard_from_environment()
-                                  : std::optional(skylit::baker::parse_shard(shard));
-    options.previews = !no_previews;
-    if (app.count("--error-budget")) {
-      if (app.count("--samples")) {
-        throw skylit::InputError("options --error-budget and --samples: the budget picks the samples. Fix: drop one");
-      }
-      skylit::baker::run_error_budget_bake(options, budget, log);
-      return 0;
-    }
-    if (app.count("--latitude")) {
-      throw skylit::InputError("option --latitude only sets the test skies of --error-budget. Fix: drop it, or add "
-                               "--error-budget E");
-    }
-    skylit::baker::run_bake(options, log);
-    return 0;
+    return run(app, command_line, log);
   } catch (const skylit::InputError& e) {
     std::fprintf(stderr, "skylit-bake: error: %s\n", e.what());
     return 2;

@@ -17,6 +17,10 @@ using study::run_trade;
 
 int main(int argc, char** argv) {
   CLI::App app{"skylit-bench: measurements of the sky stage", "skylit-bench"};
+  tools::add_version_flag(app);
+  bool quiet = false;
+  tools::add_quiet_flag(app, quiet);
+  app.fallthrough();  // -q after the subcommand too, as a user types it
   app.require_subcommand(1);
   TradeOptions o;
   auto* trade = app.add_subcommand("trade", "the trade table: error against cost over a grid of settings (docs/trade.md)");
@@ -94,6 +98,7 @@ int main(int argc, char** argv) {
                   "a small grid (ν 2, faces and corners, K 8, planes at 1/16, full and pca4, 16 bits, sun on, S 0; "
                   "park and city) in a few minutes; explicit options still apply");
   if (const auto status = tools::parse_command_line(app, argc, argv)) return *status;
+  if (quiet) tools::quiet_stdout();
   try {
     if (o.quick) {
       const auto unless_given = [&](const char* name, auto& field, auto value) {

@@ -498,7 +498,10 @@ int run_hid_list(const HidListArgs& a) {
 
 int main(int argc, char** argv) {
   CLI::App app{"skylit-calib: calibration tools for installers (see docs/calibration.md)", "skylit-calib"};
-  app.set_version_flag("--version", "skylit-calib 0.1.0");
+  skylit::tools::add_version_flag(app);
+  bool quiet = false;
+  skylit::tools::add_quiet_flag(app, quiet);
+  app.fallthrough();  // -q after a subcommand too, as a user types it
   app.require_subcommand(1);
 
   IntrinsicsArgs fisheye_args, camera_args;
@@ -565,6 +568,7 @@ int main(int argc, char** argv) {
   hid_list->add_option("-o,--output", h.output, "also write the list as YAML");
 
   if (const auto status = skylit::tools::parse_command_line(app, argc, argv)) return *status;
+  if (quiet) skylit::tools::quiet_stdout();
   try {
     if (*fisheye) return run_intrinsics("fisheye", fisheye_args, camera::LensModel::Fisheye);
     if (*camera) {

@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,7 @@
 
 #include "skylit/base/error.hpp"
 #include "skylit/base/files.hpp"
+#include "skylit/base/progress.hpp"
 #include "skylit/camera/lens.hpp"
 #include "skylit/sky/srgb.hpp"
 #include "skylit/track/pose.hpp"
@@ -88,7 +90,11 @@ std::vector<double> parse_numbers(const std::string& text, std::size_t count, co
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"skylit-camera-sim: a synthetic HMD camera recording of the real ground, and its camera path"};
+  CLI::App app{"skylit-camera-sim: a synthetic HMD camera recording of the real ground, and its camera path",
+               "skylit-camera-sim"};
+  skylit::tools::add_version_flag(app);
+  bool quiet = false;
+  skylit::tools::add_quiet_flag(app, quiet);
   std::string calib_file, out_dir, centre_text = "0,0", target_text = "0,0,3";
   int frames = 120;
   double fps = 30, radius = 18, height = 1.6, sweep = 60, start_azimuth = -90, exposure = 1.0;
@@ -105,6 +111,7 @@ int main(int argc, char** argv) {
   app.add_option("--look-at", target_text, "x,y,z the camera looks at")->capture_default_str();
   app.add_option("--exposure", exposure, "scale from the ground's radiance to pixel values")->capture_default_str();
   if (const auto status = skylit::tools::parse_command_line(app, argc, argv)) return *status;
+  if (quiet) skylit::tools::quiet_stdout();
 
   try {
     const auto centre = parse_numbers(centre_text, 2, "--centre");
@@ -125,6 +132,9 @@ int main(int argc, char** argv) {
 
     std::string frames_csv = "file,timestamp\n", poses_csv = "timestamp,x,y,z,qw,qx,qy,qz\n";
     const Vec3 sun_light(1.0, 0.98, 0.94);  // the ground's irradiance / π, relative (the sky above)
+    // A bar on a terminal, plain lines in a log; nothing with -q.
+    std::optional<skylit::Progress> progress;
+    if (!quiet) progress.emplace("skylit-camera-sim: frames", frames);
     for (int k = 0; k < frames; ++k) {
       const double t = k / fps;
       const double azimuth = (start_azimuth + sweep * (frames > 1 ? k / double(frames - 1) : 0.0)) * M_PI / 180.0;
@@ -167,9 +177,9 @@ int main(int argc, char** argv) {
       std::snprintf(line, sizeof line, "%.6f,%.6f,%.6f,%.6f,%.9f,%.9f,%.9f,%.9f\n", t, eye.x(), eye.y(), eye.z(), q.w(),
                     q.x(), q.y(), q.z());
       poses_csv += line;
-      if ((k + 1) % 30 == 0 || k + 1 == frames) std::fprintf(stderr, "\rskylit-camera-sim: %d/%d frames", k + 1, frames);
+      if (progress) progress->advance();
     }
-    std::fprintf(stderr, "\n");
+    if (progress) progress->finish();
     skylit::write_file_atomic(fs::path(out_dir) / "frames.csv", frames_csv);
     skylit::write_file_atomic(fs::path(out_dir) / "poses.csv", poses_csv);
     std::printf("skylit-camera-sim: %d frames of %d×%d in %s (frames.csv, poses.csv)\n", frames, width, height_px,

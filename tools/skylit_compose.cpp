@@ -221,7 +221,10 @@ int run(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"skylit-compose: one composite frame (bake + sky + HMD camera frame + pose → PNG)"};
+  CLI::App app{"skylit-compose: one composite frame (bake + sky + HMD camera frame + pose → PNG)", "skylit-compose"};
+  skylit::tools::add_version_flag(app);
+  bool quiet = false;
+  skylit::tools::add_quiet_flag(app, quiet);
   Options o;
   app.add_option("--site", o.site, "site YAML (model and plane surfaces)")->required()->check(CLI::ExistingFile);
   app.add_option("--bake", o.bake_dir, "bake directory (from skylit-bake)")->required()->check(CLI::ExistingDirectory);
@@ -252,6 +255,7 @@ int main(int argc, char** argv) {
   app.add_option("--shader-dir", o.shader_dir, "shader directory (default: search)");
   app.add_option("-o,--output", o.output, "output PNG")->required();
   if (const auto status = skylit::tools::parse_command_line(app, argc, argv)) return *status;
+  if (quiet) skylit::tools::quiet_stdout();
   try {
     if (o.sky.empty() && o.sky_equirect.empty()) throw InputError("give --sky or --sky-equirect");
     if (o.camera.empty() && o.camera_equirect.empty()) throw InputError("give --camera or --camera-equirect");

@@ -60,7 +60,11 @@ void label(cv::Mat& tile, const std::string& text) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"skylit-contact-sheet: frames spread over a skylit-live recording, labelled with sky time and sun"};
+  CLI::App app{"skylit-contact-sheet: frames spread over a skylit-live recording, labelled with sky time and sun",
+               "skylit-contact-sheet"};
+  skylit::tools::add_version_flag(app);
+  bool quiet = false;
+  skylit::tools::add_quiet_flag(app, quiet);
   std::string recording, out, grid = "3x3", span_text = "0,1";
   int width = 320;
   double utc_offset = 0;
@@ -74,6 +78,7 @@ int main(int argc, char** argv) {
   app.add_option("--span", span_text, "the part of the run to spread the frames over, as fractions FROM,TO "
                                       "(0,1: all of it; 0.3,0.3 with --grid 1x1: one frame 30% in)")->capture_default_str();
   if (const auto status = skylit::tools::parse_command_line(app, argc, argv)) return *status;
+  if (quiet) skylit::tools::quiet_stdout();
 
   try {
     int columns = 0, rows = 0;

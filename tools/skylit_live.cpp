@@ -56,7 +56,8 @@ class SignalWatcher {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"skylit-live: sky and HMD camera frames in, composited frames out"};
+  CLI::App app{"skylit-live: sky and HMD camera frames in, composited frames out", "skylit-live"};
+  skylit::tools::add_version_flag(app);
   std::string config_file, record, status;
   std::int64_t frames = 0;
   bool headless = false, profile = false, quiet = false;

@@ -382,7 +382,7 @@ int run(const Options& o) {
 
 int main(int argc, char** argv) {
   CLI::App app{"skylit-shade: shadow ratios of a bake's planes under a sky frame (CPU reference)", "skylit-shade"};
-  app.set_version_flag("--version", "skylit-shade 0.1.0");
+  skylit::tools::add_version_flag(app);
   Options o;
   app.add_option("--bake", o.bake_dir, "bake directory (from skylit-bake)")->required()->check(CLI::ExistingDirectory);
   app.add_option("--sky", o.sky, "sky frame; several form one exposure bracket")->required()->check(CLI::ExistingFile);

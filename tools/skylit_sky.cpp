@@ -281,7 +281,7 @@ int run_response(const std::vector<std::string>& images, const std::vector<doubl
 
 int main(int argc, char** argv) {
   CLI::App app{"skylit-sky: simulated sky-camera frames from an HDR equirect or an analytic sky", "skylit-sky"};
-  app.set_version_flag("--version", "skylit-sky 0.1.0");
+  skylit::tools::add_version_flag(app);
   Options o;
   app.add_option("--calib", o.calib, "sky camera calibration (YAML, see docs/sky.md)");
   app.add_option("--equirect", o.equirect, "HDR equirect of the sky (EXR/HDR; 8/16-bit taken as sRGB)")

@@ -19,6 +19,7 @@
 #include "../support/gl_suite.hpp"
 #include "../support/box_site.hpp"
 #include "../support/fixture_cache.hpp"
+#include "../support/quiet_bake.hpp"
 #include "../support/suite_setup.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/base/error.hpp"
@@ -399,15 +400,7 @@ class GpuBlendRealBake : public GpuBlend {
                                           "    v: [0, 12, 0]\n    resolution: [40, 40]\n"
                                           "  - name: north_wall\n    origin: [1, 1.01, 0]\n    u: [-2, 0, 0]\n"
                                           "    v: [0, 0, 2]\n    resolution: [8, 8]\n");
-        baker::BakeOptions options;
-        options.site_file = out / "site.yaml";
-        options.out_dir = out / "bake";
-        options.samples = 4;
-        options.method = "raytrace";
-        options.previews = false;
-        std::FILE* quiet = std::fopen("/dev/null", "w");
-        baker::run_bake(options, quiet);
-        std::fclose(quiet);
+        skylit::test::quiet_bake(out / "site.yaml", out / "bake");
       }));
       manifest_ = new bake_format::Manifest(bake_format::read_manifest(*dir_ / "bake"));
     });

@@ -20,6 +20,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "../support/fixture_cache.hpp"
+#include "../support/quiet_bake.hpp"
 #include "reference_composite.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/baker/visibility.hpp"
@@ -158,15 +159,7 @@ struct BakedSite {
                                           "    v: [0, 2, 0]\n    resolution: [16, 16]\n"
                                           "  - name: wall\n    origin: [-1, -1.01, 0]\n    u: [2, 0, 0]\n"
                                           "    v: [0, 0, 4]\n    resolution: [16, 32]\n    surface: virtual\n";
-      baker::BakeOptions options;
-      options.site_file = out / "site.yaml";
-      options.out_dir = out / "bake";
-      options.samples = 4;
-      options.method = "raytrace";
-      options.previews = false;
-      std::FILE* quiet = std::fopen("/dev/null", "w");
-      baker::run_bake(options, quiet);
-      std::fclose(quiet);
+      test::quiet_bake(out / "site.yaml", out / "bake");
     });
     manifest = bake_format::read_manifest(dir / "bake");
     site = scene::load_site(dir / "site.yaml");

@@ -1,7 +1,7 @@
 #pragma once
 // Expensive fixtures (bakes) made once per build of a test program and shared by its tests.
-// CTest runs every test in a process of its own, so a fixture kept in a static is made again by
-// each test; this keeps it on disk instead, in the build tree, keyed by the test program's own
+// CTest runs every test suite in a process of its own, so a fixture kept in a static is made
+// again by each suite; this keeps it on disk instead, in the build tree, keyed by the test program's own
 // size and modification time (a rebuilt program makes its fixtures anew). The first process to
 // ask makes it under a lock; the others wait for it and reuse it.
 #include <fcntl.h>

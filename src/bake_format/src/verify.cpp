@@ -19,7 +19,7 @@ namespace fs = std::filesystem;
 constexpr const char* kRestore = "Fix: re-bake, or restore the file";
 constexpr const char* kRebake = "Fix: re-bake with skylit-bake";
 
-std::string shape_text(std::span<const std::size_t> shape) {
+std::string shape_words(std::span<const std::size_t> shape) {
   std::string s = "(";
   for (std::size_t i = 0; i < shape.size(); ++i) s += (i ? ", " : "") + std::to_string(shape[i]);
   return s + ")";
@@ -248,7 +248,7 @@ class Checker {
     try {
       const NpyInfo info = read_npy_info(dir_ / path);
       if (info.shape != expected) {
-        problem(path + ": shape " + shape_text(info.shape) + ", expected " + shape_text(expected) + " " + meaning +
+        problem(path + ": shape " + shape_words(info.shape) + ", expected " + shape_words(expected) + " " + meaning +
                 ". " + kRestore);
       }
     } catch (const InputError& e) {

@@ -587,16 +587,6 @@ std::unique_ptr<VisibilityEngine> make_raster_engine(const scene::Mesh& mesh, st
   return std::make_unique<RasterEngine>(mesh, planes, options);
 }
 
-bool software_renderer(const std::string& renderer) {
-  std::string lower = renderer;
-  std::transform(lower.begin(), lower.end(), lower.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  for (const char* name : {"llvmpipe", "softpipe", "swrast", "software rasterizer"}) {
-    if (lower.find(name) != std::string::npos) return true;
-  }
-  return false;
-}
-
 EngineChoice choose_engine() {
   std::string renderer;
   try {
@@ -604,7 +594,7 @@ EngineChoice choose_engine() {
   } catch (const gpu::ContextError&) {
     return {"raytrace", "raytrace (Embree): no OpenGL ES 3.1 context can be made here"};
   }
-  if (software_renderer(renderer)) {
+  if (gpu::is_software_renderer(renderer)) {
     return {"raytrace", "raytrace (Embree): the GL renderer " + renderer + " draws on the CPU"};
   }
   return {"raster", "raster (OpenGL ES): the GL renderer " + renderer + " is a GPU's"};

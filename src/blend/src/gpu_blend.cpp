@@ -22,20 +22,20 @@ constexpr const char* kShaderFile = "blend.comp";
 constexpr int kPackedLayers = 4;  // layers per texel of a packed array: R, G, B, A
 constexpr int kPackedEacLayers = 2;  // RG11 EAC: R, G
 
-[[noreturn]] void bad_input(const std::string& field, const std::string& problem, const std::string& fix) {
+[[noreturn]] void refuse_gpu_input(const std::string& field, const std::string& problem, const std::string& fix) {
   throw InputError(input_message({}, -1, -1, field, problem, fix));
 }
 
-void check_basis(const BasisImages& basis) {
+void check_gpu_basis(const BasisImages& basis) {
   const std::string field = "basis '" + basis.name + "'";
   if (basis.width <= 0 || basis.height <= 0 || basis.layers < 0) {
-    bad_input(field, "size " + std::to_string(basis.width) + "x" + std::to_string(basis.height) + "x" +
+    refuse_gpu_input(field, "size " + std::to_string(basis.width) + "x" + std::to_string(basis.height) + "x" +
                          std::to_string(basis.layers) + " has no texels",
               "load the basis with load_basis");
   }
   check_basis_storage(basis);
   if (basis.tile < 0) {
-    bad_input(field + ".tile", std::to_string(basis.tile) + " is negative", "load the basis with load_basis");
+    refuse_gpu_input(field + ".tile", std::to_string(basis.tile) + " is negative", "load the basis with load_basis");
   }
 }
 
@@ -59,12 +59,12 @@ void check_storable(const std::string& plane, std::size_t layer, const LayerExte
   const std::string field = "basis '" + plane + "' layer " + std::to_string(layer);
   const bool eac = storage == BasisStorage::Eac11;
   if (storage != BasisStorage::Half && e.negative) {
-    bad_input(field,
+    refuse_gpu_input(field,
               std::string("holds negative values (a PCA basis), which ") + (eac ? "EAC" : "8-bit") +
                   " layers cannot store",
               "store the basis as half floats (blend.storage: half) or read the full form");
   }
-  if (!std::isfinite(e.top)) bad_input(field, "holds an infinite value", "re-bake the plane");
+  if (!std::isfinite(e.top)) refuse_gpu_input(field, "holds an infinite value", "re-bake the plane");
 }
 
 // The basis texture array's formats for a storage and layout.
@@ -109,7 +109,7 @@ void upload_slice(const ArrayFormat& f, int slice, int width, int height, const 
 
 void check_threshold(double value, const std::string& field) {
   if (!std::isfinite(value) || value < 0.0) {
-    bad_input(field, "value " + std::to_string(value) + " is not finite and >= 0",
+    refuse_gpu_input(field, "value " + std::to_string(value) + " is not finite and >= 0",
               "use 0 (exact) or a small fraction of full light such as 0.002");
   }
 }
@@ -263,7 +263,7 @@ std::size_t gpu_basis_bytes(const BasisImages& basis, const GpuBlendOptions& opt
 
 GpuBlender::GpuBlender(const BasisImages& basis, const GpuBlendOptions& options)
     : options_(options), name_(basis.name), width_(basis.width), height_(basis.height), layers_(basis.layers) {
-  check_basis(basis);
+  check_gpu_basis(basis);
   // A cropped basis stays cropped: pages of an atlas (gpu_blend.hpp).
   paged_ = basis.cropped();
   tile_ = basis.tile;
@@ -339,7 +339,7 @@ GpuBlender::GpuBlender(const BasisImages& basis, const GpuBlendOptions& options)
   tile_size_location_ = uniform_location(program_.get(), "tile_size");
   tiles_x_location_ = uniform_location(program_.get(), "tiles_x");
   paged_location_ = uniform_location(program_.get(), "paged");
-  // A paged basis is never tiled PCA (check_basis): its pages' tiles take the tile uniforms.
+  // A paged basis is never tiled PCA (check_gpu_basis): its pages' tiles take the tile uniforms.
   glUniform1i(tile_size_location_, paged_ ? kPage : tile_);
   glUniform1i(tiles_x_location_, paged_ ? page_tiles_x_ : tiles_x_);
   glUniform1i(paged_location_, paged_ ? 1 : 0);
@@ -621,7 +621,7 @@ void GpuBlender::check_blend_input(const BlendWeights& weights, const SunVisibil
   const auto tiles = static_cast<std::size_t>(tile_count_);
   const std::size_t weight_count = layers * tiles;  // face[t · layers + i]: layer i within tile t
   if (weights.face.size() != weight_count) {
-    bad_input("weights.face", std::to_string(weights.face.size()) + " weights for the " + std::to_string(weight_count) +
+    refuse_gpu_input("weights.face", std::to_string(weights.face.size()) + " weights for the " + std::to_string(weight_count) +
                                   " layers" +
                                   (tile_ > 0 ? " (" + std::to_string(layers) + " in each of " + std::to_string(tiles) +
                                                    " tiles)"
@@ -632,23 +632,23 @@ void GpuBlender::check_blend_input(const BlendWeights& weights, const SunVisibil
   int previous = -1;
   for (const int i : weights.active) {
     if (i <= previous || static_cast<std::size_t>(i) >= weight_count) {
-      bad_input("weights.active", "layer " + std::to_string(i) + " is out of order or out of range",
+      refuse_gpu_input("weights.active", "layer " + std::to_string(i) + " is out of order or out of range",
                 "compute the weights with blend_weights for this basis");
     }
     previous = i;
   }
   for (const Eigen::Vector3f& w : weights.face) {
-    if (!w.allFinite()) bad_input("weights.face", "holds a value that is not finite", "compute the weights with blend_weights");
+    if (!w.allFinite()) refuse_gpu_input("weights.face", "holds a value that is not finite", "compute the weights with blend_weights");
   }
-  if (!weights.sun.allFinite()) bad_input("weights.sun", "is not finite", "compute the weights with blend_weights");
+  if (!weights.sun.allFinite()) refuse_gpu_input("weights.sun", "is not finite", "compute the weights with blend_weights");
   const bool use_sun = !weights.sun.isZero(0);
   if (use_sun) {
     if (sun == nullptr || sun->texture == 0) {
-      bad_input("sun_visibility", "is missing but the sun lights plane '" + name_ + "'",
+      refuse_gpu_input("sun_visibility", "is missing but the sun lights plane '" + name_ + "'",
                 "pass the plane's SunVisibilityTexture (SunShadowMap::visibility), or blend without the sun");
     }
     if (sun->width != width_ || sun->height != height_) {
-      bad_input("sun_visibility", "is " + std::to_string(sun->width) + "x" + std::to_string(sun->height) +
+      refuse_gpu_input("sun_visibility", "is " + std::to_string(sun->width) + "x" + std::to_string(sun->height) +
                                       "; plane '" + name_ + "' has " + std::to_string(width_) + "x" +
                                       std::to_string(height_) + " texels",
                 "pass this plane's visibility texture");

@@ -15,18 +15,12 @@
 
 #include "skylit/base/error.hpp"
 #include "skylit/camera/lens.hpp"
+#include "printf_text.hpp"
 
 namespace skylit::calib {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string format(const char* pattern, double value) {
-  const int length = std::snprintf(nullptr, 0, pattern, value);
-  std::string text(static_cast<std::size_t>(std::max(length, 0)), '\0');
-  std::snprintf(text.data(), text.size() + 1, pattern, value);
-  return text;
-}
 
 std::string names_of(const std::vector<RejectedView>& rejected) {
   std::string text;

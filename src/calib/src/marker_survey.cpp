@@ -19,14 +19,15 @@
 #include "skylit/base/error.hpp"
 #include "skylit/track/marker_pose.hpp"
 #include "skylit/camera/lens.hpp"
+#include "skylit/geom/angles.hpp"
 
 namespace skylit::calib {
 namespace {
 
+using geom::kDeg;
 using Vec2 = Eigen::Vector2d;
 using Vec3 = Eigen::Vector3d;
 using Mat3 = Eigen::Matrix3d;
-constexpr double kDeg = std::numbers::pi / 180.0;
 // A corner this close to the camera's plane (metres in front) is left out of a step: the lens
 // model cannot image it and its derivative is meaningless.
 constexpr double kMinDepth = 1e-3;

@@ -12,20 +12,15 @@
 #include <Eigen/SVD>
 
 #include "skylit/base/error.hpp"
+#include "skylit/geom/angles.hpp"
+#include "printf_text.hpp"
 
 namespace skylit::calib {
 namespace {
 
-constexpr double kDeg = std::numbers::pi / 180.0;
+using geom::kDeg;
 constexpr std::size_t kMaxCandidatePairs = 20000;  // beyond: a fixed random sample of pairs
 constexpr int kMaxRefits = 10;
-
-std::string format(const char* pattern, double value) {
-  const int length = std::snprintf(nullptr, 0, pattern, value);
-  std::string text(static_cast<std::size_t>(std::max(length, 0)), '\0');
-  std::snprintf(text.data(), text.size() + 1, pattern, value);
-  return text;
-}
 
 double largest_spread(std::span<const SunObservation> observations, const std::vector<bool>* use) {
   double spread = 0;

@@ -16,12 +16,14 @@
 #include "skylit/base/files.hpp"
 #include "skylit/sky/sky_estimate.hpp"
 #include "skylit/camera/lens.hpp"
+#include "skylit/geom/angles.hpp"
+#include "printf_text.hpp"
 
 namespace skylit::calib {
 namespace {
 
+using geom::kDeg;
 namespace fs = std::filesystem;
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 struct ExifDataDeleter {
   void operator()(ExifData* data) const { exif_data_unref(data); }
@@ -34,13 +36,6 @@ std::string exif_text(ExifData* data, ExifTag tag) {
   std::string text(reinterpret_cast<const char*>(entry->data), entry->size);
   const std::size_t end = text.find_last_not_of(std::string("\0 ", 2));
   return end == std::string::npos ? std::string() : text.substr(0, end + 1);
-}
-
-std::string format(const char* pattern, double value) {
-  const int length = std::snprintf(nullptr, 0, pattern, value);
-  std::string text(static_cast<std::size_t>(std::max(length, 0)), '\0');
-  std::snprintf(text.data(), text.size() + 1, pattern, value);
-  return text;
 }
 
 }  // namespace

@@ -284,14 +284,7 @@ SourceConfig parse_source_config(const YAML::Node& node, const fs::path& file) {
 }
 
 SourceConfig load_source_config(const fs::path& file) {
-  const std::string text = read_file(file);
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::ParserException& e) {
-    throw InputError(input_message(file, e.mark.line + 1, e.mark.column + 1, "", "YAML syntax error: " + e.msg,
-                                   "correct the YAML syntax at that line (indentation, colons, brackets)"));
-  }
+  const YAML::Node root = YamlReader(file).parse(read_file(file));
   if (!root.IsMap()) {
     throw InputError(input_message(file, -1, -1, "source", "the file has no top-level map",
                                    std::string("write 'source:' with a kind and its fields; ") + kDocs));

@@ -49,7 +49,7 @@ std::string camera_model(const lc::Camera& camera) {
   return camera.properties().get(lc::properties::Model).value_or(std::string());
 }
 
-bool all_digits(const std::string& text) {
+bool is_camera_index(const std::string& text) {
   return !text.empty() && std::all_of(text.begin(), text.end(), [](unsigned char c) { return std::isdigit(c); });
 }
 
@@ -300,7 +300,7 @@ LibcameraSource::LibcameraSource(const LibcameraSettings& settings, FrameChecks 
   const auto cameras = d.manager->cameras();
   if (settings.camera.empty()) {
     if (!cameras.empty()) d.camera = cameras.front();
-  } else if (all_digits(settings.camera)) {
+  } else if (is_camera_index(settings.camera)) {
     const auto index = std::stoul(settings.camera);
     if (index < cameras.size()) d.camera = cameras[index];
   } else {

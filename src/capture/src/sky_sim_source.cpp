@@ -10,12 +10,13 @@
 #include "skylit/camera/lens.hpp"
 #include "skylit/sky/simulate.hpp"
 #include "skylit/sky/solar.hpp"
+#include "skylit/geom/angles.hpp"
 
 namespace skylit::capture {
 namespace {
 
+using geom::kDeg;
 namespace fs = std::filesystem;
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 [[noreturn]] void bad_setting(const std::string& field, const std::string& problem, const std::string& fix) {
   throw InputError(input_message("", -1, -1, field, problem, fix));

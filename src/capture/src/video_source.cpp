@@ -22,7 +22,7 @@ double steady_seconds() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
-bool all_digits(const std::string& text) {
+bool is_device_number(const std::string& text) {
   return !text.empty() && std::all_of(text.begin(), text.end(), [](unsigned char c) { return std::isdigit(c); });
 }
 
@@ -109,7 +109,7 @@ std::string describe_devices(const std::vector<V4l2Device>& devices) {
 
 V4l2Source::V4l2Source(const V4l2Settings& settings, FrameChecks checks, const V4l2Paths& paths)
     : FrameSource(checks), capture_(std::make_unique<cv::VideoCapture>()) {
-  node_ = all_digits(settings.device) ? paths.dev / ("video" + settings.device) : fs::path(settings.device);
+  node_ = is_device_number(settings.device) ? paths.dev / ("video" + settings.device) : fs::path(settings.device);
   std::error_code ec;
   if (settings.device.empty() || !fs::exists(node_, ec)) {
     throw InputError(input_message("", -1, -1, "device",

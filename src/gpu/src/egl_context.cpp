@@ -6,6 +6,7 @@
 #include <GLES3/gl31.h>
 
 #include <algorithm>
+#include <cctype>
 #include <map>
 #include <mutex>
 #include <set>
@@ -399,6 +400,16 @@ std::string HeadlessContext::description() const {
     for (const std::string& failure : state_->failures) text += " [" + failure + "]";
   }
   return text;
+}
+
+bool is_software_renderer(std::string_view renderer) {
+  std::string lower(renderer);
+  std::transform(lower.begin(), lower.end(), lower.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  for (const char* name : {"llvmpipe", "softpipe", "swrast", "software rasterizer"}) {
+    if (lower.find(name) != std::string::npos) return true;
+  }
+  return false;
 }
 
 }  // namespace skylit::gpu

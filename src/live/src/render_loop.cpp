@@ -25,6 +25,7 @@
 #include "skylit/render/textures.hpp"
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/srgb.hpp"
+#include "skylit/gpu/egl_context.hpp"
 
 namespace skylit::live {
 namespace {
@@ -229,13 +230,13 @@ void Service::State::RenderLoop::choose_blend_device() {
   // Where T is blended: a software renderer (no GPU) blends far slower than the CPU blend does.
   s.renderer = gl_renderer();
   const BlendDevice setting = s.config.blend.device;
-  cpu = setting == BlendDevice::Cpu || (setting == BlendDevice::Auto && software_renderer(s.renderer));
+  cpu = setting == BlendDevice::Cpu || (setting == BlendDevice::Auto && gpu::is_software_renderer(s.renderer));
   s.blend_on_cpu = cpu;
   s.blend_decided = true;
   if (!s.options.quiet) {
     std::fprintf(stderr, "skylit-live: blend on the %s (blend.device %s; GL renderer %s%s)\n", cpu ? "CPU" : "GPU",
                  blend_device_name(setting).c_str(), s.renderer.c_str(),
-                 software_renderer(s.renderer) ? ", a software one" : "");
+                 gpu::is_software_renderer(s.renderer) ? ", a software one" : "");
   }
 }
 

@@ -27,15 +27,6 @@ capture::SourceConfig with_reconnect(capture::SourceConfig config) {
 
 }  // namespace
 
-bool software_renderer(const std::string& renderer) {
-  std::string lower = renderer;
-  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  for (const char* name : {"llvmpipe", "softpipe", "swrast", "software rasterizer"}) {
-    if (lower.find(name) != std::string::npos) return true;
-  }
-  return false;
-}
-
 std::vector<std::uint8_t> encode_jpeg(const cv::Mat& image) {
   std::vector<std::uint8_t> bytes;
   if (!image.empty()) cv::imencode(".jpg", image, bytes, {cv::IMWRITE_JPEG_QUALITY, 85});

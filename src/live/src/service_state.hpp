@@ -90,8 +90,6 @@ struct SharedCpuBlend {
   blend::CpuBlender ratios;
 };
 
-// A software GL renderer draws on the CPU: there the CPU blend is the faster one by far.
-bool software_renderer(const std::string& renderer);
 
 // The image as a JPEG for /sky.jpg and /frame.jpg; empty for an empty image.
 std::vector<std::uint8_t> encode_jpeg(const cv::Mat& image);

@@ -9,6 +9,7 @@
 #include "service_state.hpp"
 #include "skylit/blend/forms.hpp"
 #include "skylit/sky/solar.hpp"
+#include "skylit/gpu/egl_context.hpp"
 
 namespace skylit::live {
 
@@ -143,7 +144,7 @@ nlohmann::json Service::State::status_report() const {
   if (blend_decided) {
     blend_json["device"] = blend_on_cpu ? "cpu" : "gpu";
     blend_json["renderer"] = renderer;
-    blend_json["software_renderer"] = software_renderer(renderer);
+    blend_json["software_renderer"] = gpu::is_software_renderer(renderer);
   } else {
     blend_json["device"] = nullptr;  // decided when run() has its GL context
   }

@@ -41,10 +41,7 @@ constexpr GLuint kBuildingDepthUnit = 11;
 constexpr float kNothingDrawn = 1e30f;
 
 // Sampler objects (filtering state for the shadow ratios, whatever their owner set).
-struct SamplerDeleter {
-  void operator()(GLuint name) const { glDeleteSamplers(1, &name); }
-};
-using Sampler = gpu::detail::GlName<SamplerDeleter>;
+using gpu::Sampler;
 
 Sampler bilinear_clamped_sampler() {
   GLuint name = 0;

@@ -50,10 +50,7 @@ double sample_bilinear(const cv::Mat& image, int c, const Eigen::Vector2d& uv) {
   return (1 - ay) * ((1 - ax) * at(fx, fy) + ax * at(fx + 1, fy)) + ay * ((1 - ax) * at(fx, fy + 1) + ax * at(fx + 1, fy + 1));
 }
 
-struct SamplerDeleter {
-  void operator()(GLuint name) const { glDeleteSamplers(1, &name); }
-};
-using Sampler = gpu::detail::GlName<SamplerDeleter>;
+using gpu::Sampler;
 
 }  // namespace
 

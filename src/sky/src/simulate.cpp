@@ -20,11 +20,12 @@
 #include "skylit/sky/solar.hpp"
 #include "skylit/sky/srgb.hpp"
 #include "skylit/camera/lens.hpp"
+#include "skylit/geom/angles.hpp"
 
 namespace skylit::sky {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
+using geom::kPi;
 constexpr int kMaxSupersample = 16;
 
 void check_options(const RenderOptions& options) {

@@ -9,12 +9,13 @@
 #include <string>
 
 #include "skylit/base/error.hpp"
+#include "skylit/geom/angles.hpp"
 
 namespace skylit::sky {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-constexpr double kDeg = kPi / 180.0;
+using geom::kPi;
+using geom::kDeg;
 constexpr double kTwilightDepth = 6.0 * kDeg;      // civil twilight: the sky is black below −6°
 constexpr double kMinTurbidity = 2.0;
 constexpr double kMaxTurbidity = 10.0;

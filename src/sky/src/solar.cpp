@@ -9,12 +9,13 @@
 #include <regex>
 
 #include "skylit/base/error.hpp"
+#include "skylit/geom/angles.hpp"
 
 namespace skylit::sky {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-constexpr double kDeg = kPi / 180.0;
+using geom::kPi;
+using geom::kDeg;
 
 double wrap_degrees(double degrees) {
   const double wrapped = std::fmod(degrees, 360.0);

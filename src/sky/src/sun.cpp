@@ -11,11 +11,12 @@
 #include "skylit/base/error.hpp"
 #include "skylit/sky/sky_table.hpp"
 #include "skylit/camera/lens.hpp"
+#include "skylit/geom/angles.hpp"
 
 namespace skylit::sky {
 namespace {
 
-constexpr double kDeg = std::numbers::pi / 180.0;
+using geom::kDeg;
 
 // Rec. 709 luminance of a BGR pixel; bad values (NaN, Inf, negative) count as 0.
 float clean(float v) { return std::isfinite(v) && v > 0.0f ? v : 0.0f; }

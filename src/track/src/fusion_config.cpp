@@ -10,7 +10,7 @@
 namespace skylit::track {
 namespace {
 
-constexpr std::array<std::string_view, 16> kKeys{
+constexpr std::array<std::string_view, 16> kFusionKeys{
     "gyro_noise",       "gyro_bias_walk", "initial_bias_sigma", "camera_rotation_sigma", "camera_position_sigma",
     "head_acceleration", "history",       "max_prediction",     "camera_timeout",        "lost_after",
     "hold_without_imu", "imu_timeout",    "reacquire_fade",     "position_filter",       "rotation_filter",
@@ -40,7 +40,7 @@ FusionSettings parse_fusion_settings(const YAML::Node& node, const std::filesyst
   FusionSettings s;
   if (!node.IsDefined() || node.IsNull()) return s;
   r.expect_map(node, "fusion", "write a map of fusion settings (every one optional); see docs/imu.md");
-  r.check_keys(node, "fusion.", kKeys);
+  r.check_keys(node, "fusion.", kFusionKeys);
   const auto positive = [&](const char* key, double& value, const char* fix) {
     if (const auto n = YamlReader::optional(node, key)) value = r.positive(n, std::string("fusion.") + key, fix);
   };

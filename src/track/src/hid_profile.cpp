@@ -17,13 +17,13 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr std::array<std::string_view, 10> kKeys{"name",      "vendor_id", "product_id", "report_id", "report_size",
+constexpr std::array<std::string_view, 10> kHidProfileKeys{"name",      "vendor_id", "product_id", "report_id", "report_size",
                                                  "timestamp", "gyro",      "accel",      "axes",      "R_camera_from_imu"};
 constexpr std::array<std::string_view, 4> kTimestampKeys{"offset", "type", "endian", "scale"};
 constexpr std::array<std::string_view, 4> kVectorKeys{"offsets", "type", "endian", "scale"};
 constexpr std::array<std::string_view, 7> kTypes{"int8", "uint8", "int16", "uint16", "int32", "uint32", "float32"};
 constexpr std::array<std::string_view, 2> kEndians{"little", "big"};
-const char* const kDocs = "see docs/imu.md (HID profiles)";
+const char* const kHidProfileDocs = "see docs/imu.md (HID profiles)";
 
 HidFieldType type_from(std::string_view name) {
   if (name == "int8") return HidFieldType::Int8;
@@ -75,7 +75,7 @@ std::array<HidField, 3> parse_vector(const YamlReader& r, const YAML::Node& root
                                      const std::string& unit) {
   const std::string field = key;
   const std::string example = "e.g. '" + field + ": {offsets: [13, 15, 17], type: int16, endian: little, scale: 0.001}'";
-  const YAML::Node node = r.require(root, key, field, example + "; " + kDocs);
+  const YAML::Node node = r.require(root, key, field, example + "; " + kHidProfileDocs);
   r.expect_map(node, field, example);
   r.check_keys(node, field + ".", kVectorKeys);
   const FieldFormat format = parse_format(r, node, field);
@@ -171,8 +171,8 @@ bool HidImuProfile::matches(std::uint16_t vendor, std::uint16_t product) const {
 
 HidImuProfile parse_hid_imu_profile(const YAML::Node& root, const fs::path& file) {
   const YamlReader r(file);
-  r.expect_map(root, "", std::string("write a HID IMU profile: name, vendor_id, product_id, report_id, report_size, timestamp, gyro, accel, axes; ") + kDocs);
-  r.check_keys(root, "", kKeys);
+  r.expect_map(root, "", std::string("write a HID IMU profile: name, vendor_id, product_id, report_id, report_size, timestamp, gyro, accel, axes; ") + kHidProfileDocs);
+  r.check_keys(root, "", kHidProfileKeys);
   HidImuProfile p;
   p.file = file;
   p.name = r.text(r.require(root, "name", "name", "write the device's name, e.g. 'Sony DualShock 4 (USB)'"), "name", "write the device's name");

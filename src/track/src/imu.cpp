@@ -21,11 +21,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const char* const kHeader = "timestamp,gx,gy,gz,ax,ay,az";
+const char* const kImuHeader = "timestamp,gx,gy,gz,ax,ay,az";
 constexpr std::array<std::string_view, 7> kColumns{"timestamp", "gx", "gy", "gz", "ax", "ay", "az"};
 constexpr std::array<std::string_view, 4> kHidKeys{"kind", "profile", "path", "R_camera_from_imu"};
 constexpr std::array<std::string_view, 3> kReplayKeys{"kind", "csv", "R_camera_from_imu"};
-constexpr std::array<std::string_view, 2> kKinds{"hid", "replay"};
+constexpr std::array<std::string_view, 2> kImuKinds{"hid", "replay"};
 
 }  // namespace
 
@@ -82,20 +82,20 @@ std::vector<ImuSample> load_imu_csv(const fs::path& csv) {
     throw InputError(input_message(csv, csv_error.line, csv_error.column, "", csv_error.problem,
                                    "write numbers only, separated by commas"));
   }
-  const std::string header_fix = std::string("make the first line '") + kHeader + "'";
+  const std::string header_fix = std::string("make the first line '") + kImuHeader + "'";
   if (rows.empty()) throw InputError(input_message(csv, -1, -1, "", "the file has no lines", header_fix + " and add one line per sample"));
   const CsvRow& header = rows.front();
   for (std::size_t i = 0; i < kColumns.size(); ++i) {
     if (header.fields.size() != kColumns.size() || header.fields[i].text != kColumns[i]) {
       const int column = i < header.fields.size() ? header.fields[i].column : 1;
-      throw InputError(input_message(csv, header.line, column, "", std::string("the header is not '") + kHeader + "'", header_fix));
+      throw InputError(input_message(csv, header.line, column, "", std::string("the header is not '") + kImuHeader + "'", header_fix));
     }
   }
   if (rows.size() < 2) throw InputError(input_message(csv, -1, -1, "", "no samples after the header", "add one line per sample"));
 
   std::vector<ImuSample> samples;
   samples.reserve(rows.size() - 1);
-  const std::string fix = std::string("write 7 numbers: ") + kHeader + " (seconds, rad/s, m/s²)";
+  const std::string fix = std::string("write 7 numbers: ") + kImuHeader + " (seconds, rad/s, m/s²)";
   for (std::size_t r = 1; r < rows.size(); ++r) {
     const CsvRow& row = rows[r];
     if (row.fields.size() != kColumns.size()) {
@@ -126,7 +126,7 @@ std::vector<ImuSample> load_imu_csv(const fs::path& csv) {
 }
 
 void save_imu_csv(const fs::path& csv, const std::vector<ImuSample>& samples) {
-  std::string text = std::string(kHeader) + "\n";
+  std::string text = std::string(kImuHeader) + "\n";
   char line[256];
   for (const ImuSample& s : samples) {
     std::snprintf(line, sizeof line, "%.9f,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", s.timestamp, s.gyro.x(), s.gyro.y(), s.gyro.z(),
@@ -142,7 +142,7 @@ ImuConfig parse_imu_config(const YAML::Node& node, const fs::path& file) {
   if (!node.IsDefined() || node.IsNull()) r.fail(node, "imu", "missing", std::string("add an 'imu:' map with a kind; ") + docs);
   r.expect_map(node, "imu", std::string("write 'kind: hid' (profile) or 'kind: replay' (csv); ") + docs);
   const YAML::Node kind_node = r.require(node, "kind", "imu.kind", "write 'kind: hid' (a HID device and its profile) or 'kind: replay' (a CSV recording)");
-  const std::string kind = r.choice(kind_node, "imu.kind", kKinds);
+  const std::string kind = r.choice(kind_node, "imu.kind", kImuKinds);
 
   ImuConfig config;
   if (kind == "hid") {
@@ -156,7 +156,7 @@ ImuConfig parse_imu_config(const YAML::Node& node, const fs::path& file) {
   } else {
     r.check_keys(node, "imu.", kReplayKeys);
     config.kind = ImuConfig::Kind::Replay;
-    const std::string fix = std::string("write the recording's path, e.g. 'csv: head_imu.csv' (") + kHeader + ")";
+    const std::string fix = std::string("write the recording's path, e.g. 'csv: head_imu.csv' (") + kImuHeader + ")";
     config.csv = r.path(r.require(node, "csv", "imu.csv", fix), "imu.csv", fix);
   }
   if (const YAML::Node rotation = YamlReader::optional(node, "R_camera_from_imu")) {

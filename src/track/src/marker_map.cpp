@@ -23,8 +23,8 @@ namespace fs = std::filesystem;
 
 constexpr std::array<std::string_view, 3> kTopKeys{"family", "size", "tags"};
 constexpr std::array<std::string_view, 5> kTagKeys{"id", "size", "position", "orientation", "R"};
-constexpr double kUnitTolerance = 1e-3;
-const char* const kDocs = "see docs/tracking.md (marker map)";
+constexpr double kRotationTolerance = 1e-3;
+const char* const kMarkerMapDocs = "see docs/tracking.md (marker map)";
 
 int family_size(const YamlReader& r, const YAML::Node& node, const std::string& family) {
   try {
@@ -39,7 +39,7 @@ Eigen::Quaterniond read_rotation(const YamlReader& r, const YAML::Node& tag, con
   const YAML::Node matrix = YamlReader::optional(tag, "R");
   const std::string fix =
       "give 'orientation: [qw, qx, qy, qz]' (R_site_from_tag, unit length) or 'R: [9 numbers]' (row-major); " +
-      std::string(kDocs);
+      std::string(kMarkerMapDocs);
   if (orientation.IsDefined() == matrix.IsDefined()) {
     r.fail(orientation.IsDefined() ? orientation : tag, prefix + "orientation",
            orientation.IsDefined() ? "both orientation and R are given" : "neither orientation nor R is given", fix);
@@ -47,7 +47,7 @@ Eigen::Quaterniond read_rotation(const YamlReader& r, const YAML::Node& tag, con
   if (orientation.IsDefined()) {
     const auto q = r.numbers(orientation, 4, prefix + "orientation", fix);
     const Eigen::Quaterniond quaternion(q[0], q[1], q[2], q[3]);
-    if (std::abs(quaternion.norm() - 1.0) > kUnitTolerance) {
+    if (std::abs(quaternion.norm() - 1.0) > kRotationTolerance) {
       r.fail(orientation, prefix + "orientation", "the quaternion's length is " + format_number(quaternion.norm()) + ", not 1",
              "write a unit quaternion qw, qx, qy, qz, e.g. [1, 0, 0, 0] for a tag lying face up, its top towards north");
     }
@@ -57,7 +57,7 @@ Eigen::Quaterniond read_rotation(const YamlReader& r, const YAML::Node& tag, con
   Eigen::Matrix3d R;
   R << v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8];
   const double orthogonality = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
-  if (orthogonality > kUnitTolerance || R.determinant() < 0) {
+  if (orthogonality > kRotationTolerance || R.determinant() < 0) {
     r.fail(matrix, prefix + "R",
            R.determinant() < 0 ? "not a rotation (its determinant is negative: a mirror)"
                                : "not a rotation (Rᵀ·R differs from the identity by " + format_number(orthogonality) + ")",
@@ -92,7 +92,7 @@ void check_map(const MarkerMap& map) {
     }
     if (!(tag.size > 0) || !std::isfinite(tag.size)) fail(prefix + "size", "must be positive", "write the edge length in metres");
     if (!tag.t_site_from_tag.allFinite()) fail(prefix + "position", "not finite", "write the tag centre in metres");
-    if (!tag.R_site_from_tag.coeffs().allFinite() || std::abs(tag.R_site_from_tag.norm() - 1.0) > kUnitTolerance) {
+    if (!tag.R_site_from_tag.coeffs().allFinite() || std::abs(tag.R_site_from_tag.norm() - 1.0) > kRotationTolerance) {
       fail(prefix + "orientation", "not a unit quaternion", "write a unit quaternion qw, qx, qy, qz");
     }
   }
@@ -128,7 +128,7 @@ std::array<Eigen::Vector3d, 4> tag_corners_in_site(const MarkerTag& tag) {
 MarkerMap load_marker_map(const fs::path& file) {
   const YamlReader r(file);
   const YAML::Node root = r.load();
-  r.expect_map(root, "", std::string("write 'family:' and 'tags:' at the top level; ") + kDocs);
+  r.expect_map(root, "", std::string("write 'family:' and 'tags:' at the top level; ") + kMarkerMapDocs);
   r.check_keys(root, "", kTopKeys);
   MarkerMap map;
   map.file = file;
@@ -141,13 +141,13 @@ MarkerMap load_marker_map(const fs::path& file) {
   if (const YAML::Node size = YamlReader::optional(root, "size")) default_size = r.positive(size, "size", size_fix);
 
   const YAML::Node tags = r.require(root, "tags", "tags", "a list of tags with id, size, position and orientation");
-  if (!tags.IsSequence()) r.fail(tags, "tags", "expected a list of tags", std::string("write '- id: 0' entries; ") + kDocs);
-  if (tags.size() == 0) r.fail(tags, "tags", "the list is empty", std::string("add the tags placed on the site; ") + kDocs);
+  if (!tags.IsSequence()) r.fail(tags, "tags", "expected a list of tags", std::string("write '- id: 0' entries; ") + kMarkerMapDocs);
+  if (tags.size() == 0) r.fail(tags, "tags", "the list is empty", std::string("add the tags placed on the site; ") + kMarkerMapDocs);
   std::map<int, int> lines;  // id → line of its first entry, for the duplicate message
   for (std::size_t i = 0; i < tags.size(); ++i) {
     const YAML::Node tag = tags[i];
     const std::string prefix = "tags[" + std::to_string(i) + "].";
-    r.expect_map(tag, "tags[" + std::to_string(i) + "]", std::string("write id, size, position and orientation; ") + kDocs);
+    r.expect_map(tag, "tags[" + std::to_string(i) + "]", std::string("write id, size, position and orientation; ") + kMarkerMapDocs);
     r.check_keys(tag, prefix, kTagKeys);
     MarkerTag entry;
     const YAML::Node id = r.require(tag, "id", prefix + "id", "the number printed with the tag");

@@ -12,8 +12,8 @@
 namespace skylit::track {
 namespace {
 
-constexpr double kUnitTolerance = 1e-3;  // |‖q‖ − 1| accepted (and normalised away)
-const char* const kHeader = "timestamp,x,y,z,qw,qx,qy,qz";
+constexpr double kQuaternionTolerance = 1e-3;  // |‖q‖ − 1| accepted (and normalised away)
+const char* const kPoseHeader = "timestamp,x,y,z,qw,qx,qy,qz";
 
 std::string format_position(const Vec3& p) {
   char text[96];
@@ -53,7 +53,7 @@ std::string FixedPose::describe() const { return "fixed pose at " + format_posit
 PoseTrack::PoseTrack(std::vector<Pose> samples, std::string name) : samples_(std::move(samples)), name_(std::move(name)) {
   if (samples_.empty()) throw std::invalid_argument("PoseTrack: no poses");
   for (std::size_t i = 0; i < samples_.size(); ++i) {
-    if (std::abs(samples_[i].R_site_from_camera.norm() - 1.0) > kUnitTolerance) {
+    if (std::abs(samples_[i].R_site_from_camera.norm() - 1.0) > kQuaternionTolerance) {
       throw std::invalid_argument("PoseTrack: pose " + std::to_string(i) + " has no unit quaternion");
     }
     samples_[i].R_site_from_camera.normalize();
@@ -94,14 +94,14 @@ PoseTrack PoseTrack::load(const std::filesystem::path& csv) {
     throw InputError(input_message(csv, csv_error.line, csv_error.column, "", csv_error.problem,
                                    "write numbers only, separated by commas"));
   }
-  const std::string header_fix = std::string("make the first line '") + kHeader + "'";
+  const std::string header_fix = std::string("make the first line '") + kPoseHeader + "'";
   if (rows.empty()) throw InputError(input_message(csv, -1, -1, "", "the file has no lines", header_fix + " and add one line per pose"));
   static const char* const kColumns[] = {"timestamp", "x", "y", "z", "qw", "qx", "qy", "qz"};
   const CsvRow& header = rows.front();
   for (std::size_t i = 0; i < 8; ++i) {
     if (header.fields.size() != 8 || header.fields[i].text != kColumns[i]) {
       const int column = i < header.fields.size() ? header.fields[i].column : 1;
-      throw InputError(input_message(csv, header.line, column, "", "the header is not '" + std::string(kHeader) + "'", header_fix));
+      throw InputError(input_message(csv, header.line, column, "", "the header is not '" + std::string(kPoseHeader) + "'", header_fix));
     }
   }
   if (rows.size() < 2) throw InputError(input_message(csv, -1, -1, "", "no poses after the header", "add one line per pose"));
@@ -109,7 +109,7 @@ PoseTrack PoseTrack::load(const std::filesystem::path& csv) {
   std::vector<Pose> poses;
   for (std::size_t r = 1; r < rows.size(); ++r) {
     const CsvRow& row = rows[r];
-    const std::string fix = std::string("write 8 numbers: ") + kHeader;
+    const std::string fix = std::string("write 8 numbers: ") + kPoseHeader;
     if (row.fields.size() != 8) {
       const int column = row.fields.size() > 8 ? row.fields[8].column : row.fields.back().column;
       throw InputError(input_message(csv, row.line, column, "", std::to_string(row.fields.size()) + " fields, 8 expected", fix));
@@ -128,7 +128,7 @@ PoseTrack PoseTrack::load(const std::filesystem::path& csv) {
     pose.t_site_from_camera = Vec3(v[1], v[2], v[3]);
     pose.R_site_from_camera = Eigen::Quaterniond(v[4], v[5], v[6], v[7]);
     const double norm = pose.R_site_from_camera.norm();
-    if (std::abs(norm - 1.0) > kUnitTolerance) {
+    if (std::abs(norm - 1.0) > kQuaternionTolerance) {
       char problem[96];
       std::snprintf(problem, sizeof problem, "the quaternion's length is %.6g, not 1", norm);
       throw InputError(input_message(csv, row.line, row.fields[4].column, "qw", problem,

@@ -25,8 +25,8 @@ constexpr std::array<std::string_view, 19> kMarkerKeys{
     "refine_edges",  "sharpening",   "min_contrast",     "threads",               "max_hamming",
     "min_margin",    "outlier_px",   "max_error_px",     "max_ambiguity",         "distinct_deg",
     "distant_tag_px", "max_age",     "accept_ambiguous", "accept_single_distant"};
-constexpr std::array<std::string_view, 3> kKinds{"fixed", "track", "markers"};
-const char* const kDocs = "see docs/live.md (Pose)";
+constexpr std::array<std::string_view, 3> kPoseKinds{"fixed", "track", "markers"};
+const char* const kPoseDocs = "see docs/live.md (Pose)";
 
 std::string format_range(double lo, double hi) {
   const auto text = [](double v) {
@@ -108,8 +108,8 @@ void parse_markers(const Reader& r, const YAML::Node& node, PoseConfig& config) 
 
 PoseConfig parse_pose_config(const YAML::Node& node, const fs::path& file) {
   const Reader r(file);
-  if (!node.IsDefined() || node.IsNull()) r.fail(node, "pose", "missing", std::string("add a 'pose:' map with a kind; ") + kDocs);
-  if (!node.IsMap()) r.fail(node, "pose", "expected a map of fields", std::string("write 'kind: fixed' or 'kind: track' and its fields; ") + kDocs);
+  if (!node.IsDefined() || node.IsNull()) r.fail(node, "pose", "missing", std::string("add a 'pose:' map with a kind; ") + kPoseDocs);
+  if (!node.IsMap()) r.fail(node, "pose", "expected a map of fields", std::string("write 'kind: fixed' or 'kind: track' and its fields; ") + kPoseDocs);
   const std::string kind_fix =
       "write 'kind: fixed' (position and orientation or look_at), 'kind: track' (csv) or 'kind: markers' (map)";
   const YAML::Node kind_node = r.require(node, "kind", kind_fix);
@@ -168,23 +168,16 @@ PoseConfig parse_pose_config(const YAML::Node& node, const fs::path& file) {
     config.kind = PoseConfig::Kind::Markers;
     parse_markers(r, node, config);
   } else {
-    r.fail(kind_node, "pose.kind", "unknown kind '" + kind + "'", unknown_key_fix(kind, std::span<const std::string_view>(kKinds)));
+    r.fail(kind_node, "pose.kind", "unknown kind '" + kind + "'", unknown_key_fix(kind, std::span<const std::string_view>(kPoseKinds)));
   }
   return config;
 }
 
 PoseConfig load_pose_config(const fs::path& file) {
-  const std::string text = read_file(file);
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::ParserException& e) {
-    throw InputError(input_message(file, e.mark.line + 1, e.mark.column + 1, "", "YAML syntax error: " + e.msg,
-                                   "correct the YAML syntax at that line (indentation, colons, brackets)"));
-  }
+  const YAML::Node root = YamlReader(file).parse(read_file(file));
   if (!root.IsMap()) {
     throw InputError(input_message(file, -1, -1, "pose", "the file has no top-level map",
-                                   std::string("write 'pose:' with a kind and its fields; ") + kDocs));
+                                   std::string("write 'pose:' with a kind and its fields; ") + kPoseDocs));
   }
   return parse_pose_config(root["pose"], file);
 }

@@ -70,9 +70,6 @@ struct EngineChoice {
   std::string reason;  // for the log, e.g. "the GL renderer llvmpipe (…) draws on the CPU"
 };
 EngineChoice choose_engine();
-// Whether GL_RENDERER names a renderer that draws on the CPU.
-bool software_renderer(const std::string& renderer);
-
 // The engines keep references to mesh and planes: both must outlive the engine.
 std::unique_ptr<VisibilityEngine> make_raster_engine(const scene::Mesh& mesh,
                                                      std::span<const geom::Plane> planes,

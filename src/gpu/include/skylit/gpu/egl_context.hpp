@@ -59,4 +59,8 @@ class HeadlessContext {
   std::unique_ptr<State> state_;
 };
 
+// Whether a GL_RENDERER string names a software rasterizer (Mesa's llvmpipe, softpipe, swrast):
+// the baker then ray-traces and the live service blends on the CPU, both faster there.
+bool is_software_renderer(std::string_view renderer);
+
 }  // namespace skylit::gpu

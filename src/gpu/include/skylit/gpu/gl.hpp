@@ -62,6 +62,7 @@ struct VertexArrayDeleter { void operator()(GLuint name) const { glDeleteVertexA
 struct ProgramDeleter { void operator()(GLuint name) const { glDeleteProgram(name); } };
 struct ShaderDeleter { void operator()(GLuint name) const { glDeleteShader(name); } };
 struct RenderbufferDeleter { void operator()(GLuint name) const { glDeleteRenderbuffers(1, &name); } };
+struct SamplerDeleter { void operator()(GLuint name) const { glDeleteSamplers(1, &name); } };
 
 }  // namespace detail
 
@@ -72,6 +73,7 @@ using VertexArray = detail::GlName<detail::VertexArrayDeleter>;
 using Program = detail::GlName<detail::ProgramDeleter>;
 using Shader = detail::GlName<detail::ShaderDeleter>;
 using Renderbuffer = detail::GlName<detail::RenderbufferDeleter>;
+using Sampler = detail::GlName<detail::SamplerDeleter>;
 
 // Fresh names (glGen*/glCreate*); throw GlError when the driver gives none.
 Texture make_texture();
