@@ -13,7 +13,6 @@ function(skylit_module name)
   set_target_properties(skylit_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
   skylit_warnings(skylit_${name})
   skylit_unity(skylit_${name})
-  skylit_use_shared_pch(skylit_${name} skylit_module_pch)
 endfunction()
 
 # skylit_unity(target): one translation unit for the target's sources when SKYLIT_UNITY_BUILD is on.
