@@ -1,0 +1,210 @@
+#include "skylit/sky_link/sky_message.hpp"
+
+#include <cmath>
+#include <new>
+#include <stdexcept>
+
+#include <nlohmann/json.hpp>
+
+namespace skylit::sky_link {
+namespace {
+
+using nlohmann::json;
+
+// A field that is missing, of the wrong type or out of range: the message is malformed.
+struct BadField : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+const json& field(const json& object, const char* key) {
+  const auto it = object.find(key);
+  if (it == object.end()) throw BadField(std::string("no field '") + key + "'");
+  return *it;
+}
+
+double finite_number(const json& value, const std::string& name) {
+  if (!value.is_number()) throw BadField("'" + name + "' is not a number");
+  const double x = value.get<double>();
+  if (!std::isfinite(x)) throw BadField("'" + name + "' is not finite");
+  return x;
+}
+
+std::int64_t integer(const json& value, const std::string& name, std::int64_t lo, std::int64_t hi) {
+  if (!value.is_number_integer()) throw BadField("'" + name + "' is not an integer");
+  const std::int64_t n = value.get<std::int64_t>();
+  if (n < lo || n > hi) throw BadField("'" + name + "' is " + std::to_string(n) + ", outside its range");
+  return n;
+}
+
+Eigen::Vector3d vector3(const json& value, const std::string& name) {
+  if (!value.is_array() || value.size() != 3) throw BadField("'" + name + "' is not three numbers");
+  return {finite_number(value[0], name), finite_number(value[1], name), finite_number(value[2], name)};
+}
+
+json to_json(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
+
+SkyMessage parse(const json& root) {
+  if (!root.is_object()) throw BadField("not a map");
+  SkyMessage m;
+  const json& identity = field(root, "identity");
+  m.identity.site = field(identity, "site").is_string() ? field(identity, "site").get<std::string>()
+                                                        : throw BadField("'identity.site' is not text");
+  m.identity.dome_frequency = static_cast<int>(integer(field(identity, "frequency"), "identity.frequency", 1, 64));
+  const json& basis = field(identity, "basis");
+  const auto parsed_basis = basis.is_string() ? geom::parse_basis(basis.get<std::string>()) : std::nullopt;
+  if (!parsed_basis) throw BadField("'identity.basis' is not faces, corners or quadratics");
+  m.identity.basis = *parsed_basis;
+  m.identity.layers = static_cast<int>(integer(field(identity, "layers"), "identity.layers", 1, 1 << 20));
+
+  m.sequence = static_cast<std::uint64_t>(integer(field(root, "sequence"), "sequence", 0, INT64_MAX));
+  m.frame_timestamp = finite_number(field(root, "frame_timestamp"), "frame_timestamp");
+  if (const auto it = root.find("utc"); it != root.end() && !it->is_null()) {
+    m.utc = integer(*it, "utc", INT64_MIN, INT64_MAX);
+  }
+  const json& S = field(root, "S");
+  if (!S.is_array() || S.size() != 3 * static_cast<std::size_t>(m.identity.layers)) {
+    throw BadField("'S' does not hold 3 numbers for each of the " + std::to_string(m.identity.layers) + " layers");
+  }
+  m.S.resize(static_cast<std::size_t>(m.identity.layers));
+  for (std::size_t i = 0; i < m.S.size(); ++i) {
+    for (int c = 0; c < 3; ++c) m.S[i][c] = finite_number(S[3 * i + static_cast<std::size_t>(c)], "S");
+  }
+  const json& sources = field(root, "sources");
+  if (!sources.is_array() || sources.size() > 1024) throw BadField("'sources' is not a list of at most 1024");
+  for (const json& s : sources) {
+    PublishedSource p;
+    p.direction = vector3(field(s, "direction"), "sources.direction");
+    if (std::abs(p.direction.norm() - 1.0) > 1e-6) throw BadField("'sources.direction' is not a unit vector");
+    p.energy = vector3(field(s, "energy"), "sources.energy");
+    p.angular_radius = finite_number(field(s, "angular_radius"), "sources.angular_radius");
+    if (p.angular_radius < 0) throw BadField("'sources.angular_radius' is negative");
+    if (!field(s, "clipped").is_boolean()) throw BadField("'sources.clipped' is not true or false");
+    p.clipped = field(s, "clipped").get<bool>();
+    m.sources.push_back(p);
+  }
+  const json& reason = field(root, "sun_reason");
+  if (!reason.is_string()) throw BadField("'sun_reason' is not text");
+  m.sun_reason = reason.get<std::string>();
+  m.unseen_faces = static_cast<int>(integer(field(root, "unseen_faces"), "unseen_faces", 0, 1 << 24));
+  m.bad_pixels = integer(field(root, "bad_pixels"), "bad_pixels", 0, INT64_MAX);
+  m.clipped_pixels = integer(field(root, "clipped_pixels"), "clipped_pixels", 0, INT64_MAX);
+  return m;
+}
+
+// The first difference between the sky's identity and the node's, as "what: sky X, bake Y".
+std::optional<std::pair<DropReason, std::string>> identity_difference(const SkyIdentity& sky,
+                                                                      const SkyIdentity& expected) {
+  if (sky.site != expected.site) {
+    return std::pair{DropReason::OtherSite, "site: sky '" + sky.site + "', bake '" + expected.site + "'"};
+  }
+  if (sky.dome_frequency != expected.dome_frequency) {
+    return std::pair{DropReason::OtherDome, "dome frequency: sky " + std::to_string(sky.dome_frequency) + ", bake " +
+                                                std::to_string(expected.dome_frequency)};
+  }
+  if (sky.basis != expected.basis) {
+    return std::pair{DropReason::OtherDome, "dome basis: sky " + std::string(geom::basis_name(sky.basis)) +
+                                                ", bake " + std::string(geom::basis_name(expected.basis))};
+  }
+  if (sky.layers != expected.layers) {
+    return std::pair{DropReason::OtherDome, "layers: sky " + std::to_string(sky.layers) + ", bake " +
+                                                std::to_string(expected.layers)};
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::vector<std::uint8_t> encode_sky_message(const SkyMessage& m) {
+  json S = json::array();
+  for (const Eigen::Vector3d& s : m.S) {
+    for (int c = 0; c < 3; ++c) S.push_back(s[c]);
+  }
+  json sources = json::array();
+  for (const PublishedSource& p : m.sources) {
+    sources.push_back({{"direction", to_json(p.direction)},
+                       {"energy", to_json(p.energy)},
+                       {"angular_radius", p.angular_radius},
+                       {"clipped", p.clipped}});
+  }
+  const json root = {
+      {"version", kSkyMessageVersion},
+      {"identity",
+       {{"site", m.identity.site},
+        {"frequency", m.identity.dome_frequency},
+        {"basis", std::string(geom::basis_name(m.identity.basis))},
+        {"layers", m.identity.layers}}},
+      {"sequence", m.sequence},
+      {"frame_timestamp", m.frame_timestamp},
+      {"utc", m.utc ? json(*m.utc) : json(nullptr)},
+      {"S", std::move(S)},
+      {"sources", std::move(sources)},
+      {"sun_reason", m.sun_reason},
+      {"unseen_faces", m.unseen_faces},
+      {"bad_pixels", m.bad_pixels},
+      {"clipped_pixels", m.clipped_pixels},
+  };
+  return json::to_cbor(root);
+}
+
+std::string_view drop_reason_name(DropReason reason) {
+  switch (reason) {
+    case DropReason::None: return "none";
+    case DropReason::Oversized: return "oversized";
+    case DropReason::Malformed: return "malformed";
+    case DropReason::Version: return "version";
+    case DropReason::OtherSite: return "other_site";
+    case DropReason::OtherDome: return "other_dome";
+    case DropReason::OutOfOrder: return "out_of_order";
+  }
+  return "unknown";
+}
+
+DecodedSky decode_sky_message(std::span<const std::uint8_t> bytes, const SkyIdentity& expected,
+                              std::optional<std::uint64_t> last_sequence) {
+  DecodedSky result;
+  const auto drop = [&result](DropReason reason, std::string detail) {
+    result.dropped = reason;
+    result.detail = std::move(detail);
+    return result;
+  };
+  if (bytes.size() > kMaxSkyMessageBytes) {
+    return drop(DropReason::Oversized, std::to_string(bytes.size()) + " bytes, more than " +
+                                           std::to_string(kMaxSkyMessageBytes));
+  }
+  json root;
+  try {
+    // Without exceptions for syntax errors; a declared size beyond what fits still throws.
+    root = json::from_cbor(bytes.begin(), bytes.end(), /*strict=*/true, /*allow_exceptions=*/false);
+  } catch (const json::exception& e) {
+    return drop(DropReason::Malformed, std::string("not CBOR: ") + e.what());
+  } catch (const std::bad_alloc&) {
+    return drop(DropReason::Malformed, "not CBOR: a size beyond memory");
+  } catch (const std::length_error&) {
+    return drop(DropReason::Malformed, "not CBOR: a size beyond memory");
+  }
+  if (root.is_discarded()) return drop(DropReason::Malformed, "not CBOR, or truncated");
+  if (!root.is_object()) return drop(DropReason::Malformed, "not a map");
+  const auto version = root.find("version");
+  if (version == root.end() || !version->is_number_integer()) return drop(DropReason::Malformed, "no version");
+  if (version->get<std::int64_t>() != kSkyMessageVersion) {
+    return drop(DropReason::Version, "version " + std::to_string(version->get<std::int64_t>()) + ", this node reads " +
+                                         std::to_string(kSkyMessageVersion));
+  }
+  SkyMessage message;
+  try {
+    message = parse(root);
+  } catch (const BadField& e) {
+    return drop(DropReason::Malformed, e.what());
+  }
+  if (const auto difference = identity_difference(message.identity, expected)) {
+    return drop(difference->first, difference->second);
+  }
+  if (last_sequence && message.sequence <= *last_sequence) {
+    return drop(DropReason::OutOfOrder, "sequence " + std::to_string(message.sequence) + " after " +
+                                            std::to_string(*last_sequence));
+  }
+  result.message = std::move(message);
+  return result;
+}
+
+}  // namespace skylit::sky_link
