@@ -21,6 +21,8 @@ pkg_check_modules(EXIF REQUIRED IMPORTED_TARGET libexif)
 # Every file that includes <httplib.h> must link this: its definitions (OpenSSL, zlib, Brotli
 # support) change httplib's classes, and two layouts in one program crash it.
 pkg_check_modules(HTTPLIB REQUIRED IMPORTED_TARGET cpp-httplib)
+# The MQTT client of the site link (src/sky_link); the tests start Debian's mosquitto broker.
+pkg_check_modules(MOSQUITTO REQUIRED IMPORTED_TARGET libmosquitto)
 # Used by later modules (tracking, IMU, cameras); found now so the build knows them.
 pkg_check_modules(APRILTAG REQUIRED IMPORTED_TARGET apriltag)
 pkg_check_modules(HIDAPI REQUIRED IMPORTED_TARGET hidapi-hidraw)
