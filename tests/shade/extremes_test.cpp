@@ -31,6 +31,7 @@
 #include "../blend/gpu_test_support.hpp"
 #include "../support/box_site.hpp"
 #include "../support/fixture_cache.hpp"
+#include "../support/quiet_bake.hpp"
 #include "../support/sky_paint.hpp"
 #include "skylit/gpu/egl_context.hpp"
 #include "skylit/blend/gpu_blend.hpp"
@@ -145,22 +146,15 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
     const BakeVariant& v = GetParam();
     return skylit::test::cached_fixture("extremes_" + v.name, [&v](const fs::path& out) {
       for (const char* file : {"site.yaml", "box.obj"}) fs::copy_file(*dir_ / file, out / file);
-      std::FILE* quiet = std::fopen("/dev/null", "w");
-      baker::BakeOptions options;
-      options.site_file = out / "site.yaml";
-      options.out_dir = out / "bake";
-      options.frequency = v.frequency;
-      options.samples = v.samples;
-      options.basis = v.basis;
-      options.method = "raytrace";
-      options.previews = false;
-      baker::run_bake(options, quiet);
+      skylit::test::quiet_bake(out / "site.yaml", out / "bake", v.samples, [&v](baker::BakeOptions& options) {
+        options.frequency = v.frequency;
+        options.basis = v.basis;
+      });
       // The PCA form beside the full one: every case checks it too.
       bake_format::PcaOptions pca;
       pca.components = v.pca_components;
       pca.tile = v.pca_tile;
-      baker::compress_bake(out / "bake", pca, quiet);
-      std::fclose(quiet);
+      baker::compress_bake(out / "bake", pca, nullptr);
     }) / "bake";
   }
   static const bake_format::Manifest& manifest() {

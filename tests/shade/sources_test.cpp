@@ -16,6 +16,7 @@
 #include <opencv2/core.hpp>
 
 #include "../support/box_site.hpp"
+#include "../support/quiet_bake.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/baker/visibility.hpp"
 #include "skylit/blend/cpu_blend.hpp"
@@ -96,20 +97,12 @@ class SourcesShadeTest : public ::testing::Test {
                                         "planes:\n"
                                         "  - name: ground\n    origin: [-6, -6, 0.01]\n    u: [12, 0, 0]\n"
                                         "    v: [0, 12, 0]\n    resolution: [24, 24]\n");
-    std::FILE* quiet = std::fopen("/dev/null", "w");
-    baker::BakeOptions options;
-    options.site_file = *dir_ / "site.yaml";
-    options.out_dir = *dir_ / "bake";
-    options.samples = 4;
-    options.method = "raytrace";
-    options.previews = false;
     setup_.run([&] {
-      baker::run_bake(options, quiet);
+      skylit::test::quiet_bake(*dir_ / "site.yaml", *dir_ / "bake");
       manifest_ = new bake_format::Manifest(bake_format::read_manifest(*dir_ / "bake"));
       const scene::Site site = scene::load_site(*dir_ / "site.yaml");
       mesh_ = new scene::Mesh(scene::load_model(site.model, site.up, site.scale));
     });
-    std::fclose(quiet);
   }
   void SetUp() override { setup_.require(); }
   static void TearDownTestSuite() {

@@ -36,6 +36,11 @@ std::int64_t integer(const json& value, const std::string& name, std::int64_t lo
   return n;
 }
 
+std::string text(const json& value, const std::string& name) {
+  if (!value.is_string()) throw BadField("'" + name + "' is not text");
+  return value.get<std::string>();
+}
+
 Eigen::Vector3d vector3(const json& value, const std::string& name) {
   if (!value.is_array() || value.size() != 3) throw BadField("'" + name + "' is not three numbers");
   return {finite_number(value[0], name), finite_number(value[1], name), finite_number(value[2], name)};
@@ -47,8 +52,7 @@ SkyMessage parse(const json& root) {
   if (!root.is_object()) throw BadField("not a map");
   SkyMessage m;
   const json& identity = field(root, "identity");
-  m.identity.site = field(identity, "site").is_string() ? field(identity, "site").get<std::string>()
-                                                        : throw BadField("'identity.site' is not text");
+  m.identity.site = text(field(identity, "site"), "identity.site");
   m.identity.dome_frequency = static_cast<int>(integer(field(identity, "frequency"), "identity.frequency", 1, 64));
   const json& basis = field(identity, "basis");
   const auto parsed_basis = basis.is_string() ? geom::parse_basis(basis.get<std::string>()) : std::nullopt;
@@ -82,9 +86,7 @@ SkyMessage parse(const json& root) {
     p.clipped = field(s, "clipped").get<bool>();
     m.sources.push_back(p);
   }
-  const json& reason = field(root, "sun_reason");
-  if (!reason.is_string()) throw BadField("'sun_reason' is not text");
-  m.sun_reason = reason.get<std::string>();
+  m.sun_reason = text(field(root, "sun_reason"), "sun_reason");
   m.unseen_faces = static_cast<int>(integer(field(root, "unseen_faces"), "unseen_faces", 0, 1 << 24));
   m.bad_pixels = integer(field(root, "bad_pixels"), "bad_pixels", 0, INT64_MAX);
   m.clipped_pixels = integer(field(root, "clipped_pixels"), "clipped_pixels", 0, INT64_MAX);
