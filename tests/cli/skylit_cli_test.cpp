@@ -1,6 +1,7 @@
 // What every program does alike (docs/architecture.md, "Conventions every program keeps"): an
 // input file that is not there exits 2 with a message naming it, an option the program does not
-// know exits 2 too, --help exits 0. Nothing here does any work: each case costs a program start.
+// know exits 2 too, --help exits 0, --version and the usage line name the program, -q keeps the
+// errors. Nothing here does any work: each case costs a program start.
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -64,6 +65,20 @@ TEST_P(SkylitCli, AnUnknownOptionIsAnInputErrorAndHelpIsNot) {
   const Result help = run("--help");
   EXPECT_EQ(help.status, 0) << help.output;
   EXPECT_NE(help.output.find("--help"), std::string::npos) << help.output;
+}
+
+TEST_P(SkylitCli, VersionAndUsageNameTheProgramAndQuietKeepsTheErrors) {
+  ASSERT_TRUE(fs::exists(kBin / GetParam().name)) << "build " << GetParam().name << " first";
+  const Result version = run("--version");
+  EXPECT_EQ(version.status, 0) << version.output;
+  EXPECT_EQ(version.output.rfind(GetParam().name + " ", 0), 0u) << version.output;
+  const Result help = run("--help");
+  EXPECT_NE(help.output.find("Usage: " + GetParam().name), std::string::npos) << help.output;
+  // -q is taken (after a subcommand too) and leaves the input error, with its exit status.
+  fs::create_directories(dir_ / "bake");
+  const Result quiet = run(GetParam().args + " -q");
+  EXPECT_EQ(quiet.status, 2) << quiet.output;
+  EXPECT_NE(quiet.output.find(missing().string()), std::string::npos) << quiet.output;
 }
 
 INSTANTIATE_TEST_SUITE_P(
