@@ -7,6 +7,8 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <thread>
+#include <vector>
 
 namespace skylit::blend {
 namespace {
@@ -126,6 +128,9 @@ std::size_t eac_block_count(int width, int height) {
   return static_cast<std::size_t>((width + 3) / 4) * static_cast<std::size_t>((height + 3) / 4);
 }
 
+// Blocks a thread must have to be worth starting (one 64² image's worth).
+constexpr long kEacBlocksPerThread = 256;
+
 std::vector<std::uint8_t> encode_eac_r11(std::span<const float> values, int width, int height) {
   check_size(width, height);
   if (values.size() != static_cast<std::size_t>(width) * static_cast<std::size_t>(height)) {
@@ -134,20 +139,31 @@ std::vector<std::uint8_t> encode_eac_r11(std::span<const float> values, int widt
   }
   const int columns = (width + 3) / 4, rows = (height + 3) / 4;
   std::vector<std::uint8_t> blocks(eac_block_count(width, height) * kEacBlockBytes);
-  std::array<double, 16> v{};
-  for (int by = 0; by < rows; ++by) {
-    for (int bx = 0; bx < columns; ++bx) {
-      for (int x = 0; x < 4; ++x) {
-        for (int y = 0; y < 4; ++y) {
-          const int col = std::min(4 * bx + x, width - 1), row = std::min(4 * by + y, height - 1);
-          const float f = values[static_cast<std::size_t>(row) * static_cast<std::size_t>(width) + static_cast<std::size_t>(col)];
-          const double clamped = f > 1.0f ? 1.0 : (f >= 0.0f ? static_cast<double>(f) : 0.0);  // NaN → 0
-          v[static_cast<std::size_t>(4 * x + y)] = clamped * kMax11;
+  const auto encode_rows = [&](int first, int last) {
+    std::array<double, 16> v{};
+    for (int by = first; by < last; ++by) {
+      for (int bx = 0; bx < columns; ++bx) {
+        for (int x = 0; x < 4; ++x) {
+          for (int y = 0; y < 4; ++y) {
+            const int col = std::min(4 * bx + x, width - 1), row = std::min(4 * by + y, height - 1);
+            const float f = values[static_cast<std::size_t>(row) * static_cast<std::size_t>(width) + static_cast<std::size_t>(col)];
+            const double clamped = f > 1.0f ? 1.0 : (f >= 0.0f ? static_cast<double>(f) : 0.0);  // NaN → 0
+            v[static_cast<std::size_t>(4 * x + y)] = clamped * kMax11;
+          }
         }
+        write_block(encode_block(v), &blocks[(static_cast<std::size_t>(by) * static_cast<std::size_t>(columns) + static_cast<std::size_t>(bx)) * kEacBlockBytes]);
       }
-      write_block(encode_block(v), &blocks[(static_cast<std::size_t>(by) * static_cast<std::size_t>(columns) + static_cast<std::size_t>(bx)) * kEacBlockBytes]);
     }
-  }
+  };
+  // Encoding searches every table per block (about a second per 512² layer of noise on one core)
+  // and runs at start-up, so rows of blocks are shared among the hardware threads; small images,
+  // where a thread costs more than it saves, stay on the caller's.
+  const int threads = static_cast<int>(std::min<long>(std::max(1u, std::thread::hardware_concurrency()),
+                                                      static_cast<long>(columns) * rows / kEacBlocksPerThread + 1));
+  std::vector<std::jthread> helpers;
+  for (int t = 1; t < threads; ++t) helpers.emplace_back(encode_rows, rows * t / threads, rows * (t + 1) / threads);
+  encode_rows(0, rows / threads);
+  helpers.clear();  // joins
   return blocks;
 }
 
