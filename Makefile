@@ -6,7 +6,7 @@ BUILD  := build
 JOBS   ?= $(shell nproc)
 DEMO_OUT ?= $(BUILD)/demo
 
-.PHONY: all deps configure build test demo bench clean
+.PHONY: all deps configure build test demo demo-site bench clean
 
 all: build
 
@@ -50,6 +50,12 @@ demo: build
 	@echo "      shadow ratios under the park sky in $(DEMO_OUT)/shade (*.png, sky_overlay.png, sky.json);"
 	@echo "      the live service's recordings $(DEMO_OUT)/live.mp4 and live_park.mp4 (frame logs live*.csv),"
 	@echo "      their contact sheets $(DEMO_OUT)/contact_sheet.png and contact_sheet_park.png"
+
+# A site with many visitors (docs/site.md): a mosquitto broker on a free loopback port, the sky
+# node on the clear day and three HMD nodes on three camera paths, headless; their recordings, a
+# contact sheet of the three side by side and the sky node's /site JSON in $(DEMO_OUT)/site.
+demo-site: build
+	bash scripts/demo_site.sh $(BUILD) $(DEMO_OUT)/site
 
 # Builds the benchmarks (left out of `build`, see CMakeLists.txt) and runs the bake benchmark;
 # the others are run by hand (bench/RESULTS.md names the command of each figure).

@@ -4,10 +4,13 @@
 #include <array>
 #include <filesystem>
 #include <string_view>
+#include <tuple>
 
 #include "skylit/base/error.hpp"
 #include "skylit/base/presets.hpp"
+#include "skylit/base/files.hpp"
 #include "skylit/base/yaml_reader.hpp"
+#include "skylit/sky_link/site_topics.hpp"
 
 namespace skylit::live {
 namespace {
@@ -19,6 +22,10 @@ constexpr std::array<std::string_view, 1> kRenderKeys{"scale"};
 constexpr std::array<std::string_view, 7> kSkyKeys{"calibration", "source", "response", "rate",
                                                    "sun", "smoothing", "stale_after"};
 constexpr std::array<std::string_view, 2> kCameraKeys{"calibration", "source"};
+constexpr std::array<std::string_view, 9> kLinkKeys{"broker",   "topic",         "node", "username",   "password",
+                                                    "password_file", "tls", "keepalive_s", "kind"};
+constexpr std::array<std::string_view, 3> kTlsKeys{"ca_file", "cert_file", "key_file"};
+constexpr const char* kSiteDocs = "see docs/site.md (Configuration)";
 constexpr std::array<std::string_view, 7> kBlendKeys{"device",         "threads",          "storage",    "basis",
                                                      "skip_threshold", "change_threshold", "cull_planes"};
 constexpr std::array<std::string_view, 1> kTrackingKeys{"fade_s"};
@@ -118,13 +125,80 @@ void apply_preset(const YamlReader& r, const YAML::Node& root, const std::filesy
   }
 }
 
+// `prefix` is the map's field ("link", "sky.source"); `kind` is allowed there (kind: mqtt).
+LinkSettings parse_link(const YamlReader& r, const YAML::Node& node, const std::string& prefix) {
+  r.expect_map(node, prefix, "{broker: HOST:PORT, topic: skylit/SITE, ...}; " + std::string(kSiteDocs));
+  r.check_keys(node, prefix + ".", kLinkKeys);
+  LinkSettings link;
+  const YAML::Node broker = r.require(node, "broker", prefix + ".broker", "the MQTT broker, e.g. broker: 127.0.0.1:1883");
+  const std::string address = r.text(broker, prefix + ".broker", "HOST:PORT, e.g. 127.0.0.1:1883");
+  try {
+    std::tie(link.mqtt.host, link.mqtt.port) = sky_link::parse_broker_address(address, prefix + ".broker");
+  } catch (const InputError&) {
+    r.fail(broker, prefix + ".broker", "'" + address + "' is not HOST:PORT", "e.g. broker: 127.0.0.1:1883");
+  }
+  if (auto n = YamlReader::optional(node, "topic")) {
+    link.topic = r.text(n, prefix + ".topic", "the site's topic root, e.g. skylit/sample-gate");
+    if (link.topic.empty() || link.topic.find_first_of("+#") != std::string::npos || link.topic.back() == '/') {
+      r.fail(n, prefix + ".topic", "'" + link.topic + "' is not a topic root (no +, #, or trailing /)", "e.g. topic: skylit/sample-gate");
+    }
+  }
+  if (auto n = YamlReader::optional(node, "node")) link.node = sky_link::node_name(r.text(n, prefix + ".node", "this node's name, e.g. hmd-1"));
+  if (auto n = YamlReader::optional(node, "username")) link.mqtt.username = r.text(n, prefix + ".username", "the broker's user name");
+  const auto password = YamlReader::optional(node, "password");
+  const auto password_file = YamlReader::optional(node, "password_file");
+  if (password && password_file) r.fail(password_file, prefix + ".password_file", "both password and password_file are given", "keep one");
+  if (password) link.mqtt.password = r.text(password, prefix + ".password", "the broker password");
+  if (password_file) {
+    // A file of its own keeps the secret out of a config that is copied around (chmod 600 it).
+    const std::filesystem::path path = r.path(password_file, prefix + ".password_file", "a file holding the password");
+    if (!std::filesystem::is_regular_file(path)) {
+      r.fail(password_file, prefix + ".password_file", "no file at " + path.string(), "write the password to that file (chmod 600)");
+    }
+    std::string text = read_file(path);
+    while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
+    link.mqtt.password = text;
+  }
+  if ((password || password_file) && link.mqtt.username.empty()) {
+    r.fail(password ? password : password_file, prefix + ".username", "a password without a username", "add username: NAME");
+  }
+  if (auto tls = YamlReader::optional(node, "tls")) {
+    r.expect_map(tls, prefix + ".tls", "tls: {ca_file: ca.crt, cert_file: node.crt, key_file: node.key}; " + std::string(kSiteDocs));
+    r.check_keys(tls, prefix + ".tls.", kTlsKeys);
+    const auto file_of = [&](const char* key, bool required) -> std::string {
+      const auto n = required ? r.require(tls, key, prefix + ".tls." + key, "a PEM file") : YamlReader::optional(tls, key);
+      if (!n) return {};
+      const std::filesystem::path path = r.path(n, prefix + ".tls." + key, "a PEM file");
+      if (!std::filesystem::is_regular_file(path)) r.fail(n, prefix + ".tls." + key, "no file at " + path.string(), "give a PEM file");
+      return path.string();
+    };
+    link.mqtt.tls.ca_file = file_of("ca_file", true);
+    link.mqtt.tls.cert_file = file_of("cert_file", false);
+    link.mqtt.tls.key_file = file_of("key_file", false);
+    if (link.mqtt.tls.cert_file.empty() != link.mqtt.tls.key_file.empty()) {
+      r.fail(tls, prefix + ".tls", "cert_file and key_file go together", "give both, or neither");
+    }
+  }
+  if (auto n = YamlReader::optional(node, "keepalive_s")) {
+    link.mqtt.keepalive_s = static_cast<int>(r.integer(n, prefix + ".keepalive_s", 5, 3600, "seconds, 5 or more (a node is declared gone after 1.5 × this)"));
+  }
+  return link;
+}
+
 void parse_sky(const YamlReader& r, const YAML::Node& root, const std::filesystem::path& file, LiveConfig& c) {
   const YAML::Node sky = r.require(root, "sky", "sky", "the sky camera: calibration and source");
   r.expect_map(sky, "sky", kDocs);
   r.check_keys(sky, "sky.", kSkyKeys);
+  const YAML::Node source = r.require(sky, "source", "sky.source", "where sky frames come from");
+  if (source.IsMap() && source["kind"] && source["kind"].IsScalar() && source["kind"].Scalar() == "mqtt") {
+    // An HMD node: the sky node estimates; its calibration and settings are its own.
+    c.sky.link = parse_link(r, source, "sky.source");
+    if (auto n = YamlReader::optional(sky, "stale_after")) c.sky.stale_after = r.positive(n, "sky.stale_after", "seconds, e.g. 30");
+    return;
+  }
   c.sky.calibration = r.path(r.require(sky, "calibration", "sky.calibration", "the sky camera's calibration YAML"),
                              "sky.calibration", kDocs);
-  c.sky.source = capture::parse_source_config(r.require(sky, "source", "sky.source", "where sky frames come from"), file);
+  c.sky.source = capture::parse_source_config(source, file);
   if (auto n = YamlReader::optional(sky, "response")) {
     const std::string value = r.text(n, "sky.response", "srgb, linear or a response file");
     c.sky.response = value == "srgb" || value == "linear" ? value : r.path(n, "sky.response", kDocs).string();
@@ -307,6 +381,37 @@ void parse_display(const YamlReader& r, const YAML::Node& root, LiveConfig& c) {
 }
 
 }  // namespace
+
+std::string site_name_of(const std::filesystem::path& site_file) { return site_file.stem().string(); }
+
+SkyNodeConfig load_sky_node_config(const std::filesystem::path& file) {
+  constexpr std::array<std::string_view, 6> keys{"site", "bake", "preset", "sky", "link", "status"};
+  const YamlReader r(file);
+  const YAML::Node root = r.load();
+  r.expect_map(root, "", "a skylit-sky-node config is a map with site, bake, sky and link; " + std::string(kSiteDocs));
+  r.check_keys(root, "", keys);
+  LiveConfig c;  // the sky stage's part of a skylit-live config, read by the same code
+  c.file = file;
+  c.site = r.path(r.require(root, "site", "site", "the site file, e.g. site: sample_site.yaml"), "site", kSiteDocs);
+  c.bake = r.path(r.require(root, "bake", "bake", "the bake folder whose dome the skies are for"), "bake", kSiteDocs);
+  apply_preset(r, root, file, c);
+  parse_sky(r, root, file, c);
+  if (c.sky.link) {
+    r.fail(root["sky"]["source"], "sky.source", "a sky node estimates the sky and cannot take it from MQTT",
+           "give the sky camera's source (e.g. {kind: sky-sim, ...}); the broker goes under link:");
+  }
+  parse_status(r, root, c);
+  SkyNodeConfig n;
+  n.file = file;
+  n.site = c.site;
+  n.bake = c.bake;
+  n.preset = c.preset;
+  n.sky = c.sky;
+  n.status_listen = c.status_listen;
+  n.link = parse_link(r, r.require(root, "link", "link", "the broker to publish to, e.g. link: {broker: 127.0.0.1:1883}"), "link");
+  if (auto kind = YamlReader::optional(root["link"], "kind")) r.fail(kind, "link.kind", "is not a field of link", "remove it");
+  return n;
+}
 
 LiveConfig load_live_config(const std::filesystem::path& file) {
   const YamlReader r(file);

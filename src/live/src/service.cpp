@@ -113,16 +113,20 @@ Service::Service(const LiveConfig& config, const ServiceOptions& options) : stat
     s.bases.push_back(blend::load_basis(config.bake, s.manifest, static_cast<int>(j), config.blend.basis));
   }
   s.plane_views = std::make_unique<PlaneView[]>(s.bases.size());
-  s.sky_calibration = camera::load_calibration(config.sky.calibration);
   s.hmd_calibration = camera::load_calibration(config.camera.calibration);
   s.dome = std::make_unique<geom::Dome>(s.manifest.plan.frequency);
-  sky::SkyEstimateOptions estimate_options;
-  estimate_options.sun_mode = config.sky.sun ? sky::SunMode::Auto : sky::SunMode::Off;
-  estimate_options.table.basis = s.manifest.plan.basis;
-  s.estimator = std::make_unique<sky::SkyEstimator>(s.sky_calibration, *s.dome, estimate_options);
-  capture::OpenedSource sky_opened = capture::open_source_with_status(with_reconnect(config.sky.source));
-  s.sky_source = std::move(sky_opened.source);
-  s.sky_reconnecting = sky_opened.reconnecting;
+  if (config.sky.link) {
+    const std::string site_name = site_name_of(config.site);
+    const sky_link::SkyIdentity identity{site_name, s.manifest.plan.frequency, s.manifest.plan.basis,
+                                         static_cast<int>(s.manifest.layer_count())};
+    s.sky_link = std::make_unique<SkyLinkReceiver>(*config.sky.link, identity, site_name);
+  } else {
+    s.sky_calibration = camera::load_calibration(config.sky.calibration);
+    s.sky_stage = std::make_unique<SkyStage>(s.sky_calibration, *s.dome, s.manifest.plan.basis, config.sky);
+    capture::OpenedSource sky_opened = capture::open_source_with_status(with_reconnect(config.sky.source));
+    s.sky_source = std::move(sky_opened.source);
+    s.sky_reconnecting = sky_opened.reconnecting;
+  }
   capture::OpenedSource camera_opened = capture::open_source_with_status(with_reconnect(config.camera.source));
   s.camera_source = std::move(camera_opened.source);
   s.camera_reconnecting = camera_opened.reconnecting;
@@ -135,7 +139,9 @@ Service::Service(const LiveConfig& config, const ServiceOptions& options) : stat
     State* self = &s;
     handlers.status_json = [self] { return self->status_report().dump(2) + "\n"; };
     handlers.metrics_text = [this] { return metrics_text(); };
-    handlers.sky_jpeg = [self] { return self->sky_jpeg.get().value_or(std::vector<std::uint8_t>{}); };
+    handlers.sky_jpeg = [self] {
+      return self->sky_link ? self->sky_link->overlay() : self->sky_jpeg.get().value_or(std::vector<std::uint8_t>{});
+    };
     handlers.frame_jpeg = [self] { return encode_jpeg(self->latest_frame.get().value_or(cv::Mat())); };
     s.status = std::make_unique<StatusServer>(host, port, handlers);
   }
@@ -150,6 +156,7 @@ Service::~Service() {
 void Service::stop() {
   state_->running = false;
   state_->camera_box.close();
+  if (state_->sky_link) state_->sky_link->close();
   state_->sun_maps.close();  // a sky thread waiting for the render thread to free a map
 }
 

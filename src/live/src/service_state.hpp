@@ -19,6 +19,8 @@
 
 #include "live_tracking.hpp"
 #include "service_metrics.hpp"
+#include "sky_link_receiver.hpp"
+#include "sky_stage.hpp"
 #include "skylit/bake_format/manifest.hpp"
 #include "skylit/blend/basis.hpp"
 #include "skylit/blend/cpu_blend.hpp"
@@ -46,7 +48,8 @@ struct SkyState {
   std::uint64_t sequence = 0;
   double frame_timestamp = 0;   // the sky frame's own time
   std::optional<std::chrono::sys_seconds> utc;  // the sky frame's wall-clock time, when its source knows it
-  double received = 0;          // steady seconds when it was estimated
+  double received = 0;          // steady seconds when it was estimated (or taken from the link)
+  std::optional<double> published;  // from the link: when the sky node published it (system clock, s since 1970)
   std::vector<Eigen::Vector3d> S;  // one RGB per bake layer
   std::optional<blend::SunLight> sun;
   double sun_angular_radius = 0;
@@ -113,7 +116,10 @@ struct Service::State {
   std::vector<blend::BasisImages> bases;
   camera::CameraCalibration sky_calibration, hmd_calibration;
   std::unique_ptr<geom::Dome> dome;
-  std::unique_ptr<sky::SkyEstimator> estimator;
+  // The sky: estimated here from a sky camera (sky_stage and sky_source), or taken from a sky
+  // node over the site's link (sky_link; docs/site.md). One of the two.
+  std::unique_ptr<SkyStage> sky_stage;
+  std::unique_ptr<SkyLinkReceiver> sky_link;
   std::unique_ptr<capture::FrameSource> sky_source, camera_source;
   // The ReconnectingSource inside each (the service always reopens what fails).
   const capture::ReconnectingSource* sky_reconnecting = nullptr;
@@ -156,6 +162,8 @@ struct Service::State {
   // From the camera thread receiving a frame to its composite being done (shown, recorded): the
   // part of motion-to-photon latency the service adds (docs/live.md, "Running the service").
   FrameTimes latency_times{600};
+  // From the sky node publishing a sky to the first frame composited with it (skies from the link).
+  FrameTimes sky_to_screen_times{600};
   double record_fps = 0;
   std::optional<render::PhotometricMatch> photometric;
   std::int64_t blend_skipped_layers = 0;

@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include "service_state.hpp"
+#include "skylit/sky/solar.hpp"
 #include "skylit/blend/workers.hpp"
 #include "skylit/sky/overlay.hpp"
 #include "skylit/sky/radiometry.hpp"
@@ -66,6 +67,8 @@ class Service::State::SkyThread {
   void set_up();
   std::optional<capture::Frame> next_frame();
   EstimatedSky estimate(const capture::Frame& frame);
+  void run_from_link();
+  void publish_node_status();
   bool draw_sun_map(SkyState& state);
   void blend_planes(SkyState& state);
   void publish(EstimatedSky& sky);
@@ -91,7 +94,6 @@ class Service::State::SkyThread {
   std::vector<std::shared_ptr<const std::vector<float>>> visibility;
   std::uint64_t sun_revision = 0;
   Eigen::Vector3d shadow_direction = Eigen::Vector3d::Zero();
-  std::optional<sky::SkySmoother> smoother;  // made once the thread is set up
   double last_estimate = -1e300, last_overlay = -1e300;
   std::uint64_t sequence = 0;
 };
@@ -107,7 +109,10 @@ void Service::State::SkyThread::run(std::promise<void>& ready) {
     ready.set_exception(std::current_exception());
     return;
   }
-  smoother.emplace(s.config.sky.smoothing);
+  if (s.sky_link) {
+    run_from_link();
+    return;
+  }
   while (s.running) {
     // 1. The next sky frame, when one is due (sky.rate).
     const std::optional<capture::Frame> frame = next_frame();
@@ -184,15 +189,8 @@ std::optional<capture::Frame> Service::State::SkyThread::next_frame() {
 }
 
 EstimatedSky Service::State::SkyThread::estimate(const capture::Frame& frame) {
-  const auto t0 = Clock::now();
-  sky::Exposure exposure;
-  if (frame.exposure_time) exposure.time_s = *frame.exposure_time;
-  if (frame.gain) exposure.gain = *frame.gain;
-  const int bits = frame.image.depth() == CV_16U ? 16 : 8;
-  const sky::RadianceFrame radiance =
-      frame.image.depth() == CV_32F ? sky::linearise(frame.image, sky::ResponseCurve::linear(8), exposure)
-                                    : sky::linearise(frame.image, sky::response_for(s.config.sky.response, bits), exposure);
-  sky::SkyEstimate estimate = smoother->smooth(frame.timestamp, s.estimator->estimate(radiance));
+  SkyStage::Result result = s.sky_stage->estimate(frame);
+  const sky::SkyEstimate& estimate = result.estimate;
   SkyState state;
   state.sequence = ++sequence;
   state.frame_timestamp = frame.timestamp;
@@ -208,8 +206,75 @@ EstimatedSky Service::State::SkyThread::estimate(const capture::Frame& frame) {
   state.unseen_faces = estimate.luminance.unseen_faces;
   state.bad_pixels = estimate.luminance.nan_pixels + estimate.luminance.inf_pixels + estimate.luminance.negative_pixels;
   state.clipped_pixels = estimate.luminance.clipped_pixels;
-  state.estimate_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-  return {std::move(state), radiance, std::move(estimate)};
+  state.estimate_ms = result.estimate_ms;
+  return {std::move(state), std::move(result.radiance), std::move(result.estimate)};
+}
+
+namespace {
+
+// A published sky as the render thread takes it: the same S and sun as the sky node's own.
+SkyState sky_from_message(const sky_link::SkyMessage& message) {
+  SkyState state;
+  state.sequence = message.sequence;
+  state.frame_timestamp = message.frame_timestamp;
+  if (message.utc) state.utc = std::chrono::sys_seconds(std::chrono::seconds(*message.utc));
+  state.received = now_seconds();
+  state.published = message.published;
+  state.S = message.S;
+  if (!message.sources.empty()) {  // the sun first, when there is one
+    const sky_link::PublishedSource& sun = message.sources.front();
+    state.sun = blend::SunLight{sun.direction, sun.energy};
+    state.sun_angular_radius = sun.angular_radius;
+    state.sun_clipped = sun.clipped;
+  }
+  state.sun_reason = message.sun_reason;
+  state.unseen_faces = message.unseen_faces;
+  state.bad_pixels = message.bad_pixels;
+  state.clipped_pixels = message.clipped_pixels;
+  return state;
+}
+
+}  // namespace
+
+// An HMD node: skies come from the sky node over the link; the sun's map, the blends and the
+// hand-over are as for a sky estimated here. Once a second this node's status goes out.
+void Service::State::SkyThread::run_from_link() {
+  double last_status = -1e300;
+  while (s.running) {
+    if (const double now = now_seconds(); now - last_status >= 1.0) {
+      last_status = now;
+      publish_node_status();
+    }
+    std::optional<sky_link::SkyMessage> message = s.sky_link->take(std::chrono::milliseconds(200));
+    if (!message) continue;
+    try {
+      ++s.counters.sky_frames;
+      s.sky_activity.frame();
+      EstimatedSky sky{sky_from_message(*message), {}, {}};
+      if (!draw_sun_map(sky.state)) break;
+      if (cpu) blend_planes(sky.state);
+      publish(sky);
+    } catch (const std::exception& e) {
+      ++s.counters.sky_errors;
+    }
+  }
+}
+
+// What the sky node's /site shows of this node (docs/site.md, "Node status").
+void Service::State::SkyThread::publish_node_status() {
+  const nlohmann::json report = s.status_report();
+  nlohmann::json status;
+  status["node"] = s.sky_link->node();
+  status["state"] = report["state"];
+  status["frame_rate"] = report["frame_rate"];
+  status["frame_time_ms"] = report["frame_time_ms"];
+  status["latency_ms"] = report["latency_ms"];
+  status["sky_to_screen_ms"] = report["sky_to_screen_ms"];
+  status["flags"] = report["flags"];
+  status["sky_sequence"] = report["sky"].contains("sequence") ? report["sky"]["sequence"] : nlohmann::json(nullptr);
+  status["frames"] = report["frames"];
+  status["time"] = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+  s.sky_link->publish_status(status);
 }
 
 // False when the maps are closed (the service is stopping).
@@ -262,9 +327,9 @@ void Service::State::SkyThread::publish(EstimatedSky& sky) {
     s.sky_sun_visibility_times.add(state.sun_visibility_ms / 1e3, now_seconds());
   }
   ++s.counters.sky_estimates;
-  if (s.status && state.received - last_overlay >= 1.0) {
+  if (s.status && s.sky_stage && state.received - last_overlay >= 1.0) {
     last_overlay = state.received;
-    s.sky_jpeg.set(encode_jpeg(sky::draw_sky_overlay(s.estimator->lens(), *s.dome, sky.radiance.radiance, sky.estimate)));
+    s.sky_jpeg.set(encode_jpeg(sky::draw_sky_overlay(s.sky_stage->estimator().lens(), *s.dome, sky.radiance.radiance, sky.estimate)));
   }
   {
     SkyState for_status = state;

@@ -44,6 +44,10 @@ nlohmann::json Service::State::status_report() const {
     j["frame_rate"] = frame_times.rate();
     j["frame_time_ms"] = {{"p50", 1e3 * frame_times.percentile(0.5)}, {"p99", 1e3 * frame_times.percentile(0.99)}};
     j["latency_ms"] = {{"p50", 1e3 * latency_times.percentile(0.5)}, {"p99", 1e3 * latency_times.percentile(0.99)}};
+    j["sky_to_screen_ms"] = sky_to_screen_times.count() == 0
+                                ? nlohmann::json(nullptr)
+                                : nlohmann::json{{"p50", 1e3 * sky_to_screen_times.percentile(0.5)},
+                                                 {"p99", 1e3 * sky_to_screen_times.percentile(0.99)}};
     j["sky_change_frame_ms"] = {{"p50", 1e3 * sky_change_frame_times.percentile(0.5)},
                                 {"p99", 1e3 * sky_change_frame_times.percentile(0.99)}};
     j["stage_ms_p50"] = {{"sun_shadow", 1e3 * sun_shadow_times.percentile(0.5)},
@@ -71,14 +75,28 @@ nlohmann::json Service::State::status_report() const {
   j["pose"] = pose_json;
   // How much of the building (and its shadows) the frames show: 1 tracked, 0 lost (BuildingFade).
   j["opacity"] = fade->opacity();
-  nlohmann::json sky_json = source_report(*sky_source, sky_reconnecting, sky_activity, now);
+  nlohmann::json sky_json;
+  std::vector<std::string> flags;
+  if (sky_link) {
+    // Skies from the sky node (docs/site.md): the link's state instead of a camera's.
+    sky_json = sky_link->report();
+    sky_json["source"] = "mqtt " + sky_json["broker"].get<std::string>() + " " + sky_json["topic"].get<std::string>();
+    sky_json["state"] = sky_link->connected() ? "running" : "reconnecting";
+    sky_json["reconnect_attempts"] = std::max<std::uint64_t>(sky_json["connections"].get<std::uint64_t>(), 1) - 1;
+    sky_json["seconds_since_frame"] =
+        sky_activity.last_frame < 0 ? nlohmann::json(nullptr) : nlohmann::json(now - sky_activity.last_frame);
+    sky_json["malformed"] = sky_json["dropped"]["malformed"];
+    if (!sky_link->connected()) flags.push_back("broker_unreachable");
+    if (sky_link->sky_node_offline()) flags.push_back("sky_node_offline");
+  } else {
+    sky_json = source_report(*sky_source, sky_reconnecting, sky_activity, now);
+    sky_json["malformed"] = sky_source->counts().dropped();
+  }
   sky_json["frames"] = counters.sky_frames.load();
   sky_json["estimates"] = counters.sky_estimates.load();
-  sky_json["malformed"] = sky_source->counts().dropped();
   sky_json["errors"] = counters.sky_errors.load();
-  std::vector<std::string> flags;
   if (camera_json["state"] == "reconnecting") flags.push_back("camera_reconnecting");
-  if (sky_json["state"] == "reconnecting") flags.push_back("sky_reconnecting");
+  if (sky_json["state"] == "reconnecting" && !sky_link) flags.push_back("sky_reconnecting");
   if (const auto latest = latest_sky.get()) {
     const double age = now - latest->received;
     sky_json["age_s"] = age;
@@ -167,8 +185,29 @@ std::string Service::metrics_text() const {
                double(s.camera_source->counts().dropped()), ""});
   m.push_back({"skylit_sky_frames_total", "Sky frames received.", "counter", double(s.counters.sky_frames.load()), ""});
   m.push_back({"skylit_sky_estimates_total", "Sky estimates made.", "counter", double(s.counters.sky_estimates.load()), ""});
-  m.push_back({"skylit_sky_malformed_total", "Sky frames dropped as malformed.", "counter",
-               double(s.sky_source->counts().dropped()), ""});
+  if (s.sky_source) {
+    m.push_back({"skylit_sky_malformed_total", "Sky frames dropped as malformed.", "counter",
+                 double(s.sky_source->counts().dropped()), ""});
+  }
+  if (s.sky_link) {
+    const auto drops = s.sky_link->drops();
+    for (std::size_t k = 1; k < drops.size(); ++k) {
+      const std::string reason(sky_link::drop_reason_name(static_cast<sky_link::DropReason>(k)));
+      m.push_back({"skylit_sky_messages_dropped_total", "Skies from the sky node dropped, by reason.", "counter",
+                   double(drops[k]), "reason=\"" + reason + "\""});
+    }
+    m.push_back({"skylit_sky_messages_taken_total", "Skies from the sky node taken.", "counter", double(s.sky_link->taken()), ""});
+    m.push_back({"skylit_broker_connected", "1 while connected to the site's MQTT broker.", "gauge",
+                 s.sky_link->connected() ? 1.0 : 0.0, ""});
+    if (!j["sky_to_screen_ms"].is_null()) {
+      for (const char* q : {"p50", "p99"}) {
+        m.push_back({"skylit_sky_to_screen_seconds",
+                     "From the sky node publishing a sky to the first frame composited with it, percentiles over the last 600 skies.",
+                     "gauge", j["sky_to_screen_ms"][q].get<double>() / 1e3,
+                     std::string("quantile=\"") + (q[1] == '5' ? "0.5" : "0.99") + "\""});
+      }
+    }
+  }
   m.push_back({"skylit_pose_missing_total", "Frames without a pose at their time.", "counter",
                double(s.counters.pose_missing.load()), ""});
   m.push_back({"skylit_blends_total", "Plane blends run.", "counter", double(s.counters.blends_run.load()), "result=\"run\""});

@@ -55,12 +55,19 @@ StatusServer::StatusServer(const std::string& address, int port, StatusHandlers 
   s->server.Get("/frame.jpg", [s](const httplib::Request&, httplib::Response& response) {
     serve_jpeg(s->handlers.frame_jpeg, response);
   });
-  s->server.Get("/", [](const httplib::Request&, httplib::Response& response) {
-    response.set_content(
-        "<!doctype html><title>skylit-live</title><h1>skylit-live</h1>"
-        "<p><a href=/status>/status</a> · <a href=/metrics>/metrics</a></p>"
-        "<img src=/frame.jpg width=640> <img src=/sky.jpg width=320>",
-        "text/html");
+  if (s->handlers.site_json) {
+    s->server.Get("/site", [s](const httplib::Request&, httplib::Response& response) {
+      response.set_header("Cache-Control", "no-store");
+      response.set_content(s->handlers.site_json(), "application/json");
+    });
+  }
+  s->server.Get("/", [s](const httplib::Request&, httplib::Response& response) {
+    const std::string& title = s->handlers.title;
+    response.set_content("<!doctype html><title>" + title + "</title><h1>" + title +
+                             "</h1><p><a href=/status>/status</a> · <a href=/metrics>/metrics</a>" +
+                             (s->handlers.site_json ? " · <a href=/site>/site</a>" : "") + "</p>" +
+                             (s->handlers.frame_jpeg ? "<img src=/frame.jpg width=640> " : "") + "<img src=/sky.jpg width=320>",
+                         "text/html");
   });
   // SO_REUSEADDR only: httplib's default adds SO_REUSEPORT, which would let a second service
   // share the port silently instead of failing.

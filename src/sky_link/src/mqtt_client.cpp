@@ -2,7 +2,9 @@
 
 #include <mosquitto.h>
 
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <condition_variable>
 #include <mutex>
 #include <thread>
@@ -31,6 +33,7 @@ struct MqttClient::State {
   mutable std::condition_variable changed;
   bool connected = false;
   std::uint64_t connections = 0;
+  std::string last_error;
   std::vector<std::pair<std::string, Handler>> subscriptions;
   // Until the first connection the starter thread tries with the backoff (libmosquitto's own
   // thread retries only a connection once made); then libmosquitto's thread takes over.
@@ -44,7 +47,9 @@ struct MqttClient::State {
       const int rc = mosquitto_connect(client, settings.host.c_str(), settings.port, settings.keepalive_s);
       std::unique_lock lock(mutex);
       if (stopping) return;
+      last_error = rc == MOSQ_ERR_ERRNO ? std::strerror(errno) : mosquitto_strerror(rc);
       if (rc == MOSQ_ERR_SUCCESS) {
+        last_error.clear();
         loop_running = mosquitto_loop_start(client) == MOSQ_ERR_SUCCESS;
         return;
       }
@@ -60,16 +65,18 @@ struct MqttClient::State {
       std::lock_guard lock(mutex);
       connected = rc == 0;
       if (connected) ++connections;
+      last_error = connected ? std::string() : std::string("broker refused: ") + mosquitto_connack_string(rc);
       for (const auto& s : subscriptions) filters.push_back(s.first);
     }
     changed.notify_all();
     if (rc != 0) return;
     for (const std::string& f : filters) mosquitto_subscribe(client, nullptr, f.c_str(), 1);
   }
-  void on_disconnect() {
+  void on_disconnect(int rc) {
     {
       std::lock_guard lock(mutex);
       connected = false;
+      if (rc != 0 && last_error.empty()) last_error = "connection lost";
     }
     changed.notify_all();
   }
@@ -108,6 +115,17 @@ MqttClient::MqttClient(MqttSettings settings) : state_(std::make_unique<State>()
     mosquitto_username_pw_set(s.client, s.settings.username.c_str(),
                               s.settings.password.empty() ? nullptr : s.settings.password.c_str());
   }
+  if (const MqttTls& tls = s.settings.tls; !tls.ca_file.empty()) {
+    // The broker's certificate is checked against ca_file; a client certificate is optional.
+    const int rc = mosquitto_tls_set(s.client, tls.ca_file.c_str(), nullptr,
+                                     tls.cert_file.empty() ? nullptr : tls.cert_file.c_str(),
+                                     tls.key_file.empty() ? nullptr : tls.key_file.c_str(), nullptr);
+    if (rc != MOSQ_ERR_SUCCESS) {
+      mosquitto_destroy(s.client);
+      throw InputError("MQTT TLS (ca_file " + tls.ca_file + (tls.cert_file.empty() ? "" : ", cert_file " + tls.cert_file) +
+                       "): " + mosquitto_strerror(rc) + ". Fix: give readable PEM files (the key with its certificate)");
+    }
+  }
   if (s.settings.will) {
     const MqttWill& w = *s.settings.will;
     mosquitto_will_set(s.client, w.topic.c_str(), static_cast<int>(w.payload.size()), w.payload.data(), 1, w.retain);
@@ -115,7 +133,7 @@ MqttClient::MqttClient(MqttSettings settings) : state_(std::make_unique<State>()
   const auto seconds = [](double x) { return static_cast<unsigned>(std::max(1.0, x + 0.5)); };
   mosquitto_reconnect_delay_set(s.client, seconds(s.settings.reconnect_min_s), seconds(s.settings.reconnect_max_s), true);
   mosquitto_connect_callback_set(s.client, [](mosquitto*, void* self, int rc) { static_cast<State*>(self)->on_connect(rc); });
-  mosquitto_disconnect_callback_set(s.client, [](mosquitto*, void* self, int) { static_cast<State*>(self)->on_disconnect(); });
+  mosquitto_disconnect_callback_set(s.client, [](mosquitto*, void* self, int rc) { static_cast<State*>(self)->on_disconnect(rc); });
   mosquitto_message_callback_set(s.client, [](mosquitto*, void* self, const mosquitto_message* m) {
     static_cast<State*>(self)->on_message(m);
   });
@@ -175,6 +193,11 @@ bool MqttClient::wait_connected(double seconds) const {
 
 std::string MqttClient::address() const {
   return state_->settings.host + ":" + std::to_string(state_->settings.port);
+}
+
+std::string MqttClient::last_error() const {
+  std::lock_guard lock(state_->mutex);
+  return state_->last_error;
 }
 
 }  // namespace skylit::sky_link

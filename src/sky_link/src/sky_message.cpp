@@ -61,9 +61,13 @@ SkyMessage parse(const json& root) {
   m.identity.layers = static_cast<int>(integer(field(identity, "layers"), "identity.layers", 1, 1 << 20));
 
   m.sequence = static_cast<std::uint64_t>(integer(field(root, "sequence"), "sequence", 0, INT64_MAX));
+  if (const auto it = root.find("run"); it != root.end() && !it->is_null()) m.run = integer(*it, "run", 0, INT64_MAX);
   m.frame_timestamp = finite_number(field(root, "frame_timestamp"), "frame_timestamp");
   if (const auto it = root.find("utc"); it != root.end() && !it->is_null()) {
     m.utc = integer(*it, "utc", INT64_MIN, INT64_MAX);
+  }
+  if (const auto it = root.find("published"); it != root.end() && !it->is_null()) {
+    m.published = finite_number(*it, "published");
   }
   const json& S = field(root, "S");
   if (!S.is_array() || S.size() != 3 * static_cast<std::size_t>(m.identity.layers)) {
@@ -136,8 +140,10 @@ std::vector<std::uint8_t> encode_sky_message(const SkyMessage& m) {
         {"basis", std::string(geom::basis_name(m.identity.basis))},
         {"layers", m.identity.layers}}},
       {"sequence", m.sequence},
+      {"run", m.run},
       {"frame_timestamp", m.frame_timestamp},
       {"utc", m.utc ? json(*m.utc) : json(nullptr)},
+      {"published", m.published ? json(*m.published) : json(nullptr)},
       {"S", std::move(S)},
       {"sources", std::move(sources)},
       {"sun_reason", m.sun_reason},
@@ -162,7 +168,7 @@ std::string_view drop_reason_name(DropReason reason) {
 }
 
 DecodedSky decode_sky_message(std::span<const std::uint8_t> bytes, const SkyIdentity& expected,
-                              std::optional<std::uint64_t> last_sequence) {
+                              std::optional<SkyOrder> last) {
   DecodedSky result;
   const auto drop = [&result](DropReason reason, std::string detail) {
     result.dropped = reason;
@@ -201,9 +207,13 @@ DecodedSky decode_sky_message(std::span<const std::uint8_t> bytes, const SkyIden
   if (const auto difference = identity_difference(message.identity, expected)) {
     return drop(difference->first, difference->second);
   }
-  if (last_sequence && message.sequence <= *last_sequence) {
+  if (last && message.run < last->run) {
+    return drop(DropReason::OutOfOrder, "from the sky node's run " + std::to_string(message.run) + ", after run " +
+                                            std::to_string(last->run));
+  }
+  if (last && message.run == last->run && message.sequence <= last->sequence) {
     return drop(DropReason::OutOfOrder, "sequence " + std::to_string(message.sequence) + " after " +
-                                            std::to_string(*last_sequence));
+                                            std::to_string(last->sequence));
   }
   result.message = std::move(message);
   return result;

@@ -10,13 +10,25 @@
 #include "skylit/base/presets.hpp"
 #include "skylit/blend/forms.hpp"
 #include "skylit/capture/config.hpp"
+#include "skylit/sky_link/mqtt_client.hpp"
 #include "skylit/track/fusion.hpp"
 #include "skylit/track/imu.hpp"
 #include "skylit/track/pose.hpp"
 
 namespace skylit::live {
 
+// A node's link to the site's broker (docs/site.md): an HMD node's `sky.source: {kind: mqtt, ...}`,
+// a sky node's `link:`.
+struct LinkSettings {
+  sky_link::MqttSettings mqtt;   // the broker (host, port), credentials, TLS
+  std::string topic;             // the site's topic root; empty: skylit/<the site's name>
+  std::string node;              // this node's name under ROOT/nodes; empty: the host name
+};
+
 struct SkySettings {
+  // With `source: {kind: mqtt, ...}` (an HMD node): the skies a sky node publishes, instead of a
+  // camera of its own; calibration, response, rate, sun and smoothing are then the sky node's.
+  std::optional<LinkSettings> link;
   std::filesystem::path calibration;
   capture::SourceConfig source;
   std::string response = "srgb";      // srgb | linear | a response file (skylit-sky response)
@@ -98,7 +110,9 @@ struct DisplaySettings {
 //                                       # skip_threshold, change_threshold; keys given here override it
 //   sky:
 //     calibration: sky_camera.yaml
-//     source: {kind: sky-sim, ...}      # capture::SourceConfig (docs/live.md, "Frame sources")
+//     source: {kind: sky-sim, ...}      # capture::SourceConfig (docs/live.md, "Frame sources"), or
+//                                       # {kind: mqtt, broker: HOST:PORT, ...}: a sky node's skies
+//                                       # (LinkSettings, docs/site.md; calibration not needed)
 //     response: srgb | linear | FILE    # 8/16-bit frames: how codes become radiance (default srgb)
 //     rate: 1                           # sky estimates per second at most (0: every frame)
 //     sun: auto | off
@@ -184,5 +198,30 @@ std::filesystem::path presets_file_for(const std::filesystem::path& config_file)
 
 // InputError naming the file, line, column and field, with the fix, for anything wrong.
 LiveConfig load_live_config(const std::filesystem::path& file);
+
+// skylit-sky-node's configuration (docs/site.md): the sky stage of a skylit-live config and the
+// broker it publishes to.
+//
+//   site: sample_site.yaml
+//   bake: ../build/demo/bake     # what the skies are computed for: the dome (ν, basis, layers)
+//   preset: balanced             # optional, as skylit-live's: sky.sun and sky.smoothing
+//   sky: {calibration: ..., source: ..., response: ..., rate: 1, sun: auto, smoothing: 0}
+//   link: {broker: 127.0.0.1:1883, topic: skylit/sample-gate, node: sky, username: ..., password_file: ...,
+//          tls: {ca_file: ..., cert_file: ..., key_file: ...}, keepalive_s: 10}
+//   status: {listen: 127.0.0.1:8090}
+struct SkyNodeConfig {
+  std::filesystem::path file;
+  std::filesystem::path site;
+  std::filesystem::path bake;
+  std::string preset;
+  SkySettings sky;
+  LinkSettings link;
+  std::optional<std::string> status_listen;
+};
+SkyNodeConfig load_sky_node_config(const std::filesystem::path& file);
+
+// A site's name on the link (the sky's identity, the default topic root): its file's name
+// without the extension, e.g. "sample_site".
+std::string site_name_of(const std::filesystem::path& site_file);
 
 }  // namespace skylit::live

@@ -15,6 +15,8 @@ struct StatusHandlers {
   std::function<std::string()> metrics_text;
   std::function<std::vector<std::uint8_t>()> sky_jpeg;    // empty: 503 (no sky yet)
   std::function<std::vector<std::uint8_t>()> frame_jpeg;  // empty: 503 (no frame yet)
+  std::function<std::string()> site_json;                 // /site (the sky node): unset, no such page
+  std::string title = "skylit-live";                      // the index page's
 };
 
 class StatusServer {

@@ -17,12 +17,20 @@ struct MqttWill {
   bool retain = true;
 };
 
+// TLS to the broker (mosquitto's listener with cafile/certfile/keyfile): off while ca_file is empty.
+struct MqttTls {
+  std::string ca_file;    // PEM: the authority the broker's certificate is checked against
+  std::string cert_file;  // PEM: this client's certificate, for a broker that requires one
+  std::string key_file;   // PEM: its key (unencrypted)
+};
+
 struct MqttSettings {
   std::string host = "127.0.0.1";
   int port = 1883;
   std::string client_id;          // empty: the broker picks one
   std::string username;           // empty: anonymous
   std::string password;
+  MqttTls tls;
   std::optional<MqttWill> will;   // sent by the broker when this client vanishes without a goodbye
   int keepalive_s = 10;           // the broker declares the client gone after 1.5 × this of silence
   double reconnect_min_s = 0.5;   // backoff between attempts, doubling up to the max
@@ -53,6 +61,9 @@ class MqttClient {
   // Blocks until connected or `seconds` passed; true when connected.
   bool wait_connected(double seconds) const;
   std::string address() const;      // "host:port"
+  // Why the last attempt failed or the connection ended ("connection refused", "not authorised");
+  // empty while connected.
+  std::string last_error() const;
 
  private:
   struct State;

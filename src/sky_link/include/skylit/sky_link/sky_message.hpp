@@ -38,8 +38,14 @@ struct SkyIdentity {
 struct SkyMessage {
   SkyIdentity identity;
   std::uint64_t sequence = 0;          // increases with every sky the node publishes
+  // The sky node's run: its start, microseconds since 1970. A sky node that replaces another (or
+  // restarts) starts its sequence again under a later run.
+  std::int64_t run = 0;
   double frame_timestamp = 0;          // the sky frame's own time, seconds
   std::optional<std::int64_t> utc;     // its wall-clock time, seconds since 1970, when known
+  // When the sky node published it (system clock, seconds since 1970): a node on a synchronised
+  // clock measures sky to screen from it. Optional (absent in a message of an older sky node).
+  std::optional<double> published;
   std::vector<Eigen::Vector3d> S;      // one RGB per layer
   std::vector<PublishedSource> sources;
   std::string sun_reason;              // why there is (no) sun
@@ -60,9 +66,17 @@ struct DecodedSky {
   std::string detail;                  // for the log: what was wrong, e.g. "dome frequency: sky 4, bake 2"
 };
 
-// Decodes and checks a message against the node's own identity and the last sequence it took
-// (none yet: nullopt). Every field is checked (types, sizes, finite values, unit directions).
+// Where a sky stands in time: a later run, or the same run and a higher sequence, is newer.
+struct SkyOrder {
+  SkyOrder(std::uint64_t sequence_ = 0, std::int64_t run_ = 0) : sequence(sequence_), run(run_) {}  // NOLINT: a sequence alone reads as one
+  std::uint64_t sequence;
+  std::int64_t run;
+};
+
+// Decodes and checks a message against the node's own identity and the last sky it took (none
+// yet: nullopt); a sky not newer than that is dropped (OutOfOrder). Every field is checked (types,
+// sizes, finite values, unit directions).
 DecodedSky decode_sky_message(std::span<const std::uint8_t> bytes, const SkyIdentity& expected,
-                              std::optional<std::uint64_t> last_sequence);
+                              std::optional<SkyOrder> last);
 
 }  // namespace skylit::sky_link

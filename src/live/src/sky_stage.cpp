@@ -1,0 +1,39 @@
+#include "sky_stage.hpp"
+
+#include <chrono>
+
+#include <opencv2/core.hpp>
+
+namespace skylit::live {
+namespace {
+
+sky::SkyEstimateOptions estimate_options(geom::DomeBasis basis, const SkySettings& settings) {
+  sky::SkyEstimateOptions options;
+  options.sun_mode = settings.sun ? sky::SunMode::Auto : sky::SunMode::Off;
+  options.table.basis = basis;
+  return options;
+}
+
+}  // namespace
+
+SkyStage::SkyStage(const camera::CameraCalibration& calibration, const geom::Dome& dome, geom::DomeBasis basis,
+                   const SkySettings& settings)
+    : response_(settings.response),
+      estimator_(std::make_unique<sky::SkyEstimator>(calibration, dome, estimate_options(basis, settings))),
+      smoother_(settings.smoothing) {}
+
+SkyStage::Result SkyStage::estimate(const capture::Frame& frame) {
+  const auto start = std::chrono::steady_clock::now();
+  sky::Exposure exposure;
+  if (frame.exposure_time) exposure.time_s = *frame.exposure_time;
+  if (frame.gain) exposure.gain = *frame.gain;
+  const int bits = frame.image.depth() == CV_16U ? 16 : 8;
+  Result r;
+  r.radiance = frame.image.depth() == CV_32F ? sky::linearise(frame.image, sky::ResponseCurve::linear(8), exposure)
+                                              : sky::linearise(frame.image, sky::response_for(response_, bits), exposure);
+  r.estimate = smoother_.smooth(frame.timestamp, estimator_->estimate(r.radiance));
+  r.estimate_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return r;
+}
+
+}  // namespace skylit::live

@@ -1,0 +1,39 @@
+#pragma once
+// The sky stage: a sky frame → radiance → S and the separated sun, smoothed over time. One code
+// path for skylit-live's sky thread and skylit-sky-node, so that a sky published over the link is
+// the one the service would have estimated in-process.
+#include <memory>
+#include <string>
+
+#include "skylit/camera/calibration.hpp"
+#include "skylit/capture/frame_source.hpp"
+#include "skylit/geom/dome.hpp"
+#include "skylit/live/live_config.hpp"
+#include "skylit/sky/radiometry.hpp"
+#include "skylit/sky/sky_estimate.hpp"
+#include "skylit/sky/sky_smoothing.hpp"
+
+namespace skylit::live {
+
+class SkyStage {
+ public:
+  struct Result {
+    sky::RadianceFrame radiance;  // what the overlay is drawn from
+    sky::SkyEstimate estimate;    // smoothed
+    double estimate_ms = 0;       // linearise, estimate and smooth
+  };
+
+  // InputError for a calibration whose mask cannot be read, or a bad smoothing constant.
+  SkyStage(const camera::CameraCalibration& calibration, const geom::Dome& dome, geom::DomeBasis basis,
+           const SkySettings& settings);
+
+  Result estimate(const capture::Frame& frame);
+  const sky::SkyEstimator& estimator() const { return *estimator_; }
+
+ private:
+  std::string response_;
+  std::unique_ptr<sky::SkyEstimator> estimator_;
+  sky::SkySmoother smoother_;
+};
+
+}  // namespace skylit::live
