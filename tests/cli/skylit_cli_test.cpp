@@ -96,6 +96,7 @@ INSTANTIATE_TEST_SUITE_P(
         Program{"skylit-camera-sim", "--calib @MISSING@ -o @DIR@/out"},
         Program{"skylit-contact-sheet", "@MISSING@ -o @DIR@/sheet.png"},
         Program{"skylit-live", "@MISSING@"},
+        Program{"skylit-sky-node", "@MISSING@"},
         Program{"skylit-bench", "trade --site @MISSING@ --out @DIR@/trade"}),
     [](const ::testing::TestParamInfo<Program>& param_info) {
       std::string name = param_info.param.name.substr(std::string("skylit-").size());

@@ -6,15 +6,20 @@
 
 #include <chrono>
 #include <condition_variable>
+#include <cstdlib>
+#include <filesystem>
+#include <thread>
 #include <mutex>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 
+#include "skylit/base/error.hpp"
 #include "skylit/sky_link/mqtt_client.hpp"
 #include "skylit/sky_link/sky_message.hpp"
 #include "../support/mosquitto_broker.hpp"
+#include "../support/temp_dir.hpp"
 
 namespace skylit::sky_link {
 namespace {
@@ -152,6 +157,60 @@ TEST(MqttClient, SettingsThatCanNeverWorkAreInputErrors) {
   s.port = 1883;
   s.keepalive_s = 1;
   EXPECT_THROW(MqttClient{s}, InputError);
+}
+
+// A locked-down broker (docs/site.md, "TLS and credentials"): TLS with a certificate of a test
+// authority, no anonymous clients, mosquitto's own password file. The credentials and the
+// authority pass through to the broker: the right ones connect, a wrong password is told why.
+TEST(MqttClient, TlsAndAPasswordFileArePassedToTheBroker) {
+  const test::TempDir dir("skylit_tls_");
+  const std::string d = dir.path().string();
+  const std::string make =
+      "cd '" + d + "' && openssl req -x509 -newkey rsa:2048 -nodes -keyout ca.key -out ca.crt -days 2 -subj /CN=skylit-test-ca "
+      "&& openssl req -newkey rsa:2048 -nodes -keyout broker.key -out broker.csr -subj /CN=127.0.0.1 "
+      "&& printf 'subjectAltName=IP:127.0.0.1' > san && openssl x509 -req -in broker.csr -CA ca.crt -CAkey ca.key "
+      "-CAcreateserial -out broker.crt -days 2 -extfile san && mosquitto_passwd -b -c passwd sky-node right-secret "
+      "&& chmod 755 . && chmod 644 *";  // mosquitto may read them as its own user
+  ASSERT_EQ(std::system(("(" + make + ") > '" + d + "/make.log' 2>&1").c_str()), 0) << "openssl or mosquitto_passwd failed: see " << d << "/make.log";
+  MosquittoBroker broker("cafile " + d + "/ca.crt\ncertfile " + d + "/broker.crt\nkeyfile " + d +
+                         "/broker.key\nallow_anonymous false\npassword_file " + d + "/passwd\n");
+
+  MqttSettings right = at(broker, "sky-node");
+  right.username = "sky-node";
+  right.password = "right-secret";
+  right.tls.ca_file = d + "/ca.crt";
+  MqttClient node(right);
+  Inbox inbox;
+  node.subscribe("skylit/tls/sky", inbox.handler());
+  ASSERT_TRUE(node.wait_connected(15)) << node.last_error();
+  ASSERT_TRUE(node.publish("skylit/tls/sky", std::string("over TLS"), false));
+  const auto got = inbox.wait_for(1);
+  ASSERT_TRUE(got);
+  EXPECT_EQ(text(got->payload), "over TLS");
+
+  MqttSettings wrong = right;
+  wrong.client_id = "intruder";
+  wrong.password = "wrong-secret";
+  MqttClient intruder(wrong);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(15);
+  while (intruder.last_error().empty() && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_FALSE(intruder.connected());
+  EXPECT_NE(intruder.last_error().find("not authori"), std::string::npos) << intruder.last_error();
+
+  MqttSettings anonymous = at(broker, "anonymous");  // TLS but no user: refused too
+  anonymous.tls.ca_file = d + "/ca.crt";
+  MqttClient stranger(anonymous);
+  const auto deadline2 = std::chrono::steady_clock::now() + std::chrono::seconds(15);
+  while (stranger.last_error().empty() && std::chrono::steady_clock::now() < deadline2) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_FALSE(stranger.connected());
+
+  MqttSettings missing = right;
+  missing.tls.ca_file = d + "/no-such-ca.crt";
+  EXPECT_THROW(MqttClient{missing}, InputError);
 }
 
 }  // namespace

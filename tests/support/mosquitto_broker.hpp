@@ -23,12 +23,12 @@ class MosquittoBroker {
  public:
   static constexpr const char* kProgram = "/usr/sbin/mosquitto";
 
-  MosquittoBroker() : port_(free_port()) {
+  // `settings`: the listener's lines after `listener PORT 127.0.0.1` (TLS files, a password file).
+  explicit MosquittoBroker(const std::string& settings = "allow_anonymous true\n") : port_(free_port()) {
     if (!std::filesystem::exists(kProgram)) {
       throw std::runtime_error(std::string(kProgram) + " is missing: install Debian's mosquitto (scripts/install-deps.sh)");
     }
-    config_ = dir_.write("mosquitto.conf", "listener " + std::to_string(port_) +
-                                               " 127.0.0.1\nallow_anonymous true\npersistence false\n");
+    config_ = dir_.write("mosquitto.conf", "listener " + std::to_string(port_) + " 127.0.0.1\n" + settings + "persistence false\n");
     start();
   }
   ~MosquittoBroker() { stop(); }

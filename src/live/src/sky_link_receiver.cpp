@@ -46,6 +46,15 @@ void SkyLinkReceiver::on_sky(std::span<const std::uint8_t> payload) {
     last = last_;
   }
   sky_link::DecodedSky decoded = sky_link::decode_sky_message(payload, identity_, last);
+  if (decoded.dropped == sky_link::DropReason::OutOfOrder && last) {
+    // The sky node publishes its newest sky again after each reconnection (a restarted broker
+    // has lost the retained one): the very sky taken already is a repeat, not a sky out of order.
+    const sky_link::DecodedSky again = sky_link::decode_sky_message(payload, identity_, std::nullopt);
+    if (again.message && again.message->run == last->run && again.message->sequence == last->sequence) {
+      ++repeated_;
+      return;
+    }
+  }
   std::lock_guard lock(mutex_);
   if (!decoded.message) {
     ++drops_[static_cast<std::size_t>(decoded.dropped)];
@@ -88,6 +97,7 @@ nlohmann::json SkyLinkReceiver::report() const {
   std::lock_guard lock(mutex_);
   j["sky_node"] = sky_node_state_;
   j["skies_taken"] = taken_.load();
+  j["skies_repeated"] = repeated_.load();  // the sky taken already, published again after a reconnection
   nlohmann::json dropped = nlohmann::json::object();
   for (std::size_t k = 1; k < drops_.size(); ++k) {
     dropped[std::string(sky_link::drop_reason_name(static_cast<sky_link::DropReason>(k)))] = drops_[k];

@@ -64,6 +64,7 @@ class SkyLinkReceiver {
   std::string sky_node_state_ = "unknown";   // online | offline | unknown (nothing heard)
   std::vector<std::uint8_t> overlay_;
   std::atomic<std::uint64_t> taken_{0};
+  std::atomic<std::uint64_t> repeated_{0};
   sky_link::MqttClient client_;              // last: its thread calls into the members above
 };
 

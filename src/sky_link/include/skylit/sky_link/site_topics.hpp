@@ -1,10 +1,8 @@
 #pragma once
-// Where a site's nodes meet on the broker (docs/site.md, "Topics"): under one root per site,
-// skylit/<site> by default,
-//   ROOT/sky           the latest sky (retained, CBOR: sky_message.hpp)
-//   ROOT/sky/overlay   the sky node's dome overlay, once a second (retained, JPEG)
-//   ROOT/sky/state     the sky node's "online", or its last will "offline" (retained)
-//   ROOT/nodes/NODE    each HMD node's status once a second, or its will {"state": "offline"} (retained, JSON)
+// Where a site's nodes meet on the broker, under one root per site (docs/site.md, "Topics"):
+// ROOT/sky (the latest sky, CBOR), ROOT/sky/overlay (JPEG, once a second), ROOT/sky/state (the
+// sky node's "online" or its will "offline"), ROOT/nodes/NODE (each HMD node's status, JSON, or its
+// will). All retained.
 #include <string>
 #include <utility>
 
