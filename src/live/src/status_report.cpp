@@ -44,10 +44,12 @@ nlohmann::json Service::State::status_report() const {
     j["frame_rate"] = frame_times.rate();
     j["frame_time_ms"] = {{"p50", 1e3 * frame_times.percentile(0.5)}, {"p99", 1e3 * frame_times.percentile(0.99)}};
     j["latency_ms"] = {{"p50", 1e3 * latency_times.percentile(0.5)}, {"p99", 1e3 * latency_times.percentile(0.99)}};
-    j["sky_to_screen_ms"] = sky_to_screen_times.count() == 0
-                                ? nlohmann::json(nullptr)
-                                : nlohmann::json{{"p50", 1e3 * sky_to_screen_times.percentile(0.5)},
-                                                 {"p99", 1e3 * sky_to_screen_times.percentile(0.99)}};
+    if (sky_link) {  // skies from a sky node: from its publishing a sky to the first frame with it
+      j["sky_to_screen_ms"] = sky_to_screen_times.count() == 0
+                                  ? nlohmann::json(nullptr)
+                                  : nlohmann::json{{"p50", 1e3 * sky_to_screen_times.percentile(0.5)},
+                                                   {"p99", 1e3 * sky_to_screen_times.percentile(0.99)}};
+    }
     j["sky_change_frame_ms"] = {{"p50", 1e3 * sky_change_frame_times.percentile(0.5)},
                                 {"p99", 1e3 * sky_change_frame_times.percentile(0.99)}};
     j["stage_ms_p50"] = {{"sun_shadow", 1e3 * sun_shadow_times.percentile(0.5)},
