@@ -15,6 +15,7 @@ packages=(
   libssl-dev glslang-tools libexif-dev libcpp-httplib-dev
   libmosquitto-dev mosquitto openssl
   xvfb xauth ffmpeg
+  chromium chromium-driver python3-selenium python3-pil
 )
 
 missing=()

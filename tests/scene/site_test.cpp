@@ -142,6 +142,9 @@ std::vector<BadCase> bad_cases() {
       {"missing scene", join({kGoodLines.begin() + 4, kGoodLines.end()}), 1, "scene.model",
        "missing"},
       {"missing dome", without_lines(5, 6), 1, "dome.frequency", "missing"},
+      {"latitude out of range", good_with(7, "location: {latitude: 91, longitude: 10}\nplanes:"), 7, "location.latitude", "outside [-90, 90]"},
+      {"longitude out of range", good_with(7, "location: {latitude: 1, longitude: -180.5}\nplanes:"), 7, "location.longitude", "outside [-180, 180]"},
+      {"location without longitude", good_with(7, "location: {latitude: 1}\nplanes:"), 7, "location.longitude", "missing"},
       {"missing frequency", good_with(6, "  # none"), 5, "dome.frequency", "missing"},
       {"frequency without value", good_with(6, "  frequency:"), 6, "dome.frequency",
        "has no value"},
@@ -298,6 +301,7 @@ TEST(SiteToYaml, RoundTripsExactly) {
   plane.origin = geom::Vec3(0, 0, 0);
   site.planes.push_back(plane);
   site.plane_surfaces = {PlaneSurface::Real};  // the second is left out: virtual
+  site.location = GeoLocation{-33.8567844, 151.2152967};
 
   const auto file = dir.write("config/site.yaml", site_to_yaml(site));
   const Site back = load_site(file);
@@ -318,6 +322,9 @@ TEST(SiteToYaml, RoundTripsExactly) {
   }
   EXPECT_EQ(back.surface_of(0), PlaneSurface::Real);
   EXPECT_EQ(back.surface_of(1), PlaneSurface::Virtual);
+  ASSERT_TRUE(back.location);
+  EXPECT_EQ(back.location->latitude_deg, site.location->latitude_deg);
+  EXPECT_EQ(back.location->longitude_deg, site.location->longitude_deg);
 }
 
 // The writer's quoting once escaped only quotes and backslashes: a newline came back as a space.

@@ -39,7 +39,7 @@ BlendDevice parse_blend_device(const YamlReader& r, const YAML::Node& node, cons
 constexpr std::array<std::string_view, 2> kPhotometricKeys{"scale", "estimate"};
 constexpr std::array<std::string_view, 4> kEstimateKeys{"plane", "region", "albedo", "every"};
 constexpr std::array<std::string_view, 2> kOutputKeys{"record", "window"};
-constexpr std::array<std::string_view, 1> kStatusKeys{"listen"};
+constexpr std::array<std::string_view, 3> kStatusKeys{"listen", "token_file", "allow_unauthenticated"};
 constexpr std::array<std::string_view, 3> kDisplayKeys{"profile", "monitor", "mode"};
 constexpr std::array<std::string_view, 2> kDisplayModes{"mono", "stereo"};
 
@@ -364,6 +364,16 @@ void parse_status(const YamlReader& r, const YAML::Node& root, LiveConfig& c) {
     r.check_keys(status, "status.", kStatusKeys);
     c.status_listen = r.text(r.require(status, "listen", "status.listen", "ADDR:PORT, e.g. 127.0.0.1:8080"),
                              "status.listen", "ADDR:PORT");
+    if (auto n = YamlReader::optional(status, "token_file")) {
+      c.status_access.token_file = r.path(n, "status.token_file", "a file holding the console's token");
+      if (!std::filesystem::is_regular_file(c.status_access.token_file)) {
+        r.fail(n, "status.token_file", "no file at " + c.status_access.token_file.string(),
+               "write a secret to it, e.g. head -c 24 /dev/urandom | base64 > FILE; chmod 600 FILE");
+      }
+    }
+    if (auto n = YamlReader::optional(status, "allow_unauthenticated")) {
+      c.status_access.allow_unauthenticated = r.boolean(n, "status.allow_unauthenticated", "true or false");
+    }
   }
 }
 
@@ -408,6 +418,7 @@ SkyNodeConfig load_sky_node_config(const std::filesystem::path& file) {
   n.preset = c.preset;
   n.sky = c.sky;
   n.status_listen = c.status_listen;
+  n.status_access = c.status_access;
   n.link = parse_link(r, r.require(root, "link", "link", "the broker to publish to, e.g. link: {broker: 127.0.0.1:1883}"), "link");
   if (auto kind = YamlReader::optional(root["link"], "kind")) r.fail(kind, "link.kind", "is not a field of link", "remove it");
   return n;

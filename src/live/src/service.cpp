@@ -142,7 +142,12 @@ Service::Service(const LiveConfig& config, const ServiceOptions& options) : stat
     handlers.sky_jpeg = [self] {
       return self->sky_link ? self->sky_link->overlay() : self->sky_jpeg.get().value_or(std::vector<std::uint8_t>{});
     };
-    handlers.frame_jpeg = [self] { return encode_jpeg(self->latest_frame.get().value_or(cv::Mat())); };
+    handlers.frame_jpeg = [self] { return self->frame_jpeg.get(self->latest_frame); };
+    s.bake_info = std::make_unique<BakeInfo>(config.bake, s.manifest, config.site);
+    handlers.bake_json = [self] { return self->bake_info->report().dump(2) + "\n"; };
+    handlers.bake_preview = [self](const std::string& name) { return self->bake_info->preview(name); };
+    handlers.title = config.sky.link ? "skylit-live " + s.sky_link->node() : "skylit-live";
+    handlers.token = status_token(host, config.status_access.token_file, config.status_access.allow_unauthenticated, "skylit-live");
     s.status = std::make_unique<StatusServer>(host, port, handlers);
   }
 }

@@ -17,6 +17,8 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core/mat.hpp>
 
+#include "bake_info.hpp"
+#include "jpeg_cache.hpp"
 #include "live_tracking.hpp"
 #include "service_metrics.hpp"
 #include "sky_link_receiver.hpp"
@@ -94,6 +96,15 @@ struct SharedCpuBlend {
 };
 
 
+// The sun a sky frame should show, for the console's aim check (docs/console.md): its elevation
+// and azimuth at the frame's time from the site's location, and its angle to the sun found
+// (`found`, a unit direction). Null without a location or a time.
+nlohmann::json expected_sun(const scene::Site& site, const std::optional<std::chrono::sys_seconds>& utc,
+                            const std::optional<Eigen::Vector3d>& found);
+
+// A sun's direction as /status shows it (direction, elevation, azimuth).
+nlohmann::json sun_direction_json(const Eigen::Vector3d& direction);
+
 // The image as a JPEG for /sky.jpg and /frame.jpg; empty for an empty image.
 std::vector<std::uint8_t> encode_jpeg(const cv::Mat& image);
 
@@ -168,6 +179,8 @@ struct Service::State {
   std::optional<render::PhotometricMatch> photometric;
   std::int64_t blend_skipped_layers = 0;
 
+  std::unique_ptr<BakeInfo> bake_info;  // the console's bake view
+  JpegCache frame_jpeg;                  // /frame.jpg, encoded once per new frame
   std::unique_ptr<StatusServer> status;
   std::thread sky_thread, camera_thread;
 

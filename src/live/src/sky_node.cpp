@@ -12,6 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "bake_info.hpp"
 #include "service_metrics.hpp"
 #include "service_state.hpp"
 #include "sky_stage.hpp"
@@ -21,6 +22,7 @@
 #include "skylit/live/status_server.hpp"
 #include "skylit/sky/overlay.hpp"
 #include "skylit/sky/radiometry.hpp"
+#include "skylit/sky/solar.hpp"
 #include "skylit/sky_link/mqtt_client.hpp"
 #include "skylit/sky_link/site_topics.hpp"
 #include "skylit/sky_link/sky_message.hpp"
@@ -70,6 +72,7 @@ struct SkyNode::State {
   std::string node;
   std::int64_t run = 0;  // this run's start, µs since 1970 (SkyMessage::run)
   bake_format::Manifest manifest;
+  scene::Site site;
   camera::CameraCalibration calibration;
   std::unique_ptr<geom::Dome> dome;
   std::unique_ptr<SkyStage> stage;
@@ -83,6 +86,7 @@ struct SkyNode::State {
   std::size_t message_bytes = 0;
   double last_estimate_ms = 0;
   std::optional<sky_link::SkyMessage> latest;
+  double latest_time = 0;  // steady seconds when it was estimated
   std::vector<std::uint8_t> latest_bytes, overlay;
   struct HeardNode {
     nlohmann::json status;
@@ -90,6 +94,7 @@ struct SkyNode::State {
   };
   std::map<std::string, HeardNode> nodes;
 
+  std::unique_ptr<BakeInfo> bake_info;
   std::unique_ptr<sky_link::MqttClient> client;  // after what its handlers touch
   std::unique_ptr<StatusServer> status;
 
@@ -105,6 +110,7 @@ SkyNode::SkyNode(const SkyNodeConfig& config, const SkyNodeOptions& options) : s
   s.link = with_broker(config.link, options.broker);
   check_bake_matches_site(config.bake, config.site, config.preset);
   s.manifest = bake_format::read_manifest(config.bake);
+  s.site = scene::load_site(config.site);
   s.site_name = site_name_of(config.site);
   s.identity = {s.site_name, s.manifest.plan.frequency, s.manifest.plan.basis, static_cast<int>(s.manifest.layer_count())};
   s.topics = {s.link.topic.empty() ? sky_link::default_topic_root(s.site_name) : s.link.topic};
@@ -145,6 +151,10 @@ SkyNode::SkyNode(const SkyNodeConfig& config, const SkyNodeOptions& options) : s
       std::lock_guard lock(self->mutex);
       return self->overlay;
     };
+    s.bake_info = std::make_unique<BakeInfo>(config.bake, s.manifest, config.site);
+    handlers.bake_json = [self] { return self->bake_info->report().dump(2) + "\n"; };
+    handlers.bake_preview = [self](const std::string& name) { return self->bake_info->preview(name); };
+    handlers.token = status_token(host, config.status_access.token_file, config.status_access.allow_unauthenticated, "skylit-sky-node");
     s.status = std::make_unique<StatusServer>(host, port, handlers);
   }
 }
@@ -226,6 +236,7 @@ std::int64_t SkyNode::run() {
       s.message_bytes = bytes.size();
       s.last_estimate_ms = sky.estimate_ms;
       s.latest = std::move(message);
+      s.latest_time = now;
       s.latest_bytes = std::move(bytes);
       if (!image.empty()) s.overlay = std::move(image);
       if (s.options.frames && s.published >= *s.options.frames) break;
@@ -270,13 +281,33 @@ nlohmann::json SkyNode::State::status_report() const {
   j["skies"] = {{"estimated", estimates}, {"published", published}, {"not_published", publish_failures}, {"errors", errors},
                 {"sequence", sequence}, {"run", run}, {"message_bytes", message_bytes}, {"estimate_ms", last_estimate_ms}};
   if (latest) {
+    const std::optional<std::chrono::sys_seconds> utc =
+        latest->utc ? std::optional(std::chrono::sys_seconds(std::chrono::seconds(*latest->utc))) : std::nullopt;
+    nlohmann::json S = nlohmann::json::array();
+    for (const auto& v : latest->S) S.push_back({v.x(), v.y(), v.z()});
     j["sky"] = {{"frame_timestamp", latest->frame_timestamp},
-                {"utc", latest->utc ? nlohmann::json(*latest->utc) : nlohmann::json(nullptr)},
-                {"sun", !latest->sources.empty()},
+                {"utc", utc ? nlohmann::json(sky::format_utc(*utc)) : nlohmann::json(nullptr)},
+                {"age_s", now - latest_time},
+                {"sequence", latest->sequence},
+                {"S", S},
                 {"sun_reason", latest->sun_reason},
                 {"unseen_faces", latest->unseen_faces},
                 {"bad_pixels", latest->bad_pixels},
                 {"clipped_pixels", latest->clipped_pixels}};
+    std::optional<Eigen::Vector3d> found;
+    if (!latest->sources.empty()) {
+      const sky_link::PublishedSource& sun = latest->sources.front();
+      found = sun.direction;
+      j["sky"]["sun"] = sun_direction_json(sun.direction);
+      j["sky"]["sun"]["energy"] = {sun.energy.x(), sun.energy.y(), sun.energy.z()};
+      j["sky"]["sun"]["angular_radius_deg"] = sun.angular_radius * 180 / M_PI;
+      j["sky"]["sun"]["clipped"] = sun.clipped;
+      if (sun.clipped) flags.push_back("sun_clipped");
+    } else {
+      j["sky"]["sun"] = nullptr;
+    }
+    const nlohmann::json expected = expected_sun(site, utc, found);
+    if (!expected.is_null()) j["sky"]["sun_expected"] = expected;
     if (latest->unseen_faces > 0) flags.push_back("faces_unseen");
     if (latest->bad_pixels > 0) flags.push_back("bad_pixels");
   } else {

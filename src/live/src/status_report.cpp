@@ -33,6 +33,30 @@ nlohmann::json Service::State::source_report(const capture::FrameSource& source,
   return j;
 }
 
+nlohmann::json expected_sun(const scene::Site& site, const std::optional<std::chrono::sys_seconds>& utc,
+                            const std::optional<Eigen::Vector3d>& found) {
+  if (!site.location || !utc) return nullptr;
+  const sky::SolarPosition position = sky::solar_position(*utc, site.location->latitude_deg, site.location->longitude_deg);
+  char place[64];
+  std::snprintf(place, sizeof place, "%.4f° %s, %.4f° %s", std::abs(site.location->latitude_deg),
+                site.location->latitude_deg >= 0 ? "N" : "S", std::abs(site.location->longitude_deg),
+                site.location->longitude_deg >= 0 ? "E" : "W");
+  nlohmann::json j = {{"elevation_deg", position.elevation_rad * 180 / M_PI},
+                      {"azimuth_deg", position.azimuth_rad * 180 / M_PI},
+                      {"location", place}};
+  j["offset_deg"] = found ? nlohmann::json(std::acos(std::clamp(found->normalized().dot(position.direction()), -1.0, 1.0)) * 180 / M_PI)
+                          : nlohmann::json(nullptr);
+  return j;
+}
+
+nlohmann::json sun_direction_json(const Eigen::Vector3d& d) {
+  double azimuth = std::atan2(d.x(), d.y()) * 180 / M_PI;
+  if (azimuth < 0) azimuth += 360;  // from north towards east, [0, 360), as the solar position's
+  return {{"direction", {d.x(), d.y(), d.z()}},
+          {"elevation_deg", std::asin(std::clamp(d.z(), -1.0, 1.0)) * 180 / M_PI},
+          {"azimuth_deg", azimuth}};
+}
+
 nlohmann::json Service::State::status_report() const {
   nlohmann::json j;
   const double now = now_seconds();
@@ -113,16 +137,16 @@ nlohmann::json Service::State::status_report() const {
     sky_json["sun_reason"] = latest->sun_reason;
     if (latest->sun) {
       const auto& d = latest->sun->direction;
-      sky_json["sun"] = {{"direction", {d.x(), d.y(), d.z()}},
-                         {"elevation_deg", std::asin(std::clamp(d.z(), -1.0, 1.0)) * 180 / M_PI},
-                         {"azimuth_deg", std::atan2(d.x(), d.y()) * 180 / M_PI},
-                         {"energy", {latest->sun->energy.x(), latest->sun->energy.y(), latest->sun->energy.z()}},
-                         {"angular_radius_deg", latest->sun_angular_radius * 180 / M_PI},
-                         {"clipped", latest->sun_clipped}};
+      sky_json["sun"] = sun_direction_json(d);
+      sky_json["sun"]["energy"] = {latest->sun->energy.x(), latest->sun->energy.y(), latest->sun->energy.z()};
+      sky_json["sun"]["angular_radius_deg"] = latest->sun_angular_radius * 180 / M_PI;
+      sky_json["sun"]["clipped"] = latest->sun_clipped;
       if (latest->sun_clipped) flags.push_back("sun_clipped");
     } else {
       sky_json["sun"] = nullptr;
     }
+    const nlohmann::json expected = expected_sun(site, latest->utc, latest->sun ? std::optional(latest->sun->direction) : std::nullopt);
+    if (!expected.is_null()) sky_json["sun_expected"] = expected;
     if (age > config.sky.stale_after) flags.push_back("sky_stale");
     if (latest->unseen_faces > 0) flags.push_back("faces_unseen");
     if (latest->bad_pixels > 0) flags.push_back("bad_pixels");

@@ -9,7 +9,13 @@
 #include <set>
 #include <thread>
 
+#include "skylit/base/embedded_file.hpp"
 #include "skylit/base/error.hpp"
+#include "skylit/base/files.hpp"
+
+namespace skylit {
+const EmbeddedFile* console_file(std::string_view name);  // src/live/console, built in
+}
 
 namespace skylit::live {
 
@@ -22,6 +28,51 @@ struct StatusServer::State {
 };
 
 namespace {
+
+constexpr const char* kTokenCookie = "skylit_token";
+
+// Equal without a timing that tells how much of a guess was right.
+bool same_secret(const std::string& a, const std::string& b) {
+  unsigned char differ = a.size() == b.size() ? 0 : 1;
+  for (std::size_t i = 0; i < a.size(); ++i) differ |= static_cast<unsigned char>(a[i] ^ b[i % (b.empty() ? 1 : b.size())]);
+  return differ == 0 && !b.empty();
+}
+
+// The token a request carries: Authorization: Bearer TOKEN, or the login form's cookie.
+std::string carried_token(const httplib::Request& request) {
+  const std::string authorization = request.get_header_value("Authorization");
+  if (authorization.rfind("Bearer ", 0) == 0) return authorization.substr(7);
+  const std::string cookies = request.get_header_value("Cookie");
+  const std::string key = std::string(kTokenCookie) + "=";
+  for (std::size_t start = 0; start < cookies.size();) {
+    const std::size_t end = std::min(cookies.find(';', start), cookies.size());
+    std::string pair = cookies.substr(start, end - start);
+    pair.erase(0, pair.find_first_not_of(' '));
+    if (pair.rfind(key, 0) == 0) return pair.substr(key.size());
+    start = end + 1;
+  }
+  return {};
+}
+
+std::string login_page(const std::string& title, bool failed) {
+  return "<!doctype html><html lang=en><meta charset=utf-8><meta name=viewport content='width=device-width,initial-scale=1'>"
+         "<title>" + title + ": sign in</title><link rel=stylesheet href=/console.css>"
+         "<body class=login><main><h1>" + title + "</h1>"
+         "<p>This console shows the HMD's camera: it asks for the site's console token (status.token_file).</p>" +
+         (failed ? "<p class=problem role=alert>That token is not this console's.</p>" : "") +
+         "<form id=login method=post action=/login><label for=token>Token</label>"
+         "<input id=token name=token type=password autocomplete=current-password autofocus required>"
+         "<button type=submit>Sign in</button></form></main></body></html>";
+}
+
+void serve_file(const EmbeddedFile* file, const char* type, httplib::Response& response) {
+  if (file == nullptr) {
+    response.status = 404;
+    return;
+  }
+  response.set_header("Cache-Control", "no-cache");
+  response.set_content(std::string(file->bytes), type);
+}
 
 void serve_jpeg(const std::function<std::vector<std::uint8_t>()>& source, httplib::Response& response) {
   const std::vector<std::uint8_t> bytes = source ? source() : std::vector<std::uint8_t>{};
@@ -61,14 +112,64 @@ StatusServer::StatusServer(const std::string& address, int port, StatusHandlers 
       response.set_content(s->handlers.site_json(), "application/json");
     });
   }
-  s->server.Get("/", [s](const httplib::Request&, httplib::Response& response) {
-    const std::string& title = s->handlers.title;
-    response.set_content("<!doctype html><title>" + title + "</title><h1>" + title +
-                             "</h1><p><a href=/status>/status</a> · <a href=/metrics>/metrics</a>" +
-                             (s->handlers.site_json ? " · <a href=/site>/site</a>" : "") + "</p>" +
-                             (s->handlers.frame_jpeg ? "<img src=/frame.jpg width=640> " : "") + "<img src=/sky.jpg width=320>",
-                         "text/html");
+  // The console (docs/console.md): one page, its style and script, built into the program.
+  s->server.Get("/", [](const httplib::Request&, httplib::Response& response) {
+    serve_file(console_file("index.html"), "text/html; charset=utf-8", response);
   });
+  s->server.Get("/console.css", [](const httplib::Request&, httplib::Response& response) {
+    serve_file(console_file("console.css"), "text/css; charset=utf-8", response);
+  });
+  s->server.Get("/console.js", [](const httplib::Request&, httplib::Response& response) {
+    serve_file(console_file("console.js"), "text/javascript; charset=utf-8", response);
+  });
+  s->server.Get("/console.json", [s](const httplib::Request&, httplib::Response& response) {
+    // What the page needs to know of its server before the first status.
+    response.set_content(std::string("{\"title\": \"") + s->handlers.title + "\", \"site\": " +
+                             (s->handlers.site_json ? "true" : "false") + ", \"frame\": " +
+                             (s->handlers.frame_jpeg ? "true" : "false") + ", \"bake\": " +
+                             (s->handlers.bake_json ? "true" : "false") + "}",
+                         "application/json");
+  });
+  if (s->handlers.bake_json) {
+    s->server.Get("/bake.json", [s](const httplib::Request&, httplib::Response& response) {
+      response.set_content(s->handlers.bake_json(), "application/json");
+    });
+  }
+  if (s->handlers.bake_preview) {
+    s->server.Get(R"(/bake/preview/([A-Za-z0-9_-]+)\.png)", [s](const httplib::Request& request, httplib::Response& response) {
+      const std::vector<std::uint8_t> bytes = s->handlers.bake_preview(request.matches[1]);
+      if (bytes.empty()) {
+        response.status = 404;
+        return;
+      }
+      response.set_content(std::string(bytes.begin(), bytes.end()), "image/png");
+    });
+  }
+  // Off loopback, the token: the login form sets it as a cookie; every other page asks for it.
+  if (!s->handlers.token.empty()) {
+    s->server.Post("/login", [s](const httplib::Request& request, httplib::Response& response) {
+      if (!same_secret(request.get_param_value("token"), s->handlers.token)) {
+        response.status = 401;
+        response.set_content(login_page(s->handlers.title, true), "text/html; charset=utf-8");
+        return;
+      }
+      response.set_header("Set-Cookie", std::string(kTokenCookie) + "=" + s->handlers.token +
+                                            "; Path=/; HttpOnly; SameSite=Strict; Max-Age=43200");
+      response.set_redirect("/", 303);
+    });
+    s->server.set_pre_routing_handler([s](const httplib::Request& request, httplib::Response& response) {
+      if (request.path == "/login" || request.path == "/console.css") return httplib::Server::HandlerResponse::Unhandled;
+      if (same_secret(carried_token(request), s->handlers.token)) return httplib::Server::HandlerResponse::Unhandled;
+      response.status = 401;
+      if (request.path == "/") {
+        response.set_content(login_page(s->handlers.title, false), "text/html; charset=utf-8");
+      } else {
+        response.set_header("WWW-Authenticate", "Bearer");
+        response.set_content("the console's token is needed: Authorization: Bearer TOKEN, or sign in at /\n", "text/plain");
+      }
+      return httplib::Server::HandlerResponse::Handled;
+    });
+  }
   // SO_REUSEADDR only: httplib's default adds SO_REUSEPORT, which would let a second service
   // share the port silently instead of failing.
   s->server.set_socket_options([](socket_t sock) {
@@ -121,6 +222,33 @@ std::string prometheus_text(const std::vector<Metric>& metrics) {
     out += std::string(" ").append(value).append("\n");
   }
   return out;
+}
+
+bool is_loopback_address(const std::string& host) {
+  return host == "localhost" || host == "::1" || host == "[::1]" || host.rfind("127.", 0) == 0;
+}
+
+std::string status_token(const std::string& host, const std::filesystem::path& token_file, bool allow_unauthenticated,
+                         const std::string& program) {
+  if (!token_file.empty()) {
+    std::string token = read_file(token_file);
+    while (!token.empty() && (token.back() == '\n' || token.back() == '\r' || token.back() == ' ')) token.pop_back();
+    if (token.size() < 8) {
+      throw InputError("status.token_file " + token_file.string() + ": the token is " + std::to_string(token.size()) +
+                       " characters. Fix: write a longer secret, e.g. head -c 24 /dev/urandom | base64 > " +
+                       token_file.string());
+    }
+    return token;
+  }
+  if (is_loopback_address(host)) return {};
+  if (!allow_unauthenticated) {
+    throw InputError("status.listen " + host + ": the console is reachable from other machines and shows the HMD's "
+                     "camera (visitors, staff). Fix: set status.token_file: FILE (a secret: head -c 24 /dev/urandom | "
+                     "base64 > FILE), or listen on 127.0.0.1, or set status.allow_unauthenticated: true on purpose");
+  }
+  std::fprintf(stderr, "%s: warning: the console on %s is open to anyone who reaches it (status.allow_unauthenticated)\n",
+               program.c_str(), host.c_str());
+  return {};
 }
 
 std::pair<std::string, int> parse_listen_address(const std::string& text, const std::string& what) {

@@ -223,6 +223,7 @@ Site make_sample_site(const std::filesystem::path& model) {
   site.up = UpAxis::Y;  // the sample model is written as glTF, which is y-up
   site.scale = 1.0;
   site.dome_frequency = 2;
+  site.location = GeoLocation{34.69, 135.80};  // Nara, where the demo's simulated day is
 
   // Ground: the building's footprint (|x| ≤ 13.3, |y| ≤ 4.5) plus about 6 m each way, 6.25 cm
   // texels.

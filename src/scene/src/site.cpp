@@ -25,7 +25,8 @@ constexpr double kMinPlaneArea = 1e-9;      // m²; below this a plane has no te
 constexpr double kMinPlaneSine = 1e-9;      // sin(angle between u and v); below: parallel
 constexpr std::size_t kMaxPlaneNameLength = 128;
 
-const std::array<std::string_view, 3> kTopKeys{"scene", "dome", "planes"};
+const std::array<std::string_view, 4> kTopKeys{"scene", "dome", "location", "planes"};
+const std::array<std::string_view, 2> kLocationKeys{"latitude", "longitude"};
 const std::array<std::string_view, 3> kSceneKeys{"model", "up", "scale"};
 const std::array<std::string_view, 2> kDomeKeys{"frequency", "basis"};
 const std::array<std::string_view, 6> kPlaneKeys{"name", "origin", "u", "v", "resolution", "surface"};
@@ -53,11 +54,28 @@ class SiteParser {
     site.file = r_.file();
     parse_scene(root, site);
     parse_dome(root, site);
+    parse_location(root, site);
     parse_planes(root, site);
     return site;
   }
 
  private:
+  void parse_location(const YAML::Node& root, Site& site) const {
+    const YAML::Node location = root["location"];
+    if (!location.IsDefined()) return;
+    const std::string fix = "write 'location: {latitude: 34.69, longitude: 135.80}' (degrees north and east)";
+    if (!location.IsMap()) fail(location.IsNull() ? YamlReader::key_node(root, "location") : location, "location", "expected a map", fix);
+    r_.check_keys(location, "location.", kLocationKeys);
+    GeoLocation g;
+    g.latitude_deg = r_.number(r_.require(location, "latitude", "location.latitude", fix), "location.latitude", fix);
+    g.longitude_deg = r_.number(r_.require(location, "longitude", "location.longitude", fix), "location.longitude", fix);
+    if (!(g.latitude_deg >= -90 && g.latitude_deg <= 90)) fail(location["latitude"], "location.latitude", "outside [-90, 90]", fix);
+    if (!(g.longitude_deg >= -180 && g.longitude_deg <= 180)) {
+      fail(location["longitude"], "location.longitude", "outside [-180, 180]", fix);
+    }
+    site.location = g;
+  }
+
   [[noreturn]] void fail(const YAML::Node& node, const std::string& field, const std::string& problem,
                          const std::string& fix) const {
     r_.fail(node, field, problem, fix);
@@ -295,8 +313,13 @@ std::string site_to_yaml(const Site& site) {
     out << Key << "basis" << Value << std::string(geom::basis_name(site.dome_basis))
         << Comment("radiance per face: faces (constant), corners (linear) or quadratics");
   }
-  out << YAML::EndMap
-      << YamlCommentLine{"Shadowing planes: rectangles origin + s·u + t·v (s, t in [0, 1]), normal = u × v.\n"
+  out << YAML::EndMap;
+  if (site.location) {
+    out << Key << "location" << Value << YAML::BeginMap << Key << "latitude" << Value
+        << YamlNumber{site.location->latitude_deg} << Key << "longitude" << Value << YamlNumber{site.location->longitude_deg}
+        << YAML::EndMap << Comment("degrees north and east: where the sun should be, for the console's aim check");
+  }
+  out << YamlCommentLine{"Shadowing planes: rectangles origin + s·u + t·v (s, t in [0, 1]), normal = u × v.\n"
                          "Texel (col, row) has its centre at origin + (col+0.5)/W·u + (row+0.5)/H·v."}
       << Key << "planes" << Value << YAML::BeginSeq;
   for (std::size_t index = 0; index < site.planes.size(); ++index) {

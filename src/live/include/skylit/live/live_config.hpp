@@ -17,6 +17,14 @@
 
 namespace skylit::live {
 
+// Who may open the status server's console and JSON (docs/console.md, "Access"): anyone on a
+// loopback address; off it, the bearer of the token (a cookie set by the login form, or an
+// Authorization header), unless allow_unauthenticated says otherwise explicitly.
+struct StatusAccess {
+  std::filesystem::path token_file;   // empty: no token
+  bool allow_unauthenticated = false;
+};
+
 // A node's link to the site's broker (docs/site.md): an HMD node's `sky.source: {kind: mqtt, ...}`,
 // a sky node's `link:`.
 struct LinkSettings {
@@ -148,7 +156,9 @@ struct DisplaySettings {
 //     record: {path: out.mp4, fps: 15}  # a video's rate (default: the HMD camera's frame rate)
 //     window: false                     # a window on the display (overridden by --headless)
 //   status:
-//     listen: 127.0.0.1:8080            # omit for no HTTP status
+//     listen: 127.0.0.1:8080            # omit for no HTTP status (and console)
+//     token_file: console.token         # off loopback: the console's token (docs/console.md)
+//     allow_unauthenticated: false      # off loopback without a token: true only on purpose
 //   display:                            # the HMD display (docs/hmd.md); opens the window
 //     profile: hmd/generic.yaml         # an HMD profile (config/hmd/)
 //     monitor: HDMI-1                   # full screen on this monitor; omit for a window
@@ -172,6 +182,7 @@ struct LiveConfig {
   PhotometricSettings photometric;
   OutputSettings output;
   std::optional<std::string> status_listen;  // "ADDR:PORT"
+  StatusAccess status_access;
   std::optional<DisplaySettings> display;    // set: the window shows the HMD display
 };
 
@@ -217,6 +228,7 @@ struct SkyNodeConfig {
   SkySettings sky;
   LinkSettings link;
   std::optional<std::string> status_listen;
+  StatusAccess status_access;
 };
 SkyNodeConfig load_sky_node_config(const std::filesystem::path& file);
 

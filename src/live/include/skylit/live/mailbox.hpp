@@ -80,15 +80,27 @@ class Latest {
   void set(T value) {
     std::lock_guard lock(mutex_);
     value_ = std::move(value);
+    ++version_;
   }
   std::optional<T> get() const {
     std::lock_guard lock(mutex_);
     return value_;
   }
+  // The value with its version (how many sets so far): a reader that keeps something derived
+  // from it (the console's JPEG) redoes it only for a newer version.
+  std::pair<std::optional<T>, std::uint64_t> get_versioned() const {
+    std::lock_guard lock(mutex_);
+    return {value_, version_};
+  }
+  std::uint64_t version() const {
+    std::lock_guard lock(mutex_);
+    return version_;
+  }
 
  private:
   mutable std::mutex mutex_;
   std::optional<T> value_;
+  std::uint64_t version_ = 0;
 };
 
 }  // namespace skylit::live

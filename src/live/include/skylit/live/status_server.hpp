@@ -1,8 +1,9 @@
 #pragma once
-// The service's status over HTTP: /status (JSON), /metrics (Prometheus text format), /sky.jpg
-// and /frame.jpg. Each answer comes from a callback, called on the server's own thread, so the
-// callbacks must be thread-safe. cpp-httplib stays inside the .cpp.
+// The service's status over HTTP: the console at / (docs/console.md), /status (JSON), /metrics
+// (Prometheus), /sky.jpg, /frame.jpg, /bake.json and the bake's previews. Answers come from
+// callbacks on the server's own thread (they must be thread-safe). cpp-httplib stays in the .cpp.
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <memory>
 #include <string>
@@ -16,8 +17,22 @@ struct StatusHandlers {
   std::function<std::vector<std::uint8_t>()> sky_jpeg;    // empty: 503 (no sky yet)
   std::function<std::vector<std::uint8_t>()> frame_jpeg;  // empty: 503 (no frame yet)
   std::function<std::string()> site_json;                 // /site (the sky node): unset, no such page
-  std::string title = "skylit-live";                      // the index page's
+  std::function<std::string()> bake_json;                 // /bake.json: unset, no such page
+  // /bake/preview/NAME.png: the bake's preview image NAME (letters, digits, '_', '-'); empty: 404.
+  std::function<std::vector<std::uint8_t>(const std::string& name)> bake_preview;
+  std::string title = "skylit-live";                      // the console's
+  std::string token;  // non-empty: every page but the login form asks for it (bearer or cookie)
 };
+
+// An address only this machine reaches (127.0.0.0/8, ::1, localhost): no token needed there.
+bool is_loopback_address(const std::string& host);
+
+// The console's token for a status server on `host`: the token file's text (trailing newline
+// stripped); none on loopback without one. InputError naming status.token_file when `host` is
+// reachable from elsewhere and there is no token, unless access.allow_unauthenticated (then a
+// warning on stderr, naming `program`).
+std::string status_token(const std::string& host, const std::filesystem::path& token_file, bool allow_unauthenticated,
+                         const std::string& program);
 
 class StatusServer {
  public:

@@ -3,8 +3,10 @@
 //
 //   scene:  {model: models/gate.glb, up: z|y, scale: 1.0}
 //   dome:   {frequency: 2, basis: faces|corners}
+//   location: {latitude: 34.69, longitude: 135.80}     (optional)
 //   planes: [{name, origin: [x,y,z], u: [..], v: [..], resolution: [W, H], surface}, ...]
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -21,6 +23,13 @@ inline constexpr int kMaxPlaneResolution = 16384;
 // virtual one lies on the virtual building (a wall, a roof): T shades the building there.
 enum class PlaneSurface { Virtual, Real };
 
+// Where on Earth the site is (`location` in the site file): the sun's expected place for a sky
+// frame's time, against which the console checks the sky camera's aim.
+struct GeoLocation {
+  double latitude_deg = 0;   // north, [-90, 90]
+  double longitude_deg = 0;  // east, [-180, 180]
+};
+
 struct Site {
   std::filesystem::path file;    // the YAML it came from
   std::filesystem::path model;   // resolved against the YAML's directory
@@ -28,6 +37,7 @@ struct Site {
   double scale = 1.0;
   int dome_frequency = 2;
   geom::DomeBasis dome_basis = geom::DomeBasis::Faces;  // `dome.basis`, optional
+  std::optional<GeoLocation> location;                  // `location`, optional
   std::vector<geom::Plane> planes;
   // One per plane, in the same order. A Site built in code may leave it shorter: the planes
   // without an entry are Virtual, as in a file without `surface`.
