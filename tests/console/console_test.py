@@ -33,6 +33,7 @@ import ctypes
 import json
 import math
 import os
+import pwd
 import re
 import shutil
 import signal
@@ -54,7 +55,7 @@ PLANES = {"ground", "wall", "roof"}   # the sample site's
 TABLET = (1024, 768)
 PHONE = (390, 844)
 
-F = types.SimpleNamespace(bin=None, src=None, tmp=None, procs={}, driver=None)
+F = types.SimpleNamespace(bin=None, src=None, tmp=None, procs={}, driver=None, reaper=None)
 
 
 # --- small helpers -----------------------------------------------------------------------------
@@ -283,7 +284,10 @@ def setUpModule():  # noqa: N802 - unittest's name
 
     F.broker_port = free_port()
     with open(f"{t}/mosquitto.conf", "w") as f:
-        f.write(f"listener {F.broker_port} 127.0.0.1\nallow_anonymous true\npersistence false\n")
+        # `user`: the one running the test, so that a mosquitto started as root keeps its
+        # credentials, and with them its parent-death signal.
+        f.write(f"listener {F.broker_port} 127.0.0.1\nallow_anonymous true\npersistence false\n"
+                f"user {pwd.getpwuid(os.getuid()).pw_name}\n")
     broker = start("mosquitto", ["/usr/sbin/mosquitto", "-c", f"{t}/mosquitto.conf"])
     wait_until(f"mosquitto on 127.0.0.1:{F.broker_port}", lambda: port_open(F.broker_port), 10,
                check=broker.check_alive)
@@ -323,6 +327,10 @@ def tear_down_fixture():
         except Exception as e:  # noqa: BLE001
             errors.append(f"browser: {e}")
         F.driver = None
+    if F.reaper is not None:  # what is left of the browser's process group
+        F.reaper.stdin.close()
+        F.reaper.wait(10)
+        F.reaper = None
     for name in reversed(list(F.procs)):  # the HMD nodes and the sky node before the broker
         try:
             F.procs[name].stop()
@@ -348,12 +356,19 @@ def browser():
         options = webdriver.ChromeOptions()
         options.binary_location = "/usr/bin/chromium"
         for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-                    f"--window-size={TABLET[0]},{TABLET[1]}", "--hide-scrollbars"):
+                    f"--window-size={TABLET[0]},{TABLET[1]}", "--hide-scrollbars",
+                    f"--user-data-dir={os.path.join(F.tmp, 'chromium')}"):
             options.add_argument(arg)
         options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+        # chromedriver and Chromium in a process group of their own, which a reaper ends when
+        # this test ends, however it ends (Chromium outlives a killed chromedriver).
         service = Service("/usr/bin/chromedriver", log_path=os.path.join(F.tmp, "chromedriver.log"),
-                          popen_kw={"preexec_fn": _die_with_parent})
+                          popen_kw={"start_new_session": True})
         F.driver = webdriver.Chrome(service=service, options=options)
+        F.reaper = subprocess.Popen(
+            [sys.executable, "-c", "import os, signal, sys\nsys.stdin.buffer.read()\n"
+             "try: os.killpg(int(sys.argv[1]), signal.SIGKILL)\nexcept OSError: pass",
+             str(os.getpgid(service.process.pid))], stdin=subprocess.PIPE, start_new_session=True)
         F.driver.set_page_load_timeout(BROWSER_WAIT_S)
         set_viewport(*TABLET)
     return F.driver

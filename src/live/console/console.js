@@ -89,7 +89,7 @@ function renderSky(status) {
   }
   // A new sky: a new overlay (fetched once per sky, not per poll).
   const key = `${sky.estimates ?? ""}/${sky.skies_taken ?? ""}/${sky.sequence ?? ""}`;
-  if (key !== view.lastSkyKey) {
+  if (sky.age_s != null && key !== view.lastSkyKey) {  // no overlay before the first sky
     view.lastSkyKey = key;
     $("#sky-image").src = `/sky.jpg?v=${encodeURIComponent(key)}`;
   }
@@ -111,7 +111,7 @@ function renderHmd(status) {
   const blend = status.blend || {};
   setField("blend", blend.device ? `${blend.basis} basis on the ${blend.device.toUpperCase()}, ${(blend.planes || []).length} planes` : "—");
   const key = String(status.frames);
-  if (key !== view.lastFrameKey) {
+  if (status.frames > 0 && key !== view.lastFrameKey) {  // no composite before the first frame
     view.lastFrameKey = key;
     $("#frame-image").src = `/frame.jpg?v=${key}`;
   }

@@ -362,8 +362,8 @@ void parse_status(const YamlReader& r, const YAML::Node& root, LiveConfig& c) {
   if (auto status = YamlReader::optional(root, "status")) {
     r.expect_map(status, "status", kDocs);
     r.check_keys(status, "status.", kStatusKeys);
-    c.status_listen = r.text(r.require(status, "listen", "status.listen", "ADDR:PORT, e.g. 127.0.0.1:8080"),
-                             "status.listen", "ADDR:PORT");
+    // Without `listen` the map still sets the access, for an address given with --status.
+    if (auto n = YamlReader::optional(status, "listen")) c.status_listen = r.text(n, "status.listen", "ADDR:PORT, e.g. 127.0.0.1:8080");
     if (auto n = YamlReader::optional(status, "token_file")) {
       c.status_access.token_file = r.path(n, "status.token_file", "a file holding the console's token");
       if (!std::filesystem::is_regular_file(c.status_access.token_file)) {
