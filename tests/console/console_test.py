@@ -645,6 +645,26 @@ class ConsoleViews(unittest.TestCase):
             "const a = document.getElementById('tab-site'); return a !== null && a.getClientRects().length > 0")
         self.assertFalse(site_tab_shown, "an HMD node's console shows the #site tab")
 
+    def test_keyboard_alone_moves_between_views(self):
+        """From the page's top, Tab reaches the view tabs in order and Enter opens one."""
+        from selenium.webdriver.common.keys import Keys
+        base = F.hmd_urls["hmd-1"]
+        self.open(base, "sky")
+        body = F.driver.find_element("tag name", "body")
+        reached = []
+        for _ in range(6):
+            body = F.driver.switch_to.active_element
+            body.send_keys(Keys.TAB)
+            reached.append(F.driver.execute_script("return document.activeElement.id"))
+            if reached[-1] == "tab-hmd":
+                break
+        self.assertIn("tab-hmd", reached, f"Tab from the top reached {reached}, never the HMD tab")
+        self.assertNotIn("tab-site", reached, "Tab reached the hidden #site tab")
+        F.driver.switch_to.active_element.send_keys(Keys.ENTER)
+        show_view("hmd", navigate=False)
+        outline = F.driver.execute_script("return getComputedStyle(document.activeElement).outlineStyle")
+        self.assertNotEqual(outline, "none", "the focused tab shows no focus outline")
+
     def test_sky_node_site(self):
         base = F.sky_url
         self.open(base, "site")

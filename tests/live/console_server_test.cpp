@@ -10,7 +10,7 @@
 #include <opencv2/core.hpp>
 
 #include "../support/temp_dir.hpp"
-#include "../../src/live/src/jpeg_cache.hpp"
+#include "skylit/live/jpeg_cache.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/live/mailbox.hpp"
 #include "skylit/live/status_server.hpp"
@@ -44,7 +44,7 @@ TEST(ConsoleServer, ServesThePageItsStyleAndScriptBuiltIn) {
   }
   const auto info = client.Get("/console.json");
   ASSERT_TRUE(info);
-  EXPECT_EQ(info->body, "{\"title\": \"skylit-live test\", \"site\": false, \"frame\": true, \"bake\": false}");
+  EXPECT_EQ(info->body, "{\"title\": \"skylit-live test\", \"site\": false, \"frame\": true, \"bake\": false, \"map\": false}");
   EXPECT_EQ(client.Get("/bake.json")->status, 404);  // no bake view on this server
 }
 

@@ -24,7 +24,7 @@ const FLAG_WORDS = {
   imu_gone: ["The IMU is gone", "check the HMD's USB cable; tracking continues on markers alone"],
 };
 
-const view = { current: "", info: null, updates: 0, bakeLoaded: false, history: [], lastSkyKey: null, lastFrameKey: null };
+const view = { current: "", info: null, updates: 0, bakeLoaded: false, history: [], lastSkyKey: null, lastFrameKey: null, map: null };
 
 const $ = (selector, root = document) => root.querySelector(selector);
 const field = (name, root = document) => root.querySelectorAll(`[data-field="${name}"]`);
@@ -110,6 +110,7 @@ function renderHmd(status) {
   setField("reprojection", latest && latest.reprojection_error_px != null ? `${fixed(latest.reprojection_error_px, 2)} px` : "—");
   const blend = status.blend || {};
   setField("blend", blend.device ? `${blend.basis} basis on the ${blend.device.toUpperCase()}, ${(blend.planes || []).length} planes` : "—");
+  drawMap(pose, latest);
   const key = String(status.frames);
   if (status.frames > 0 && key !== view.lastFrameKey) {  // no composite before the first frame
     view.lastFrameKey = key;
@@ -149,6 +150,32 @@ function renderSite(site) {
   for (const card of cards.querySelectorAll(".node-card")) if (!seen.has(card.dataset.node)) card.remove();
   $("#no-nodes").hidden = site.nodes.length > 0;
   $("#site-sky").textContent = `Sky node ${site.sky.node}: ${site.sky.published} skies published (sequence ${site.sky.sequence}) on ${site.topic}/sky.`;
+}
+
+// The site from above (x east, y north): planes outlined, tags as squares, the ones the last
+// solve used filled, and the HMD camera's position.
+function drawMap(pose, latest) {
+  const svg = $("#site-map");
+  if (!view.map || !svg) return;
+  const points = view.map.planes.flatMap((p) => p.corners).concat(view.map.tags.flatMap((t) => t.corners));
+  if (!points.length) return;
+  const xs = points.map((c) => c[0]), ys = points.map((c) => c[1]);
+  const pad = 1, x0 = Math.min(...xs) - pad, x1 = Math.max(...xs) + pad, y0 = Math.min(...ys) - pad, y1 = Math.max(...ys) + pad;
+  svg.setAttribute("viewBox", `${x0} ${-y1} ${x1 - x0} ${y1 - y0}`);
+  const used = new Set((latest && latest.tags_used) || []);
+  const path = (corners) => corners.map((c, i) => `${i ? "L" : "M"}${c[0]} ${-c[1]}`).join(" ") + " Z";
+  const stroke = Math.max(x1 - x0, y1 - y0) / 300;
+  let html = view.map.planes.map((p) => `<path d="${path(p.corners)}" fill="none" stroke="#1d1d1d" stroke-width="${stroke * 2}"><title>${p.name}</title></path>`).join("");
+  // A tag is a few decimetres on a site of tens of metres: drawn as a ring with its id, filled when used.
+  html += view.map.tags.map((t) => {
+    const cx = t.corners.reduce((s, c) => s + c[0], 0) / 4, cy = -t.corners.reduce((s, c) => s + c[1], 0) / 4;
+    const seen = used.has(t.id);
+    return `<g data-tag="${t.id}"${seen ? ' class="seen"' : ""}><circle cx="${cx}" cy="${cy}" r="${stroke * 7}" fill="${seen ? "#0037a3" : "#fff"}" stroke="#0037a3" stroke-width="${stroke * 2}"/>` +
+      `<text x="${cx + stroke * 9}" y="${cy + stroke * 4}" font-size="${stroke * 14}" fill="#0b0b0b">${t.id}</text><title>tag ${t.id}${seen ? ": seen" : ""}</title></g>`;
+  }).join("");
+  const at = pose && pose.last && pose.last.position;
+  if (at) html += `<circle cx="${at[0]}" cy="${-at[1]}" r="${stroke * 8}" fill="#b00000"><title>the HMD camera</title></circle>`;
+  svg.innerHTML = html;
 }
 
 async function loadBake() {
@@ -271,6 +298,13 @@ async function start() {
   document.title = `${view.info.title} console`;
   window.addEventListener("hashchange", () => show(location.hash.slice(1)));
   show(location.hash.slice(1));
+  if (view.info.map) view.map = await (await fetch("/map.json")).json();
+  // The plots start with the node's last minutes, kept by the node itself.
+  const answer = await fetch("/history.json");
+  if (answer.ok) {
+    const now = Date.now() / 1000;
+    view.history = (await answer.json()).samples.map((p) => ({ t: now - p.age_s, mean: p.S, frame: p.frame_ms, latency: p.latency_ms }));
+  }
   poll();
 }
 

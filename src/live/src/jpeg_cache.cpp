@@ -1,4 +1,4 @@
-#include "jpeg_cache.hpp"
+#include "skylit/live/jpeg_cache.hpp"
 
 #include "service_state.hpp"
 

@@ -13,6 +13,7 @@
 #include "service_state.hpp"
 #include "skylit/bake_format/arrays.hpp"
 #include "skylit/base/error.hpp"
+#include "skylit/track/marker_map.hpp"
 
 namespace skylit::live {
 namespace {
@@ -92,6 +93,37 @@ void check_bake_matches_site(const fs::path& bake_dir, const fs::path& site_file
   }
 }
 
+namespace {
+
+// The site from above for the console's HMD view: each plane's outline, and with the marker
+// tracker every tag of the marker map (its id and corners), in site metres.
+std::string site_map_json(const scene::Site& site, const track::PoseConfig& pose) {
+  nlohmann::json j;
+  nlohmann::json planes = nlohmann::json::array();
+  for (const geom::Plane& p : site.planes) {
+    nlohmann::json corners = nlohmann::json::array();
+    for (const Eigen::Vector3d& c : {p.origin, Eigen::Vector3d(p.origin + p.u), Eigen::Vector3d(p.origin + p.u + p.v), Eigen::Vector3d(p.origin + p.v)}) {
+      corners.push_back({c.x(), c.y(), c.z()});
+    }
+    planes.push_back({{"name", p.name}, {"corners", corners}});
+  }
+  j["planes"] = planes;
+  nlohmann::json tags = nlohmann::json::array();
+  if (pose.kind == track::PoseConfig::Kind::Markers) {
+    const track::MarkerMap map = track::load_marker_map(pose.marker_map);
+    for (const track::MarkerTag& tag : map.tags) {
+      nlohmann::json corners = nlohmann::json::array();
+      for (const Eigen::Vector3d& c : track::tag_corners_in_site(tag)) corners.push_back({c.x(), c.y(), c.z()});
+      tags.push_back({{"id", tag.id}, {"corners", corners}});
+    }
+    j["map"] = map.file.string();
+  }
+  j["tags"] = tags;
+  return j.dump() + "\n";
+}
+
+}  // namespace
+
 Service::Service(const LiveConfig& config, const ServiceOptions& options) : state_(std::make_unique<State>()) {
   State& s = *state_;
   s.config = config;
@@ -146,6 +178,8 @@ Service::Service(const LiveConfig& config, const ServiceOptions& options) : stat
     s.bake_info = std::make_unique<BakeInfo>(config.bake, s.manifest, config.site);
     handlers.bake_json = [self] { return self->bake_info->report().dump(2) + "\n"; };
     handlers.bake_preview = [self](const std::string& name) { return self->bake_info->preview(name); };
+    handlers.history_json = [self] { return self->history.json(now_seconds()).dump() + "\n"; };
+    handlers.map_json = [map = site_map_json(s.site, config.pose)] { return map; };
     handlers.title = config.sky.link ? "skylit-live " + s.sky_link->node() : "skylit-live";
     handlers.token = status_token(host, config.status_access.token_file, config.status_access.allow_unauthenticated, "skylit-live");
     s.status = std::make_unique<StatusServer>(host, port, handlers);

@@ -18,7 +18,8 @@
 #include <opencv2/core/mat.hpp>
 
 #include "bake_info.hpp"
-#include "jpeg_cache.hpp"
+#include "history.hpp"
+#include "skylit/live/jpeg_cache.hpp"
 #include "live_tracking.hpp"
 #include "service_metrics.hpp"
 #include "sky_link_receiver.hpp"
@@ -181,6 +182,7 @@ struct Service::State {
 
   std::unique_ptr<BakeInfo> bake_info;  // the console's bake view
   JpegCache frame_jpeg;                  // /frame.jpg, encoded once per new frame
+  History history;                       // /history.json: a sample a second from the render thread
   std::unique_ptr<StatusServer> status;
   std::thread sky_thread, camera_thread;
 

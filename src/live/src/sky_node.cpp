@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bake_info.hpp"
+#include "history.hpp"
 #include "service_metrics.hpp"
 #include "service_state.hpp"
 #include "sky_stage.hpp"
@@ -95,6 +96,7 @@ struct SkyNode::State {
   std::map<std::string, HeardNode> nodes;
 
   std::unique_ptr<BakeInfo> bake_info;
+  History history;
   std::unique_ptr<sky_link::MqttClient> client;  // after what its handlers touch
   std::unique_ptr<StatusServer> status;
 
@@ -154,6 +156,7 @@ SkyNode::SkyNode(const SkyNodeConfig& config, const SkyNodeOptions& options) : s
     s.bake_info = std::make_unique<BakeInfo>(config.bake, s.manifest, config.site);
     handlers.bake_json = [self] { return self->bake_info->report().dump(2) + "\n"; };
     handlers.bake_preview = [self](const std::string& name) { return self->bake_info->preview(name); };
+    handlers.history_json = [self] { return self->history.json(now_seconds()).dump() + "\n"; };
     handlers.token = status_token(host, config.status_access.token_file, config.status_access.allow_unauthenticated, "skylit-sky-node");
     s.status = std::make_unique<StatusServer>(host, port, handlers);
   }
@@ -235,6 +238,7 @@ std::int64_t SkyNode::run() {
       ++(sent ? s.published : s.publish_failures);
       s.message_bytes = bytes.size();
       s.last_estimate_ms = sky.estimate_ms;
+      s.history.add({now, mean_of(message.S), std::nullopt, std::nullopt});
       s.latest = std::move(message);
       s.latest_time = now;
       s.latest_bytes = std::move(bytes);

@@ -127,12 +127,23 @@ StatusServer::StatusServer(const std::string& address, int port, StatusHandlers 
     response.set_content(std::string("{\"title\": \"") + s->handlers.title + "\", \"site\": " +
                              (s->handlers.site_json ? "true" : "false") + ", \"frame\": " +
                              (s->handlers.frame_jpeg ? "true" : "false") + ", \"bake\": " +
-                             (s->handlers.bake_json ? "true" : "false") + "}",
+                             (s->handlers.bake_json ? "true" : "false") + ", \"map\": " + (s->handlers.map_json ? "true" : "false") + "}",
                          "application/json");
   });
   if (s->handlers.bake_json) {
     s->server.Get("/bake.json", [s](const httplib::Request&, httplib::Response& response) {
       response.set_content(s->handlers.bake_json(), "application/json");
+    });
+  }
+  if (s->handlers.history_json) {
+    s->server.Get("/history.json", [s](const httplib::Request&, httplib::Response& response) {
+      response.set_header("Cache-Control", "no-store");
+      response.set_content(s->handlers.history_json(), "application/json");
+    });
+  }
+  if (s->handlers.map_json) {
+    s->server.Get("/map.json", [s](const httplib::Request&, httplib::Response& response) {
+      response.set_content(s->handlers.map_json(), "application/json");
     });
   }
   if (s->handlers.bake_preview) {

@@ -18,6 +18,8 @@ struct StatusHandlers {
   std::function<std::vector<std::uint8_t>()> frame_jpeg;  // empty: 503 (no frame yet)
   std::function<std::string()> site_json;                 // /site (the sky node): unset, no such page
   std::function<std::string()> bake_json;                 // /bake.json: unset, no such page
+  std::function<std::string()> history_json;              // /history.json: the last minutes, for the plots
+  std::function<std::string()> map_json;                  // /map.json: the site from above (planes, marker tags)
   // /bake/preview/NAME.png: the bake's preview image NAME (letters, digits, '_', '-'); empty: 404.
   std::function<std::vector<std::uint8_t>(const std::string& name)> bake_preview;
   std::string title = "skylit-live";                      // the console's

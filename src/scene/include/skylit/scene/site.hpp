@@ -1,6 +1,5 @@
 #pragma once
 // The site description: a YAML file (the schema is a contract, see docs/site-format.md).
-//
 //   scene:  {model: models/gate.glb, up: z|y, scale: 1.0}
 //   dome:   {frequency: 2, basis: faces|corners}
 //   location: {latitude: 34.69, longitude: 135.80}     (optional)
