@@ -13,7 +13,7 @@ packages=(
   libopenexr-dev libgtest-dev libgmock-dev libbenchmark-dev
   libapriltag-dev libhidapi-dev libcamera-dev
   libssl-dev glslang-tools libexif-dev libcpp-httplib-dev
-  libmosquitto-dev mosquitto openssl
+  libmosquitto-dev mosquitto openssl prometheus
   xvfb xauth ffmpeg
   chromium chromium-driver python3-selenium python3-pil
 )

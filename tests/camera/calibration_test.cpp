@@ -738,3 +738,52 @@ TEST(Lens, SiteFrameAppliesTheRotation) {
 
 }  // namespace
 }  // namespace skylit::camera
+
+namespace skylit::camera {
+namespace {
+
+std::string lens_refusal(const CameraCalibration& c) {
+  try {
+    const Lens lens(c);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return {};
+}
+
+// Numbers that parse but describe no camera are refused naming the field, at once: they once
+// kept skylit-shade busy for over a minute.
+TEST(Lens, NumbersThatDescribeNoCameraAreRefusedNamingTheField) {
+  CameraCalibration sky = sky::lens_testing::equidistant(1024, 90);
+  sky.file = "sky_camera.yaml";
+  EXPECT_EQ(lens_refusal(sky), "");
+
+  CameraCalibration narrow = sky;
+  narrow.fy = 32999999999995.9;  // a typo'd focal length: the image would span 1e-9 degrees
+  const std::string fy = lens_refusal(narrow);
+  EXPECT_NE(fy.find("sky_camera.yaml"), std::string::npos) << fy;
+  EXPECT_NE(fy.find("'fy'"), std::string::npos) << fy;
+  EXPECT_NE(fy.find("half a degree"), std::string::npos) << fy;
+
+  CameraCalibration squeezed = sky;
+  squeezed.D = {0, 0, 0, 1e30};  // monotonic, but the whole image is a speck of sky
+  const std::string d = lens_refusal(squeezed);
+  EXPECT_NE(d.find("'D'"), std::string::npos) << d;
+
+  CameraCalibration folded = pinhole_calibration(false);
+  folded.file = "hmd_camera.yaml";
+  folded.D = {-5.0, 0, 0, 0, 0};  // r(1 − 5r²) turns at r = 0.26, well inside a 1280-pixel image
+  const std::string fold = lens_refusal(folded);
+  EXPECT_NE(fold.find("'D'"), std::string::npos) << fold;
+  EXPECT_NE(fold.find("folds"), std::string::npos) << fold;
+
+  CameraCalibration away = pinhole_calibration(false);
+  away.cx = 1e6;
+  EXPECT_NE(lens_refusal(away).find("'cx'"), std::string::npos) << lens_refusal(away);
+
+  EXPECT_EQ(lens_refusal(pinhole_calibration(false)), "");
+  EXPECT_EQ(lens_refusal(pinhole_calibration(true)), "");
+}
+
+}  // namespace
+}  // namespace skylit::camera

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "../support/mosquitto_broker.hpp"
+#include "../support/promtool.hpp"
 #include "live_fixture.hpp"
 #include "skylit/live/sky_node.hpp"
 #include "skylit/sky_link/mqtt_client.hpp"
@@ -52,6 +53,7 @@ class RunningSkyNode {
   RunningSkyNode& operator=(const RunningSkyNode&) = delete;
   nlohmann::json status() const { return nlohmann::json::parse(node_.status_json()); }
   nlohmann::json site() const { return nlohmann::json::parse(node_.site_json()); }
+  std::string metrics() const { return node_.metrics_text(); }
 
  private:
   static live::SkyNodeOptions quiet() {
@@ -158,6 +160,8 @@ TEST(SiteLink, AnHmdNodeCompositesTheSkyNodesSkiesAndOutlivesTheSkyNodeAndTheBro
   const std::string metrics = hmd.service().metrics_text();
   EXPECT_NE(metrics.find("skylit_sky_messages_dropped_total{reason=\"other_dome\"} 1"), std::string::npos) << metrics;
   EXPECT_NE(metrics.find("skylit_broker_connected 1"), std::string::npos);
+  EXPECT_EQ(test::promtool_problems(metrics), "") << metrics;
+  EXPECT_EQ(test::promtool_problems(sky_node->metrics()), "") << sky_node->metrics();
   EXPECT_TRUE(hmd.error().empty()) << hmd.error();
 }
 

@@ -11,6 +11,7 @@
 
 #include "live_fixture.hpp"
 #include "skylit/base/error.hpp"
+#include "skylit/base/files.hpp"
 
 namespace skylit::live_test {
 namespace {
@@ -211,6 +212,30 @@ TEST(ServiceConfig, BlendDeviceAndRecordSettings) {
     ADD_FAILURE() << "eac with the PCA form was taken";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("blend.storage"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace skylit::live_test
+
+namespace skylit::live_test {
+namespace {
+
+// Every file a config names is checked at start, also headless: an HMD profile with a misspelt
+// key (or `ipd: 64`, millimetres for metres) is refused before the service runs, naming it.
+TEST(ServiceStartup, AHeadlessServiceChecksTheHmdProfileToo) {
+  const Rig rig;
+  std::string profile = read_file(fs::path(SKYLIT_SOURCE_DIR) / "config/hmd/generic.yaml");
+  profile.replace(profile.find("fov_deg:"), 8, "fov_dgr:");
+  std::ofstream(rig.dir() / "profile.yaml") << profile;
+  const fs::path file = rig.dir() / "display.yaml";
+  std::ofstream(file) << rig.config_text() << "display: {profile: profile.yaml, mode: stereo}\n";
+  try {
+    live::Service service(live::load_live_config(file), quiet_options());  // headless
+    FAIL() << "a broken HMD profile passed a headless start";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("profile.yaml"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("fov_dgr"), std::string::npos) << e.what();
   }
 }
 

@@ -355,6 +355,9 @@ TEST(LoadModel, BadFilesAreInputErrors) {
   const auto nan = write_triangle_gltf(dir, "nan", R"({"mesh": 0})",
                                        std::numeric_limits<float>::quiet_NaN());
   expect_model_error(nan, "non-finite position");
+  // A damaged vertex that is finite but absurd (it once reached the ray tracer's assertions).
+  const auto far = write_triangle_gltf(dir, "far", R"({"mesh": 0})", 3.0e37f);
+  expect_model_error(far, "km from the site's origin");
 }
 
 TEST(LoadModel, LoadsAreDeterministic) {

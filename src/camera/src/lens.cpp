@@ -3,11 +3,15 @@
 #include "skylit/camera/lens.hpp"
 
 #include <algorithm>
+#include <cstdio>
+#include <string>
 #include <cmath>
 #include <limits>
 #include <numbers>
 
 #include <Eigen/LU>
+
+#include "skylit/base/error.hpp"
 
 namespace skylit::camera {
 namespace {
@@ -105,6 +109,55 @@ Lens::Lens(const CameraCalibration& calibration) : calibration_(calibration) {
     max_theta_ = monotonic_limit(std::numbers::pi / 2 * (1.0 - 1e-9), [&](double theta) {
       return pinhole_increasing(D, std::tan(theta));
     });
+  }
+  check_describes_a_camera();
+}
+
+void Lens::check_describes_a_camera() const {
+  const CameraCalibration& c = calibration_;
+  const auto fail = [&](const std::string& field, const std::string& problem, const std::string& fix) {
+    throw InputError(input_message(c.file, -1, -1, field, problem, fix));
+  };
+  const double w = c.image_width, h = c.image_height;
+  if (c.cx < -0.5 * w || c.cx > 1.5 * w) {
+    fail("cx", "the principal point lies far outside the image (" + std::to_string(c.cx) + " for a width of " +
+                   std::to_string(c.image_width) + ")", "write the principal point in pixels, near the image's centre");
+  }
+  if (c.cy < -0.5 * h || c.cy > 1.5 * h) {
+    fail("cy", "the principal point lies far outside the image (" + std::to_string(c.cy) + " for a height of " +
+                   std::to_string(c.image_height) + ")", "write the principal point in pixels, near the image's centre");
+  }
+  // The image's inscribed circle: where the principal point's nearest edge is (a pixel at least).
+  const double radius = std::max(1.0, std::min({c.cx + 0.5, w - 0.5 - c.cx, c.cy + 0.5, h - 0.5 - c.cy}));
+  const std::string distortion_fix = "calibrate the camera again (skylit-calib), or check the coefficients' order and signs";
+  // The model must not fold back before that circle (a fisheye that reaches the horizon is whole).
+  const bool whole_hemisphere = c.model == LensModel::Fisheye && max_theta_ >= std::numbers::pi / 2;
+  const double reach = c.model == LensModel::Fisheye ? distort_theta(max_theta_)
+                                                      : std::tan(max_theta_) * pinhole_radial(c.D, std::pow(std::tan(max_theta_), 2)).g;
+  const double reach_px = std::min(c.fx, c.fy) * reach;  // how far from the principal point the model images
+  if (!whole_hemisphere && reach_px < 0.999 * radius) {
+    char text[200];
+    std::snprintf(text, sizeof text,
+                  "the distortion turns back %.3g pixels from the principal point, inside the image (its nearest edge is "
+                  "%.0f pixels away): the model folds the image there",
+                  reach_px, radius);
+    fail("D", text, distortion_fix);
+  }
+  // The image must span at least a degree: θ at the inscribed circle, along the narrower axis.
+  const bool narrower_y = c.fy > c.fx;
+  const double probe = std::min(radius, 0.99 * reach_px);  // a fisheye's circle may end inside the image
+  const std::optional<Vec3> edge = unproject(narrower_y ? Vec2(c.cx, c.cy + probe) : Vec2(c.cx + probe, c.cy));
+  const double half_angle = edge ? std::acos(std::clamp(edge->z(), -1.0, 1.0)) : 0.0;
+  constexpr double kMinHalfAngle = 0.5 * std::numbers::pi / 180;
+  if (half_angle < kMinHalfAngle) {
+    const double undistorted = std::atan(probe / std::max(c.fx, c.fy));
+    char text[200];
+    std::snprintf(text, sizeof text, "the image spans %.3g° from its centre to its nearest edge; no camera sees less than half a degree",
+                  half_angle * 180 / std::numbers::pi);
+    if (undistorted < kMinHalfAngle) {
+      fail(narrower_y ? "fy" : "fx", text, "write the focal length in pixels (about the image width for a 53° lens)");
+    }
+    fail("D", text, distortion_fix);
   }
 }
 

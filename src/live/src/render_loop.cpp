@@ -537,12 +537,14 @@ void Service::State::RenderLoop::keep_times(const FrameStageTimes& times, std::o
     std::lock_guard lock(s.stats_mutex);
     const double frame_time = std::chrono::duration<double>(Clock::now() - times.start).count();
     s.frame_times.add(frame_time, end);
+    s.frame_time_total.add(frame_time);
     if (sky_changed) s.sky_change_frame_times.add(frame_time, end);
     if (sky_changed && sky && sky->published) {
       // Sky to screen across the link: the sky node's clock against this node's (one clock on one
       // machine; NTP-close across machines).
       const double system_now = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
       s.sky_to_screen_times.add(system_now - *sky->published, end);
+      s.sky_to_screen_total.add(system_now - *sky->published);
     }
     if (arrived) s.latency_times.add(end - *arrived, end);
     if (times.timed(Stage::SunShadow)) s.sun_shadow_times.add(times.at(Stage::SunShadow) / 1e3, end);

@@ -13,6 +13,7 @@
 #include "service_state.hpp"
 #include "skylit/bake_format/arrays.hpp"
 #include "skylit/base/error.hpp"
+#include "skylit/render/hmd_profile.hpp"
 #include "skylit/track/marker_map.hpp"
 
 namespace skylit::live {
@@ -145,6 +146,9 @@ Service::Service(const LiveConfig& config, const ServiceOptions& options) : stat
     s.bases.push_back(blend::load_basis(config.bake, s.manifest, static_cast<int>(j), config.blend.basis));
   }
   s.plane_views = std::make_unique<PlaneView[]>(s.bases.size());
+  // Every file the config names is read now, whatever the mode: a headless check of a config
+  // with a broken HMD profile must fail here, not on the HMD.
+  if (config.display) static_cast<void>(render::load_hmd_profile(config.display->profile));
   s.hmd_calibration = camera::load_calibration(config.camera.calibration);
   s.dome = std::make_unique<geom::Dome>(s.manifest.plan.frequency);
   if (config.sky.link) {

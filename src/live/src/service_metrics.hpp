@@ -108,6 +108,16 @@ struct Counters {
   std::atomic<std::int64_t> camera_errors{0};
 };
 
+// A summary's sum and count since start (Prometheus' _sum and _count).
+struct RunningTotal {
+  double sum = 0;
+  std::int64_t count = 0;
+  void add(double value) {
+    sum += value;
+    ++count;
+  }
+};
+
 // Milliseconds from `start` to now.
 inline double milliseconds_since(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();

@@ -176,6 +176,7 @@ struct Service::State {
   FrameTimes latency_times{600};
   // From the sky node publishing a sky to the first frame composited with it (skies from the link).
   FrameTimes sky_to_screen_times{600};
+  RunningTotal frame_time_total, sky_to_screen_total;  // /metrics' summaries: since start
   double record_fps = 0;
   std::optional<render::PhotometricMatch> photometric;
   std::int64_t blend_skipped_layers = 0;

@@ -199,6 +199,19 @@ nlohmann::json Service::State::status_report() const {
 
 std::string Service::status_json() const { return state_->status_report().dump(2) + "\n"; }
 
+namespace {
+
+// A Prometheus summary: the quantiles of the recent window, and the sum and count since start.
+void add_summary(std::vector<Metric>& m, const std::string& name, const std::string& help, const FrameTimes& recent,
+                 const RunningTotal& total) {
+  m.push_back({name, help, "summary", recent.percentile(0.5), "quantile=\"0.5\""});
+  m.push_back({name, help, "summary", recent.percentile(0.99), "quantile=\"0.99\""});
+  m.push_back({name + "_sum", help, "summary", total.sum, ""});
+  m.push_back({name + "_count", help, "summary", double(total.count), ""});
+}
+
+}  // namespace
+
 std::string Service::metrics_text() const {
   const State& s = *state_;
   const nlohmann::json j = s.status_report();
@@ -226,12 +239,10 @@ std::string Service::metrics_text() const {
     m.push_back({"skylit_broker_connected", "1 while connected to the site's MQTT broker.", "gauge",
                  s.sky_link->connected() ? 1.0 : 0.0, ""});
     if (!j["sky_to_screen_ms"].is_null()) {
-      for (const char* q : {"p50", "p99"}) {
-        m.push_back({"skylit_sky_to_screen_seconds",
-                     "From the sky node publishing a sky to the first frame composited with it, percentiles over the last 600 skies.",
-                     "gauge", j["sky_to_screen_ms"][q].get<double>() / 1e3,
-                     std::string("quantile=\"") + (q[1] == '5' ? "0.5" : "0.99") + "\""});
-      }
+      std::lock_guard lock(s.stats_mutex);
+      add_summary(m, "skylit_sky_to_screen_seconds",
+                  "From the sky node publishing a sky to the first frame composited with it (quantiles over the last 600 skies).",
+                  s.sky_to_screen_times, s.sky_to_screen_total);
     }
   }
   m.push_back({"skylit_pose_missing_total", "Frames without a pose at their time.", "counter",
@@ -239,10 +250,10 @@ std::string Service::metrics_text() const {
   m.push_back({"skylit_blends_total", "Plane blends run.", "counter", double(s.counters.blends_run.load()), "result=\"run\""});
   m.push_back({"skylit_blends_total", "Plane blends run.", "counter", double(s.counters.blends_skipped.load()), "result=\"skipped\""});
   m.push_back({"skylit_frame_rate", "Frames per second over the last 600 frames.", "gauge", j["frame_rate"].get<double>(), ""});
-  m.push_back({"skylit_frame_time_seconds", "Frame time percentiles over the last 600 frames.", "gauge",
-               j["frame_time_ms"]["p50"].get<double>() / 1e3, "quantile=\"0.5\""});
-  m.push_back({"skylit_frame_time_seconds", "Frame time percentiles over the last 600 frames.", "gauge",
-               j["frame_time_ms"]["p99"].get<double>() / 1e3, "quantile=\"0.99\""});
+  {
+    std::lock_guard lock(s.stats_mutex);
+    add_summary(m, "skylit_frame_time_seconds", "Frame time (quantiles over the last 600 frames).", s.frame_times, s.frame_time_total);
+  }
   const auto& sky = j["sky"];
   m.push_back({"skylit_sky_age_seconds", "Age of the newest sky estimate.", "gauge",
                sky["age_s"].is_null() ? std::numeric_limits<double>::infinity() : sky["age_s"].get<double>(), ""});

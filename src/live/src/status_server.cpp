@@ -30,6 +30,10 @@ struct StatusServer::State {
 namespace {
 
 constexpr const char* kTokenCookie = "skylit_token";
+constexpr std::size_t kServerThreads = 8;  // a browser keeps up to 6 connections, each holding one while alive
+constexpr std::size_t kMaxRequestBody = 16 * 1024;
+constexpr time_t kTimeoutSeconds = 5;
+constexpr time_t kKeepAliveSeconds = 2;
 
 // Equal without a timing that tells how much of a guess was right.
 bool same_secret(const std::string& a, const std::string& b) {
@@ -181,6 +185,15 @@ StatusServer::StatusServer(const std::string& address, int port, StatusHandlers 
       return httplib::Server::HandlerResponse::Handled;
     });
   }
+  // No client can take more than its share (docs/console.md, "Access"): a few threads serve the
+  // requests (the render loop keeps its cores), a request body is a login form at most, and a
+  // slow or idle connection is closed.
+  s->server.new_task_queue = [] { return new httplib::ThreadPool(kServerThreads); };
+  s->server.set_payload_max_length(kMaxRequestBody);
+  s->server.set_read_timeout(kTimeoutSeconds, 0);
+  s->server.set_write_timeout(kTimeoutSeconds, 0);
+  s->server.set_keep_alive_timeout(kKeepAliveSeconds);  // an idle connection frees its thread soon
+  s->server.set_keep_alive_max_count(100);
   // SO_REUSEADDR only: httplib's default adds SO_REUSEPORT, which would let a second service
   // share the port silently instead of failing.
   s->server.set_socket_options([](socket_t sock) {
@@ -215,8 +228,21 @@ std::string StatusServer::address() const { return state_->host + ":" + std::to_
 std::string prometheus_text(const std::vector<Metric>& metrics) {
   std::string out;
   std::set<std::string> described;
+  std::set<std::string> summaries;
+  const auto in_summary = [&](const std::string& name) {
+    // A summary's _sum and _count samples belong to its family: no HELP or TYPE of their own.
+    for (const char* suffix : {"_sum", "_count"}) {
+      const std::string s(suffix);
+      if (name.size() > s.size() && name.compare(name.size() - s.size(), s.size(), s) == 0 &&
+          summaries.count(name.substr(0, name.size() - s.size())) > 0) {
+        return true;
+      }
+    }
+    return false;
+  };
   for (const Metric& m : metrics) {
-    if (described.insert(m.name).second) {
+    if (m.type == "summary" && !in_summary(m.name)) summaries.insert(m.name);
+    if (!in_summary(m.name) && described.insert(m.name).second) {
       out += "# HELP " + m.name + " " + m.help + "\n";
       out += "# TYPE " + m.name + " " + m.type + "\n";
     }

@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <map>
@@ -65,6 +66,8 @@ struct MeshBuilder {
   }
 };
 
+constexpr float kMaxSiteExtent = 1e6f;  // metres from the site's origin, along any axis
+
 // Model frame → site frame, then normals: flat where the file had none, unit everywhere.
 Mesh finish(MeshBuilder builder, const fs::path& file, UpAxis up, double scale) {
   Mesh& mesh = builder.mesh;
@@ -88,6 +91,15 @@ Mesh finish(MeshBuilder builder, const fs::path& file, UpAxis up, double scale) 
     if (!p.allFinite()) {
       fail(file, "vertex " + std::to_string(k) + " is out of range after scaling",
            "check scene.scale in the site file");
+    }
+    // A vertex a thousand kilometres out is damaged data, not a building: its coordinates would
+    // overflow the ray tracer's bounds (and a float there has metre-sized steps anyway).
+    if (p.cwiseAbs().maxCoeff() > kMaxSiteExtent) {
+      char where[96];
+      std::snprintf(where, sizeof where, "(%.3g, %.3g, %.3g) m", p.x(), p.y(), p.z());
+      fail(file, "vertex " + std::to_string(k) + " lies at " + where + ", more than " +
+                     std::to_string(static_cast<long>(kMaxSiteExtent / 1000)) + " km from the site's origin",
+           "repair the model (a damaged vertex), or check scene.scale in the site file");
     }
   }
 

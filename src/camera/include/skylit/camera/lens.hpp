@@ -12,6 +12,9 @@ namespace skylit::camera {
 // Lens model of a calibration, in the camera frame (OpenCV: x right, y down, z forward).
 class Lens {
  public:
+  // InputError naming the calibration's field for numbers that parse but describe no camera: an
+  // image that spans less than a degree, a principal point far outside the image, a distortion
+  // that folds back inside the image.
   explicit Lens(const CameraCalibration& calibration);
 
   // Pixel (x, y) of a camera-frame direction; nullopt when the model cannot image it (behind a
@@ -30,6 +33,7 @@ class Lens {
 
  private:
   double distort_theta(double theta) const;   // θ_d(θ) of the fisheye model
+  void check_describes_a_camera() const;
   CameraCalibration calibration_;
   Eigen::Matrix3d camera_from_site_;
   double max_theta_ = 0;

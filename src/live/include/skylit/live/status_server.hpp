@@ -57,7 +57,7 @@ class StatusServer {
 struct Metric {
   std::string name;   // skylit_..., [a-zA-Z_:][a-zA-Z0-9_:]*
   std::string help;
-  std::string type;   // "counter" or "gauge"
+  std::string type;   // "counter", "gauge" or "summary" (its NAME_sum and NAME_count samples follow its quantiles)
   double value = 0;
   std::string labels; // optional, already formatted: face="3",channel="r"
 };
