@@ -14,7 +14,7 @@ packages=(
   libapriltag-dev libhidapi-dev libcamera-dev
   libssl-dev glslang-tools libexif-dev libcpp-httplib-dev
   libmosquitto-dev mosquitto openssl prometheus
-  xvfb xauth ffmpeg
+  xvfb xauth ffmpeg systemd
   chromium chromium-driver python3-selenium python3-pil
 )
 
