@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/aruco/charuco.hpp>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "../support/temp_dir.hpp"
 #include "skylit/base/error.hpp"
@@ -343,6 +344,30 @@ TEST(CalibIntrinsics, PhotosWithoutABoardAreRejectedByName) {
   const auto none = detector.detect(blank);
   EXPECT_FALSE(none.view);
   EXPECT_EQ(none.reason, "no chessboard of 9x6 inner corners found");
+}
+
+// A stray picture of another size among the board photos, even the first one in the folder: the
+// size most photos have is the camera's, the stray one is listed as not used, and the
+// calibration goes on.
+TEST(CalibIntrinsics, AStrayPhotoOfAnotherSizeIsLeftOutNotTheRest) {
+  const skylit::test::TempDir dir;
+  std::vector<fs::path> photos{dir.path() / "aaa_holiday.jpg"};
+  cv::imwrite(photos.front().string(), cv::Mat(300, 400, CV_8UC3, cv::Scalar(90, 140, 200)));
+  for (const fs::path& photo : chessboard_photos()) photos.push_back(photo);
+  BoardSpec spec;
+  spec.grid = {9, 6};
+  spec.square_m = 0.025;
+  const skylit::calib::BoardPhotos found = skylit::calib::detect_boards(photos, BoardDetector(spec));
+  EXPECT_EQ(found.image_size, cv::Size(640, 480));
+  EXPECT_EQ(found.views.size(), 13u);
+  EXPECT_EQ(found.first_image.size(), cv::Size(640, 480));
+  ASSERT_EQ(found.rejected.size(), 1u);
+  EXPECT_EQ(found.rejected[0].name, "aaa_holiday.jpg");
+  EXPECT_EQ(found.rejected[0].reason, "its size 400x300 differs from the size most photos have, 640x480 (13 photos)");
+  IntrinsicsOptions options;
+  options.model = LensModel::Pinhole;
+  const IntrinsicsResult result = skylit::calib::calibrate_intrinsics(found.views, found.rejected, found.image_size, options);
+  EXPECT_LT(*result.calibration.rms, 0.5);
 }
 
 }  // namespace

@@ -176,7 +176,18 @@ cv::Mat covered_mask(cv::Size size, std::span<const NamedView> views) {
 }  // namespace
 
 BoardPhotos detect_boards(std::span<const fs::path> photos, const BoardDetector& detector) {
+  // Every photo is read and searched; then the size most photos have is the camera's, and a
+  // stray picture of another size among them is listed as not used rather than failing them all.
+  struct Seen {
+    std::string name;
+    cv::Size size;
+    std::optional<BoardView> view;
+    std::string reason;  // no board: why
+  };
+  std::vector<Seen> seen;
   BoardPhotos out;
+  std::vector<std::pair<cv::Size, int>> counts;  // sizes in the order met, with their photos
+  std::vector<cv::Mat> first_of_size;
   for (const fs::path& photo : photos) {
     const std::string name = photo.filename().string();
     cv::Mat image;
@@ -190,21 +201,34 @@ BoardPhotos detect_boards(std::span<const fs::path> photos, const BoardDetector&
       out.rejected.push_back({name, fs::exists(photo) ? "not an image OpenCV can read" : "no such file"});
       continue;
     }
-    if (out.first_image.empty()) {
-      out.first_image = image;
-      out.image_size = image.size();
-    } else if (image.size() != out.image_size) {
-      out.rejected.push_back({name, "its size " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
-                                        " differs from the first photo's " + std::to_string(out.image_size.width) + "x" +
-                                        std::to_string(out.image_size.height)});
-      continue;
+    const auto known = std::find_if(counts.begin(), counts.end(), [&](const auto& c) { return c.first == image.size(); });
+    if (known == counts.end()) {
+      counts.emplace_back(image.size(), 1);
+      first_of_size.push_back(image);
+    } else {
+      ++known->second;
     }
     BoardDetection found = detector.detect(image);
-    if (!found.view) {
-      out.rejected.push_back({name, found.reason});
-      continue;
+    seen.push_back({name, image.size(), std::move(found.view), found.reason});
+  }
+  if (counts.empty()) return out;
+  // The most common size; on a tie, the one met first.
+  std::size_t chosen = 0;
+  for (std::size_t k = 1; k < counts.size(); ++k) {
+    if (counts[k].second > counts[chosen].second) chosen = k;
+  }
+  out.image_size = counts[chosen].first;
+  out.first_image = first_of_size[chosen];
+  const auto size_text = [](cv::Size size) { return std::to_string(size.width) + "x" + std::to_string(size.height); };
+  for (Seen& photo : seen) {
+    if (photo.size != out.image_size) {
+      out.rejected.push_back({photo.name, "its size " + size_text(photo.size) + " differs from the size most photos have, " +
+                                              size_text(out.image_size) + " (" + std::to_string(counts[chosen].second) + " photos)"});
+    } else if (!photo.view) {
+      out.rejected.push_back({photo.name, photo.reason});
+    } else {
+      out.views.push_back({photo.name, std::move(*photo.view)});
     }
-    out.views.push_back({name, std::move(*found.view)});
   }
   return out;
 }

@@ -28,13 +28,14 @@ struct RejectedView {
 
 // The boards found in a set of photos.
 struct BoardPhotos {
-  cv::Size image_size;                 // of the first readable photo; every view has this size
+  cv::Size image_size;                 // the size most readable photos have; every view has it
   std::vector<NamedView> views;        // in the photos' order
   std::vector<RejectedView> rejected;  // unreadable, another size, no board
-  cv::Mat first_image;                 // the first readable photo (the coverage image's background)
+  cv::Mat first_image;                 // the first readable photo of that size (the coverage image's background)
 };
 
-// Reads each photo and finds the board. Never throws for a bad photo: it goes to `rejected`.
+// Reads each photo and finds the board. Never throws for a bad photo: it goes to `rejected`, and
+// so does a photo of another size than most photos have (a stray picture among the board's).
 BoardPhotos detect_boards(std::span<const std::filesystem::path> photos, const BoardDetector& detector);
 
 struct IntrinsicsOptions {
