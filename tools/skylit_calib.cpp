@@ -171,6 +171,8 @@ struct OrientationArgs {
   std::optional<double> latitude, longitude, level_compass;
   double declination = 0;
   double max_residual = 2.0;
+  double max_tilt = 10.0;  // degrees from the zenith a levelled sky camera's axis may lean
+  bool in_place = false;
 };
 
 std::string orientation_yaml(const camera::CameraCalibration& c, const std::string& how) {
@@ -211,7 +213,15 @@ void print_frames(const std::vector<calib::FrameSun>& suns, const calib::Orienta
 
 int run_orientation(const OrientationArgs& a) {
   camera::CameraCalibration calibration = camera::load_calibration(a.calibration);
-  const fs::path output = a.output.empty() ? fs::path(a.calibration) : fs::path(a.output);
+  // A calibration is never replaced without being told to.
+  if (a.output.empty() && !a.in_place) {
+    bad_option("-o", "no output given", "give -o OUT.yaml for the oriented calibration, or --in-place to update " + a.calibration);
+  }
+  if (!a.output.empty() && a.in_place) bad_option("--in-place", "given with -o", "keep one of them");
+  if (!(std::isfinite(a.max_tilt) && a.max_tilt > 0 && a.max_tilt <= 180)) {
+    bad_option("--max-tilt", "must be an angle in (0, 180]", "give degrees, e.g. --max-tilt 30");
+  }
+  const fs::path output = a.in_place ? fs::path(a.calibration) : fs::path(a.output);
   calib::OrientationOptions options;
   options.outlier_threshold_deg = a.max_residual;
   if (!(std::isfinite(a.max_residual) && a.max_residual > 0)) {
@@ -282,6 +292,18 @@ int run_orientation(const OrientationArgs& a) {
   }
   print_rotation(calibration.R_site_from_camera);
   if (fit) print_advice(fit->advice);
+  // A fit that fits the frames can still put the camera where no sky camera looks: the frames'
+  // times and the sun's place disagree in a way one rotation absorbs (a longitude of the wrong
+  // sign, a wrong zone or clock). Nothing is written then.
+  if (const double tilt = calib::describe_pointing(calibration.R_site_from_camera).tilt_from_zenith_deg; tilt > a.max_tilt) {
+    char text[160];
+    std::snprintf(text, sizeof text, "the fit puts the sky camera's optical axis %.1f° from the zenith%s, more than --max-tilt %.0f°",
+                  tilt, tilt > 90 ? " (below the horizon)" : "", a.max_tilt);
+    throw InputError(std::string("sky-orientation: ") + text +
+                     ". Likely: --lon with the wrong sign (east is positive), the frames' zone (--utc-offset, or the "
+                     "zone in frames.csv), or the camera's clock. Fix: check those and run again; for a camera that "
+                     "really leans that far, raise --max-tilt. Nothing was written");
+  }
 
   calibration.file = output;
   skylit::write_file_atomic(output, orientation_yaml(calibration, how));
@@ -516,8 +538,10 @@ int main(int argc, char** argv) {
   orientation->add_option("--calib", o.calibration, "the sky camera's intrinsics (YAML from skylit-calib fisheye)")
       ->required()
       ->check(CLI::ExistingFile);
-  orientation->add_option("-o,--output", o.output,
-                          "calibration to write (default: --calib itself); OUT.orientation.png beside it");
+  orientation->add_option("-o,--output", o.output, "calibration to write; OUT.orientation.png beside it");
+  orientation->add_flag("--in-place", o.in_place, "update the --calib file itself instead of writing -o");
+  orientation->add_option("--max-tilt", o.max_tilt, "refuse a fit whose optical axis leans further from the zenith, degrees")
+      ->capture_default_str();
   orientation->add_option("--frames", o.frames,
                           "CSV of sky frames: columns file,timestamp (ISO 8601 with zone), e.g. skylit-sky's frames.csv")
       ->check(CLI::ExistingFile);

@@ -136,19 +136,37 @@ TEST(SkylitCalibCli, SkyOrientationFromTheSun) {
   EXPECT_TRUE(skylit::camera::load_calibration(dir / "sky.yaml").R_site_from_camera.isIdentity()) << "-o leaves --calib alone";
 }
 
+// The longitude's sign wrong: the frames fit one rotation, but one that puts the sky camera where
+// no sky camera looks. Refused, naming the likely cause; nothing written.
+TEST(SkylitCalibCli, SkyOrientationWithTheLongitudesSignWrongIsRefused) {
+  const TempDir dir;
+  skylit::camera::CameraCalibration truth = skylit::calib_test::small_sky_camera(256);
+  truth.R_site_from_camera = true_orientation();
+  const fs::path csv = skylit::calib_test::write_sky_frames(dir.path(), truth, 48.2, 16.37, times(5, 90), true);
+  skylit::camera::CameraCalibration intrinsics = truth;
+  intrinsics.R_site_from_camera.setIdentity();
+  skylit::camera::save_calibration(intrinsics, dir / "sky.yaml");
+  const Result r = run_calib("sky-orientation --calib " + q(dir / "sky.yaml") + " --frames " + q(csv) +
+                             " --lat 48.2 --lon -16.37 -o " + q(dir / "oriented.yaml"));
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("from the zenith"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("--lon with the wrong sign"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir / "oriented.yaml"));
+}
+
 TEST(SkylitCalibCli, SkyOrientationWithoutSunFailsCleanly) {
   const TempDir dir;
   const skylit::camera::CameraCalibration camera = skylit::calib_test::small_sky_camera(128);
   const fs::path csv = skylit::calib_test::write_sky_frames(dir.path(), camera, 48.2, 16.37, times(3, 60), false);
   skylit::camera::save_calibration(camera, dir / "sky.yaml");
   const std::string before = skylit::read_file(dir / "sky.yaml");
-  Result r = run_calib("sky-orientation --calib " + q(dir / "sky.yaml") + " --frames " + q(csv) + " --lat 48.2 --lon 16.37");
+  Result r = run_calib("sky-orientation --calib " + q(dir / "sky.yaml") + " --frames " + q(csv) + " --lat 48.2 --lon 16.37 --in-place");
   EXPECT_EQ(r.status, 2) << r.output;
   EXPECT_NE(r.output.find("no sun seen in 3 of 3 frame(s)"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("--level-compass"), std::string::npos) << r.output;
   EXPECT_EQ(skylit::read_file(dir / "sky.yaml"), before);
   // Frames without the site's position.
-  r = run_calib("sky-orientation --calib " + q(dir / "sky.yaml") + " --frames " + q(csv));
+  r = run_calib("sky-orientation --calib " + q(dir / "sky.yaml") + " --frames " + q(csv) + " --in-place");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.output.find("--lat"), std::string::npos) << r.output;
   EXPECT_EQ(skylit::read_file(dir / "sky.yaml"), before);
@@ -157,7 +175,13 @@ TEST(SkylitCalibCli, SkyOrientationWithoutSunFailsCleanly) {
 TEST(SkylitCalibCli, SkyOrientationFromLevelAndCompass) {
   const TempDir dir;
   skylit::camera::save_calibration(skylit::calib_test::small_sky_camera(128), dir / "sky.yaml");
-  const Result r = run_calib("sky-orientation --calib " + q(dir / "sky.yaml") + " --level-compass 80 --declination 7.5");
+  // Without -o or --in-place the calibration is never replaced.
+  const std::string before = skylit::read_file(dir / "sky.yaml");
+  const Result refused = run_calib("sky-orientation --calib " + q(dir / "sky.yaml") + " --level-compass 80");
+  EXPECT_EQ(refused.status, 2) << refused.output;
+  EXPECT_NE(refused.output.find("--in-place"), std::string::npos) << refused.output;
+  EXPECT_EQ(skylit::read_file(dir / "sky.yaml"), before);
+  const Result r = run_calib("sky-orientation --calib " + q(dir / "sky.yaml") + " --level-compass 80 --declination 7.5 --in-place");
   ASSERT_EQ(r.status, 0) << r.output;
   const skylit::camera::CameraCalibration c = skylit::camera::load_calibration(dir / "sky.yaml");
   EXPECT_LT(skylit::calib::rotation_difference_deg(c.R_site_from_camera, skylit::calib::level_compass_rotation(87.5)), 1e-6);
