@@ -290,15 +290,16 @@ int run(const Options& o) {
   const auto start = Clock::now();
   const fs::path out_dir = o.out_dir;
   check_options(o);
-  const skylit::bake_format::Manifest manifest = verified_manifest(o);
-  skylit::ensure_writable_directory(out_dir);
-
-  const skylit::geom::Dome dome(manifest.plan.frequency);
+  // The small inputs first: a sky frame or calibration that cannot be read is named before the
+  // bake is verified (which reads every file of it).
   const skylit::camera::CameraCalibration calibration = skylit::camera::load_calibration(o.sky_calib);
-
   auto t = Clock::now();
   const skylit::sky::RadianceFrame frame = load_sky(o, calibration);
   const double load_ms = ms_since(t);
+
+  const skylit::bake_format::Manifest manifest = verified_manifest(o);
+  skylit::ensure_writable_directory(out_dir);
+  const skylit::geom::Dome dome(manifest.plan.frequency);
 
   t = Clock::now();
   skylit::sky::SkyEstimateOptions sky_options;

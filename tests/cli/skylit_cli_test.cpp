@@ -56,6 +56,26 @@ TEST_P(SkylitCli, AMissingInputFileIsAnInputErrorNamingIt) {
   EXPECT_EQ(r.output.find("internal error"), std::string::npos) << r.output;
 }
 
+// Inputs as people bring them, each in a path with a space and non-ASCII letters: an empty file,
+// a folder, and bytes of the wrong kind. Each is an input error naming the path; none crashes.
+TEST_P(SkylitCli, AnEmptyFileAFolderAndTheWrongKindOfFileAreInputErrorsNamingThem) {
+  ASSERT_TRUE(fs::exists(kBin / GetParam().name)) << "build " << GetParam().name << " first";
+  fs::create_directories(dir_ / "bake");
+  const fs::path empty = dir_.write("vide é ☀.yaml", "");
+  const fs::path folder = dir_ / "dossier é ☀.yaml";
+  fs::create_directories(folder);
+  std::string bytes;
+  for (int k = 0; k < 4096; ++k) bytes.push_back(static_cast<char>((k * 131 + 7) % 251));
+  const fs::path garbage = dir_.write("déchets ☀.yaml", bytes);
+  for (const fs::path& input : {empty, folder, garbage}) {
+    std::string args = substitute(GetParam().args, "@MISSING@", "'" + input.string() + "'");
+    const Result r = run(args);
+    EXPECT_EQ(r.status, 2) << input << "\n" << r.output;
+    EXPECT_NE(r.output.find(input.filename().string()), std::string::npos) << input << "\n" << r.output;
+    EXPECT_EQ(r.output.find("internal error"), std::string::npos) << r.output;
+  }
+}
+
 TEST_P(SkylitCli, AnUnknownOptionIsAnInputErrorAndHelpIsNot) {
   ASSERT_TRUE(fs::exists(kBin / GetParam().name)) << "build " << GetParam().name << " first";
   // (A program with required options may name those first.)
@@ -97,7 +117,7 @@ INSTANTIATE_TEST_SUITE_P(
         Program{"skylit-contact-sheet", "@MISSING@ -o @DIR@/sheet.png"},
         Program{"skylit-live", "@MISSING@"},
         Program{"skylit-sky-node", "@MISSING@"},
-        Program{"skylit-bench", "trade --site @MISSING@ --out @DIR@/trade"}),
+        Program{"skylit-bench", "trade --site @MISSING@ --calib @SRC@/config/sky_camera.yaml --hmd-camera @SRC@/config/hmd_camera.yaml --skies @SRC@/data/hdri --out @DIR@/trade"}),
     [](const ::testing::TestParamInfo<Program>& param_info) {
       std::string name = param_info.param.name.substr(std::string("skylit-").size());
       for (char& c : name) {
