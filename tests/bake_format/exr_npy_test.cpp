@@ -227,6 +227,9 @@ TEST(Npy, ReadsVersionTwoAndRefusesOtherTypesOrders) {
   refused(make("fortran.npy", 1, "{'descr': '<f4', 'fortran_order': True, 'shape': (2, 3), }", 6), "fortran_order");
   refused(make("short.npy", 1, "{'descr': '<f4', 'fortran_order': False, 'shape': (2, 3), }", 5), "truncated");
   refused(make("long.npy", 1, "{'descr': '<f4', 'fortran_order': False, 'shape': (2, 3), }", 7), "trailing");
+  // A shape whose product wraps to 0 in 64 bits: the header alone would "match" the file's size.
+  refused(make("wrap.npy", 1, "{'descr': '<f4', 'fortran_order': False, 'shape': (4294967296, 4294967296, 16), }", 0),
+          "overflows");
   { std::ofstream(dir / "text.npy") << "hello, world"; }
   refused(dir / "text.npy", "NUMPY");
 }

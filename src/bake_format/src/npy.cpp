@@ -1,6 +1,8 @@
 // NumPy .npy files (format version 1.0 written; 1.0, 2.0 and 3.0 read), float32 little-endian.
 #include <bit>
 #include <cstring>
+#include <limits>
+#include <optional>
 #include <fstream>
 #include <stdexcept>
 
@@ -33,11 +35,18 @@ std::string shape_text(std::span<const std::size_t> shape) {
   return s + ")";
 }
 
-std::uint64_t element_count(std::span<const std::size_t> shape) {
+// Elements of `shape`, or nullopt when the product (or its bytes) would not fit 64 bits: a shape
+// read from a file is anyone's.
+std::optional<std::uint64_t> checked_element_count(std::span<const std::size_t> shape) {
   std::uint64_t n = 1;
-  for (std::size_t d : shape) n *= d;
+  for (std::size_t d : shape) {
+    if (__builtin_mul_overflow(n, static_cast<std::uint64_t>(d), &n)) return std::nullopt;
+  }
+  if (n > std::numeric_limits<std::uint64_t>::max() / sizeof(float)) return std::nullopt;
   return n;
 }
+
+std::uint64_t element_count(std::span<const std::size_t> shape) { return checked_element_count(shape).value_or(0); }
 
 // The value text of `key` in the header's Python dict literal, e.g. "'<f4'", "False", "(3, 4)".
 std::string dict_value(const fs::path& file, const std::string& header, const std::string& key) {
@@ -148,6 +157,9 @@ NpyInfo read_npy_info(const fs::path& file) {
   NpyInfo info;
   info.shape = parse_shape(file, dict_value(file, header, "shape"));
   info.data_offset = offset + header_size;
+  if (!checked_element_count(info.shape)) {
+    bad(file, "shape", shape_text(info.shape) + " holds more elements than any file can (the product overflows)");
+  }
 
   const std::uint64_t expected = info.data_offset + element_count(info.shape) * sizeof(float);
   const std::uint64_t actual = fs::file_size(file);
