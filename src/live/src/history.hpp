@@ -21,6 +21,12 @@ class History {
   static constexpr double kSpan = 600;  // seconds kept
   static constexpr double kEvery = 1;   // seconds between samples
 
+  // Whether a sample at `t` would be kept (a second since the last one): the caller need not
+  // gather one every frame.
+  bool due(double t) const {
+    std::lock_guard lock(mutex_);
+    return samples_.empty() || t - samples_.back().t >= kEvery;
+  }
   // Keeps `sample` when a second has passed since the last one kept; true when kept.
   bool add(const Sample& sample) {
     std::lock_guard lock(mutex_);

@@ -553,8 +553,10 @@ void Service::State::RenderLoop::keep_times(const FrameStageTimes& times, std::o
     s.composite_times.add(times.at(Stage::Composite) / 1e3, end);
     s.record_times.add(times.at(Stage::Record) / 1e3, end);
     if (recorder) s.record_fps = recorder->fps();
-    s.history.add({end, sky ? mean_of(sky->S) : std::nullopt, 1e3 * s.frame_times.percentile(0.5),
-                   1e3 * s.latency_times.percentile(0.5)});
+    if (s.history.due(end)) {
+      s.history.add({end, sky ? mean_of(sky->S) : std::nullopt, 1e3 * s.frame_times.percentile(0.5),
+                     1e3 * s.latency_times.percentile(0.5)});
+    }
   }
   if (!s.options.quiet && end - last_progress > 1.0) {
     last_progress = end;
