@@ -228,6 +228,22 @@ TEST(ManifestJson, ForeignOrIncompleteManifestsAreRefused) {
   j = to_json(sample_manifest());
   j["files"][0]["size"] = -4;
   EXPECT_THROW(manifest_from_json(j, "manifest.json"), InputError);
+
+  // A file named by the manifest stays inside the bake directory: every loader joins it to it.
+  for (const char* escape : {"../../etc/passwd", "/etc/passwd", "planes/../../outside.npy"}) {
+    j = to_json(sample_manifest());
+    j["transfer"]["file"] = escape;
+    try {
+      manifest_from_json(j, "/b/manifest.json");
+      FAIL() << escape << " was accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("transfer.file"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("outside the bake directory"), std::string::npos) << e.what();
+    }
+  }
+  j = to_json(sample_manifest());
+  j["planes"][0]["file"] = "../elsewhere.exr";
+  EXPECT_THROW(manifest_from_json(j, "manifest.json"), InputError);
 }
 
 TEST(ManifestFile, WriteHashesTheFilesAndReadsBack) {

@@ -335,6 +335,21 @@ json to_json(const Manifest& m) {
           {"files", std::move(files)}};
 }
 
+namespace {
+
+// A file the manifest names must lie inside the bake directory: relative, and not through "..".
+// Every loader joins these to the bake's folder, so one that escapes would read anywhere.
+bool inside_bake(const std::string& path) {
+  const fs::path p(path);
+  if (path.empty() || p.is_absolute() || p.has_root_name()) return false;
+  for (const fs::path& part : p) {
+    if (part == "..") return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 Manifest manifest_from_json(const json& j, const fs::path& source) {
   const Source src{source, kManifestFix};
   const auto get = [&](const json& object, const std::string& parent, const char* key) -> const json& {
@@ -392,6 +407,9 @@ Manifest manifest_from_json(const json& j, const fs::path& source) {
   }
 
   const json& planes = array_of(src, get(j, "", "planes"), "planes");
+  const auto contained = [&](const std::string& field, const std::string& file) {
+    if (!inside_bake(file)) src.fail(field, "'" + file + "' names a file outside the bake directory (absolute, or through '..')");
+  };
   for (std::size_t i = 0; i < planes.size(); ++i) {
     const std::string field = index("planes", i);
     PlaneRecord r;
@@ -404,12 +422,15 @@ Manifest manifest_from_json(const json& j, const fs::path& source) {
                                                       : to_double(src, unoccluded[k], index(ufield, k)));
     }
     r.file = to_string(src, get(planes[i], field, "file"), join(field, "file"));
+    contained(join(field, "file"), r.file);
     if (planes[i].contains("pca")) {
       const std::string pfield = join(field, "pca");
       const json& pca = get(planes[i], field, "pca");
       PcaRecord record;
       record.file = to_string(src, get(pca, pfield, "file"), join(pfield, "file"));
       record.coefficients = to_string(src, get(pca, pfield, "coefficients"), join(pfield, "coefficients"));
+      contained(join(pfield, "file"), record.file);
+      contained(join(pfield, "coefficients"), record.coefficients);
       record.components = to_int(src, get(pca, pfield, "components"), join(pfield, "components"), 0);
       record.max_error = to_double(src, get(pca, pfield, "max_error"), join(pfield, "max_error"));
       record.rms_error = to_double(src, get(pca, pfield, "rms_error"), join(pfield, "rms_error"));
@@ -427,6 +448,7 @@ Manifest manifest_from_json(const json& j, const fs::path& source) {
   const auto array_file = [&](const char* key, std::uint64_t columns, std::string& file) {
     const json& section = get(j, "", key);
     file = to_string(src, get(section, key, "file"), join(key, "file"));
+    contained(join(key, "file"), file);
     const std::string sfield = join(key, "shape");
     const json& shape = array_of(src, get(section, key, "shape"), sfield, 2);
     const std::uint64_t rows = to_count(src, shape[0], index(sfield, 0));
