@@ -260,6 +260,21 @@ TEST(ServiceStatus, StatusAndMetricsOverHttpWhileRunning) {
   const auto second = client.Get("/status");
   ASSERT_TRUE(second);
   EXPECT_GT(json::parse(second->body)["frames"].get<int>(), status["frames"].get<int>());
+
+  // The console's plots start from the node's own samples (one a second, the sky's mean S among
+  // them), and its map from the site's planes.
+  ASSERT_TRUE(running.wait_for([&](const json&) {
+    const auto history = client.Get("/history.json");
+    if (!history || history->status != 200) return false;
+    const json samples = json::parse(history->body)["samples"];
+    return samples.size() >= 2 && samples.back()["S"].size() == 3 && samples.back()["frame_ms"].is_number();
+  }, 20)) << client.Get("/history.json")->body;
+  const auto map = client.Get("/map.json");
+  ASSERT_TRUE(map);
+  const json site_map = json::parse(map->body);
+  ASSERT_EQ(site_map["planes"].size(), BakedSite::get().manifest.planes.size()) << map->body;
+  EXPECT_EQ(site_map["planes"][0]["corners"].size(), 4u);
+  EXPECT_TRUE(site_map["tags"].empty());  // a fixed pose: no marker map
 }
 
 }  // namespace
