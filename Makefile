@@ -6,7 +6,7 @@ BUILD  := build
 JOBS   ?= $(shell nproc)
 DEMO_OUT ?= $(BUILD)/demo
 
-.PHONY: all deps configure build test demo demo-site bench clean
+.PHONY: all deps configure build test demo demo-site bench fuzz clean
 
 all: build
 
@@ -62,6 +62,13 @@ demo-site: build
 bench: build
 	cmake --build $(BUILD) -j $(JOBS) --target benchmarks
 	bash bench/run_bake_bench.sh
+
+# Fuzzes every parser of outside input (docs/fuzzing.md): the harnesses in fuzz/ built with clang,
+# libFuzzer, ASan and UBSan in build-fuzz/, each run FUZZ_SECONDS (default 600, the goal; 60 for a
+# quick pass), FUZZ_JOBS at a time; build-fuzz/fuzz-report.md has executions/s and coverage.
+# `make test` replays the seeds and every input that once crashed (fuzz/corpus) without them.
+fuzz: deps
+	bash scripts/fuzz.sh $(HARNESS)
 
 clean:
 	rm -rf $(BUILD)

@@ -53,7 +53,7 @@ echo "demo-site: mosquitto on 127.0.0.1:$broker_port"
 # the copy lives in OUT).
 hmd_pids=()
 for n in 1 2 3; do
-  sed -e "s|^site: |site: $repo/config/|" -e "s|^bake: \.\./|bake: $repo/|" \
+  sed -e "s|^root: \.\.|root: $repo|" -e "s|^site: |site: $repo/config/|" -e "s|^bake: \.\./|bake: $repo/|" \
       -e "s|  calibration: |  calibration: $repo/config/|" \
       -e "s|    path: \.\./build/demo/camera|    path: $out/camera-$n|" \
       -e "s|  csv: \.\./build/demo/camera/poses.csv|  csv: $out/camera-$n/poses.csv|" \

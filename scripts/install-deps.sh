@@ -16,6 +16,7 @@ packages=(
   libmosquitto-dev mosquitto openssl prometheus
   xvfb xauth ffmpeg systemd
   chromium chromium-driver python3-selenium python3-pil
+  clang libclang-rt-dev
 )
 
 missing=()

@@ -90,6 +90,7 @@ TEST(SourceConfig, CamerasReconnectByDefault) {
 TEST(SourceConfig, ReadsTheSkySimulator) {
   TempDir dir;
   const SourceConfig config = load_source_config(dir.write("sim.yaml",
+                                                           "root: ..\n"  // the calibration lies beside this folder
                                                            "source:\n"
                                                            "  kind: sky-sim\n"
                                                            "  calibration: ../config/sky.yaml\n"

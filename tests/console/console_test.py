@@ -194,6 +194,7 @@ def site_copy():
     with open(what) as f:
         text = f.read()
     text = replace_once(text, 'model: "../data/', f'model: "{F.src}/data/', what)
+    text = replace_once(text, 'root: ".."', 'root: "/"', what)
     text, planes = re.subn(r"(?m)^(\s+resolution: )\[\d+, \d+\]", r"\g<1>[40, 24]", text)
     if planes == 0:
         raise AssertionError(f"{what}: no plane 'resolution: [W, H]' to replace")
@@ -211,6 +212,7 @@ def hmd_config(node, extra_status=None):
     what = os.path.join(src, "config/site_hmd.yaml")
     with open(what) as f:
         text = f.read()
+    text = re.sub(r"(?m)^root: .*$", "root: /", text)
     text = re.sub(r"(?m)^site: .*$", f"site: {F.site}", text)
     text = re.sub(r"(?m)^bake: .*$", f"bake: {tmp}/bake", text)
     text = replace_once(text, "\n  calibration: ", f"\n  calibration: {src}/config/", what)
@@ -240,6 +242,7 @@ def sky_config():
     tenth of a degree between skies), with no end."""
     src = F.src
     text = f"""# config/site_sky.yaml for tests/console/console_test.py
+root: /
 site: {F.site}
 bake: {F.tmp}/bake
 sky:

@@ -137,7 +137,7 @@ TEST(ServiceFaults, ABakeMadeForAnotherSiteRefusesToStartNamingTheDifferences) {
   const BakedSite& baked = BakedSite::get();
   // The baked site, but on a finer dome, with a coarser ground and a renamed wall.
   std::ofstream(rig.dir() / "other_site.yaml")
-      << "scene:\n  model: " << quoted(baked.dir / "tower.glb") << "\n  up: y\n  scale: 1\n"
+      << "root: /\nscene:\n  model: " << quoted(baked.dir / "tower.glb") << "\n  up: y\n  scale: 1\n"
       << "dome:\n  frequency: 4\n"
       << "planes:\n"
       << "  - name: ground\n    origin: [-8, -8, 0.01]\n    u: [16, 0, 0]\n    v: [0, 16, 0]\n"

@@ -160,7 +160,8 @@ class Rig {
   std::string config_text() const {
     const BakedSite& baked = BakedSite::get();
     std::ostringstream out;
-    out << "site: " << quoted(baked.dir / "site.yaml") << "\n"
+    out << "root: /\n"  // the baked site lies in the suite's folder, not under this config's
+        << "site: " << quoted(baked.dir / "site.yaml") << "\n"
         << "bake: " << quoted(baked.dir / "bake") << "\n"
         << "sky:\n"
         << "  calibration: sky.yaml\n"

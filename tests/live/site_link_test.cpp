@@ -27,7 +27,7 @@ namespace {
 // The rig's sky frames (two, looped at 2 per second) as a sky node's config.
 std::string sky_node_config(const Rig& rig, int broker_port) {
   const BakedSite& baked = BakedSite::get();
-  return "site: " + quoted(baked.dir / "site.yaml") + "\nbake: " + quoted(baked.dir / "bake") +
+  return "root: /\nsite: " + quoted(baked.dir / "site.yaml") + "\nbake: " + quoted(baked.dir / "bake") +
          "\nsky:\n  calibration: " + quoted(rig.dir() / "sky.yaml") + "\n  source:\n    kind: images\n    path: " +
          quoted(rig.dir() / "sky") + "\n    loop: true\n    realtime: 1\n  rate: 0\n  sun: auto\n" +
          "link:\n  broker: 127.0.0.1:" + std::to_string(broker_port) + "\n  node: sky\n";

@@ -215,6 +215,36 @@ TEST(ServiceConfig, BlendDeviceAndRecordSettings) {
   }
 }
 
+// Every input a config names lies inside its root (its folder, or `root:`); secrets and outputs
+// may lie anywhere.
+TEST(ServiceConfig, EveryInputItNamesLiesInsideItsRoot) {
+  const Rig rig;
+  const fs::path file = rig.dir() / "rooted.yaml";
+  std::string text = rig.config_text();
+  ASSERT_EQ(text.rfind("root: /\n", 0), 0u);
+  text.erase(0, std::string("root: /\n").size());
+  // Without a root, the config's folder: the suite's baked site lies elsewhere.
+  std::ofstream(file) << text;
+  std::string message = skylit::test::error_of([&] { live::load_live_config(file); });
+  EXPECT_NE(message.find("field 'site': '"), std::string::npos) << message;
+  EXPECT_NE(message.find("is outside the folder this file may name files in, '" + rig.dir().lexically_normal().string() + "'"),
+            std::string::npos) << message;
+  // `root: ..` holds the baked site and the rig (both under the temp folder), not /etc.
+  std::ofstream(file) << "root: ..\n" << text;
+  EXPECT_NO_THROW(live::load_live_config(file));
+  std::string escaped = text;
+  const std::string sky_calibration = "  calibration: sky.yaml";
+  escaped.replace(escaped.find(sky_calibration), sky_calibration.size(), "  calibration: /etc/hostname");
+  std::ofstream(file) << "root: ..\n" << escaped;
+  message = skylit::test::error_of([&] { live::load_live_config(file); });
+  EXPECT_NE(message.find("field 'sky.calibration': '/etc/hostname' is outside"), std::string::npos) << message;
+  // The console's token and the recording may lie anywhere.
+  std::ofstream(file) << "root: ..\n" << text << "status:\n  token_file: /etc/os-release\noutput:\n  record: /var/lib/skylit/live.mp4\n";
+  const live::LiveConfig config = live::load_live_config(file);
+  EXPECT_EQ(config.status_access.token_file, fs::path("/etc/os-release"));
+  EXPECT_EQ(config.output.record, fs::path("/var/lib/skylit/live.mp4"));
+}
+
 }  // namespace
 }  // namespace skylit::live_test
 

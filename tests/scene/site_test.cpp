@@ -12,6 +12,7 @@
 namespace skylit::scene {
 namespace {
 
+using skylit::test::error_of;
 using skylit::test::TempDir;
 
 // A valid site; the bad cases below change one thing in it.
@@ -115,10 +116,29 @@ TEST(LoadSite, UpAndScaleDefaultByModelType) {
   EXPECT_EQ(explicit_y.up, UpAxis::Y);
 }
 
-TEST(LoadSite, AbsoluteModelPathIsKept) {
+TEST(LoadSite, AbsoluteModelPathIsKeptInsideTheRoot) {
   TempDir dir;
-  const Site site = load_site(dir.write("s.yaml", good_with(2, "  model: /srv/models/x.obj")));
+  const Site site = load_site(dir.write("s.yaml", "root: /srv\n" + good_with(2, "  model: /srv/models/x.obj")));
   EXPECT_EQ(site.model, std::filesystem::path("/srv/models/x.obj"));
+  EXPECT_EQ(site.root, std::filesystem::path("/srv"));
+}
+
+// The site names its model inside its root (its own folder unless `root:` says otherwise):
+// absolute, through '..', or a root that does not hold it, each an error naming the field.
+TEST(LoadSite, AModelOutsideTheRootIsRefusedNamingTheField) {
+  TempDir dir;
+  for (const std::string model : {"/srv/models/x.obj", "../x.obj", "models/../../x.obj"}) {
+    SCOPED_TRACE(model);
+    const std::string message = error_of([&] { load_site(dir.write("s.yaml", good_with(2, "  model: " + model))); });
+    EXPECT_NE(message.find("field 'scene.model': '" + model + "' is outside the folder this file may name files in, '" +
+                           dir.path().lexically_normal().string() + "'"), std::string::npos) << message;
+    EXPECT_NE(message.find("Fix: move the file under that folder, or make the folder wider with 'root: FOLDER'"),
+              std::string::npos) << message;
+  }
+  // `root: ..` widens it to the parent; a root elsewhere holds nothing of the site's.
+  EXPECT_EQ(load_site(dir.write("s.yaml", "root: ..\n" + good_with(2, "  model: ../x.obj"))).model,
+            (dir.path() / "../x.obj").lexically_normal());
+  EXPECT_THROW(load_site(dir.write("s.yaml", "root: /srv\n" + good_with(2, "  model: models/gate.glb"))), InputError);
 }
 
 struct BadCase {
@@ -286,6 +306,7 @@ TEST(SiteToYaml, RoundTripsExactly) {
   Site site;
   site.file = dir.path() / "config" / "site.yaml";
   site.model = dir.path() / "config" / ".." / "models" / "a model #1.obj";
+  site.root = dir.path();  // written as "..": the model lies beside the site's folder
   site.up = UpAxis::Y;
   site.scale = 0.1 + 0.2;  // not representable in few digits
   site.dome_frequency = 6;
@@ -306,7 +327,8 @@ TEST(SiteToYaml, RoundTripsExactly) {
   const auto file = dir.write("config/site.yaml", site_to_yaml(site));
   const Site back = load_site(file);
   EXPECT_EQ(back.file, site.file);
-  EXPECT_EQ(back.model, site.model);
+  EXPECT_EQ(back.model, site.model.lexically_normal());
+  EXPECT_EQ(back.root, site.root);
   EXPECT_EQ(back.up, site.up);
   EXPECT_EQ(back.scale, site.scale);
   EXPECT_EQ(back.dome_frequency, site.dome_frequency);
@@ -333,7 +355,8 @@ TEST(SiteToYaml, AModelPathWithANewlineAColonAndQuotesRoundTrips) {
   Site site = load_site(dir.write("site.yaml", join(kGoodLines)));
   site.model = dir.path() / "models" / "gate: \"east\" \\ wing\n#2\t.glb";
   const Site back = load_site(dir.write("back.yaml", site_to_yaml(site)));
-  EXPECT_EQ(back.model, site.model);
+  EXPECT_EQ(back.model, site.model.lexically_normal());
+  EXPECT_EQ(back.root, site.root);
   EXPECT_EQ(site_to_yaml(back), site_to_yaml(site));
 }
 

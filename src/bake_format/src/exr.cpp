@@ -14,6 +14,7 @@
 #include "skylit/bake_format/manifest.hpp"
 #include "skylit/bake_format/arrays.hpp"
 #include "skylit/base/error.hpp"
+#include "skylit/base/exr_header.hpp"
 #include "skylit/base/files.hpp"
 
 namespace skylit::bake_format {
@@ -63,10 +64,17 @@ bool natural_less(const std::string& a, const std::string& b) {
   return a.size() - i < b.size() - j;
 }
 
+constexpr const char* kExrFix = "re-bake, or restore the file from the bake it belongs to";
+
 [[noreturn]] void unreadable(const fs::path& file, const std::string& cause) {
   throw InputError(file.string() + ": not a readable OpenEXR image (" + cause +
                    "). Fix: re-bake, or restore the file from the bake it belongs to");
 }
+
+// The largest stack a bake file may hold: planes up to scene::kMaxPlaneResolution on a side, and
+// 2^30 values in all (a 512x512 plane under a ν=12 dome, 1440 layers, is 0.35 of it).
+constexpr long long kMaxSide = 16384;
+constexpr unsigned long long kMaxValues = 1ull << 30;
 
 struct Layout {
   Imath::Box2i window;
@@ -77,6 +85,13 @@ Layout layout_of(const Imf::Header& header, const fs::path& file) {
   Layout layout;
   layout.window = header.dataWindow();
   if (layout.window.isEmpty()) unreadable(file, "empty data window");
+  // Checked before anything is allocated from them (in 64 bits: the corners are any ints).
+  const long long width = static_cast<long long>(layout.window.max.x) - layout.window.min.x + 1;
+  const long long height = static_cast<long long>(layout.window.max.y) - layout.window.min.y + 1;
+  if (width > kMaxSide || height > kMaxSide) {
+    unreadable(file, "data window " + std::to_string(width) + "x" + std::to_string(height) + " is larger than " +
+                         std::to_string(kMaxSide) + " texels on a side, the largest plane a site may have");
+  }
   for (auto it = header.channels().begin(); it != header.channels().end(); ++it) {
     const std::string name = it.name();
     if (!ends_with_luminance(name)) continue;
@@ -84,6 +99,11 @@ Layout layout_of(const Imf::Header& header, const fs::path& file) {
       unreadable(file, "channel '" + name + "' is subsampled");
     }
     layout.channels.push_back(name);
+  }
+  if (static_cast<unsigned long long>(width * height) * layout.channels.size() > kMaxValues) {
+    unreadable(file, std::to_string(width) + "x" + std::to_string(height) + " texels in " +
+                         std::to_string(layout.channels.size()) + " layers are more than the largest bake holds (" +
+                         std::to_string(kMaxValues) + " values)");
   }
   std::sort(layout.channels.begin(), layout.channels.end(), natural_less);
   return layout;
@@ -182,6 +202,7 @@ void write_exr_stack(const fs::path& file, const ImageStack& stack, std::span<co
 ExrInfo read_exr_info(const fs::path& file) {
   if (!fs::is_regular_file(file)) unreadable(file, "no such file");
   try {
+    check_exr_header(file, {kMaxSide, 1 << 20}, kExrFix);
     Imf::InputFile in(file.c_str());
     if (!in.isComplete()) unreadable(file, "the file is truncated");
     const Layout layout = layout_of(in.header(), file);
@@ -207,6 +228,7 @@ Stack read_stack(const fs::path& file, std::vector<std::string>* layer_names, Im
   static_assert(sizeof(half) == sizeof(std::uint16_t), "OpenEXR HALF slices are 16-bit words");
   if (!fs::is_regular_file(file)) unreadable(file, "no such file");
   try {
+    check_exr_header(file, {kMaxSide, 1 << 20}, kExrFix);
     Imf::InputFile in(file.c_str());
     // A file cut short still opens; its missing scanlines would silently read as zero.
     if (!in.isComplete()) unreadable(file, "the file is truncated");

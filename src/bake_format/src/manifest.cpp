@@ -35,6 +35,13 @@ std::string index(const std::string& parent, std::size_t i) {
   return parent + "[" + std::to_string(i) + "]";
 }
 
+// Sizes a manifest may state, checked before anything is allocated from them: the site file's own
+// limits (scene::kMaxPlaneResolution, the dome's frequency) and generous ones for the rest.
+constexpr int kMaxPlaneTexels = 16384;
+constexpr int kMaxDomeFrequency = 64;
+constexpr int kMaxSamples = 1 << 20;
+constexpr int kMaxPcaComponents = 4096;
+
 const json& member(const Source& src, const json& object, const std::string& parent,
                    const std::string& key) {
   if (!object.is_object()) src.fail(parent.empty() ? "(top level)" : parent, "expected a JSON object");
@@ -116,8 +123,8 @@ geom::Plane plane_from(const Source& src, const json& j, const std::string& fiel
   p.v = to_vec3(src, member(src, j, field, "v"), join(field, "v"));
   const std::string res_field = join(field, "resolution");
   const json& res = array_of(src, member(src, j, field, "resolution"), res_field, 2);
-  p.width = to_int(src, res[0], index(res_field, 0), 1);
-  p.height = to_int(src, res[1], index(res_field, 1), 1);
+  p.width = to_int(src, res[0], index(res_field, 0), 1, kMaxPlaneTexels);
+  p.height = to_int(src, res[1], index(res_field, 1), 1, kMaxPlaneTexels);
   return p;
 }
 
@@ -141,14 +148,14 @@ Plan plan_from(const Source& src, const json& j, const std::string& field) {
   plan.site_sha256 = to_string(src, get("site_sha256"), name("site_sha256"));
   plan.model_file = to_string(src, get("model_file"), name("model_file"));
   plan.model_sha256 = to_string(src, get("model_sha256"), name("model_sha256"));
-  plan.frequency = to_int(src, get("frequency"), name("frequency"), 1);
+  plan.frequency = to_int(src, get("frequency"), name("frequency"), 1, kMaxDomeFrequency);
   plan.basis = basis_from(src, j, field);
-  plan.samples = to_int(src, get("samples"), name("samples"), 1);
+  plan.samples = to_int(src, get("samples"), name("samples"), 1, kMaxSamples);
   plan.method = to_string(src, get("method"), name("method"));
   if (plan.method != "raster" && plan.method != "raytrace") {
     src.fail(name("method"), "got '" + plan.method + "', expected 'raster' or 'raytrace'");
   }
-  plan.shadow_map_resolution = to_int(src, get("shadow_map_resolution"), name("shadow_map_resolution"), 0);
+  plan.shadow_map_resolution = to_int(src, get("shadow_map_resolution"), name("shadow_map_resolution"), 0, kMaxPlaneTexels);
   // `preset` is optional: bakes made without skylit-bake --preset have none.
   if (j.is_object() && j.contains("preset")) plan.preset = to_string(src, j["preset"], name("preset"));
   const json& planes = array_of(src, get("planes"), name("planes"));
@@ -378,7 +385,7 @@ Manifest manifest_from_json(const json& j, const fs::path& source) {
   m.plan = plan_from(src, get(j, "", "plan"), "plan");
 
   const json& dome = get(j, "", "dome");
-  const int dome_frequency = to_int(src, get(dome, "dome", "frequency"), "dome.frequency", 1);
+  const int dome_frequency = to_int(src, get(dome, "dome", "frequency"), "dome.frequency", 1, kMaxDomeFrequency);
   if (dome_frequency != m.plan.frequency) {
     src.fail("dome.frequency", "is " + std::to_string(dome_frequency) + " but plan.frequency is " +
                                    std::to_string(m.plan.frequency));
@@ -431,7 +438,7 @@ Manifest manifest_from_json(const json& j, const fs::path& source) {
       record.coefficients = to_string(src, get(pca, pfield, "coefficients"), join(pfield, "coefficients"));
       contained(join(pfield, "file"), record.file);
       contained(join(pfield, "coefficients"), record.coefficients);
-      record.components = to_int(src, get(pca, pfield, "components"), join(pfield, "components"), 0);
+      record.components = to_int(src, get(pca, pfield, "components"), join(pfield, "components"), 0, kMaxPcaComponents);
       record.max_error = to_double(src, get(pca, pfield, "max_error"), join(pfield, "max_error"));
       record.rms_error = to_double(src, get(pca, pfield, "rms_error"), join(pfield, "rms_error"));
       record.variance_kept = to_double(src, get(pca, pfield, "variance_kept"), join(pfield, "variance_kept"));
@@ -439,7 +446,7 @@ Manifest manifest_from_json(const json& j, const fs::path& source) {
         record.sky_correlation_deg =
             to_double(src, pca["sky_correlation_deg"], join(pfield, "sky_correlation_deg"));
       }
-      if (pca.contains("tile")) record.tile = to_int(src, pca["tile"], join(pfield, "tile"), 0);
+      if (pca.contains("tile")) record.tile = to_int(src, pca["tile"], join(pfield, "tile"), 0, kMaxPlaneTexels);
       r.pca = std::move(record);
     }
     m.planes.push_back(std::move(r));
@@ -493,6 +500,8 @@ Manifest read_manifest(const fs::path& bake_dir) {
     const auto [line, column] = line_and_column(text, e.byte > 0 ? e.byte - 1 : 0);
     throw InputError(location_of(path) + ":" + std::to_string(line) + ":" + std::to_string(column) +
                      ": not valid JSON (" + e.what() + "). Fix: " + kManifestFix);
+  } catch (const json::exception& e) {  // out_of_range: a number like 1e999 that no double holds
+    throw InputError(location_of(path) + ": not valid JSON (" + e.what() + "). Fix: " + kManifestFix);
   }
   return manifest_from_json(j, path);
 }

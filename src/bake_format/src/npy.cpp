@@ -173,8 +173,9 @@ NpyInfo read_npy_info(const fs::path& file) {
 
 std::vector<float> read_npy(const fs::path& file, std::vector<std::size_t>* shape) {
   const NpyInfo info = read_npy_info(file);
-  const std::string bytes = read_file(file);
   const std::uint64_t count = element_count(info.shape);
+  // As large as the header says, and no larger (read_npy_info checked the size against it).
+  const std::string bytes = read_file(file, info.data_offset + count * sizeof(float));
   // The file may have changed since read_npy_info; check again against what was read.
   if (bytes.size() != info.data_offset + count * sizeof(float)) {
     bad(file, "data", "the file changed while it was read");

@@ -203,7 +203,7 @@ std::optional<Plan> PartStore::read_plan() const {
   nlohmann::json j;
   try {
     j = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {  // parse_error, or out_of_range for a number like 1e999
     throw InputError(file.string() + ": not valid JSON (" + e.what() +
                      "). Fix: delete the directory's parts/ and rerun skylit-bake (or pass --force)");
   }

@@ -213,11 +213,22 @@ void write_file_atomic_with(const fs::path& path,
   commit(temporary, path);
 }
 
-std::string read_file(const fs::path& path) {
+std::string read_file(const fs::path& path, std::uint64_t max_bytes) {
   std::error_code ignored;
   if (fs::is_directory(path, ignored)) throw_read_error(path, EISDIR);
+  // Counted while reading, not from the size: a device or a pipe (/dev/zero) has none.
+  const auto too_large = [&] {
+    throw InputError(input_message(path, -1, -1, "",
+                                   "the file is larger than " + std::to_string(max_bytes >> 20) +
+                                       " MiB, more than any file of its kind holds",
+                                   "check that the path names the right file"));
+  };
+  if (const std::uintmax_t size = fs::file_size(path, ignored); !ignored && size > max_bytes) too_large();
   std::string content;
-  read_chunks(path, [&](const char* data, std::size_t n) { content.append(data, n); });
+  read_chunks(path, [&](const char* data, std::size_t n) {
+    if (content.size() + n > max_bytes) too_large();
+    content.append(data, n);
+  });
   return content;
 }
 

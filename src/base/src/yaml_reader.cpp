@@ -7,6 +7,7 @@
 #include <system_error>
 
 #include "skylit/base/error.hpp"
+#include "skylit/base/files.hpp"
 
 namespace skylit {
 namespace {
@@ -22,13 +23,8 @@ YAML::Node YamlReader::load(const std::string& syntax_fix) const {
   if (!std::filesystem::exists(file_)) {
     throw InputError(input_message(file_, -1, -1, "", "the file does not exist", "check the path"));
   }
-  try {
-    return YAML::LoadFile(file_.string());
-  } catch (const YAML::ParserException& e) {
-    syntax_error(file_, e, syntax_fix);
-  } catch (const YAML::BadFile&) {
-    throw InputError(input_message(file_, -1, -1, "", "cannot be read", "check its permissions"));
-  }
+  // Read through read_file: its errors name the cause, and it stops at a size no config has.
+  return parse(read_file(file_), syntax_fix);
 }
 
 YAML::Node YamlReader::parse(const std::string& text, const std::string& syntax_fix) const {
@@ -186,9 +182,48 @@ std::string YamlReader::choice(const YAML::Node& node, const std::string& field,
   return value;
 }
 
+std::filesystem::path YamlReader::root() const {
+  std::filesystem::path folder = (root_.empty() ? file_.parent_path() : root_).lexically_normal();
+  // "a/b/.." normalises to "a/": named without the trailing separator.
+  if (!folder.has_filename() && folder.has_relative_path()) folder = folder.parent_path();
+  return folder.empty() ? std::filesystem::path(".") : folder;  // a file named without a folder
+}
+
+void YamlReader::read_root(const YAML::Node& document) {
+  if (!document.IsMap()) return;
+  const YAML::Node node = optional(document, "root");
+  if (!node) return;
+  const std::filesystem::path value(text(node, "root", "a folder holding every file this one names, e.g. 'root: ..'"));
+  root_ = value.is_absolute() ? value : file_.parent_path() / value;
+}
+
 std::filesystem::path YamlReader::path(const YAML::Node& node, const std::string& field, const std::string& fix) const {
+  const std::filesystem::path resolved = any_path(node, field, fix);
+  if (!contains(root(), resolved)) {
+    fail(node, field,
+         "'" + node.Scalar() + "' is outside the folder this file may name files in, '" + root().string() + "'",
+         "move the file under that folder, or make the folder wider with 'root: FOLDER' at the top of this file "
+         "(relative to it, e.g. 'root: ..')");
+  }
+  return resolved;
+}
+
+std::filesystem::path YamlReader::any_path(const YAML::Node& node, const std::string& field, const std::string& fix) const {
   const std::filesystem::path value(text(node, field, fix));
-  return value.is_absolute() ? value : (file_.parent_path() / value).lexically_normal();
+  return value.is_absolute() ? value.lexically_normal() : (file_.parent_path() / value).lexically_normal();
+}
+
+bool contains(const std::filesystem::path& folder, const std::filesystem::path& path) {
+  // Compared as absolute, normal paths (".." resolved by the names, not by following links: a
+  // link an installer put inside the folder is theirs to point anywhere).
+  const std::filesystem::path outer = std::filesystem::absolute(folder).lexically_normal();
+  const std::filesystem::path inner = std::filesystem::absolute(path).lexically_normal();
+  auto o = outer.begin();
+  auto i = inner.begin();
+  for (; o != outer.end() && !o->empty(); ++o, ++i) {  // a trailing "/" gives an empty last name
+    if (i == inner.end() || *o != *i) return false;
+  }
+  return true;
 }
 
 }  // namespace skylit

@@ -214,8 +214,8 @@ std::string kind_name(const SourceConfig& config) {
   return std::string(kKinds[config.settings.index()]);
 }
 
-SourceConfig parse_source_config(const YAML::Node& node, const fs::path& file) {
-  const Reader r(file);
+SourceConfig parse_source_config(const YAML::Node& node, const fs::path& file, const fs::path& root) {
+  const Reader r(file, root);
   if (!node.IsDefined() || node.IsNull()) {
     r.fail(node, "source", "missing", std::string("add a 'source:' map with a kind; ") + kDocs);
   }
@@ -284,12 +284,14 @@ SourceConfig parse_source_config(const YAML::Node& node, const fs::path& file) {
 }
 
 SourceConfig load_source_config(const fs::path& file) {
-  const YAML::Node root = YamlReader(file).parse(read_file(file));
+  YamlReader reader(file);
+  const YAML::Node root = reader.parse(read_file(file));
   if (!root.IsMap()) {
     throw InputError(input_message(file, -1, -1, "source", "the file has no top-level map",
                                    std::string("write 'source:' with a kind and its fields; ") + kDocs));
   }
-  return parse_source_config(root["source"], file);
+  reader.read_root(root);
+  return parse_source_config(root["source"], file, reader.root());
 }
 
 std::unique_ptr<FrameSource> open_source(const SourceConfig& config, Clock clock) {

@@ -16,8 +16,9 @@ namespace skylit::live {
 namespace {
 
 constexpr const char* kDocs = "see docs/live.md (Configuration)";
-constexpr std::array<std::string_view, 15> kTopKeys{"site",     "bake",  "preset",      "sky",    "camera", "pose",   "imu",
-                                                    "fusion",   "tracking", "blend", "render", "photometric", "output", "status", "display"};
+constexpr std::array<std::string_view, 16> kTopKeys{"site",     "bake",  "preset",      "sky",    "camera", "pose",   "imu",
+                                                    "fusion",   "tracking", "blend", "render", "photometric", "output", "status", "display",
+                                                    "root"};
 constexpr std::array<std::string_view, 1> kRenderKeys{"scale"};
 constexpr std::array<std::string_view, 7> kSkyKeys{"calibration", "source", "response", "rate",
                                                    "sun", "smoothing", "stale_after"};
@@ -151,7 +152,7 @@ LinkSettings parse_link(const YamlReader& r, const YAML::Node& node, const std::
   if (password) link.mqtt.password = r.text(password, prefix + ".password", "the broker password");
   if (password_file) {
     // A file of its own keeps the secret out of a config that is copied around (chmod 600 it).
-    const std::filesystem::path path = r.path(password_file, prefix + ".password_file", "a file holding the password");
+    const std::filesystem::path path = r.any_path(password_file, prefix + ".password_file", "a file holding the password");
     if (!std::filesystem::is_regular_file(path)) {
       r.fail(password_file, prefix + ".password_file", "no file at " + path.string(), "write the password to that file (chmod 600)");
     }
@@ -168,7 +169,7 @@ LinkSettings parse_link(const YamlReader& r, const YAML::Node& node, const std::
     const auto file_of = [&](const char* key, bool required) -> std::string {
       const auto n = required ? r.require(tls, key, prefix + ".tls." + key, "a PEM file") : YamlReader::optional(tls, key);
       if (!n) return {};
-      const std::filesystem::path path = r.path(n, prefix + ".tls." + key, "a PEM file");
+      const std::filesystem::path path = r.any_path(n, prefix + ".tls." + key, "a PEM file");
       if (!std::filesystem::is_regular_file(path)) r.fail(n, prefix + ".tls." + key, "no file at " + path.string(), "give a PEM file");
       return path.string();
     };
@@ -198,7 +199,7 @@ void parse_sky(const YamlReader& r, const YAML::Node& root, const std::filesyste
   }
   c.sky.calibration = r.path(r.require(sky, "calibration", "sky.calibration", "the sky camera's calibration YAML"),
                              "sky.calibration", kDocs);
-  c.sky.source = capture::parse_source_config(source, file);
+  c.sky.source = capture::parse_source_config(source, file, r.root());
   if (auto n = YamlReader::optional(sky, "response")) {
     const std::string value = r.text(n, "sky.response", "srgb, linear or a response file");
     c.sky.response = value == "srgb" || value == "linear" ? value : r.path(n, "sky.response", kDocs).string();
@@ -218,13 +219,13 @@ void parse_camera(const YamlReader& r, const YAML::Node& root, const std::filesy
   r.check_keys(camera, "camera.", kCameraKeys);
   c.camera.calibration = r.path(r.require(camera, "calibration", "camera.calibration", "the HMD camera's calibration YAML"),
                                 "camera.calibration", kDocs);
-  c.camera.source = capture::parse_source_config(r.require(camera, "source", "camera.source", "where camera frames come from"), file);
+  c.camera.source = capture::parse_source_config(r.require(camera, "source", "camera.source", "where camera frames come from"), file, r.root());
 }
 
 // pose, and the imu and fusion that correct the marker tracker's poses.
 void parse_pose(const YamlReader& r, const YAML::Node& root, const std::filesystem::path& file, LiveConfig& c) {
   const YAML::Node pose = r.require(root, "pose", "pose", "a fixed pose, a pose track or the marker tracker");
-  c.pose = track::parse_pose_config(pose, file);
+  c.pose = track::parse_pose_config(pose, file, r.root());
   if (c.pose.kind == track::PoseConfig::Kind::Markers) {
     // Checked here rather than when the service opens it, so that the message points at the field.
     if (!std::filesystem::is_regular_file(c.pose.marker_map)) {
@@ -245,7 +246,7 @@ void parse_pose(const YamlReader& r, const YAML::Node& root, const std::filesyst
     }
   }
   if (auto n = YamlReader::optional(root, "imu")) {
-    c.imu = track::parse_imu_config(n, file);
+    c.imu = track::parse_imu_config(n, file, r.root());
     if (c.imu->kind == track::ImuConfig::Kind::Replay && !std::filesystem::is_regular_file(c.imu->csv)) {
       r.fail(n["csv"], "imu.csv", "no IMU recording at " + c.imu->csv.string(),
              "write the path of a CSV with the header timestamp,gx,gy,gz,ax,ay,az; docs/imu.md");
@@ -349,10 +350,10 @@ void parse_output(const YamlReader& r, const YAML::Node& root, LiveConfig& c) {
     r.check_keys(output, "output.", kOutputKeys);
     if (auto n = YamlReader::optional(output, "record"); n && n.IsMap()) {
       r.check_keys(n, "output.record.", kRecordKeys);
-      if (auto p = YamlReader::optional(n, "path")) c.output.record = r.path(p, "output.record.path", "a video file or a folder");
+      if (auto p = YamlReader::optional(n, "path")) c.output.record = r.any_path(p, "output.record.path", "a video file or a folder");
       if (auto f = YamlReader::optional(n, "fps")) c.output.record_fps = r.positive(f, "output.record.fps", "frames per second, e.g. 30");
     } else if (n) {
-      c.output.record = r.path(n, "output.record", "a video file or a folder, or {path: ..., fps: ...}");
+      c.output.record = r.any_path(n, "output.record", "a video file or a folder, or {path: ..., fps: ...}");
     }
     if (auto n = YamlReader::optional(output, "window")) c.output.window = r.boolean(n, "output.window", "true or false");
   }
@@ -365,7 +366,7 @@ void parse_status(const YamlReader& r, const YAML::Node& root, LiveConfig& c) {
     // Without `listen` the map still sets the access, for an address given with --status.
     if (auto n = YamlReader::optional(status, "listen")) c.status_listen = r.text(n, "status.listen", "ADDR:PORT, e.g. 127.0.0.1:8080");
     if (auto n = YamlReader::optional(status, "token_file")) {
-      c.status_access.token_file = r.path(n, "status.token_file", "a file holding the console's token");
+      c.status_access.token_file = r.any_path(n, "status.token_file", "a file holding the console's token");
       if (!std::filesystem::is_regular_file(c.status_access.token_file)) {
         r.fail(n, "status.token_file", "no file at " + c.status_access.token_file.string(),
                "write a secret to it, e.g. head -c 24 /dev/urandom | base64 > FILE; chmod 600 FILE");
@@ -395,11 +396,13 @@ void parse_display(const YamlReader& r, const YAML::Node& root, LiveConfig& c) {
 std::string site_name_of(const std::filesystem::path& site_file) { return site_file.stem().string(); }
 
 SkyNodeConfig load_sky_node_config(const std::filesystem::path& file) {
-  constexpr std::array<std::string_view, 6> keys{"site", "bake", "preset", "sky", "link", "status"};
-  const YamlReader r(file);
-  const YAML::Node root = r.load();
-  r.expect_map(root, "", "a skylit-sky-node config is a map with site, bake, sky and link; " + std::string(kSiteDocs));
-  r.check_keys(root, "", keys);
+  constexpr std::array<std::string_view, 7> keys{"site", "bake", "preset", "sky", "link", "status", "root"};
+  YamlReader reader(file);
+  const YAML::Node root = reader.load();
+  reader.expect_map(root, "", "a skylit-sky-node config is a map with site, bake, sky and link; " + std::string(kSiteDocs));
+  reader.check_keys(root, "", keys);
+  reader.read_root(root);
+  const YamlReader& r = reader;
   LiveConfig c;  // the sky stage's part of a skylit-live config, read by the same code
   c.file = file;
   c.site = r.path(r.require(root, "site", "site", "the site file, e.g. site: sample_site.yaml"), "site", kSiteDocs);
@@ -425,10 +428,12 @@ SkyNodeConfig load_sky_node_config(const std::filesystem::path& file) {
 }
 
 LiveConfig load_live_config(const std::filesystem::path& file) {
-  const YamlReader r(file);
-  const YAML::Node root = r.load();
-  r.expect_map(root, "", "a skylit-live config is a map with site, bake, sky, camera and pose; " + std::string(kDocs));
-  r.check_keys(root, "", kTopKeys);
+  YamlReader reader(file);
+  const YAML::Node root = reader.load();
+  reader.expect_map(root, "", "a skylit-live config is a map with site, bake, sky, camera and pose; " + std::string(kDocs));
+  reader.check_keys(root, "", kTopKeys);
+  reader.read_root(root);
+  const YamlReader& r = reader;
 
   LiveConfig c;
   c.file = file;

@@ -1,6 +1,8 @@
 #include "recording.hpp"
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <cstdio>
 #include <exception>
 
@@ -60,18 +62,42 @@ void Recorder::flush_pending() {
 }
 
 void Recorder::write_video(const cv::Mat& frame, const RecordedFrame& info) {
+  // OpenCV's writer reports no failure; what a full disk does to a video is not seen here (a
+  // folder of PNGs is: each frame is checked).
   writer_.write(frame);
   log_.add(count_, path_.filename().string(), info);
   ++count_;
+  ++health_.written;
 }
 
 void Recorder::write_image(const cv::Mat& frame, const RecordedFrame& info) {
-  if (count_ == 0) fs::create_directories(path_);
   char name[32];
   std::snprintf(name, sizeof name, "frame_%06lld.png", static_cast<long long>(count_));
-  if (!cv::imwrite((path_ / name).string(), frame)) throw InputError("--record: cannot write " + (path_ / name).string());
+  const fs::path file = path_ / name;
+  errno = 0;
+  bool written = false;
+  std::string error;
+  try {
+    std::error_code ignored;
+    fs::create_directories(path_, ignored);  // again after a folder was removed
+    written = cv::imwrite(file.string(), frame);
+    if (!written) error = errno != 0 ? std::strerror(errno) : "the image could not be written";
+  } catch (const cv::Exception& e) {
+    error = e.what();
+  }
+  if (!written) {
+    // A partial file (a full disk) is not a frame of the recording.
+    std::error_code ignored;
+    fs::remove(file, ignored);
+    ++health_.lost;
+    health_.failing = true;
+    health_.last_error = "cannot write " + file.string() + ": " + error;
+    return;
+  }
   log_.add(count_, name, info);
   ++count_;
+  ++health_.written;
+  health_.failing = false;
 }
 
 }  // namespace skylit::live

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <optional>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -40,6 +41,16 @@ class Recorder {
   // The video's frame rate (0 before the file is opened, and for a folder of images).
   double fps() const { return opened_fps_; }
 
+  // Frames that could not be written (a full disk, a folder removed): the service goes on, says
+  // so in its status, and writes again once it can. The frame log has a line per written frame.
+  struct Health {
+    std::int64_t written = 0;
+    std::int64_t lost = 0;
+    bool failing = false;     // the last write failed
+    std::string last_error;   // of the last failure
+  };
+  Health health() const { return health_; }
+
  private:
   static constexpr std::size_t kMaxPendingFrames = 2 * kRateIntervals;
 
@@ -55,6 +66,7 @@ class Recorder {
   cv::VideoWriter writer_;
   FrameLogWriter log_;
   std::int64_t count_ = 0;
+  Health health_;
 };
 
 }  // namespace skylit::live

@@ -524,6 +524,9 @@ void Service::State::RenderLoop::record(FrameStageTimes& times, const capture::F
       info.opacity = opacity;
     }
     recorder->write(composite, info, s.camera_rate.rate());
+    const Recorder::Health health = recorder->health();
+    std::lock_guard lock(s.stats_mutex);
+    s.recording = health;
   }
   if (s.status) s.latest_frame.set(composite);
 }

@@ -21,6 +21,7 @@
 #include "history.hpp"
 #include "skylit/live/jpeg_cache.hpp"
 #include "live_tracking.hpp"
+#include "recording.hpp"
 #include "service_metrics.hpp"
 #include "sky_link_receiver.hpp"
 #include "sky_stage.hpp"
@@ -178,6 +179,7 @@ struct Service::State {
   FrameTimes sky_to_screen_times{600};
   RunningTotal frame_time_total, sky_to_screen_total;  // /metrics' summaries: since start
   double record_fps = 0;
+  Recorder::Health recording;  // the render loop's copy, for the status
   std::optional<render::PhotometricMatch> photometric;
   std::int64_t blend_skipped_layers = 0;
 

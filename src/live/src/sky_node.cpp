@@ -20,6 +20,7 @@
 #include "skylit/bake_format/manifest.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/capture/reconnecting_source.hpp"
+#include "skylit/live/heard_nodes.hpp"
 #include "skylit/live/status_server.hpp"
 #include "skylit/sky/overlay.hpp"
 #include "skylit/sky/radiometry.hpp"
@@ -89,11 +90,7 @@ struct SkyNode::State {
   std::optional<sky_link::SkyMessage> latest;
   double latest_time = 0;  // steady seconds when it was estimated
   std::vector<std::uint8_t> latest_bytes, overlay;
-  struct HeardNode {
-    nlohmann::json status;
-    double heard = 0;  // steady seconds
-  };
-  std::map<std::string, HeardNode> nodes;
+  HeardNodes nodes;  // steady seconds
 
   std::unique_ptr<BakeInfo> bake_info;
   History history;
@@ -135,10 +132,8 @@ SkyNode::SkyNode(const SkyNodeConfig& config, const SkyNodeOptions& options) : s
   s.client->subscribe(s.topics.nodes(), [self](const std::string& topic, std::span<const std::uint8_t> payload, bool) {
     const std::string name = self->topics.node_of(topic);
     if (name.empty()) return;
-    nlohmann::json status = nlohmann::json::parse(payload.begin(), payload.end(), nullptr, false);
-    if (status.is_discarded() || !status.is_object()) status = {{"state", "unreadable"}};
     std::lock_guard lock(self->mutex);
-    self->nodes[name] = {std::move(status), now_seconds()};
+    self->nodes.hear(name, payload, now_seconds());
   });
 
   const auto listen = options.status_listen ? options.status_listen : config.status_listen;
@@ -330,18 +325,7 @@ nlohmann::json SkyNode::State::site_report() const {
   j["topic"] = topics.root;
   std::lock_guard lock(mutex);
   j["sky"] = {{"node", node}, {"sequence", sequence}, {"run", run}, {"published", published}};
-  nlohmann::json list = nlohmann::json::array();
-  for (const auto& [name, heard] : nodes) {
-    nlohmann::json entry;
-    entry["node"] = name;
-    entry["seconds_since_heard"] = now - heard.heard;
-    const nlohmann::json& said = heard.status;
-    for (const char* key : {"state", "frame_rate", "frame_time_ms", "latency_ms", "sky_to_screen_ms", "flags", "sky_sequence", "frames"}) {
-      entry[key] = said.contains(key) ? said[key] : nlohmann::json(nullptr);
-    }
-    list.push_back(entry);
-  }
-  j["nodes"] = list;
+  j["nodes"] = nodes.site_entries(now);
   return j;
 }
 
@@ -362,18 +346,9 @@ std::string SkyNode::metrics_text() const {
   m.push_back({"skylit_broker_connected", "1 while connected to the site's MQTT broker.", "gauge",
                j["broker"]["connected"].get<bool>() ? 1.0 : 0.0, ""});
   m.push_back({"skylit_hmd_nodes", "HMD nodes heard of.", "gauge", double(site["nodes"].size()), ""});
-  for (const auto& node : site["nodes"]) {
-    const std::string label = "node=\"" + node["node"].get<std::string>() + "\"";
-    m.push_back({"skylit_hmd_node_seconds_since_heard", "Seconds since each HMD node's last status.", "gauge",
-                 node["seconds_since_heard"].get<double>(), label});
-    m.push_back({"skylit_hmd_node_online", "1 while an HMD node's last status says it runs.", "gauge",
-                 node["state"] == "offline" || node["state"] == "stopped" ? 0.0 : 1.0, label});
-    if (node["frame_rate"].is_number()) {
-      m.push_back({"skylit_hmd_node_frame_rate", "Each HMD node's frame rate, as it last said.", "gauge", node["frame_rate"].get<double>(), label});
-    }
-  }
+  append_hmd_node_metrics(site["nodes"], m);
   for (const auto& flag : j["flags"]) {
-    m.push_back({"skylit_flag", "1 for each condition the status reports.", "gauge", 1.0, "flag=\"" + flag.get<std::string>() + "\""});
+    m.push_back({"skylit_flag", "1 for each condition the status reports.", "gauge", 1.0, prometheus_label("flag", flag.get<std::string>())});
   }
   return prometheus_text(m);
 }

@@ -84,6 +84,11 @@ nlohmann::json Service::State::status_report() const {
                          {"record", 1e3 * record_times.percentile(0.5)}};
     if (photometric) j["photometric_scale"] = {photometric->scale.x(), photometric->scale.y(), photometric->scale.z()};
     if (record_fps > 0) j["record_fps"] = record_fps;
+    if (!config.output.record.empty()) {
+      j["recording"] = {{"path", config.output.record.string()}, {"written", recording.written},
+                        {"lost", recording.lost}, {"failing", recording.failing},
+                        {"last_error", recording.last_error.empty() ? nlohmann::json(nullptr) : nlohmann::json(recording.last_error)}};
+    }
   }
   j["frames"] = counters.frames.load();
   j["frames_without_sky"] = counters.frames_without_sky.load();
@@ -155,6 +160,7 @@ nlohmann::json Service::State::status_report() const {
     flags.push_back("no_sky_yet");
   }
   tracking->add_flags(flags);
+  if (j.contains("recording") && j["recording"]["failing"].get<bool>()) flags.push_back("recording_failing");
   if (const BuildingFade::State state = fade->state(); state == BuildingFade::State::FadingOut || state == BuildingFade::State::Hidden) {
     flags.push_back("pose_lost");  // the building fades out, or is hidden, until a pose returns
   }
@@ -296,6 +302,10 @@ std::string Service::metrics_text() const {
                  plane["in_view"].get<bool>() ? 1.0 : 0.0, label});
     m.push_back({"skylit_plane_blends_out_of_view_total", "Blends of a new sky left out, the plane out of view.",
                  "counter", plane["blends_out_of_view"].get<double>(), label});
+  }
+  if (j.contains("recording")) {
+    m.push_back({"skylit_recording_frames_lost_total", "Composited frames the recording could not write (a full disk).",
+                 "counter", j["recording"]["lost"].get<double>(), ""});
   }
   s.tracking->add_metrics(m);
   for (const auto& flag : j["flags"]) {

@@ -25,7 +25,7 @@ constexpr double kMinPlaneArea = 1e-9;      // m²; below this a plane has no te
 constexpr double kMinPlaneSine = 1e-9;      // sin(angle between u and v); below: parallel
 constexpr std::size_t kMaxPlaneNameLength = 128;
 
-const std::array<std::string_view, 4> kTopKeys{"scene", "dome", "location", "planes"};
+const std::array<std::string_view, 5> kTopKeys{"scene", "dome", "location", "planes", "root"};
 const std::array<std::string_view, 2> kLocationKeys{"latitude", "longitude"};
 const std::array<std::string_view, 3> kSceneKeys{"model", "up", "scale"};
 const std::array<std::string_view, 2> kDomeKeys{"frequency", "basis"};
@@ -38,7 +38,7 @@ class SiteParser {
  public:
   explicit SiteParser(fs::path file) : r_(std::move(file)) {}
 
-  Site parse() const {
+  Site parse() {
     const YAML::Node root =
         r_.load("correct the YAML syntax at that line (indentation, colons, brackets); see docs/site-format.md");
     if (root.IsNull()) {
@@ -49,9 +49,11 @@ class SiteParser {
            "write the scene, dome and planes sections; see docs/site-format.md");
     }
     r_.check_keys(root, "", kTopKeys);
+    r_.read_root(root);
 
     Site site;
     site.file = r_.file();
+    if (YamlReader::optional(root, "root")) site.root = r_.root();
     parse_scene(root, site);
     parse_dome(root, site);
     parse_location(root, site);
@@ -110,7 +112,7 @@ class SiteParser {
            "write the model's path relative to this YAML file, e.g. models/gate.glb");
     }
     const fs::path model_path(model.Scalar());
-    site.model = model_path.is_absolute() ? model_path : r_.file().parent_path() / model_path;
+    site.model = r_.path(model, "scene.model", "keep the model with the site's files");
 
     std::string extension = model_path.extension().string();
     std::transform(extension.begin(), extension.end(), extension.begin(),
@@ -296,11 +298,21 @@ std::string site_to_yaml(const Site& site) {
     const std::filesystem::path relative = model.lexically_relative(site.file.parent_path());
     if (!relative.empty()) model = relative;
   }
+  std::filesystem::path root = site.root;
+  if (!site.file.empty() && root.is_relative()) {
+    const std::filesystem::path relative = root.lexically_relative(site.file.parent_path());
+    if (!relative.empty()) root = relative;
+  }
 
   using YAML::Key, YAML::Value, YAML::Comment;
   YAML::Emitter out;
   out << YamlCommentLine{"skylit site (format: docs/site-format.md). Site frame: metres, x east, y north, z up."}
-      << YAML::BeginMap << Key << "scene" << Value << YAML::BeginMap
+      << YAML::BeginMap;
+  if (!root.empty()) {
+    out << Key << "root" << Value << YamlText{root.generic_string()}
+        << Comment("the folder every file named here lies in, relative to this file");
+  }
+  out << Key << "scene" << Value << YAML::BeginMap
       << Key << "model" << Value << YamlText{model.generic_string()}
       << Comment("glTF 2.0 (.glb/.gltf) or OBJ, relative to this file")
       << Key << "up" << Value << (site.up == UpAxis::Y ? "y" : "z")

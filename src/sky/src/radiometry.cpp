@@ -29,6 +29,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "skylit/base/error.hpp"
+#include "skylit/base/exr_header.hpp"
 #include "skylit/base/files.hpp"
 #include "skylit/base/yaml_reader.hpp"
 #include "skylit/base/yaml_writer.hpp"
@@ -69,6 +70,7 @@ bool has_exr_magic(const fs::path& file) {
 cv::Mat read_exr(const fs::path& file) {
   const std::string fix = "re-export the image as OpenEXR with R, G, B (or Y) channels";
   try {
+    check_exr_header(file, {kMaxImageSide, 1 << 20}, fix.c_str());
     Imf::InputFile in(file.c_str());
     const Imf::Header& header = in.header();
     const Imath::Box2i window = header.dataWindow();

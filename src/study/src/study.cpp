@@ -115,6 +115,7 @@ fs::path coarse_site(const fs::path& site_file, int scale, const fs::path& dir) 
     p.height = std::max(4, p.height / scale);
   }
   site.model = fs::absolute(site.model);
+  site.root = site.model.parent_path();  // the coarse copy lies elsewhere; its model stays where it is
   const fs::path out = dir / "site.yaml";
   write_file_atomic(out, scene::site_to_yaml(site));
   return out;

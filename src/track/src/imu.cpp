@@ -136,8 +136,8 @@ void save_imu_csv(const fs::path& csv, const std::vector<ImuSample>& samples) {
   write_file_atomic(csv, text);
 }
 
-ImuConfig parse_imu_config(const YAML::Node& node, const fs::path& file) {
-  const YamlReader r(file);
+ImuConfig parse_imu_config(const YAML::Node& node, const fs::path& file, const fs::path& root) {
+  const YamlReader r(file, root);
   const char* const docs = "see docs/imu.md";
   if (!node.IsDefined() || node.IsNull()) r.fail(node, "imu", "missing", std::string("add an 'imu:' map with a kind; ") + docs);
   r.expect_map(node, "imu", std::string("write 'kind: hid' (profile) or 'kind: replay' (csv); ") + docs);

@@ -247,10 +247,11 @@ MarkerSolve solve_marker_pose(const MarkerMap& map, const camera::Lens& lens, st
   // told from the other, so both go.
   std::map<int, int> count;
   for (const Observation& o : observations) ++count[o.tag->id];
-  for (const auto& [id, n] : count) {
+  for (const auto& [tag_id, n] : count) {
     if (n < 2) continue;
-    result.tags_rejected.push_back(id);
-    std::erase_if(observations, [id](const Observation& other) { return other.tag->id == id; });
+    result.tags_rejected.push_back(tag_id);
+    const int twice = tag_id;  // a structured binding is not captured by clang 14 (the fuzz build)
+    std::erase_if(observations, [twice](const Observation& other) { return other.tag->id == twice; });
   }
   std::vector<const Observation*> inliers;
   for (const Observation& o : observations) inliers.push_back(&o);

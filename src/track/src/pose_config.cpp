@@ -106,8 +106,8 @@ void parse_markers(const Reader& r, const YAML::Node& node, PoseConfig& config) 
 
 }  // namespace
 
-PoseConfig parse_pose_config(const YAML::Node& node, const fs::path& file) {
-  const Reader r(file);
+PoseConfig parse_pose_config(const YAML::Node& node, const fs::path& file, const fs::path& root) {
+  const Reader r(file, root);
   if (!node.IsDefined() || node.IsNull()) r.fail(node, "pose", "missing", std::string("add a 'pose:' map with a kind; ") + kPoseDocs);
   if (!node.IsMap()) r.fail(node, "pose", "expected a map of fields", std::string("write 'kind: fixed' or 'kind: track' and its fields; ") + kPoseDocs);
   const std::string kind_fix =
@@ -161,8 +161,7 @@ PoseConfig parse_pose_config(const YAML::Node& node, const fs::path& file) {
     const std::string csv_fix = "write the pose CSV's path (timestamp,x,y,z,qw,qx,qy,qz), e.g. 'csv: head_track.csv'";
     const YAML::Node csv = r.require(node, "csv", csv_fix);
     if (!csv.IsScalar() || csv.Scalar().empty()) r.fail(csv, "pose.csv", "expected a file name", csv_fix);
-    const fs::path path(csv.Scalar());
-    config.csv = path.is_absolute() ? path : (file.parent_path() / path).lexically_normal();
+    config.csv = r.path(csv, "pose.csv", csv_fix);
   } else if (kind == "markers") {
     r.check_keys(node, kMarkerKeys);
     config.kind = PoseConfig::Kind::Markers;
@@ -174,12 +173,14 @@ PoseConfig parse_pose_config(const YAML::Node& node, const fs::path& file) {
 }
 
 PoseConfig load_pose_config(const fs::path& file) {
-  const YAML::Node root = YamlReader(file).parse(read_file(file));
+  YamlReader reader(file);
+  const YAML::Node root = reader.parse(read_file(file));
   if (!root.IsMap()) {
     throw InputError(input_message(file, -1, -1, "pose", "the file has no top-level map",
                                    std::string("write 'pose:' with a kind and its fields; ") + kPoseDocs));
   }
-  return parse_pose_config(root["pose"], file);
+  reader.read_root(root);
+  return parse_pose_config(root["pose"], file, reader.root());
 }
 
 std::unique_ptr<PoseSource> open_pose_source(const PoseConfig& config) {

@@ -21,7 +21,11 @@ void write_file_atomic(const std::filesystem::path& path, const std::string& tex
 void write_file_atomic_with(const std::filesystem::path& path,
                             const std::function<void(const std::filesystem::path& tmp)>& write);
 
-std::string read_file(const std::filesystem::path& path);  // InputError if unreadable
+// The whole file. InputError naming it when it cannot be read or holds more than `max_bytes`
+// (the default is more than any config, manifest, CSV or token holds; a caller that knows a
+// larger size to expect passes it).
+inline constexpr std::uint64_t kMaxReadBytes = std::uint64_t{256} << 20;
+std::string read_file(const std::filesystem::path& path, std::uint64_t max_bytes = kMaxReadBytes);
 
 // Lower-case hex SHA-256 of a file's contents or of a buffer.
 std::string sha256_file(const std::filesystem::path& path);

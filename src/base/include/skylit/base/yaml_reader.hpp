@@ -13,7 +13,9 @@ namespace skylit {
 
 class YamlReader {
  public:
-  explicit YamlReader(std::filesystem::path file) : file_(std::move(file)) {}
+  // `root`: the folder every path the file names must lie in (path()); empty, the file's folder.
+  explicit YamlReader(std::filesystem::path file, std::filesystem::path root = {})
+      : file_(std::move(file)), root_(std::move(root)) {}
 
   // How to mend a YAML syntax error, unless a reader says more (its schema's documentation).
   static constexpr const char* kSyntaxFix = "correct the YAML syntax at that line (indentation, colons, brackets)";
@@ -55,13 +57,27 @@ class YamlReader {
   std::vector<double> numbers(const YAML::Node& node, const std::string& field, const std::string& fix) const;
   // One of `choices`.
   std::string choice(const YAML::Node& node, const std::string& field, std::span<const std::string_view> choices) const;
-  // A path, relative to the config file's folder unless absolute.
+  // A file or folder the config names as input (a model, a calibration, a bake): relative to the
+  // config file's folder unless absolute, and inside root(); InputError naming the field otherwise.
   std::filesystem::path path(const YAML::Node& node, const std::string& field, const std::string& fix) const;
+  // The same without the root: a secret (token, password, TLS key), a device or an output.
+  std::filesystem::path any_path(const YAML::Node& node, const std::string& field, const std::string& fix) const;
+
+  // The folder path() keeps paths in: the document's `root:` (read_root), else the constructor's
+  // root, else the file's folder.
+  std::filesystem::path root() const;
+  // Takes the top-level `root: FOLDER` of a config (relative to the file unless absolute), when
+  // the document has one; the config's reader lists "root" among its keys.
+  void read_root(const YAML::Node& document);
 
   const std::filesystem::path& file() const { return file_; }
 
  private:
   std::filesystem::path file_;
+  std::filesystem::path root_;
 };
+
+// Whether `path` is `folder` or lies under it, by their names (absolute and normal).
+bool contains(const std::filesystem::path& folder, const std::filesystem::path& path);
 
 }  // namespace skylit

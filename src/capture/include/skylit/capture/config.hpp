@@ -42,8 +42,11 @@ std::string kind_name(const SourceConfig& config);
 
 // Reads a `source:` node of `file` (the node's marks give the lines). InputError naming the
 // file, line, column and field for anything missing, unknown or out of range.
-SourceConfig parse_source_config(const YAML::Node& node, const std::filesystem::path& file);
-// A YAML file whose top level has a `source:` node (other top-level keys are left alone).
+// `root`: the folder its paths must lie in (the including config's root); empty, the file's folder.
+SourceConfig parse_source_config(const YAML::Node& node, const std::filesystem::path& file,
+                                 const std::filesystem::path& root = {});
+// A YAML file whose top level has a `source:` node (other top-level keys are left alone; its
+// `root:`, if any, is the folder the source's files must lie in).
 SourceConfig load_source_config(const std::filesystem::path& file);
 
 // Opens the source the config describes, wrapped in ReconnectingSource and RealtimeSource as

@@ -31,7 +31,9 @@ struct GeoLocation {
 
 struct Site {
   std::filesystem::path file;    // the YAML it came from
-  std::filesystem::path model;   // resolved against the YAML's directory
+  std::filesystem::path model;   // resolved against the YAML's directory, and inside its root
+  // `root`, optional: the folder the files the YAML names must lie in (empty: the YAML's folder).
+  std::filesystem::path root;
   UpAxis up = UpAxis::Z;         // default z for OBJ, y for glTF when `up` is absent
   double scale = 1.0;
   int dome_frequency = 2;

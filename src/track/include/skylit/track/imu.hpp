@@ -108,7 +108,9 @@ struct ImuConfig {
 };
 
 // InputError naming the file, line, column and field for anything missing, unknown or wrong.
-ImuConfig parse_imu_config(const YAML::Node& node, const std::filesystem::path& file);
+// `root`: the folder its paths must lie in (the including config's root); empty, the file's folder.
+ImuConfig parse_imu_config(const YAML::Node& node, const std::filesystem::path& file,
+                           const std::filesystem::path& root = {});
 // A HID device (InputError listing the devices present when none matches) or a replay.
 std::unique_ptr<ImuSource> open_imu(const ImuConfig& config);
 

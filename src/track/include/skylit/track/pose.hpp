@@ -107,7 +107,9 @@ struct PoseConfig {
 };
 
 // InputError naming the file, line, column and field for anything missing, unknown or wrong.
-PoseConfig parse_pose_config(const YAML::Node& node, const std::filesystem::path& file);
+// `root`: the folder its paths must lie in (the including config's root); empty, the file's folder.
+PoseConfig parse_pose_config(const YAML::Node& node, const std::filesystem::path& file,
+                             const std::filesystem::path& root = {});
 // A YAML file whose top level has a `pose:` node.
 PoseConfig load_pose_config(const std::filesystem::path& file);
 // The source of a fixed or track config. Kind::Markers needs the camera's frames: use
