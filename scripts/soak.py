@@ -16,7 +16,7 @@ Every second it samples the HMD node's resident memory, open files and threads (
     descriptors per 10^4 frames;
   - every fault shown in /status while it lasts, and cleared within `clear_s` after it ends;
   - no camera frame lost that the renderer was free to take: frames read = composited + dropped
-    while busy + malformed (+ 2 in flight).
+    while busy (+ 2 in flight; malformed frames are counted apart).
 
 The recordings' disk is a small tmpfs mounted over OUT/rec when the soak may mount one (root);
 otherwise the disk fault is left out and the report says so.
@@ -112,7 +112,7 @@ def prepare(args, out):
                         "-o", bake, "--force"], check=True, stdout=subprocess.DEVNULL)
     write(os.path.join(out, "hmd_tiny.yaml"),
           "image_width: 64\nimage_height: 48\nmodel: pinhole\nfx: 50.2\nfy: 50.2\ncx: 31.5\ncy: 23.5\n"
-          "D: [0, 0, 0, 0, 0]\n")
+          "D: [0, 0, 0, 0, 0]\nR_site_from_camera: [1, 0, 0, 0, 1, 0, 0, 0, 1]\nt_site_from_camera: [0, 0, 0]\n")
     camera = os.path.join(out, "camera")
     if not os.path.exists(os.path.join(camera, "frames.csv")):
         subprocess.run([os.path.join(bin_dir, "skylit-camera-sim"), "--calib", os.path.join(out, "hmd_tiny.yaml"),
@@ -253,7 +253,8 @@ def main():
                                 "dropped": st["dropped_frames"], "malformed": st["camera"].get("malformed", 0),
                                 "frame_ms": st["frame_time_ms"]["p50"], "flags": st["flags"],
                                 "sky_drops": st["sky"].get("dropped", {}), **p})
-            prune_recordings(frames_dir)
+            if active is None or active[0] != "disk":
+                prune_recordings(frames_dir)
             if samples and samples[-1]["frames"] >= args.frames or now - start > args.max_seconds:
                 break
             time.sleep(max(0.0, 1.0 - (time.monotonic() - now)))
@@ -364,21 +365,26 @@ def judge(samples, windows, flag_of, final, args):
     report["frame_ms_p50_median"] = sorted(s["frame_ms"] for s in samples)[len(samples) // 2] if samples else None
     ok = args.no_memory_goal or (rss is not None and abs(rss) < 1.0 and fds is not None and abs(fds) < 0.01)
     verdicts = []
-    for fault, begin, end in windows:
+    for i, (fault, begin, end) in enumerate(windows):
         v = {"fault": fault, "start_s": round(begin, 1), "end_s": round(end, 1)}
         flag = flag_of.get(fault)
         if flag:
+            # Cleared: gone at some sample within clear_s after the fault, before the next one begins
+            # (the next fault may raise the same flag: the broker away hides the sky node too).
+            next_begin = windows[i + 1][1] if i + 1 < len(windows) else float("inf")
             during = [s for s in samples if begin + 2 <= s["t"] <= end]
-            after = [s for s in samples if end + args.clear_s <= s["t"] <= end + args.clear_s + 5]
+            after = [s for s in samples if end < s["t"] <= min(end + args.clear_s, next_begin)]
             v["flag"] = flag
             v["shown"] = any(flag in s["flags"] for s in during)
-            v["cleared"] = bool(after) and not any(flag in s["flags"] for s in after)
+            v["cleared"] = any(flag not in s["flags"] for s in after)
+            if after:
+                v["cleared_after_s"] = round(next(s["t"] for s in after if flag not in s["flags"]) - end, 1) if v["cleared"] else None
             ok = ok and v["shown"] and (v["cleared"] or not after)
         verdicts.append(v)
     report["faults"] = verdicts
     if final:
         read = final["camera"]["frames"]
-        accounted = final["frames"] + final["dropped_frames"] + final["camera"].get("malformed", 0)
+        accounted = final["frames"] + final["dropped_frames"]  # malformed frames are not counted as read
         report["camera_frames_read"] = read
         report["camera_frames_unaccounted"] = read - accounted
         report["camera_malformed"] = final["camera"].get("malformed", 0)
