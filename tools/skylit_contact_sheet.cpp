@@ -22,6 +22,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "skylit/base/error.hpp"
+#include "skylit/base/files.hpp"
 #include "skylit/live/frame_log.hpp"
 #include "skylit/sky/solar.hpp"
 #include "command_line.hpp"
@@ -76,6 +77,7 @@ std::vector<cv::Mat> read_frames(const fs::path& path, const std::vector<LoggedF
 }
 
 std::vector<LoggedFrame> frames_with_sky(const fs::path& path) {
+  if (!fs::is_directory(path)) skylit::check_readable(path);  // the video itself, before its log
   const std::vector<LoggedFrame> logged = skylit::live::read_frame_log(skylit::live::frame_log_path(path));
   std::vector<LoggedFrame> lit;
   std::copy_if(logged.begin(), logged.end(), std::back_inserter(lit), [](const LoggedFrame& f) { return f.sky_timestamp.has_value(); });

@@ -2,6 +2,8 @@
 // input file that is not there exits 2 with a message naming it, an option the program does not
 // know exits 2 too, --help exits 0, --version and the usage line name the program, -q keeps the
 // errors. Nothing here does any work: each case costs a program start.
+#include <unistd.h>
+
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -74,6 +76,25 @@ TEST_P(SkylitCli, AnEmptyFileAFolderAndTheWrongKindOfFileAreInputErrorsNamingThe
     EXPECT_NE(r.output.find(input.filename().string()), std::string::npos) << input << "\n" << r.output;
     EXPECT_EQ(r.output.find("internal error"), std::string::npos) << r.output;
   }
+}
+
+// A file the program may not read: an input error naming it and the cause. The tests run as root,
+// who reads anything, so the program then runs as nobody (setpriv), as a service account would.
+TEST_P(SkylitCli, AFileItCannotReadIsAnInputErrorNamingIt) {
+  ASSERT_TRUE(fs::exists(kBin / GetParam().name)) << "build " << GetParam().name << " first";
+  fs::create_directories(dir_ / "bake");
+  fs::permissions(dir_.path(), fs::perms::all);  // the program may write its outputs here
+  fs::permissions(dir_ / "bake", fs::perms::all);
+  const fs::path locked = dir_.write("verrouillé ☀.yaml", "scene:\n  model: gate.glb\n");
+  fs::permissions(locked, fs::perms::none);
+  const std::string as_nobody = ::geteuid() == 0 ? "setpriv --reuid=nobody --regid=nogroup --clear-groups " : "";
+  std::string args = substitute(GetParam().args, "@MISSING@", "'" + locked.string() + "'");
+  args = substitute(substitute(args, "@DIR@", dir_.path().string()), "@SRC@", kSource.string());
+  const Result r = skylit::cli_test::run_program(as_nobody + (kBin / GetParam().name).string(), args);
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find(locked.filename().string()), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("ermission denied"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("internal error"), std::string::npos) << r.output;
 }
 
 TEST_P(SkylitCli, AnUnknownOptionIsAnInputErrorAndHelpIsNot) {

@@ -216,9 +216,10 @@ TEST(ServiceConfig, BlendDeviceAndRecordSettings) {
 }
 
 // Every input a config names lies inside its root (its folder, or `root:`); secrets and outputs
-// may lie anywhere.
+// may lie anywhere. The root is judged by names: a link inside it may point anywhere.
 TEST(ServiceConfig, EveryInputItNamesLiesInsideItsRoot) {
   const Rig rig;
+  const BakedSite& baked = BakedSite::get();
   const fs::path file = rig.dir() / "rooted.yaml";
   std::string text = rig.config_text();
   ASSERT_EQ(text.rfind("root: /\n", 0), 0u);
@@ -229,17 +230,21 @@ TEST(ServiceConfig, EveryInputItNamesLiesInsideItsRoot) {
   EXPECT_NE(message.find("field 'site': '"), std::string::npos) << message;
   EXPECT_NE(message.find("is outside the folder this file may name files in, '" + rig.dir().lexically_normal().string() + "'"),
             std::string::npos) << message;
-  // `root: ..` holds the baked site and the rig (both under the temp folder), not /etc.
-  std::ofstream(file) << "root: ..\n" << text;
+  // Through a link in the config's folder it is inside.
+  fs::create_directory_symlink(baked.dir, rig.dir() / "baked");
+  const auto replace = [](std::string t, const std::string& from, const std::string& to) {
+    t.replace(t.find(from), from.size(), to);
+    return t;
+  };
+  text = replace(text, "site: " + quoted(baked.dir / "site.yaml"), "site: baked/site.yaml");
+  text = replace(text, "bake: " + quoted(baked.dir / "bake"), "bake: baked/bake");
+  std::ofstream(file) << text;
   EXPECT_NO_THROW(live::load_live_config(file));
-  std::string escaped = text;
-  const std::string sky_calibration = "  calibration: sky.yaml";
-  escaped.replace(escaped.find(sky_calibration), sky_calibration.size(), "  calibration: /etc/hostname");
-  std::ofstream(file) << "root: ..\n" << escaped;
+  std::ofstream(file) << replace(text, "  calibration: sky.yaml", "  calibration: /etc/hostname");
   message = skylit::test::error_of([&] { live::load_live_config(file); });
   EXPECT_NE(message.find("field 'sky.calibration': '/etc/hostname' is outside"), std::string::npos) << message;
   // The console's token and the recording may lie anywhere.
-  std::ofstream(file) << "root: ..\n" << text << "status:\n  token_file: /etc/os-release\noutput:\n  record: /var/lib/skylit/live.mp4\n";
+  std::ofstream(file) << text << "status:\n  token_file: /etc/os-release\noutput:\n  record: /var/lib/skylit/live.mp4\n";
   const live::LiveConfig config = live::load_live_config(file);
   EXPECT_EQ(config.status_access.token_file, fs::path("/etc/os-release"));
   EXPECT_EQ(config.output.record, fs::path("/var/lib/skylit/live.mp4"));

@@ -232,6 +232,12 @@ std::string read_file(const fs::path& path, std::uint64_t max_bytes) {
   return content;
 }
 
+void check_readable(const fs::path& path) {
+  std::error_code ignored;
+  if (fs::is_directory(path, ignored)) throw_read_error(path, EISDIR);
+  open_for_reading(path);
+}
+
 std::string sha256_file(const fs::path& path) {
   std::error_code ignored;
   if (fs::is_directory(path, ignored)) throw_read_error(path, EISDIR);

@@ -605,6 +605,7 @@ cv::Mat read_sky_image(const fs::path& file) {
   if (!fs::exists(file, ec)) unreadable(file, "the image file does not exist", fix);
   if (!fs::is_regular_file(file, ec)) unreadable(file, "not a regular file", fix);
   if (fs::file_size(file, ec) == 0 || ec) unreadable(file, "the image file is empty", fix);
+  check_readable(file);  // imread says nothing of permissions
   if (has_exr_magic(file)) return read_exr(file);
   cv::Mat image;
   try {

@@ -27,6 +27,10 @@ void write_file_atomic_with(const std::filesystem::path& path,
 inline constexpr std::uint64_t kMaxReadBytes = std::uint64_t{256} << 20;
 std::string read_file(const std::filesystem::path& path, std::uint64_t max_bytes = kMaxReadBytes);
 
+// InputError naming the file and the cause (permissions, a missing file) when it cannot be opened
+// for reading: before a path goes to a library that cannot tell why it failed (OpenCV's imread).
+void check_readable(const std::filesystem::path& path);
+
 // Lower-case hex SHA-256 of a file's contents or of a buffer.
 std::string sha256_file(const std::filesystem::path& path);
 std::string sha256_hex(std::span<const std::byte> data);
