@@ -25,6 +25,7 @@
 #include "skylit/base/files.hpp"
 #include "skylit/live/frame_log.hpp"
 #include "skylit/sky/solar.hpp"
+#include "skylit/sky/radiometry.hpp"
 #include "command_line.hpp"
 
 namespace {
@@ -55,7 +56,7 @@ std::vector<cv::Mat> read_frames(const fs::path& path, const std::vector<LoggedF
   std::vector<cv::Mat> images;
   if (fs::is_directory(path)) {
     for (const LoggedFrame& f : chosen) {
-      cv::Mat image = cv::imread((path / f.file).string(), cv::IMREAD_COLOR);
+      cv::Mat image = skylit::sky::read_image(path / f.file, cv::IMREAD_COLOR);
       if (image.empty()) throw skylit::InputError((path / f.file).string() + ": cannot read the frame. Fix: keep the recording whole");
       images.push_back(image);
     }

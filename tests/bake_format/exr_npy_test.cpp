@@ -145,6 +145,30 @@ TEST(ExrStack, TruncatedOrForeignFilesAreInputErrors) {
   EXPECT_FALSE(fs::exists(dir / "no-such-dir" / "x.exr"));
 }
 
+// Headers that would make OpenEXR allocate what a size field says are refused before it reads
+// them: an attribute larger than the file (found by fuzzing: OpenEXR asked for 1.6 GB), a data
+// window larger than any plane, and a channel list that runs past its own size field.
+TEST(ExrStack, OversizedHeadersAreInputErrorsBeforeAnythingIsAllocated) {
+  const fs::path corpus = fs::path(SKYLIT_SOURCE_DIR) / "fuzz/corpus/exr";
+  const std::string attribute = skylit::test::error_of([&] { read_exr_info(corpus / "crash-opaque-attribute-of-1.6GB.exr"); });
+  EXPECT_NE(attribute.find("bytes, more than the rest of the file"), std::string::npos) << attribute;
+  EXPECT_THROW(read_exr_stack(corpus / "crash-channel-list-past-its-size.exr"), InputError);
+
+  TempDir dir;
+  ImageStack stack{4, 3, 1, std::vector<float>(12, 0.5f)};
+  const fs::path file = dir / "wide.exr";
+  write_exr_stack(file, stack, std::vector<std::string>{"a"});
+  std::string bytes = file_bytes(file);
+  const std::string key = std::string("dataWindow") + '\0' + "box2i" + '\0';
+  const std::size_t at = bytes.find(key);
+  ASSERT_NE(at, std::string::npos);
+  const std::int32_t huge = 999999;  // xMax: a window a million texels wide
+  std::memcpy(bytes.data() + at + key.size() + 4 + 8, &huge, sizeof huge);
+  std::ofstream(file, std::ios::binary) << bytes;
+  const std::string window = skylit::test::error_of([&] { read_exr_stack(file); });
+  EXPECT_NE(window.find("data window is 1000000x3, larger than 16384 on a side"), std::string::npos) << window;
+}
+
 TEST(Npy, RoundTripIsExactAndTheHeaderIsNumpys) {
   TempDir dir;
   const std::size_t shape[] = {3, 40};

@@ -15,6 +15,7 @@
 
 #include "skylit/base/error.hpp"
 #include "skylit/camera/lens.hpp"
+#include "skylit/sky/radiometry.hpp"
 #include "printf_text.hpp"
 
 namespace skylit::calib {
@@ -192,7 +193,7 @@ BoardPhotos detect_boards(std::span<const fs::path> photos, const BoardDetector&
     const std::string name = photo.filename().string();
     cv::Mat image;
     try {
-      image = cv::imread(photo.string(), cv::IMREAD_COLOR);
+      image = sky::read_image(photo, cv::IMREAD_COLOR);
     } catch (const cv::Exception& e) {
       out.rejected.push_back({name, "unreadable: " + e.err});
       continue;

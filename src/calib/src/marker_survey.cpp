@@ -20,6 +20,7 @@
 #include "skylit/track/marker_pose.hpp"
 #include "skylit/camera/lens.hpp"
 #include "skylit/geom/angles.hpp"
+#include "skylit/sky/radiometry.hpp"
 
 namespace skylit::calib {
 namespace {
@@ -328,7 +329,7 @@ std::vector<MarkerPhoto> detect_marker_photos(std::span<const std::filesystem::p
   track::TagDetector detector(detector_options);
   std::vector<MarkerPhoto> out;
   for (const std::filesystem::path& file : photos) {
-    const cv::Mat image = cv::imread(file.string(), cv::IMREAD_GRAYSCALE);
+    const cv::Mat image = sky::read_image(file, cv::IMREAD_GRAYSCALE);
     if (image.empty()) {
       throw InputError(input_message(file, -1, -1, "photo", "cannot be read as an image", "give JPEG or PNG photos of the site"));
     }

@@ -1,6 +1,7 @@
 #include "skylit/sky/radiometry.hpp"
 
 #include <algorithm>
+#include <initializer_list>
 #include <charconv>
 #include <array>
 #include <cmath>
@@ -599,6 +600,30 @@ ResponseCurve response_for(const std::string& setting, int bits) {
   return ResponseParser(setting).parse(bits);
 }
 
+bool is_supported_image(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::array<unsigned char, 10> b{};
+  in.read(reinterpret_cast<char*>(b.data()), b.size());
+  const auto n = in.gcount();
+  const auto starts = [&](std::initializer_list<unsigned char> magic) {
+    return n >= static_cast<std::streamsize>(magic.size()) && std::equal(magic.begin(), magic.end(), b.begin());
+  };
+  return starts({0x76, 0x2f, 0x31, 0x01}) ||                      // OpenEXR
+         starts({'#', '?'}) ||                                    // Radiance HDR (#?RADIANCE, #?RGBE)
+         starts({0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a}) || // PNG
+         starts({'I', 'I', 0x2a, 0x00}) || starts({'M', 'M', 0x00, 0x2a}) ||  // TIFF
+         starts({0xff, 0xd8, 0xff});                              // JPEG
+}
+
+cv::Mat read_image(const fs::path& file, int flags) {
+  if (!is_supported_image(file)) return {};
+  try {
+    return cv::imread(file.string(), flags);
+  } catch (const cv::Exception&) {
+    return {};
+  }
+}
+
 cv::Mat read_sky_image(const fs::path& file) {
   const std::string fix = "pass an existing image (OpenEXR, Radiance HDR, PNG, TIFF, JPEG)";
   std::error_code ec;
@@ -607,6 +632,7 @@ cv::Mat read_sky_image(const fs::path& file) {
   if (fs::file_size(file, ec) == 0 || ec) unreadable(file, "the image file is empty", fix);
   check_readable(file);  // imread says nothing of permissions
   if (has_exr_magic(file)) return read_exr(file);
+  if (!is_supported_image(file)) unreadable(file, "not an image of a kind skylit reads", fix);
   cv::Mat image;
   try {
     image = cv::imread(file.string(), cv::IMREAD_UNCHANGED);

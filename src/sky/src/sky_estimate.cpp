@@ -6,6 +6,7 @@
 
 #include "skylit/base/error.hpp"
 #include "skylit/camera/lens.hpp"
+#include "skylit/sky/radiometry.hpp"
 
 namespace skylit::sky {
 namespace {
@@ -18,7 +19,7 @@ double milliseconds_since(std::chrono::steady_clock::time_point start) {
 
 cv::Mat load_calibration_mask(const camera::CameraCalibration& calibration) {
   if (calibration.mask.empty()) return {};
-  cv::Mat mask = cv::imread(calibration.mask.string(), cv::IMREAD_GRAYSCALE);
+  cv::Mat mask = read_image(calibration.mask, cv::IMREAD_GRAYSCALE);
   if (mask.empty()) {
     throw InputError(input_message(calibration.file, -1, -1, "mask",
                                    "cannot read the sky mask " + calibration.mask.string(),

@@ -13,6 +13,7 @@
 #include "skylit/base/error.hpp"
 #include "skylit/base/parallel_for.hpp"
 #include "skylit/camera/lens.hpp"
+#include "skylit/sky/radiometry.hpp"
 
 namespace skylit::sky {
 namespace {
@@ -42,7 +43,7 @@ cv::Mat read_mask(const camera::CameraCalibration& c) {
   }
   cv::Mat mask;
   try {
-    mask = cv::imread(c.mask.string(), cv::IMREAD_GRAYSCALE);
+    mask = read_image(c.mask, cv::IMREAD_GRAYSCALE);
   } catch (const cv::Exception&) {
     mask.release();  // reported below like any unreadable image
   }

@@ -44,6 +44,14 @@ ResponseCurve response_for(const std::string& setting, int bits);
 // A frame read as it is stored: 8/16-bit BGR (gray expanded, alpha dropped) or float BGR (EXR,
 // HDR: taken as linear radiance). InputError naming the file for an unreadable or empty image.
 cv::Mat read_sky_image(const std::filesystem::path& file);
+
+// Whether the file is an image of a kind skylit reads, by its first bytes: OpenEXR, Radiance HDR,
+// PNG, TIFF or JPEG. OpenCV would hand anything else to whichever of its codecs claims it (its
+// DICOM reader aborts the process on some files).
+bool is_supported_image(const std::filesystem::path& file);
+// cv::imread of a supported image; an empty Mat, as imread gives, for anything else or a decoder's
+// exception.
+cv::Mat read_image(const std::filesystem::path& file, int flags);
 // Exposure time and gain from the image's EXIF (ExposureTime, ISOSpeedRatings / 100), when the
 // file carries them.
 std::optional<Exposure> read_exposure_metadata(const std::filesystem::path& file);
