@@ -19,7 +19,11 @@ PresetsFile::PresetsFile(std::filesystem::path file) : reader_(std::move(file)) 
   root_ = reader_.load();
   reader_.expect_map(root_, "", "a presets file maps each name to {bake: {...}, live: {...}}; " + std::string(kDocs));
   for (const auto& entry : root_) {
-    const std::string name = entry.first.as<std::string>();
+    if (!entry.first.IsScalar()) {
+      reader_.fail(entry.first, "", "a preset's name must be a plain word, not a list or a map",
+                   "name it, e.g. balanced: {bake: ..., live: ...}");
+    }
+    const std::string name = entry.first.Scalar();
     const YAML::Node node = entry.second;
     reader_.expect_map(node, name, "{bake: {...}, live: {...}}; " + std::string(kDocs));
     reader_.check_keys(node, name + ".", kSections);
