@@ -38,7 +38,7 @@ fuzz_one() {
     -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=1024 \
     -artifact_prefix="$build/findings/$name-" -print_final_stats=1 >"$build/logs/$name.log" 2>&1 || true
   local status="ok"
-  ls "$build/findings/$name-"* >/dev/null 2>&1 && status="FINDINGS"
+  [[ -n $(find "$build/findings" -name "$name-*") ]] && status="FINDINGS"
   echo "fuzz: $name done ($status)"
 }
 export -f fuzz_one
@@ -55,13 +55,13 @@ report=$build/fuzz-report.md
     rate=$(grep -a 'stat::average_exec_per_sec' "$log" | awk '{print $2}' | tail -1)
     total=$(grep -a -o 'Loaded 1 modules *([0-9]* inline 8-bit counters)' "$log" | grep -o '[0-9]* inline' | awk '{print $1}' | head -1)
     cov=$(grep -a -o 'cov: [0-9]*' "$log" | tail -1 | awk '{print $2}')
-    corpus=$(ls "$build/corpus/$name" | wc -l)
-    findings=$(ls "$build/findings/$name-"* 2>/dev/null | wc -l)
+    corpus=$(find "$build/corpus/$name" -type f | wc -l)
+    findings=$(find "$build/findings" -name "$name-*" | wc -l)
     echo "| $name | $seconds | ${runs:-?} | ${rate:-?} | ${cov:-?} | ${total:-?} | $corpus | $findings |"
   done
 } >"$report"
 cat "$report"
-if ls "$build/findings/"* >/dev/null 2>&1; then
+if [[ -n $(find "$build/findings" -type f) ]]; then
   echo "fuzz: findings in $build/findings: reproduce one with $build/bin/fuzz_NAME FILE, fix it, and keep the"
   echo "      input as fuzz/corpus/NAME/crash-WHAT so that make test replays it" >&2
   exit 1
