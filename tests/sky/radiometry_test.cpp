@@ -206,7 +206,10 @@ TEST(Radiometry, ReadSkyImageRejectsBadFilesByName) {
   expect_input_error([&] { (void)read_sky_image(dir.file("missing.png")); }, {"missing.png", "does not exist"});
   expect_input_error([&] { (void)read_sky_image(dir.write("empty.jpg", "")); }, {"empty.jpg", "empty"});
   expect_input_error([&] { (void)read_sky_image(dir.write("junk.png", "not an image at all")); },
-                     {"junk.png", "decoded"});
+                     {"junk.png", "not an image of a kind skylit reads"});
+  // A PNG's signature over bytes that are no PNG: for the decoder to refuse.
+  expect_input_error([&] { (void)read_sky_image(dir.write("fake.png", std::string("\x89PNG\r\n\x1a\n", 8) + "garbage")); },
+                     {"fake.png", "decoded"});
   // The OpenEXR magic number followed by nothing sensible.
   expect_input_error([&] { (void)read_sky_image(dir.write("trunc.exr", std::string("\x76\x2f\x31\x01\x02\0\0\0", 8))); },
                      {"trunc.exr", "OpenEXR"});
