@@ -98,9 +98,11 @@ void skip_value(HeaderCursor& cursor, const std::string& attribute, const std::s
   if (type == "preview") {
     const auto width = static_cast<std::uint32_t>(cursor.int32());
     const auto height = static_cast<std::uint32_t>(cursor.int32());
-    const std::int64_t bytes = std::int64_t{width} * height * 4;
-    if (bytes > cursor.left()) cursor.fail("attribute '" + attribute + "' holds a preview larger than the file");
-    cursor.skip(bytes);
+    // Compared by division: width × height × 4 of two 32-bit sides overflows 64 bits.
+    if (height != 0 && std::int64_t{width} > cursor.left() / 4 / std::int64_t{height}) {
+      cursor.fail("attribute '" + attribute + "' holds a preview larger than the file");
+    }
+    cursor.skip(std::int64_t{width} * height * 4);
     return;
   }
   if (type == "stringvector") {
