@@ -8,6 +8,7 @@
 
 #include <Eigen/LU>
 
+#include "lane_shuffle.hpp"
 #include "skylit/base/error.hpp"
 
 #if defined(__x86_64__) || defined(__i386__)
@@ -393,36 +394,10 @@ struct FittedLanes {
       y = __builtin_shufflevector(half[1], half[4], 0, 1, 2, 3, 4, 5, 6, 7);
       z = __builtin_shufflevector(half[2], half[5], 0, 1, 2, 3, 4, 5, 6, 7);
     }
-#if defined(__clang__)
-    b = shuffle(shuffle(shuffle(x, y, V::kBlue0), z, V::kBlue1), V::kBlue2);
-    g = shuffle(shuffle(shuffle(x, y, V::kGreen0), z, V::kGreen1), V::kGreen2);
-    r = shuffle(shuffle(shuffle(x, y, V::kRed0), z, V::kRed1), V::kRed2);
-#else
-    b = __builtin_shuffle(__builtin_shuffle(__builtin_shuffle(x, y, V::kBlue0), z, V::kBlue1), V::kBlue2);
-    g = __builtin_shuffle(__builtin_shuffle(__builtin_shuffle(x, y, V::kGreen0), z, V::kGreen1), V::kGreen2);
-    r = __builtin_shuffle(__builtin_shuffle(__builtin_shuffle(x, y, V::kRed0), z, V::kRed1), V::kRed2);
-#endif
+    b = SKYLIT_SHUFFLE(SKYLIT_SHUFFLE(SKYLIT_SHUFFLE(x, y, V::kBlue0), z, V::kBlue1), V::kBlue2);
+    g = SKYLIT_SHUFFLE(SKYLIT_SHUFFLE(SKYLIT_SHUFFLE(x, y, V::kGreen0), z, V::kGreen1), V::kGreen2);
+    r = SKYLIT_SHUFFLE(SKYLIT_SHUFFLE(SKYLIT_SHUFFLE(x, y, V::kRed0), z, V::kRed1), V::kRed2);
   }
-
-#if defined(__clang__)
-  // Clang (the fuzz build) has no __builtin_shuffle, GCC's permutation by a mask vector: the same
-  // permutation lane by lane.
-  template <typename Mask>
-  [[gnu::always_inline]] static Float shuffle(Float a, Float b, Mask mask) {
-    Float out;
-    for (int lane = 0; lane < kWidth; ++lane) {
-      const int from = static_cast<int>(mask[lane]);
-      out[lane] = from < kWidth ? a[from] : b[from - kWidth];
-    }
-    return out;
-  }
-  template <typename Mask>
-  [[gnu::always_inline]] static Float shuffle(Float a, Mask mask) {
-    Float out;
-    for (int lane = 0; lane < kWidth; ++lane) out[lane] = a[static_cast<int>(mask[lane])];
-    return out;
-  }
-#endif
 
   // kWidth samples `stride` floats apart, of which the first `live` count (the other lanes are
   // zero, whatever lies there: a NaN beyond the run never reaches a sum).
