@@ -1,14 +1,20 @@
 // The service under faults: a sky or camera folder that disappears mid-run, malformed frames, a
-// bake made for another site, a bad config field; and its status over HTTP while it runs.
+// full disk under the recording, a bake made for another site, a bad config field; and its
+// status over HTTP while it runs.
 #include <chrono>
+#include <cstdio>
+#include <cstdlib>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <gtest/gtest.h>
+#include <opencv2/videoio.hpp>
 
 #include "../support/promtool.hpp"
 #include "live_fixture.hpp"
 #include "skylit/base/error.hpp"
+#include "skylit/live/frame_log.hpp"
 // After Eigen: httplib brings <resolv.h>, whose `_res` macro breaks Eigen's headers.
 #include <httplib.h>
 
@@ -130,6 +136,91 @@ TEST(ServiceFaults, MalformedFramesAreDroppedAndCountedInTheStatus) {
   EXPECT_EQ(status["camera"]["malformed"].get<int>(), 2) << status.dump(2);
   EXPECT_EQ(status["camera"]["frames"].get<int>(), 4) << status.dump(2);
   EXPECT_EQ(status["frames"].get<std::int64_t>(), frames);
+}
+
+// A small tmpfs mounted over `dir` while it lives (root only: mounted() is false otherwise).
+class SmallDisk {
+ public:
+  SmallDisk(const fs::path& dir, int megabytes) : dir_(dir) {
+    fs::create_directories(dir);
+    const std::string command = "mount -t tmpfs -o size=" + std::to_string(megabytes) + "m tmpfs '" + dir.string() + "' 2>/dev/null";
+    mounted_ = std::system(command.c_str()) == 0;
+  }
+  ~SmallDisk() {
+    if (mounted_) (void)std::system(("umount '" + dir_.string() + "'").c_str());
+  }
+  SmallDisk(const SmallDisk&) = delete;
+  SmallDisk& operator=(const SmallDisk&) = delete;
+  bool mounted() const { return mounted_; }
+  // Writes `file` until the disk refuses more.
+  void fill(const fs::path& file) const {
+    std::FILE* out = std::fopen(file.c_str(), "wb");
+    ASSERT_NE(out, nullptr);
+    const std::vector<char> block(64 * 1024, 'x');
+    while (std::fwrite(block.data(), 1, block.size(), out) == block.size() && std::fflush(out) == 0) {
+    }
+    std::fclose(out);
+  }
+
+ private:
+  fs::path dir_;
+  bool mounted_ = false;
+};
+
+// The disk for recordings fills and is freed: the service runs on, flags `recording_failing`
+// while frames are lost, and records again after; the recording holds exactly the frames its log
+// lists. For a folder of PNGs and for a video (whose writer reports no failure of its own).
+TEST(ServiceFaults, ARecordingOnAFullDiskIsFlaggedWhileItLastsAndResumes) {
+  for (const std::string record : {"frames", "live.avi"}) {
+    SCOPED_TRACE(record);
+    RigOptions rig_options;
+    const test::TempDir disk_root("skylit_small_disk_");
+    const fs::path disk_dir = disk_root / "disk";
+    rig_options.extra = "output:\n  record: {path: " + (disk_dir / record).string() + ", fps: 30}\n";
+    const Rig rig(rig_options);
+    const SmallDisk disk(disk_dir, 4);
+    if (!disk.mounted()) GTEST_SKIP() << "mounting a tmpfs needs root: the full disk is tested by root only";
+    std::int64_t frames = 0;
+    {
+      RunningService running(rig.config(), quiet_options());
+      const auto written = [](const json& s) { return s["recording"]["written"].get<std::int64_t>(); };
+      ASSERT_TRUE(running.wait_for([&](const json& s) { return s.contains("recording") && written(s) >= 5; }))
+          << running.error() << running.status().dump(2);
+      disk.fill(disk_dir / "filler");
+      ASSERT_TRUE(running.wait_for([](const json& s) { return has_flag(s, "recording_failing"); }, 20))
+          << running.status().dump(2);
+      const json full = running.status();
+      ASSERT_TRUE(running.wait_for([&](const json& s) { return s["recording"]["lost"].get<std::int64_t>() >= 5; }, 20));
+      EXPECT_FALSE(running.done()) << running.error();
+      const std::string error = full["recording"]["last_error"].get<std::string>();
+      EXPECT_NE(error.find((disk_dir / record).string()), std::string::npos) << error;
+      std::printf("measured: %s on a full disk: %s\n", record.c_str(), full["recording"].dump().c_str());
+      EXPECT_NE(running.service().metrics_text().find("skylit_recording_frames_lost_total "), std::string::npos);
+
+      fs::remove(disk_dir / "filler");
+      ASSERT_TRUE(running.wait_for([&](const json& s) { return !has_flag(s, "recording_failing") && written(s) >= written(full) + 5; }, 20))
+          << running.status().dump(2);
+      running.finish();
+      EXPECT_TRUE(running.error().empty()) << running.error();
+      const json end = running.status();
+      frames = written(end);
+      EXPECT_EQ(frames + end["recording"]["lost"].get<std::int64_t>(), end["frames"].get<std::int64_t>()) << end.dump(2);
+    }
+    // Every frame the log lists is in the recording, and only those.
+    const fs::path log = record == "frames" ? disk_dir / "frames" / "frames.csv" : disk_dir / "live.csv";
+    EXPECT_EQ(static_cast<std::int64_t>(live::read_frame_log(log).size()), frames);
+    if (record == "frames") {
+      std::int64_t images = 0;
+      for (const auto& entry : fs::directory_iterator(disk_dir / "frames")) images += entry.path().extension() == ".png";
+      EXPECT_EQ(images, frames);
+    } else {
+      cv::VideoCapture video((disk_dir / record).string());
+      ASSERT_TRUE(video.isOpened());
+      std::int64_t decoded = 0;
+      for (cv::Mat image; video.read(image);) ++decoded;
+      EXPECT_EQ(decoded, frames);
+    }
+  }
 }
 
 TEST(ServiceFaults, ABakeMadeForAnotherSiteRefusesToStartNamingTheDifferences) {

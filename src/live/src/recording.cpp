@@ -62,12 +62,38 @@ void Recorder::flush_pending() {
 }
 
 void Recorder::write_video(const cv::Mat& frame, const RecordedFrame& info) {
-  // OpenCV's writer reports no failure; what a full disk does to a video is not seen here (a
-  // folder of PNGs is: each frame is checked).
+  // OpenCV's writer reports no failure, and a write the disk refuses leaves a damaged file: a
+  // frame goes to the video only while its folder has room for it (the raw frame, which its
+  // encoding never exceeds, and the muxer's buffers and index), and while the file is still there.
+  const std::string problem = video_write_problem(frame.total() * frame.elemSize());
+  if (!problem.empty()) {
+    ++health_.lost;
+    health_.failing = true;
+    health_.last_error = problem;
+    return;
+  }
   writer_.write(frame);
   log_.add(count_, path_.filename().string(), info);
   ++count_;
   ++health_.written;
+  health_.failing = false;
+}
+
+std::string Recorder::video_write_problem(std::uintmax_t frame_bytes) const {
+  constexpr std::uintmax_t kMuxerReserveBytes = std::uintmax_t{1} << 20;
+  const fs::path folder = path_.parent_path().empty() ? fs::path(".") : path_.parent_path();
+  std::error_code error;
+  if (!fs::exists(path_, error)) {
+    return path_.string() + " was removed while recording: its frames are lost (restart to record anew)";
+  }
+  const fs::space_info space = fs::space(folder, error);
+  if (error) return "cannot check the free space of " + folder.string() + ": " + error.message();
+  if (space.available < frame_bytes + kMuxerReserveBytes) {
+    return "no space left for " + path_.string() + ": " + std::to_string(space.available >> 10) + " KiB free in " +
+           folder.string() + ", a frame needs up to " + std::to_string((frame_bytes + kMuxerReserveBytes) >> 10) +
+           " KiB; frames are dropped until there is room";
+  }
+  return {};
 }
 
 void Recorder::write_image(const cv::Mat& frame, const RecordedFrame& info) {

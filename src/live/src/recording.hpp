@@ -41,8 +41,9 @@ class Recorder {
   // The video's frame rate (0 before the file is opened, and for a folder of images).
   double fps() const { return opened_fps_; }
 
-  // Frames that could not be written (a full disk, a folder removed): the service goes on, says
-  // so in its status, and writes again once it can. The frame log has a line per written frame.
+  // Frames that could not be written (a full disk, a folder or video removed): the service goes
+  // on, says so in its status, and writes again once it can. The frame log has a line per
+  // written frame.
   struct Health {
     std::int64_t written = 0;
     std::int64_t lost = 0;
@@ -57,6 +58,8 @@ class Recorder {
   void open(cv::Size size, const FrameRate& camera_rate);
   void flush_pending();
   void write_video(const cv::Mat& frame, const RecordedFrame& info);
+  // Why a frame of `frame_bytes` cannot go to the video now (no room, the file removed); "" if it can.
+  std::string video_write_problem(std::uintmax_t frame_bytes) const;
   void write_image(const cv::Mat& frame, const RecordedFrame& info);
 
   std::filesystem::path path_;
