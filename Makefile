@@ -6,7 +6,7 @@ BUILD  := build
 JOBS   ?= $(shell nproc)
 DEMO_OUT ?= $(BUILD)/demo
 
-.PHONY: all deps configure build test demo demo-site bench fuzz clean
+.PHONY: all deps configure build test demo demo-site bench fuzz package clean
 
 all: build
 
@@ -69,6 +69,12 @@ bench: build
 # `make test` replays the seeds and every input that once crashed (fuzz/corpus) without them.
 fuzz: deps
 	bash scripts/fuzz.sh $(HARNESS)
+
+# The Debian package (docs/install.md): $(BUILD)/skylit_<version>_amd64.deb, its dependencies
+# found by dpkg-shlibdeps. Install it with `apt install ./$(BUILD)/skylit_*_amd64.deb`.
+package: build
+	cd $(BUILD) && cpack --config CPackConfig.cmake
+	@ls $(BUILD)/skylit_*_amd64.deb
 
 clean:
 	rm -rf $(BUILD)

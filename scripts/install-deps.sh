@@ -17,6 +17,7 @@ packages=(
   xvfb xauth ffmpeg systemd
   chromium chromium-driver python3-selenium python3-pil
   clang libclang-rt-dev
+  dpkg-dev file lintian help2man
 )
 
 missing=()

@@ -20,6 +20,7 @@
 #include <CLI/CLI.hpp>
 #include <opencv2/core.hpp>
 
+#include "skylit/base/data_dir.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/base/files.hpp"
 #include "skylit/calib/board.hpp"
@@ -469,9 +470,13 @@ std::string yaml_quoted(const std::string& text) {
 }
 
 int run_hid_list(const HidListArgs& a) {
-  // The profiles: --profiles, or config/imu of the working directory (the source tree's).
+  // The profiles: --profiles, else config/imu of the working directory (the source tree's or a
+  // copy of the examples), else the installed examples' (share/skylit/examples/config/imu).
   fs::path folder = a.profiles;
   if (folder.empty() && fs::is_directory("config/imu")) folder = "config/imu";
+  if (folder.empty() && fs::is_directory(skylit::data_dir() / "examples/config/imu")) {
+    folder = skylit::data_dir() / "examples/config/imu";
+  }
   if (!a.profiles.empty() && !fs::is_directory(folder)) {
     bad_option("--profiles", "'" + a.profiles + "' is not a folder", "give the folder of the IMU profiles (*.yaml), e.g. config/imu");
   }

@@ -8,6 +8,7 @@
 
 #include "../support/temp_dir.hpp"
 #include "skylit/base/error.hpp"
+#include "skylit/base/files.hpp"
 #include "skylit/base/presets.hpp"
 
 namespace skylit {
@@ -26,7 +27,9 @@ std::string error_of(const auto& call) {
 }
 
 TEST(Presets, TheShippedFileHasThreePresetsWithBothSections) {
-  EXPECT_EQ(default_presets_file(), kPresets);
+  // The shipped file, as the build copied it beside the programs (share/skylit, as installed).
+  EXPECT_EQ(default_presets_file(), fs::path(SKYLIT_BINARY_DIR) / "share" / "skylit" / "presets.yaml");
+  EXPECT_EQ(read_file(default_presets_file()), read_file(kPresets));
   const PresetsFile presets(kPresets);
   EXPECT_EQ(presets.names_text(), "fast, balanced, accurate");
   for (const std::string& name : presets.names()) {

@@ -147,8 +147,10 @@ TEST(ShaderDir, EnvironmentThenDefaults) {
 
   EXPECT_EQ(from_environment, elsewhere);
   EXPECT_TRUE(missing_rejected);
-  // The test program lives in the build tree, where no share/ folder exists: the source tree's.
-  EXPECT_TRUE(fs::exists(fallback / "visibility.frag")) << fallback;
+  // The test program lives in the build tree's bin/, beside its share/skylit (no source path is
+  // compiled in): the copies there are the source tree's shaders.
+  EXPECT_EQ(fallback, fs::path(SKYLIT_BINARY_DIR) / "share" / "skylit" / "shaders");
+  EXPECT_EQ(read_file(fallback / "visibility.frag"), read_file(kShaderDir / "visibility.frag"));
 }
 
 TEST(ShaderDir, MissingShaderFileIsAnInputError) {

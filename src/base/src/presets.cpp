@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 
+#include "skylit/base/data_dir.hpp"
 #include "skylit/base/error.hpp"
 
 namespace skylit {
@@ -13,7 +14,7 @@ constexpr std::array<std::string_view, 2> kSections{"bake", "live"};
 
 }  // namespace
 
-std::filesystem::path default_presets_file() { return SKYLIT_DEFAULT_PRESETS_FILE; }
+std::filesystem::path default_presets_file() { return data_dir() / "presets.yaml"; }
 
 PresetsFile::PresetsFile(std::filesystem::path file) : reader_(std::move(file)) {
   root_ = reader_.load();

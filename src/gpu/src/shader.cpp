@@ -7,6 +7,7 @@
 #include <system_error>
 #include <vector>
 
+#include "skylit/base/data_dir.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/base/files.hpp"
 
@@ -69,8 +70,8 @@ Shader compile_shader(const ShaderSource& source) {
 
 fs::path find_shader_dir(const fs::path& explicit_dir) {
   const std::string fix = "point --shader-dir or SKYLIT_SHADER_DIR at the folder holding skylit's "
-                          "*.vert/*.frag/*.comp files (shaders/ in the source tree, "
-                          "share/skylit/shaders when installed)";
+                          "*.vert/*.frag/*.comp files (share/skylit/shaders beside the programs' bin/, in the "
+                          "build tree as when installed)";
   if (!explicit_dir.empty()) {
     if (!directory_exists(explicit_dir)) {
       throw InputError(input_message(explicit_dir, -1, -1, "shader_dir", "no such directory", fix));
@@ -83,19 +84,9 @@ fs::path find_shader_dir(const fs::path& explicit_dir) {
     }
     return env;
   }
-  std::vector<fs::path> candidates;
-  std::error_code error;
-  const fs::path executable = fs::read_symlink("/proc/self/exe", error);
-  if (!error) candidates.push_back(executable.parent_path() / ".." / "share" / "skylit" / "shaders");
-  candidates.emplace_back(SKYLIT_SOURCE_SHADER_DIR);
-  candidates.emplace_back(SKYLIT_INSTALL_SHADER_DIR);
-  for (const fs::path& candidate : candidates) {
-    if (directory_exists(candidate)) return candidate.lexically_normal();
-  }
-  std::string tried;
-  for (const fs::path& candidate : candidates) tried += (tried.empty() ? "" : ", ") + candidate.string();
-  throw InputError(input_message(candidates.front(), -1, -1, "shader_dir",
-                                 "no shader directory found (tried " + tried + ")", fix));
+  const fs::path installed = data_dir() / "shaders";
+  if (directory_exists(installed)) return installed;
+  throw InputError(input_message(installed, -1, -1, "shader_dir", "no shader directory here", fix));
 }
 
 GLenum shader_stage(const fs::path& file) {

@@ -13,7 +13,8 @@
 
 namespace skylit {
 
-// The presets the tools use when none is given: presets.yaml in the source tree's config/.
+// The presets the tools use when none is given: presets.yaml in data_dir() (config/presets.yaml
+// of the source tree, copied there by the build and installed there).
 std::filesystem::path default_presets_file();
 
 // One section of one preset, with the reader that names the file, line and field in errors.

@@ -204,7 +204,7 @@ struct LivePreset {
 LivePreset load_live_preset(const PresetsFile& presets, const std::string& name);
 
 // The presets a config file's `preset` is looked up in: presets.yaml in its folder when there is
-// one, else skylit::default_presets_file() (config/presets.yaml of the source tree).
+// one, else skylit::default_presets_file() (share/skylit/presets.yaml beside the programs).
 std::filesystem::path presets_file_for(const std::filesystem::path& config_file);
 
 // InputError naming the file, line, column and field, with the fix, for anything wrong.
