@@ -27,6 +27,9 @@ for name in "${harnesses[@]}"; do
 done
 
 mkdir -p "$build/logs" "$build/findings"
+# Findings of this run are the files newer than this stamp; those of earlier runs stay for reference.
+stamp="$build/findings/.run-start"
+touch "$stamp"
 echo "fuzz: ${#harnesses[@]} harnesses, ${seconds} s each, ${jobs} at a time (logs in $build/logs)"
 
 fuzz_one() {
@@ -38,11 +41,11 @@ fuzz_one() {
     -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=1024 \
     -artifact_prefix="$build/findings/$name-" -print_final_stats=1 >"$build/logs/$name.log" 2>&1 || true
   local status="ok"
-  [[ -n $(find "$build/findings" -name "$name-*") ]] && status="FINDINGS"
+  [[ -n $(find "$build/findings" -name "$name-*" -newer "$stamp") ]] && status="FINDINGS"
   echo "fuzz: $name done ($status)"
 }
 export -f fuzz_one
-export build root seconds
+export build root seconds stamp
 printf '%s\n' "${harnesses[@]}" | xargs -P "$jobs" -I{} bash -c 'fuzz_one {}'
 
 report=$build/fuzz-report.md
@@ -56,12 +59,12 @@ report=$build/fuzz-report.md
     total=$(grep -a -o 'Loaded 1 modules *([0-9]* inline 8-bit counters)' "$log" | grep -o '[0-9]* inline' | awk '{print $1}' | head -1)
     cov=$(grep -a -o 'cov: [0-9]*' "$log" | tail -1 | awk '{print $2}')
     corpus=$(find "$build/corpus/$name" -type f | wc -l)
-    findings=$(find "$build/findings" -name "$name-*" | wc -l)
+    findings=$(find "$build/findings" -name "$name-*" -newer "$stamp" | wc -l)
     echo "| $name | $seconds | ${runs:-?} | ${rate:-?} | ${cov:-?} | ${total:-?} | $corpus | $findings |"
   done
 } >"$report"
 cat "$report"
-if [[ -n $(find "$build/findings" -type f) ]]; then
+if [[ -n $(find "$build/findings" -type f -name '*-*' -newer "$stamp") ]]; then
   echo "fuzz: findings in $build/findings: reproduce one with $build/bin/fuzz_NAME FILE, fix it, and keep the"
   echo "      input as fuzz/corpus/NAME/crash-WHAT so that make test replays it" >&2
   exit 1
