@@ -197,7 +197,8 @@ check_example() {
   fi
   # Paths of this run read as the user's: relative to the top of the repository.
   sed -e "s${sep}${run}/${sep}${sep}g" -e "s${sep}${run}${sep}.${sep}g" \
-      -e "s${sep}${source_dir}/${sep}${sep}g" -e "s${sep}${bin_dir}/${sep}build/bin/${sep}g" "$work/raw" >"$work/out"
+      -e "s${sep}${source_dir}/${sep}${sep}g" -e "s${sep}${bin_dir}/${sep}build/bin/${sep}g" \
+      -e "s${sep}${bin_dir%/bin}/share/${sep}build/share/${sep}g" "$work/raw" >"$work/out"
   if [[ -n "$lines" ]]; then
     select_lines "$work/out" "$lines" >"$work/selected"
   else
