@@ -18,6 +18,7 @@ packages=(
   chromium chromium-driver python3-selenium python3-pil
   clang libclang-rt-dev
   dpkg-dev file lintian help2man
+  slurm-wlm munge
 )
 
 missing=()
