@@ -10,11 +10,7 @@ find_package(spdlog REQUIRED)
 find_package(CLI11 REQUIRED)
 find_package(OpenEXR 3 REQUIRED)
 find_package(Imath REQUIRED)
-# tinygltf's header from Debian, compiled in src/scene with its Draco decoder on (Debian's
-# libtinygltf is built without it): Draco from libdraco-dev, images through Debian's stb.
-find_path(TINYGLTF_INCLUDE_DIR tiny_gltf.h REQUIRED)
-find_package(draco REQUIRED)
-pkg_check_modules(STB REQUIRED IMPORTED_TARGET stb)
+find_package(TinyGLTF REQUIRED)
 find_package(tinyobjloader REQUIRED)
 find_package(embree 3 REQUIRED)
 find_package(OpenSSL REQUIRED COMPONENTS Crypto)

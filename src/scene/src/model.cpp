@@ -1,7 +1,5 @@
-// Model loading: glTF 2.0 through tinygltf (with Draco-compressed and quantized meshes), OBJ
-// through tinyobjloader, both into the site frame.
+// Model loading: glTF 2.0 through tinygltf, OBJ through tinyobjloader, both into the site frame.
 #include <algorithm>
-#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -9,7 +7,6 @@
 #include <limits>
 #include <map>
 #include <optional>
-#include <string_view>
 #include <tuple>
 #include <utility>
 
@@ -145,59 +142,11 @@ std::size_t component_size(int component_type) {
   }
 }
 
-// One component of an accessor's element: a float as it is; an integer as it is, or normalised
-// to [0, 1] (unsigned) or [-1, 1] (signed) when the accessor says so. Integer vertex data is
-// glTF's KHR_mesh_quantization (texture coordinates may be normalised integers in glTF itself).
-double component_value(const unsigned char* p, int type, bool normalized) {
-  switch (type) {
-    case TINYGLTF_COMPONENT_TYPE_FLOAT: {
-      float value = 0.0f;
-      std::memcpy(&value, p, sizeof value);
-      return value;
-    }
-    case TINYGLTF_COMPONENT_TYPE_BYTE: {
-      const auto value = static_cast<double>(static_cast<std::int8_t>(p[0]));
-      return normalized ? std::max(value / 127.0, -1.0) : value;
-    }
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return normalized ? p[0] / 255.0 : p[0];
-    case TINYGLTF_COMPONENT_TYPE_SHORT: {
-      std::int16_t value = 0;
-      std::memcpy(&value, p, sizeof value);
-      return normalized ? std::max(value / 32767.0, -1.0) : value;
-    }
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
-      std::uint16_t value = 0;
-      std::memcpy(&value, p, sizeof value);
-      return normalized ? value / 65535.0 : value;
-    }
-    default: return 0.0;
-  }
-}
-
-bool is_small_integer(int type) {
-  return type == TINYGLTF_COMPONENT_TYPE_BYTE || type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
-         type == TINYGLTF_COMPONENT_TYPE_SHORT || type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
-}
-
-// The extensions a model may require: each changes how its geometry is stored, and is read.
-// tinygltf decodes Draco into plain accessors (tinygltf_build.cpp); quantized accessors are read
-// here (component_value).
-constexpr std::array<std::string_view, 2> kReadExtensions{"KHR_draco_mesh_compression", "KHR_mesh_quantization"};
-
 class GltfReader {
  public:
   GltfReader(const tinygltf::Model& model, const fs::path& file) : model_(model), file_(file) {}
 
   Mesh read(UpAxis up, double scale) {
-    for (const std::string& extension : model_.extensionsRequired) {
-      if (std::find(kReadExtensions.begin(), kReadExtensions.end(), extension) == kReadExtensions.end()) {
-        fail(file_, "the model requires the glTF extension '" + extension + "', which skylit does not read",
-             "export it again without " + extension + " (skylit reads glTF 2.0 with KHR_draco_mesh_compression "
-             "and KHR_mesh_quantization, e.g. gltf-transform draco or quantize)");
-      }
-    }
-    quantized_ = std::find(model_.extensionsUsed.begin(), model_.extensionsUsed.end(), "KHR_mesh_quantization") !=
-                 model_.extensionsUsed.end();
     const std::vector<int> image_texture = read_images();
     for (const tinygltf::Material& material : model_.materials) {
       Material m;
@@ -283,28 +232,34 @@ class GltfReader {
     return index;
   }
 
-  // TEXCOORD_n as floats: float pairs, normalised unsigned bytes or shorts (glTF allows them), or
-  // with KHR_mesh_quantization any byte or short, normalised or not.
+  // TEXCOORD_n as floats: float pairs, or normalised unsigned bytes or shorts (glTF allows them).
   std::vector<Eigen::Vector2f> read_texcoords(int accessor_index, const std::string& what) const {
     if (accessor_index < 0 || static_cast<std::size_t>(accessor_index) >= model_.accessors.size()) {
       corrupt(what + " refers to a missing accessor");
     }
     const tinygltf::Accessor& accessor = model_.accessors[static_cast<std::size_t>(accessor_index)];
     const int type = accessor.componentType;
-    const bool core_type = type == TINYGLTF_COMPONENT_TYPE_FLOAT || type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
-                           type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
-    if (accessor.type != TINYGLTF_TYPE_VEC2 || !(core_type || (quantized_ && is_small_integer(type)))) {
-      corrupt(what + " is not a list of 2-vectors of floats or normalised unsigned integers"
-                     " (or of any small integers, with KHR_mesh_quantization)");
+    if (accessor.type != TINYGLTF_TYPE_VEC2 ||
+        (type != TINYGLTF_COMPONENT_TYPE_FLOAT && type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+         type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT)) {
+      corrupt(what + " is not a list of 2-vectors of floats or normalised unsigned integers");
     }
     const std::size_t size = component_size(type);
-    // glTF itself allows only normalised unsigned integers here: read them as such.
-    const bool normalized = accessor.normalized || (!quantized_ && type != TINYGLTF_COMPONENT_TYPE_FLOAT);
     std::vector<Eigen::Vector2f> values(accessor.count);
     for (std::size_t k = 0; k < accessor.count; ++k) {
       const unsigned char* p = element(accessor, 2 * size, k, what);
       for (std::size_t c = 0; c < 2; ++c) {
-        values[k][static_cast<Eigen::Index>(c)] = static_cast<float>(component_value(p + size * c, type, normalized));
+        float value = 0.0f;
+        if (type == TINYGLTF_COMPONENT_TYPE_FLOAT) {
+          std::memcpy(&value, p + 4 * c, 4);
+        } else if (type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE) {
+          value = static_cast<float>(p[c]) / 255.0f;
+        } else {
+          std::uint16_t v16 = 0;
+          std::memcpy(&v16, p + 2 * c, 2);
+          value = static_cast<float>(v16) / 65535.0f;
+        }
+        values[k][static_cast<Eigen::Index>(c)] = value;
       }
     }
     return values;
@@ -367,26 +322,20 @@ class GltfReader {
     return data.data() + begin;
   }
 
-  // POSITION or NORMAL: float 3-vectors, or with KHR_mesh_quantization bytes or shorts, normalised
-  // or not (the node's transform then scales them back to metres).
   std::vector<Eigen::Vector3d> read_vec3(int accessor_index, const std::string& what) const {
     if (accessor_index < 0 || static_cast<std::size_t>(accessor_index) >= model_.accessors.size()) {
       corrupt(what + " refers to a missing accessor");
     }
     const tinygltf::Accessor& accessor = model_.accessors[static_cast<std::size_t>(accessor_index)];
-    const int type = accessor.componentType;
     if (accessor.type != TINYGLTF_TYPE_VEC3 ||
-        (type != TINYGLTF_COMPONENT_TYPE_FLOAT && !(quantized_ && is_small_integer(type)))) {
-      corrupt(what + " is not a list of float 3-vectors" +
-              std::string(is_small_integer(type) ? " (integer components need the KHR_mesh_quantization extension)" : ""));
+        accessor.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT) {
+      corrupt(what + " is not a list of float 3-vectors (quantized meshes are not supported)");
     }
-    const std::size_t size = component_size(type);
     std::vector<Eigen::Vector3d> values(accessor.count);
     for (std::size_t k = 0; k < accessor.count; ++k) {
-      const unsigned char* p = element(accessor, 3 * size, k, what);
-      for (std::size_t c = 0; c < 3; ++c) {
-        values[k][static_cast<Eigen::Index>(c)] = component_value(p + size * c, type, accessor.normalized);
-      }
+      float xyz[3];
+      std::memcpy(xyz, element(accessor, sizeof xyz, k, what), sizeof xyz);
+      values[k] = Eigen::Vector3d(xyz[0], xyz[1], xyz[2]);
     }
     return values;
   }
@@ -541,7 +490,6 @@ class GltfReader {
   MeshBuilder builder_;
   std::vector<bool> on_path_;
   std::optional<std::uint32_t> default_material_;
-  bool quantized_ = false;  // the model uses KHR_mesh_quantization
 };
 
 // Base-colour textures are decoded for the compositor (the baker ignores them). An image the
