@@ -11,6 +11,8 @@ find_package(CLI11 REQUIRED)
 find_package(OpenEXR 3 REQUIRED)
 find_package(Imath REQUIRED)
 find_package(TinyGLTF REQUIRED)
+# KHR_draco_mesh_compression, decoded by skylit (src/scene/src/draco_primitive.cpp).
+find_package(draco REQUIRED)
 find_package(tinyobjloader REQUIRED)
 find_package(embree 3 REQUIRED)
 find_package(OpenSSL REQUIRED COMPONENTS Crypto)

@@ -1,5 +1,7 @@
-// Model loading: glTF 2.0 through tinygltf, OBJ through tinyobjloader, both into the site frame.
+// Model loading: glTF 2.0 through tinygltf (with Draco-compressed and quantized meshes), OBJ
+// through tinyobjloader, both into the site frame.
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -7,15 +9,21 @@
 #include <limits>
 #include <map>
 #include <optional>
+#include <span>
+#include <stdexcept>
+#include <string_view>
 #include <tuple>
 #include <utility>
 
 #include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
 #include <tiny_obj_loader.h>
 
 #include "skylit/base/error.hpp"
+#include "skylit/base/files.hpp"
 #include "skylit/scene/mesh.hpp"
+#include "draco_primitive.hpp"
 
 namespace skylit::scene {
 
@@ -142,11 +150,59 @@ std::size_t component_size(int component_type) {
   }
 }
 
+// One component of an accessor's element: a float as it is; an integer as it is, or normalised
+// to [0, 1] (unsigned) or [-1, 1] (signed) when the accessor says so. Integer vertex data is
+// glTF's KHR_mesh_quantization (texture coordinates may be normalised integers in glTF itself).
+double component_value(const unsigned char* p, int type, bool normalized) {
+  switch (type) {
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+      float value = 0.0f;
+      std::memcpy(&value, p, sizeof value);
+      return value;
+    }
+    case TINYGLTF_COMPONENT_TYPE_BYTE: {
+      const auto value = static_cast<double>(static_cast<std::int8_t>(p[0]));
+      return normalized ? std::max(value / 127.0, -1.0) : value;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return normalized ? p[0] / 255.0 : p[0];
+    case TINYGLTF_COMPONENT_TYPE_SHORT: {
+      std::int16_t value = 0;
+      std::memcpy(&value, p, sizeof value);
+      return normalized ? std::max(value / 32767.0, -1.0) : value;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+      std::uint16_t value = 0;
+      std::memcpy(&value, p, sizeof value);
+      return normalized ? value / 65535.0 : value;
+    }
+    default: return 0.0;
+  }
+}
+
+bool is_small_integer(int type) {
+  return type == TINYGLTF_COMPONENT_TYPE_BYTE || type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+         type == TINYGLTF_COMPONENT_TYPE_SHORT || type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+}
+
+// The extensions a model may require: each changes how its geometry is stored, and is read.
+// Draco primitives are decoded here (draco_primitive.hpp; tinygltf reads them only after
+// without_draco_indices), quantized accessors by component_value.
+constexpr std::array<std::string_view, 2> kReadExtensions{"KHR_draco_mesh_compression", "KHR_mesh_quantization"};
+
 class GltfReader {
  public:
   GltfReader(const tinygltf::Model& model, const fs::path& file) : model_(model), file_(file) {}
 
   Mesh read(UpAxis up, double scale) {
+    for (const std::string& extension : model_.extensionsRequired) {
+      if (std::find(kReadExtensions.begin(), kReadExtensions.end(), extension) == kReadExtensions.end()) {
+        fail(file_, "the model requires the glTF extension '" + extension + "', which skylit does not read",
+             "export it again without " + extension + " (skylit reads glTF 2.0 with KHR_draco_mesh_compression "
+             "and KHR_mesh_quantization, e.g. gltf-transform draco or quantize)");
+      }
+    }
+    quantized_ = std::find(model_.extensionsUsed.begin(), model_.extensionsUsed.end(), "KHR_mesh_quantization") !=
+                 model_.extensionsUsed.end();
     const std::vector<int> image_texture = read_images();
     for (const tinygltf::Material& material : model_.materials) {
       Material m;
@@ -232,34 +288,28 @@ class GltfReader {
     return index;
   }
 
-  // TEXCOORD_n as floats: float pairs, or normalised unsigned bytes or shorts (glTF allows them).
+  // TEXCOORD_n as floats: float pairs, normalised unsigned bytes or shorts (glTF allows them), or
+  // with KHR_mesh_quantization any byte or short, normalised or not.
   std::vector<Eigen::Vector2f> read_texcoords(int accessor_index, const std::string& what) const {
     if (accessor_index < 0 || static_cast<std::size_t>(accessor_index) >= model_.accessors.size()) {
       corrupt(what + " refers to a missing accessor");
     }
     const tinygltf::Accessor& accessor = model_.accessors[static_cast<std::size_t>(accessor_index)];
     const int type = accessor.componentType;
-    if (accessor.type != TINYGLTF_TYPE_VEC2 ||
-        (type != TINYGLTF_COMPONENT_TYPE_FLOAT && type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
-         type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT)) {
-      corrupt(what + " is not a list of 2-vectors of floats or normalised unsigned integers");
+    const bool core_type = type == TINYGLTF_COMPONENT_TYPE_FLOAT || type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+                           type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+    if (accessor.type != TINYGLTF_TYPE_VEC2 || !(core_type || (quantized_ && is_small_integer(type)))) {
+      corrupt(what + " is not a list of 2-vectors of floats or normalised unsigned integers"
+                     " (or of any small integers, with KHR_mesh_quantization)");
     }
     const std::size_t size = component_size(type);
+    // glTF itself allows only normalised unsigned integers here: read them as such.
+    const bool normalized = accessor.normalized || (!quantized_ && type != TINYGLTF_COMPONENT_TYPE_FLOAT);
     std::vector<Eigen::Vector2f> values(accessor.count);
     for (std::size_t k = 0; k < accessor.count; ++k) {
       const unsigned char* p = element(accessor, 2 * size, k, what);
       for (std::size_t c = 0; c < 2; ++c) {
-        float value = 0.0f;
-        if (type == TINYGLTF_COMPONENT_TYPE_FLOAT) {
-          std::memcpy(&value, p + 4 * c, 4);
-        } else if (type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE) {
-          value = static_cast<float>(p[c]) / 255.0f;
-        } else {
-          std::uint16_t v16 = 0;
-          std::memcpy(&v16, p + 2 * c, 2);
-          value = static_cast<float>(v16) / 65535.0f;
-        }
-        values[k][static_cast<Eigen::Index>(c)] = value;
+        values[k][static_cast<Eigen::Index>(c)] = static_cast<float>(component_value(p + size * c, type, normalized));
       }
     }
     return values;
@@ -322,20 +372,82 @@ class GltfReader {
     return data.data() + begin;
   }
 
+  // The texture coordinates the primitive's material's base-colour texture reads (set 0 unless it
+  // says); empty when it has none.
+  int base_texcoord_set(const tinygltf::Primitive& primitive) const {
+    if (primitive.material < 0 || static_cast<std::size_t>(primitive.material) >= model_.materials.size()) return -1;
+    return std::max(0, model_.materials[static_cast<std::size_t>(primitive.material)].pbrMetallicRoughness.baseColorTexture.texCoord);
+  }
+
+  std::vector<Eigen::Vector2f> read_base_texcoords(const tinygltf::Primitive& primitive, std::size_t vertices,
+                                                   const std::string& what) const {
+    const int set = base_texcoord_set(primitive);
+    if (set < 0) return {};
+    const auto texcoord_it = primitive.attributes.find("TEXCOORD_" + std::to_string(set));
+    if (texcoord_it == primitive.attributes.end()) return {};
+    std::vector<Eigen::Vector2f> texcoords = read_texcoords(texcoord_it->second, what + " " + texcoord_it->first);
+    if (texcoords.size() != vertices) corrupt(what + " has a different number of texture coordinates than positions");
+    return texcoords;
+  }
+
+  // A KHR_draco_mesh_compression primitive: its buffer view checked, then decoded by Draco.
+  DracoPrimitive read_draco(const tinygltf::Value& extension, const tinygltf::Primitive& primitive,
+                            const std::string& what) const {
+    const std::string where = what + " (KHR_draco_mesh_compression)";
+    if (!extension.IsObject() || !extension.Get("bufferView").IsInt() || !extension.Get("attributes").IsObject()) {
+      corrupt(where + " lacks its bufferView or attributes");
+    }
+    const int view_index = extension.Get("bufferView").GetNumberAsInt();
+    if (view_index < 0 || static_cast<std::size_t>(view_index) >= model_.bufferViews.size()) {
+      corrupt(where + " names buffer view " + std::to_string(view_index) + ", which does not exist");
+    }
+    const tinygltf::BufferView& view = model_.bufferViews[static_cast<std::size_t>(view_index)];
+    if (view.buffer < 0 || static_cast<std::size_t>(view.buffer) >= model_.buffers.size()) {
+      corrupt(where + " refers to a missing buffer");
+    }
+    const std::vector<unsigned char>& data = model_.buffers[static_cast<std::size_t>(view.buffer)].data;
+    if (view.byteOffset > data.size() || view.byteLength > data.size() - view.byteOffset) {
+      corrupt(where + " reaches past the end of its buffer");
+    }
+    const tinygltf::Value& attributes = extension.Get("attributes");
+    const auto id_of = [&](const std::string& name) {
+      const tinygltf::Value& id = attributes.Get(name);
+      if (!attributes.Has(name)) return -1;
+      if (!id.IsInt() || id.GetNumberAsInt() < 0) corrupt(where + " gives " + name + " an id that is not a count");
+      return id.GetNumberAsInt();
+    };
+    DracoAttributeIds ids;
+    ids.position = id_of("POSITION");
+    ids.normal = id_of("NORMAL");
+    const int set = base_texcoord_set(primitive);
+    if (set >= 0) ids.texcoord = id_of("TEXCOORD_" + std::to_string(set));
+    try {
+      return decode_draco_primitive(std::span(data).subspan(view.byteOffset, view.byteLength), ids);
+    } catch (const std::runtime_error& e) {
+      corrupt(where + ": " + e.what());
+    }
+  }
+
+  // POSITION or NORMAL: float 3-vectors, or with KHR_mesh_quantization bytes or shorts, normalised
+  // or not (the node's transform then scales them back to metres).
   std::vector<Eigen::Vector3d> read_vec3(int accessor_index, const std::string& what) const {
     if (accessor_index < 0 || static_cast<std::size_t>(accessor_index) >= model_.accessors.size()) {
       corrupt(what + " refers to a missing accessor");
     }
     const tinygltf::Accessor& accessor = model_.accessors[static_cast<std::size_t>(accessor_index)];
+    const int type = accessor.componentType;
     if (accessor.type != TINYGLTF_TYPE_VEC3 ||
-        accessor.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT) {
-      corrupt(what + " is not a list of float 3-vectors (quantized meshes are not supported)");
+        (type != TINYGLTF_COMPONENT_TYPE_FLOAT && !(quantized_ && is_small_integer(type)))) {
+      corrupt(what + " is not a list of float 3-vectors" +
+              std::string(is_small_integer(type) ? " (integer components need the KHR_mesh_quantization extension)" : ""));
     }
+    const std::size_t size = component_size(type);
     std::vector<Eigen::Vector3d> values(accessor.count);
     for (std::size_t k = 0; k < accessor.count; ++k) {
-      float xyz[3];
-      std::memcpy(xyz, element(accessor, sizeof xyz, k, what), sizeof xyz);
-      values[k] = Eigen::Vector3d(xyz[0], xyz[1], xyz[2]);
+      const unsigned char* p = element(accessor, 3 * size, k, what);
+      for (std::size_t c = 0; c < 3; ++c) {
+        values[k][static_cast<Eigen::Index>(c)] = component_value(p + size * c, type, accessor.normalized);
+      }
     }
     return values;
   }
@@ -427,36 +539,37 @@ class GltfReader {
       const auto normal_it = primitive.attributes.find("NORMAL");
       const int normal_accessor = normal_it == primitive.attributes.end() ? -1 : normal_it->second;
 
-      const std::vector<Eigen::Vector3d> positions = read_vec3(position_it->second, what + " POSITION");
+      const auto draco = primitive.extensions.find("KHR_draco_mesh_compression");
+      std::vector<Eigen::Vector3d> positions;
       std::vector<Eigen::Vector3d> normals;
-      if (normal_accessor >= 0) {
-        normals = read_vec3(normal_accessor, what + " NORMAL");
-        if (normals.size() != positions.size()) corrupt(what + " has fewer normals than positions");
+      std::vector<Eigen::Vector2f> texcoords;
+      std::vector<std::uint32_t> corners;
+      if (draco != primitive.extensions.end()) {
+        DracoPrimitive decoded = read_draco(draco->second, primitive, what);
+        positions = std::move(decoded.positions);
+        normals = std::move(decoded.normals);
+        texcoords = std::move(decoded.texcoords);
+        corners = std::move(decoded.indices);
+      } else {
+        positions = read_vec3(position_it->second, what + " POSITION");
+        if (normal_accessor >= 0) {
+          normals = read_vec3(normal_accessor, what + " NORMAL");
+          if (normals.size() != positions.size()) corrupt(what + " has fewer normals than positions");
+        }
+        corners = triangles(primitive.mode, read_indices(primitive, positions.size(), what));
+        texcoords = read_base_texcoords(primitive, positions.size(), what);
       }
-      const std::vector<std::uint32_t> corners =
-          triangles(primitive.mode, read_indices(primitive, positions.size(), what));
       if (corners.empty()) continue;
       const std::uint32_t material = material_index(primitive.material);
-      // The texture coordinates the material's base-colour texture reads (set 0 unless it says).
-      std::vector<Eigen::Vector2f> texcoords;
-      if (primitive.material >= 0 && static_cast<std::size_t>(primitive.material) < model_.materials.size()) {
-        const int set = model_.materials[static_cast<std::size_t>(primitive.material)]
-                            .pbrMetallicRoughness.baseColorTexture.texCoord;
-        const auto texcoord_it = primitive.attributes.find("TEXCOORD_" + std::to_string(std::max(0, set)));
-        if (texcoord_it != primitive.attributes.end()) {
-          texcoords = read_texcoords(texcoord_it->second, what + " " + texcoord_it->first);
-          if (texcoords.size() != positions.size()) {
-            corrupt(what + " has a different number of texture coordinates than positions");
-          }
-        }
-      }
       auto texcoord_of = [&](std::size_t k) { return texcoords.empty() ? nullptr : &texcoords[k]; };
 
       auto transform_point = [&](std::size_t k) {
         return Eigen::Vector3d((world * positions[k].homogeneous()).head<3>());
       };
-      if (normal_accessor >= 0) {
-        const auto key = std::make_pair(position_it->second, normal_accessor);
+      if (!normals.empty()) {
+        // A Draco primitive's vertices are its own: a key no accessor pair has.
+        const auto key = draco != primitive.extensions.end() ? std::make_pair(-1 - static_cast<int>(p), -1)
+                                                              : std::make_pair(position_it->second, normal_accessor);
         auto found = shared_base.find(key);
         if (found == shared_base.end()) {
           const auto base = static_cast<std::uint32_t>(builder_.mesh.positions.size());
@@ -490,6 +603,7 @@ class GltfReader {
   MeshBuilder builder_;
   std::vector<bool> on_path_;
   std::optional<std::uint32_t> default_material_;
+  bool quantized_ = false;  // the model uses KHR_mesh_quantization
 };
 
 // Base-colour textures are decoded for the compositor (the baker ignores them). An image the
@@ -508,14 +622,72 @@ bool lenient_image_loader(tinygltf::Image* image, const int image_index, std::st
   return true;
 }
 
+// Drops the `indices` of every Draco primitive from glTF JSON; false when there were none. The
+// indices are in the Draco data; tinygltf (Debian's, built without Draco) refuses their
+// accessor, which has no buffer view.
+bool drop_draco_indices(nlohmann::json& gltf) {
+  bool changed = false;
+  const auto meshes = gltf.find("meshes");
+  if (meshes == gltf.end() || !meshes->is_array()) return false;
+  for (nlohmann::json& mesh : *meshes) {
+    if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array()) continue;
+    for (nlohmann::json& primitive : mesh["primitives"]) {
+      if (!primitive.is_object() || !primitive.contains("extensions") || !primitive["extensions"].is_object()) continue;
+      if (primitive["extensions"].contains("KHR_draco_mesh_compression") && primitive.erase("indices") > 0) changed = true;
+    }
+  }
+  return changed;
+}
+
+// The file's bytes as tinygltf is to read them: without the indices of Draco primitives (GLB:
+// its JSON chunk rewritten, its binary chunk kept). Bytes that are not such a file go as they
+// are (tinygltf then says what is wrong).
+std::string readable_gltf(std::string bytes, bool binary) {
+  constexpr std::uint32_t kJsonChunk = 0x4E4F534A;  // "JSON"
+  std::size_t json_begin = 0;
+  std::size_t json_size = bytes.size();
+  if (binary) {
+    if (bytes.size() < 20 || bytes.compare(0, 4, "glTF") != 0) return bytes;
+    std::uint32_t chunk_size = 0;
+    std::uint32_t chunk_type = 0;
+    std::memcpy(&chunk_size, bytes.data() + 12, 4);
+    std::memcpy(&chunk_type, bytes.data() + 16, 4);
+    if (chunk_type != kJsonChunk || chunk_size > bytes.size() - 20) return bytes;
+    json_begin = 20;
+    json_size = chunk_size;
+  }
+  nlohmann::json gltf = nlohmann::json::parse(bytes.begin() + static_cast<std::ptrdiff_t>(json_begin),
+                                              bytes.begin() + static_cast<std::ptrdiff_t>(json_begin + json_size),
+                                              nullptr, false);
+  if (gltf.is_discarded() || !drop_draco_indices(gltf)) return bytes;
+  std::string json = gltf.dump();
+  if (!binary) return json;
+  json.append((4 - json.size() % 4) % 4, ' ');  // chunks are 4-byte aligned
+  const std::string rest = bytes.substr(json_begin + json_size);
+  std::string out = bytes.substr(0, 12);
+  const auto json_length = static_cast<std::uint32_t>(json.size());
+  out.append(reinterpret_cast<const char*>(&json_length), 4);
+  out.append(reinterpret_cast<const char*>(&kJsonChunk), 4);
+  out += json;
+  out += rest;
+  const auto total = static_cast<std::uint32_t>(out.size());
+  std::memcpy(out.data() + 8, &total, 4);
+  return out;
+}
+
 Mesh load_gltf(const fs::path& file, bool binary, UpAxis up, double scale) {
   tinygltf::TinyGLTF loader;
   loader.SetImageLoader(&lenient_image_loader, nullptr);
   tinygltf::Model model;
   std::string error;
   std::string warning;
-  const bool ok = binary ? loader.LoadBinaryFromFile(&model, &error, &warning, file.string())
-                         : loader.LoadASCIIFromFile(&model, &error, &warning, file.string());
+  const std::string bytes = readable_gltf(read_file(file), binary);
+  const std::string base_dir = file.parent_path().string();
+  const bool ok =
+      binary ? loader.LoadBinaryFromMemory(&model, &error, &warning, reinterpret_cast<const unsigned char*>(bytes.data()),
+                                           static_cast<unsigned int>(bytes.size()), base_dir)
+             : loader.LoadASCIIFromString(&model, &error, &warning, bytes.data(), static_cast<unsigned int>(bytes.size()),
+                                          base_dir);
   if (!ok) {
     if (error.empty()) error = "unknown error";
     while (!error.empty() && (error.back() == '\n' || error.back() == '.')) error.pop_back();
