@@ -10,10 +10,12 @@ renderer takes it, while faults come on a schedule, one at a time:
   garbage   a malformed camera frame and malformed skies     counted: camera.malformed, sky drops
 
 Every second it samples the HMD node's resident memory, open files and threads (/proc) and its
-/status (frames, frame time, flags). It writes OUT/samples.csv, OUT/soak.png (a plot), OUT/soak.json
-(the verdicts) and prints them; exit 1 when a goal is missed:
+/status (frames, frame time, flags, the heap in use). It writes OUT/samples.csv, OUT/soak.png (a
+plot), OUT/soak.json (the verdicts) and prints them; exit 1 when a goal is missed:
   - memory and open files flat: their growth after the run settles (the median of the last tenth
-    of the samples against the first tenth's) under 1 KiB and 0.01 descriptors per 10^4 frames;
+    of the samples against the first tenth's) under 1 KiB and 0.01 descriptors per 10^4 frames.
+    Memory is the heap the program holds (malloc's count, exact); the resident set, which also
+    moves with what the allocator keeps and the kernel pages, is reported beside it;
   - every fault shown in /status while it lasts, and cleared within `clear_s` after it ends;
   - no camera frame lost that the renderer was free to take: frames read = composited + dropped
     while busy (+ 2 in flight; malformed frames are counted apart).
@@ -73,11 +75,34 @@ def proc_sample(pid):
             "fds": len(os.listdir(f"/proc/{pid}/fd"))}
 
 
-class Process:
-    """A child process, its output in a log file; stopped (TERM, then KILL) at the end."""
+def descendant(pid, name):
+    """The first process below `pid` whose command is `name`, or None."""
+    for task in os.listdir(f"/proc/{pid}/task"):
+        try:
+            with open(f"/proc/{pid}/task/{task}/children") as f:
+                children = [int(c) for c in f.read().split()]
+        except FileNotFoundError:
+            continue
+        for child in children:
+            try:
+                with open(f"/proc/{child}/comm") as f:
+                    if f.read().strip() == name:
+                        return child
+            except FileNotFoundError:
+                continue
+            found = descendant(child, name)
+            if found:
+                return found
+    return None
 
-    def __init__(self, name, args, log_dir):
-        self.name, self.args = name, args
+
+class Process:
+    """A child process, its output in a log file; stopped (TERM, then KILL) at the end. With
+    `target`, the child is a wrapper (a profiler) and `target` the program below it that is
+    sampled and signalled; the wrapper is left to finish its own output."""
+
+    def __init__(self, name, args, log_dir, target=None):
+        self.name, self.args, self.target = name, args, target
         self.log = open(os.path.join(log_dir, name + ".log"), "ab")
         self.proc = None
         self.start()
@@ -85,8 +110,17 @@ class Process:
     def start(self):
         self.proc = subprocess.Popen(self.args, stdout=self.log, stderr=subprocess.STDOUT)
 
+    def pid(self):
+        if self.target is None:
+            return self.proc.pid
+        return wait_for(lambda: descendant(self.proc.pid, self.target), 30, f"{self.target} under {self.args[0]}")
+
     def kill(self, sig=signal.SIGKILL):
         if self.proc and self.proc.poll() is None:
+            if self.target is not None and sig != signal.SIGKILL:
+                os.kill(self.pid(), sig)
+                self.proc.wait(timeout=600)  # a profiler writes its results after the program ends
+                return
             self.proc.send_signal(sig)
             try:
                 self.proc.wait(timeout=10)
@@ -196,6 +230,8 @@ def main():
     parser.add_argument("--settle-frames", type=float, default=20000, help="frames before memory is judged")
     parser.add_argument("--no-memory-goal", action="store_true",
                         help="report the memory and descriptor slopes without judging them (a run too short to tell)")
+    parser.add_argument("--wrap", default="",
+                        help="a command skylit-live runs under, e.g. 'heaptrack -o OUT/live' (its sampling follows skylit-live)")
     parser.add_argument("--build", default=os.path.join(REPO, "build"))
     parser.add_argument("--bake", help="a bake of config/sample_site.yaml (default: made in OUT/bake)")
     parser.add_argument("--out", default=os.path.join(REPO, "build", "soak"))
@@ -218,7 +254,8 @@ def main():
     broker = Process("mosquitto", ["mosquitto", "-c", os.path.join(out, "mosquitto.conf")], out)
     wait_for(lambda: listening(ports["broker"]), 10, "mosquitto listening")
     sky = Process("sky-node", [os.path.join(bin_dir, "skylit-sky-node"), os.path.join(out, "sky.yaml"), "--headless"], out)
-    hmd = Process("live", [os.path.join(bin_dir, "skylit-live"), os.path.join(out, "hmd.yaml"), "--headless"], out)
+    hmd = Process("live", args.wrap.split() + [os.path.join(bin_dir, "skylit-live"), os.path.join(out, "hmd.yaml"), "--headless"],
+                  out, target="skylit-live" if args.wrap else None)
     wait_for(lambda: status(ports["hmd"]), 60, "skylit-live's /status answering")
 
     faults = ["camera", "sky_node", "broker", "garbage"] + (["disk"] if can_fill else [])
@@ -248,7 +285,8 @@ def main():
                 next_fault = now + args.fault_every
             st = status(ports["hmd"])
             if st is not None:
-                p = proc_sample(hmd.proc.pid)
+                p = proc_sample(hmd.pid())
+                p["heap_kib"] = st["memory"]["heap_in_use_bytes"] // 1024
                 samples.append({"t": now - start, "frames": st["frames"], "camera_frames": st["camera"]["frames"],
                                 "dropped": st["dropped_frames"], "malformed": st["camera"].get("malformed", 0),
                                 "frame_ms": st["frame_time_ms"]["p50"], "flags": st["flags"],
@@ -358,16 +396,22 @@ def slope_per_10k(samples, key, settle):
 
 def judge(samples, windows, flag_of, final, args):
     report = {"frames": samples[-1]["frames"] if samples else 0, "seconds": samples[-1]["t"] if samples else 0}
+    heap = slope_per_10k(samples, "heap_kib", args.settle_frames)
     rss = slope_per_10k(samples, "rss_kib", args.settle_frames)
     fds = slope_per_10k(samples, "fds", args.settle_frames)
     threads = [s["threads"] for s in samples if s["frames"] >= args.settle_frames]
+    report["heap_kib_per_10k_frames"] = heap
     report["rss_kib_per_10k_frames"] = rss
     report["fds_per_10k_frames"] = fds
     report["threads_min_max"] = [min(threads), max(threads)] if threads else None
     report["rss_mib_first_last"] = [samples[0]["rss_kib"] / 1024, samples[-1]["rss_kib"] / 1024] if samples else None
+    settled = [s for s in samples if s["frames"] >= args.settle_frames]
+    for key in ("heap_kib", "rss_kib"):
+        report[key.replace("_kib", "_mib") + "_settled_min_max"] = \
+            [min(s[key] for s in settled) / 1024, max(s[key] for s in settled) / 1024] if settled else None
     report["frame_ms_p50_median"] = sorted(s["frame_ms"] for s in samples)[len(samples) // 2] if samples else None
     # Growth is judged; memory given back is not a leak.
-    ok = args.no_memory_goal or (rss is not None and rss < 1.0 and fds is not None and fds < 0.01)
+    ok = args.no_memory_goal or (heap is not None and heap < 1.0 and fds is not None and fds < 0.01)
     verdicts = []
     for i, (fault, begin, end) in enumerate(windows):
         v = {"fault": fault, "start_s": round(begin, 1), "end_s": round(end, 1)}
@@ -400,7 +444,7 @@ def judge(samples, windows, flag_of, final, args):
 
 
 def write_samples(path, samples):
-    keys = ["t", "frames", "camera_frames", "dropped", "malformed", "frame_ms", "rss_kib", "fds", "threads"]
+    keys = ["t", "frames", "camera_frames", "dropped", "malformed", "frame_ms", "heap_kib", "rss_kib", "fds", "threads"]
     with open(path, "w") as f:
         f.write(",".join(keys) + ",flags\n")
         for s in samples:
@@ -408,14 +452,15 @@ def write_samples(path, samples):
 
 
 def plot(path, samples, windows):
-    """RSS, open files, threads and frame time against time, the faults shaded (Pillow)."""
+    """Heap in use, RSS, open files, threads and frame time against time, the faults shaded (Pillow)."""
     try:
         from PIL import Image, ImageDraw
     except ImportError:
         return
     if len(samples) < 2:
         return
-    panels = [("resident memory (MiB)", lambda s: s["rss_kib"] / 1024), ("open files", lambda s: s["fds"]),
+    panels = [("heap in use (MiB)", lambda s: s["heap_kib"] / 1024),
+              ("resident memory (MiB)", lambda s: s["rss_kib"] / 1024), ("open files", lambda s: s["fds"]),
               ("threads", lambda s: s["threads"]), ("frame time p50 (ms)", lambda s: s["frame_ms"])]
     w, ph, margin = 1200, 180, 60
     image = Image.new("RGB", (w, ph * len(panels) + 40), "white")

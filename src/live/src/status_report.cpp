@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "service_state.hpp"
+#include "skylit/base/process_memory.hpp"
 #include "skylit/blend/forms.hpp"
 #include "skylit/sky/solar.hpp"
 #include "skylit/gpu/egl_context.hpp"
@@ -61,6 +62,10 @@ nlohmann::json Service::State::status_report() const {
   nlohmann::json j;
   const double now = now_seconds();
   j["uptime_s"] = now - started;
+  const ProcessMemory memory = process_memory();
+  j["memory"] = {{"heap_in_use_bytes", memory.heap_in_use_bytes},
+                 {"heap_held_bytes", memory.heap_held_bytes},
+                 {"resident_bytes", memory.resident_bytes}};
   // Before the first sky the building is not drawn: its shading and shadows need S.
   j["state"] = sky_drawn ? "running" : "waiting for sky";
   {
@@ -223,6 +228,12 @@ std::string Service::metrics_text() const {
   const nlohmann::json j = s.status_report();
   std::vector<Metric> m;
   m.push_back({"skylit_frames_total", "Frames composited.", "counter", double(s.counters.frames.load()), ""});
+  m.push_back({"process_resident_memory_bytes", "Resident memory size in bytes.", "gauge",
+               j["memory"]["resident_bytes"].get<double>(), ""});
+  m.push_back({"skylit_heap_in_use_bytes", "Bytes the program holds from malloc (a leak grows this).", "gauge",
+               j["memory"]["heap_in_use_bytes"].get<double>(), ""});
+  m.push_back({"skylit_heap_held_bytes", "Bytes malloc holds from the system: in use, and freed but kept.", "gauge",
+               j["memory"]["heap_held_bytes"].get<double>(), ""});
   m.push_back({"skylit_dropped_frames_total", "Camera frames replaced before the renderer took them.", "counter",
                double(s.camera_box.overwritten()), ""});
   m.push_back({"skylit_camera_frames_total", "Camera frames received.", "counter", double(s.counters.camera_frames.load()), ""});
