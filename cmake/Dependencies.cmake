@@ -14,6 +14,7 @@ find_package(TinyGLTF REQUIRED)
 # KHR_draco_mesh_compression, decoded by skylit (src/scene/src/draco_primitive.cpp).
 find_package(draco REQUIRED)
 find_package(tinyobjloader REQUIRED)
+find_package(Ceres 2 REQUIRED)
 find_package(embree 3 REQUIRED)
 find_package(OpenSSL REQUIRED COMPONENTS Crypto)
 find_package(glfw3 3.3 REQUIRED)

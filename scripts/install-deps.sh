@@ -8,7 +8,7 @@ packages=(
   build-essential cmake ninja-build pkg-config lld
   libopencv-dev libeigen3-dev
   libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri libglfw3-dev
-  libembree-dev libtinygltf-dev libdraco-dev libtinyobjloader-dev
+  libembree-dev libtinygltf-dev libdraco-dev libtinyobjloader-dev libceres-dev
   libyaml-cpp-dev nlohmann-json3-dev libspdlog-dev libcli11-dev
   libopenexr-dev libgtest-dev libgmock-dev libbenchmark-dev
   libapriltag-dev libhidapi-dev libcamera-dev

@@ -1,6 +1,6 @@
-// A marker map from photos: chained initial poses, then a joint Levenberg–Marquardt refinement of
-// every camera and tag pose over every corner (dense normal equations: a site has tens of tags
-// and photos, so a few hundred unknowns).
+// A marker map from photos: chained initial poses, then a bundle adjustment of every camera and
+// tag pose over every corner (Ceres: automatic differentiation through the lens, a robust loss,
+// sparse Schur complement), and the tags' covariance.
 #include "skylit/calib/marker_survey.hpp"
 
 #include <algorithm>
@@ -8,11 +8,14 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <memory>
 #include <numbers>
 #include <optional>
 #include <set>
+#include <thread>
 
-#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
+#include <ceres/ceres.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -49,21 +52,6 @@ Rigid camera_from_site(const track::Pose& pose) {
 }
 
 Rigid site_from_tag(const track::MarkerTag& tag) { return {tag.R_site_from_tag.toRotationMatrix(), tag.t_site_from_tag}; }
-
-Mat3 skew(const Vec3& v) {
-  Mat3 m;
-  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return m;
-}
-
-Mat3 exp_rotation(const Vec3& w) {
-  const double angle = w.norm();
-  if (angle < 1e-15) return Mat3::Identity() + skew(w);
-  return Eigen::AngleAxisd(angle, w / angle).toRotationMatrix();
-}
-
-// Keeps R a rotation after many small updates.
-Mat3 orthonormalised(const Mat3& R) { return Eigen::Quaterniond(R).normalized().toRotationMatrix(); }
 
 double angle_between_deg(const Vec3& a, const Vec3& b) { return std::atan2(a.cross(b).norm(), a.dot(b)) / kDeg; }
 
@@ -118,166 +106,162 @@ struct SurveyState {
 struct Corner {
   std::size_t camera = 0;      // camera index
   std::size_t tag = 0;         // tag index
-  bool tag_fixed = false;      // the origin
   Vec3 in_tag;                 // the corner in its tag's frame
   Vec2 detected;               // pixels
 };
 
-// The corners' reprojection errors and, on request, the normal equations of the Huber cost.
-class SurveyProblem {
+// The residual of one corner (pixels); nullopt when it cannot be imaged.
+std::optional<Vec2> corner_residual(const camera::Lens& lens, const SurveyState& s, const Corner& c) {
+  const Vec3 camera = s.cameras[c.camera] * (s.tags[c.tag] * c.in_tag);
+  if (camera.z() < kMinDepth) return std::nullopt;
+  const std::optional<Vec2> pixel = lens.project(camera);
+  if (!pixel) return std::nullopt;
+  return *pixel - c.detected;
+}
+
+// A pose as one Ceres parameter block: a unit quaternion (Eigen's x, y, z, w order), then the
+// translation. One block per pose, so that the cameras form an independent set to eliminate.
+struct PoseBlock {
+  std::array<double, 7> x{};
+
+  explicit PoseBlock(const Rigid& pose) {
+    Eigen::Map<Eigen::Quaterniond>(x.data()) = Eigen::Quaterniond(pose.R).normalized();
+    Eigen::Map<Vec3>(x.data() + 4) = pose.t;
+  }
+  double* data() { return x.data(); }
+  Rigid rigid() const {
+    return {Eigen::Map<const Eigen::Quaterniond>(x.data()).normalized().toRotationMatrix(), Eigen::Map<const Vec3>(x.data() + 4)};
+  }
+};
+using PoseManifold = ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>>;
+
+// One corner's reprojection error through the camera's pose, the tag's pose and the lens, with
+// exact derivatives (automatic differentiation through the lens model too). A corner that cannot
+// be imaged at a trial step makes that step fail, so the solver takes a shorter one.
+class CornerReprojection {
  public:
-  SurveyProblem(const camera::Lens& lens, std::vector<Corner> corners, std::size_t cameras, std::vector<bool> tag_free,
-                double robust_px)
-      : lens_(lens), corners_(std::move(corners)), cameras_(cameras), tag_free_(std::move(tag_free)), robust_px_(robust_px) {
-    // Unknowns: 6 per camera, then 6 per free tag (rotation increment, then translation).
-    tag_offset_.assign(tag_free_.size(), -1);
-    std::size_t next = 6 * cameras_;
-    for (std::size_t t = 0; t < tag_free_.size(); ++t) {
-      if (tag_free_[t]) {
-        tag_offset_[t] = static_cast<long>(next);
-        next += 6;
-      }
-    }
-    unknowns_ = next;
-  }
+  CornerReprojection(const camera::Lens& lens, const Vec3& in_tag, const Vec2& detected)
+      : lens_(lens), in_tag_(in_tag), detected_(detected) {}
 
-  std::size_t unknowns() const { return unknowns_; }
-  const std::vector<Corner>& corners() const { return corners_; }
-  long tag_offset(std::size_t tag) const { return tag_offset_[tag]; }
-
-  // The residual of one corner (pixels); nullopt when it cannot be imaged.
-  std::optional<Vec2> residual(const SurveyState& s, const Corner& c) const {
-    const Vec3 camera = s.cameras[c.camera] * (s.tags[c.tag] * c.in_tag);
-    if (camera.z() < kMinDepth) return std::nullopt;
-    const std::optional<Vec2> pixel = lens_.project(camera);
-    if (!pixel) return std::nullopt;
-    return *pixel - c.detected;
-  }
-
-  // Huber cost; with `H` and `g`, the Gauss–Newton normal equations (H = Σ w JᵀJ, g = Σ w Jᵀr).
-  double evaluate(const SurveyState& s, Eigen::MatrixXd* H = nullptr, Eigen::VectorXd* g = nullptr) const {
-    if (H) {
-      H->setZero(static_cast<long>(unknowns_), static_cast<long>(unknowns_));
-      g->setZero(static_cast<long>(unknowns_));
-    }
-    double cost = 0;
-    for (const Corner& c : corners_) {
-      const Rigid& camera = s.cameras[c.camera];
-      const Rigid& tag = s.tags[c.tag];
-      const Vec3 site = tag * c.in_tag;
-      const Vec3 in_camera = camera * site;
-      const std::optional<Vec2> pixel = in_camera.z() >= kMinDepth ? lens_.project(in_camera) : std::nullopt;
-      if (!pixel) {
-        cost += unimageable_cost();
-        continue;
-      }
-      const Vec2 r = *pixel - c.detected;
-      const double norm = r.norm();
-      cost += norm <= robust_px_ ? norm * norm : 2 * robust_px_ * norm - robust_px_ * robust_px_;
-      if (!H) continue;
-      const double w = norm <= robust_px_ ? 1.0 : robust_px_ / norm;
-      const std::optional<Eigen::Matrix<double, 2, 3>> Jp = projection_jacobian(in_camera);
-      if (!Jp) continue;
-      // Left increments: R ← exp(ω) R, t ← t + δ.
-      Eigen::Matrix<double, 2, 12> J;
-      J.block<2, 3>(0, 0) = *Jp * -skew(camera.R * site);
-      J.block<2, 3>(0, 3) = *Jp;
-      J.block<2, 3>(0, 6) = *Jp * camera.R * -skew(tag.R * c.in_tag);
-      J.block<2, 3>(0, 9) = *Jp * camera.R;
-      const long offsets[2] = {static_cast<long>(6 * c.camera), tag_offset_[c.tag]};
-      for (int a = 0; a < 2; ++a) {
-        if (offsets[a] < 0) continue;
-        const auto Ja = J.block<2, 6>(0, 6 * a);
-        g->segment<6>(offsets[a]) += w * Ja.transpose() * r;
-        for (int b = 0; b < 2; ++b) {
-          if (offsets[b] < 0) continue;
-          H->block<6, 6>(offsets[a], offsets[b]) += w * Ja.transpose() * J.block<2, 6>(0, 6 * b);
-        }
-      }
-    }
-    return cost;
-  }
-
-  SurveyState step(const SurveyState& s, const Eigen::VectorXd& delta) const {
-    SurveyState next = s;
-    for (std::size_t k = 0; k < cameras_; ++k) {
-      const long o = static_cast<long>(6 * k);
-      next.cameras[k].R = orthonormalised(exp_rotation(delta.segment<3>(o)) * s.cameras[k].R);
-      next.cameras[k].t = s.cameras[k].t + delta.segment<3>(o + 3);
-    }
-    for (std::size_t t = 0; t < tag_free_.size(); ++t) {
-      if (tag_offset_[t] < 0) continue;
-      const long o = tag_offset_[t];
-      next.tags[t].R = orthonormalised(exp_rotation(delta.segment<3>(o)) * s.tags[t].R);
-      next.tags[t].t = s.tags[t].t + delta.segment<3>(o + 3);
-    }
-    return next;
+  template <typename T>
+  bool operator()(const T* camera_from_site, const T* site_from_tag, T* residual) const {
+    using V3 = Eigen::Matrix<T, 3, 1>;
+    using Rotation = Eigen::Map<const Eigen::Quaternion<T>>;
+    const V3 site = Rotation(site_from_tag) * in_tag_.cast<T>() + Eigen::Map<const V3>(site_from_tag + 4);
+    const V3 in_camera = Rotation(camera_from_site) * site + Eigen::Map<const V3>(camera_from_site + 4);
+    if (in_camera.z() < kMinDepth) return false;
+    const std::optional<Eigen::Matrix<T, 2, 1>> pixel = lens_.project_as<T>(in_camera);
+    if (!pixel) return false;
+    residual[0] = pixel->x() - detected_.x();
+    residual[1] = pixel->y() - detected_.y();
+    return true;
   }
 
  private:
-  double unimageable_cost() const { return 2 * robust_px_ * 1e4; }
-
-  // d pixel / d camera point, by central differences through the lens model (pinhole or
-  // fisheye, with its distortion).
-  std::optional<Eigen::Matrix<double, 2, 3>> projection_jacobian(const Vec3& p) const {
-    Eigen::Matrix<double, 2, 3> J;
-    const double h = 1e-6 * std::max(1.0, p.norm());
-    for (int axis = 0; axis < 3; ++axis) {
-      Vec3 plus = p, minus = p;
-      plus[axis] += h;
-      minus[axis] -= h;
-      const std::optional<Vec2> a = lens_.project(plus);
-      const std::optional<Vec2> b = lens_.project(minus);
-      if (!a || !b) return std::nullopt;
-      J.col(axis) = (*a - *b) / (2 * h);
-    }
-    return J;
-  }
-
   const camera::Lens& lens_;
-  std::vector<Corner> corners_;
-  std::size_t cameras_;
-  std::vector<bool> tag_free_;
-  double robust_px_;
-  std::vector<long> tag_offset_;
-  std::size_t unknowns_ = 0;
+  Vec3 in_tag_;
+  Vec2 detected_;
 };
 
-// Levenberg–Marquardt with Marquardt's scaling (λ · diag H). Returns the iterations taken.
-int refine(const SurveyProblem& problem, SurveyState& state, int max_iterations) {
-  Eigen::MatrixXd H;
-  Eigen::VectorXd g;
-  double cost = problem.evaluate(state, &H, &g);
-  double lambda = 1e-4;
-  int iteration = 0;
-  while (iteration < max_iterations) {
-    ++iteration;
-    bool improved = false;
-    while (lambda < 1e12) {
-      Eigen::MatrixXd damped = H;
-      damped.diagonal() += lambda * (H.diagonal().array() + 1e-9).matrix();
-      const Eigen::VectorXd delta = damped.ldlt().solve(-g);
-      if (!delta.allFinite()) {
-        lambda *= 10;
-        continue;
-      }
-      const SurveyState candidate = problem.step(state, delta);
-      const double candidate_cost = problem.evaluate(candidate);
-      if (candidate_cost < cost) {
-        const double decrease = cost - candidate_cost;
-        state = candidate;
-        lambda = std::max(lambda / 3, 1e-9);
-        improved = true;
-        const bool converged = decrease <= 1e-12 * std::max(cost, 1e-12) || delta.lpNorm<Eigen::Infinity>() < 1e-12;
-        cost = problem.evaluate(state, &H, &g);
-        if (converged) return iteration;
-        break;
-      }
-      lambda *= 5;
-    }
-    if (!improved) break;
+struct Refinement {
+  int iterations = 0;
+  // 1σ of each tag's rotation (radians) and position (metres), the origin's 0; +inf where the
+  // fit does not determine the tag (a rank-deficient Jacobian).
+  std::vector<double> sigma_rotation, sigma_position;
+};
+
+// Every camera and free tag pose at once, minimising the corners' robustly weighted reprojection
+// error (Ceres: Levenberg–Marquardt, the Schur complement over the cameras, sparse), then the
+// tags' covariance σ² (JᵀJ)⁻¹ with σ² from the residuals left.
+Refinement refine(const camera::Lens& lens, const std::vector<Corner>& corners, const std::vector<bool>& tag_free,
+                  const MarkerSurveyOptions& o, SurveyState& state) {
+  std::vector<PoseBlock> cameras, tags;
+  for (const Rigid& c : state.cameras) cameras.emplace_back(c);
+  for (const Rigid& t : state.tags) tags.emplace_back(t);
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  std::unique_ptr<ceres::LossFunction> loss;
+  if (o.loss == MarkerSurveyOptions::RobustLoss::Cauchy) {
+    loss = std::make_unique<ceres::CauchyLoss>(o.robust_px);
+  } else {
+    loss = std::make_unique<ceres::HuberLoss>(o.robust_px);
   }
-  return iteration;
+  PoseManifold pose_manifold;
+  for (const Corner& c : corners) {
+    // Corners the starting poses cannot image are left out (a solver cannot start from them).
+    if (!corner_residual(lens, state, c)) continue;
+    auto* cost = new ceres::AutoDiffCostFunction<CornerReprojection, 2, 7, 7>(new CornerReprojection(lens, c.in_tag, c.detected));
+    problem.AddResidualBlock(cost, loss.get(), cameras[c.camera].data(), tags[c.tag].data());
+  }
+  auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+  for (PoseBlock& c : cameras) {
+    if (!problem.HasParameterBlock(c.data())) continue;
+    problem.SetManifold(c.data(), &pose_manifold);
+    ordering->AddElementToGroup(c.data(), 0);
+  }
+  for (std::size_t t = 0; t < tags.size(); ++t) {
+    if (!problem.HasParameterBlock(tags[t].data())) continue;
+    problem.SetManifold(tags[t].data(), &pose_manifold);
+    if (!tag_free[t]) problem.SetParameterBlockConstant(tags[t].data());
+    ordering->AddElementToGroup(tags[t].data(), 1);
+  }
+
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE) ? ceres::SPARSE_SCHUR
+                                                                                                     : ceres::DENSE_SCHUR;
+  options.linear_solver_ordering = ordering;  // cameras eliminated first: a site has more photos than tags
+  options.max_num_iterations = o.max_iterations;
+  options.function_tolerance = 1e-12;
+  options.parameter_tolerance = 1e-12;
+  options.num_threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, &problem, &summary);
+
+  Refinement out;
+  out.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
+  if (summary.IsSolutionUsable()) {
+    for (std::size_t k = 0; k < cameras.size(); ++k) state.cameras[k] = cameras[k].rigid();
+    for (std::size_t t = 0; t < tags.size(); ++t) state.tags[t] = tags[t].rigid();
+  }
+
+  out.sigma_rotation.assign(tags.size(), 0.0);
+  out.sigma_position.assign(tags.size(), 0.0);
+  double squared = 0;
+  int imaged = 0;
+  for (const Corner& c : corners) {
+    if (const std::optional<Vec2> r = corner_residual(lens, state, c)) {
+      squared += r->squaredNorm();
+      ++imaged;
+    }
+  }
+  std::size_t unknowns = 6 * cameras.size();
+  for (bool free : tag_free) unknowns += free ? 6 : 0;
+  const double redundancy = 2.0 * imaged - static_cast<double>(unknowns);
+  const double sigma2 = redundancy > 0 ? squared / redundancy : 0.0;
+  std::vector<std::pair<const double*, const double*>> blocks;
+  for (std::size_t t = 0; t < tags.size(); ++t) {
+    if (tag_free[t] && problem.HasParameterBlock(tags[t].data())) blocks.emplace_back(tags[t].data(), tags[t].data());
+  }
+  ceres::Covariance::Options covariance_options;
+  covariance_options.num_threads = options.num_threads;
+  ceres::Covariance covariance(covariance_options);
+  const bool computed = !blocks.empty() && covariance.Compute(blocks, &problem);
+  for (std::size_t t = 0; t < tags.size(); ++t) {
+    if (!tag_free[t]) continue;
+    // In the manifold's tangent: rotation, then translation.
+    Eigen::Matrix<double, 6, 6, Eigen::RowMajor> tangent = Eigen::Matrix<double, 6, 6, Eigen::RowMajor>::Constant(
+        std::numeric_limits<double>::infinity());
+    if (computed && problem.HasParameterBlock(tags[t].data())) {
+      covariance.GetCovarianceBlockInTangentSpace(tags[t].data(), tags[t].data(), tangent.data());
+    }
+    // The quaternion manifold's tangent is half the rotation angle: exp(δ) = (cos|δ|, sin|δ| δ/|δ|).
+    out.sigma_rotation[t] = 2 * std::sqrt(std::max(0.0, sigma2 * tangent.topLeftCorner<3, 3>().trace()));
+    out.sigma_position[t] = std::sqrt(std::max(0.0, sigma2 * tangent.bottomRightCorner<3, 3>().trace()));
+  }
+  return out;
 }
 
 // The tag's pose in the site from one photo whose camera is known, through the tag's two planar
@@ -530,20 +514,20 @@ MarkerSurvey survey_markers(std::span<const MarkerPhoto> given, const camera::Ca
       const auto it = tag_index.find(d.id);
       if (it == tag_index.end()) continue;
       for (int k = 0; k < 4; ++k) {
-        corners.push_back({camera_of_photo[p], it->second, d.id == options.origin_id, track::tag_corner_in_tag(size_of(d.id), k),
+        corners.push_back({camera_of_photo[p], it->second, track::tag_corner_in_tag(size_of(d.id), k),
                            d.corners[static_cast<std::size_t>(k)]});
       }
     }
   }
-  const SurveyProblem problem(lens, corners, state.cameras.size(), tag_free, options.robust_px);
-  survey.iterations = refine(problem, state, options.max_iterations);
+  const Refinement refinement = refine(lens, corners, tag_free, options, state);
+  survey.iterations = refinement.iterations;
 
   // Residuals per tag and per photo.
   std::vector<double> tag_sum(tag_ids.size(), 0), photo_sum(photos.size(), 0);
   double total = 0;
   std::vector<int> tag_corners(tag_ids.size(), 0), photo_corners(photos.size(), 0);
-  for (const Corner& c : problem.corners()) {
-    const std::optional<Vec2> r = problem.residual(state, c);
+  for (const Corner& c : corners) {
+    const std::optional<Vec2> r = corner_residual(lens, state, c);
     const double e2 = r ? r->squaredNorm() : 1e8;
     const std::size_t p = photo_of_camera[c.camera];
     tag_sum[c.tag] += e2;
@@ -552,17 +536,8 @@ MarkerSurvey survey_markers(std::span<const MarkerPhoto> given, const camera::Ca
     ++photo_corners[p];
     total += e2;
   }
-  survey.corners = static_cast<int>(problem.corners().size());
+  survey.corners = static_cast<int>(corners.size());
   survey.rms_px = std::sqrt(total / std::max(1, survey.corners));
-
-  // Covariance of the unknowns: σ² (JᵀJ)⁻¹, σ² from the residuals left.
-  Eigen::MatrixXd H;
-  Eigen::VectorXd g;
-  problem.evaluate(state, &H, &g);
-  const double redundancy = 2.0 * survey.corners - static_cast<double>(problem.unknowns());
-  const double sigma2 = redundancy > 0 ? total / redundancy : 0.0;
-  const Eigen::MatrixXd covariance =
-      sigma2 * H.ldlt().solve(Eigen::MatrixXd::Identity(H.rows(), H.cols()));
 
   survey.map.family = options.family;
   for (std::size_t t = 0; t < tag_ids.size(); ++t) {
@@ -573,12 +548,10 @@ MarkerSurvey survey_markers(std::span<const MarkerPhoto> given, const camera::Ca
     s.origin = id == options.origin_id;
     s.photos = tag_corners[t] / 4;
     s.rms_px = std::sqrt(tag_sum[t] / std::max(1, tag_corners[t]));
-    if (const long o = problem.tag_offset(t); o >= 0) {
-      s.sigma_rotation_deg = std::sqrt(std::max(0.0, covariance.block<3, 3>(o, o).trace())) / kDeg;
-      s.sigma_position_m = std::sqrt(std::max(0.0, covariance.block<3, 3>(o + 3, o + 3).trace()));
-    }
+    s.sigma_rotation_deg = refinement.sigma_rotation[t] / kDeg;
+    s.sigma_position_m = refinement.sigma_position[t];
     std::set<std::size_t> cameras_seeing;
-    for (const Corner& c : problem.corners()) {
+    for (const Corner& c : corners) {
       if (c.tag == t) cameras_seeing.insert(c.camera);
     }
     std::vector<Vec3> directions;

@@ -24,10 +24,7 @@ constexpr int kMonotonicScanSteps = 4096;  // grid for the first turning point o
 // Lens model helpers.
 
 // θ_d(θ) = θ (1 + k1 θ² + k2 θ⁴ + k3 θ⁶ + k4 θ⁸) and its derivative.
-double fisheye_distort(const std::vector<double>& k, double theta) {
-  const double t2 = theta * theta;
-  return theta * (1.0 + t2 * (k[0] + t2 * (k[1] + t2 * (k[2] + t2 * k[3]))));
-}
+double fisheye_distort(const std::vector<double>& k, double theta) { return lens_model::fisheye_distort(k, theta); }
 double fisheye_slope(const std::vector<double>& k, double theta) {
   const double t2 = theta * theta;
   return 1.0 + t2 * (3.0 * k[0] + t2 * (5.0 * k[1] + t2 * (7.0 * k[2] + t2 * 9.0 * k[3])));
@@ -63,8 +60,7 @@ Vec2 pinhole_distort(const std::vector<double>& D, const Vec2& p, Eigen::Matrix2
   const double p1 = D[2], p2 = D[3];
   const double r2 = x * x + y * y;
   const Radial radial = pinhole_radial(D, r2);
-  const Vec2 out(x * radial.g + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x),
-                 y * radial.g + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y);
+  const Vec2 out = lens_model::pinhole_distort(D, x, y);
   if (jacobian) {
     const double cross = 2.0 * x * y * radial.dg + 2.0 * p1 * x + 2.0 * p2 * y;
     (*jacobian) << radial.g + 2.0 * x * x * radial.dg + 2.0 * p1 * y + 6.0 * p2 * x, cross, cross,
@@ -163,27 +159,6 @@ void Lens::check_describes_a_camera() const {
 
 double Lens::distort_theta(double theta) const { return fisheye_distort(calibration_.D, theta); }
 
-std::optional<Vec2> Lens::project(const Vec3& d) const {
-  if (!d.allFinite()) return std::nullopt;
-  const double rho = std::hypot(d.x(), d.y());
-  const double theta = std::atan2(rho, d.z());
-  if (rho == 0.0 && d.z() <= 0.0) return std::nullopt;  // zero vector, or straight behind
-  if (theta > max_theta_) return std::nullopt;
-  const CameraCalibration& c = calibration_;
-  Vec2 m;
-  if (c.model == LensModel::Fisheye) {
-    if (rho == 0.0) {
-      m.setZero();
-    } else {
-      const double scale = distort_theta(theta) / rho;
-      m = Vec2(d.x() * scale, d.y() * scale);
-    }
-  } else {
-    if (d.z() <= 0.0) return std::nullopt;
-    m = pinhole_distort(c.D, Vec2(d.x() / d.z(), d.y() / d.z()), nullptr);
-  }
-  return Vec2(c.fx * m.x() + c.cx, c.fy * m.y() + c.cy);
-}
 
 std::optional<Vec3> Lens::unproject(const Vec2& pixel) const {
   if (!pixel.allFinite()) return std::nullopt;

@@ -44,8 +44,11 @@ struct MarkerSurveyOptions {
   double default_size = 0;          // metres, for tags without an entry in `sizes`
   std::map<int, double> sizes;      // metres, per tag id
   int min_photos = 2;               // photos a tag must be seen in to be mapped
-  // Corners further than this from their reprojection (pixels) weigh less (Huber), so one
-  // misdetected corner does not pull the map.
+  // Corners further than this from their reprojection (pixels) weigh less, so one misdetected
+  // corner does not pull the map: Cauchy's loss (the default) lets a corner 12 px off pull as
+  // one 0.3 px off does; Huber's, convex, lets it pull as one `robust_px` off does.
+  enum class RobustLoss { Cauchy, Huber };
+  RobustLoss loss = RobustLoss::Cauchy;
   double robust_px = 2.0;
   int max_iterations = 100;
   // Advice thresholds.
