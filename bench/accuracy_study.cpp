@@ -8,7 +8,7 @@
 // (fisheye), luminance parameters, the sun separated or not, the bake's basis images blended.
 //
 //   accuracy_study [--skies DIR] [--site SITE.yaml] [--calib CALIB.yaml] [--texel-scale 8]
-//                  [--out DIR] [--configs paper,area,area+sun,area64+sun,nu4,nu8,corners,corners-nosun,corners64,area+oracle,corners+oracle,corners64+oracle]
+//                  [--out DIR] [--configs paper,area,area+sun,area64+sun,nu4,nu8,nu4-corners,nu4-quadratics64,corners,corners-nosun,corners64,area+oracle,corners+oracle,corners64+oracle]
 //                  [--sky NAME] [--pictures] [--sun-disc-factor F] [--sun-halo DEG] [--sun-min-contrast C]
 //                  [--sun-max-core DEG] [--reference-supersample N] [--sources N] [--pca K,K,...]
 // With --pca, each configuration's bake is also compressed to K principal components (a copy per
@@ -21,7 +21,10 @@
 // default (--reference-supersample 4): the continuous sky the fisheye frames are rendered from,
 // not a few 0.7° pixels acting as point suns (1, the point-sampled reference).
 // Prints a Markdown table (RMS, 99th percentile and max of |T − T_ref| over every texel of every
-// plane and every channel) and writes the same as JSON to DIR/accuracy.json.
+// plane and every channel) and writes the same as JSON to DIR/accuracy.json. The building too
+// (study/building_light.hpp): per model vertex, E from the transfer vectors and the separated
+// sources against E_ref from the same lights with the model's self-occlusion, |E − E_ref| as a
+// share of the sky's horizontal irradiance, in a second table.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -48,6 +51,8 @@
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/simulate.hpp"
 #include "skylit/sky/sky_estimate.hpp"
+#include "skylit/bake_format/arrays.hpp"
+#include "skylit/study/building_light.hpp"
 #include "skylit/study/study.hpp"
 
 namespace {
@@ -87,6 +92,9 @@ const std::vector<Config> kConfigs{
     {"area64+sun", 2, 64, true},  // ν=2, denser visibility sampling per face
     {"nu4", 4, 16, true},
     {"nu8", 8, 16, true},
+    {"nu4-corners", 4, 16, true, skylit::geom::DomeBasis::Corners},             // the balanced preset's bake
+    {"nu4-quadratics64", 4, 64, true, skylit::geom::DomeBasis::Quadratics},     // the accurate preset's
+    {"nu4-corners+sources", 4, 16, true, skylit::geom::DomeBasis::Corners, false, Config::Mix::Sources},
     // ν=2, three linear hats per face (120 layers), area lights
     {"corners", 2, 16, true, skylit::geom::DomeBasis::Corners},
     {"corners-nosun", 2, 16, false, skylit::geom::DomeBasis::Corners},
@@ -225,6 +233,11 @@ int main(int argc, char** argv) {
 
   nlohmann::json results = nlohmann::json::array();
   std::vector<std::string> sun_notes;
+  struct BuildingRow {
+    std::string sky, config;
+    Errors errors;
+  };
+  std::vector<BuildingRow> building_rows;
   std::printf("| sky | configuration | ν | K | basis | sun | RMS | p99 | max | sun found |\n"
               "|---|---|---|---|---|---|---|---|---|---|\n");
   for (const fs::path& sky_file : skies) {
@@ -242,6 +255,12 @@ int main(int argc, char** argv) {
     }
     const std::vector<std::vector<Eigen::Vector3d>>& reference = dense.planes;
     const double reference_seconds = dense.seconds;
+    // The building's reference: the same lights at every model vertex, the model's own occlusion.
+    const EquirectLights sky_lights = equirect_lights(equirect, reference_supersample);
+    const Eigen::Vector3d horizontal = horizontal_irradiance(sky_lights);
+    const auto building_start = Clock::now();
+    const std::vector<Eigen::Vector3d> building_ref = building_reference(sky_lights, site, mesh);
+    const double building_reference_seconds = seconds_since(building_start);
 
     const skylit::sky::RadianceFrame frame{skylit::sky::render_fisheye(lens, equirect, {.supersample = supersample}), cv::Mat()};
     // The oracle's frame: the sun's pixels replaced by the background around them.
@@ -332,6 +351,18 @@ int main(int argc, char** argv) {
         disc_directions = estimate.sun->disc_directions;
         disc_weights = estimate.sun->disc_weights;
       }
+      // The building: the bake's transfer vectors times S, and each separated source through its
+      // disc's visibility from the vertex.
+      std::vector<SourceLight> building_sources;
+      for (const skylit::sky::Sun& source : sources) {
+        building_sources.push_back({source.direction, source.energy, source.disc_directions, source.disc_weights});
+      }
+      if (sources.empty() && sun) building_sources.push_back({sun->direction, sun->energy, disc_directions, disc_weights});
+      std::vector<std::size_t> transfer_shape;
+      const std::vector<float> transfer = skylit::bake_format::read_npy(bake_dir / manifest.transfer_file, &transfer_shape);
+      const Errors building =
+          building_errors(building_estimate(transfer, S, building_sources, site, mesh), building_ref, horizontal);
+      building_rows.push_back({sky_file.stem().string(), c.name, building});
       if (estimate.sun && oracle.found && !noted) {
         // The detected sun against the equirect's: where, how wide, how much energy.
         noted = true;
@@ -490,8 +521,17 @@ int main(int argc, char** argv) {
                          {"corners_from_mean", estimate.luminance.corners_from_mean},
                          {"sun_reason", estimate.sun_reason}, {"rms", e.rms}, {"p99", e.p99}, {"max", e.max},
                          {"planes", per_plane}, {"reference_seconds", reference_seconds},
+                         {"building", {{"rms", building.rms}, {"p99", building.p99}, {"max", building.max},
+                                       {"of", "the horizontal irradiance"}, {"vertices", mesh.vertex_count()},
+                                       {"reference_seconds", building_reference_seconds}}},
                          {"bake_seconds", bake_seconds.at(key_of(c))}});
     }
+  }
+  std::printf("\nThe building: |E − E_ref| per vertex and channel, as a share of the sky's horizontal irradiance\n\n"
+              "| sky | configuration | RMS | p99 | max |\n|---|---|---|---|---|\n");
+  for (const BuildingRow& row : building_rows) {
+    std::printf("| %s | %s | %.4f | %.4f | %.4f |\n", row.sky.c_str(), row.config.c_str(), row.errors.rms, row.errors.p99,
+                row.errors.max);
   }
   if (!pca_rows.empty()) {
     std::printf("\n| sky | configuration | K | vs full: RMS / p99 / max | vs reference: RMS / p99 / max | full vs reference RMS |\n"

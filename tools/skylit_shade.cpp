@@ -1,6 +1,6 @@
 // skylit-shade: shadow ratios of every plane of a bake under one sky frame (or exposure
-// bracket), computed on the CPU: the offline preview, the reference for the GPU path, and the
-// tool installers use to check a sky camera against a bake.
+// bracket), and the building's irradiance per vertex, computed on the CPU: the offline preview,
+// the reference for the GPU path, and the tool installers use to check a sky camera against a bake.
 #include <array>
 #include <chrono>
 #include <cstdio>
@@ -16,12 +16,16 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "skylit/bake_format/arrays.hpp"
 #include "skylit/bake_format/manifest.hpp"
+#include "skylit/baker/preview.hpp"
 #include "skylit/baker/visibility.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/base/files.hpp"
 #include "skylit/geom/dome.hpp"
 #include "skylit/blend/cpu_blend.hpp"
+#include "skylit/blend/vertex_irradiance.hpp"
+#include "skylit/scene/ply.hpp"
 #include "skylit/scene/site.hpp"
 #include "skylit/camera/calibration.hpp"
 #include "skylit/sky/image_io.hpp"
@@ -171,6 +175,83 @@ skylit::bake_format::Manifest verified_manifest(const Options& o) {
   return std::move(report.manifest);
 }
 
+// The building's irradiance per vertex (blend::vertex_irradiance: the transfer vectors times S,
+// each source through its disc's visibility from the vertex), written as building.ply (vertex
+// colours for a viewer, the linear RGB irradiance and the sun's visibility as properties) and
+// building.png (a picture from a default view); summarised for sky.json.
+nlohmann::json shade_building(const Options& o, const skylit::bake_format::Manifest& manifest,
+                              const skylit::scene::Mesh& mesh, std::span<const Eigen::Vector3d> S,
+                              const skylit::sky::SkyEstimate& estimate) {
+  const fs::path transfer_file = fs::path(o.bake_dir) / manifest.transfer_file;
+  std::vector<std::size_t> shape;
+  const std::vector<float> transfer = skylit::bake_format::read_npy(transfer_file, &shape);
+  if (shape.size() != 2 || shape[0] != mesh.vertex_count() || shape[1] != S.size()) {
+    throw InputError(transfer_file.string() + ": the transfer array is not one row of " + std::to_string(S.size()) +
+                     " layers per vertex of the site's model (" + std::to_string(mesh.vertex_count()) +
+                     " vertices). Fix: bake the site again, or pass --site with the model the bake was made from");
+  }
+  std::vector<skylit::geom::Plane> planes;
+  for (const auto& p : manifest.planes) planes.push_back(p.plane);
+  std::vector<skylit::blend::SunLight> lights;
+  std::vector<std::vector<float>> visibility;
+  for (const skylit::sky::Sun& source : estimate.sources) {
+    lights.push_back({source.direction, source.energy});
+    visibility.emplace_back(mesh.vertex_count(), 1.0f);
+    std::vector<skylit::geom::Vec3> directions = source.disc_directions;
+    std::vector<double> weights = source.disc_weights;
+    if (directions.empty()) {
+      directions = {source.direction};
+      weights = {1.0};
+    }
+    skylit::baker::area_light_vertex_visibility(mesh, planes, directions, weights, visibility.back(), {o.threads});
+  }
+  const std::vector<Eigen::Vector3d> E = skylit::blend::vertex_irradiance(transfer, S, mesh.normals, lights, visibility);
+
+  // White: the 99th percentile of the vertices' brightest channel, so that a few sunlit
+  // vertices do not darken the rest.
+  std::vector<double> brightest;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& e : E) {
+    brightest.push_back(e.maxCoeff());
+    sum += e;
+  }
+  std::vector<double> sorted = brightest;
+  std::sort(sorted.begin(), sorted.end());
+  const double white = sorted.empty() ? 1.0 : std::max(sorted[static_cast<std::size_t>(0.99 * static_cast<double>(sorted.size() - 1))], 1e-12);
+  std::vector<std::array<std::uint8_t, 3>> colours;
+  std::vector<skylit::scene::VertexProperty> properties{{"irradiance_r", {}}, {"irradiance_g", {}}, {"irradiance_b", {}}};
+  for (const Eigen::Vector3d& e : E) {
+    std::array<std::uint8_t, 3> c{};
+    for (int k = 0; k < 3; ++k) {
+      const double x = std::clamp(e[k] / white, 0.0, 1.0);
+      c[static_cast<std::size_t>(k)] = static_cast<std::uint8_t>(std::lround(255 * (x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1 / 2.4) - 0.055)));
+      properties[static_cast<std::size_t>(k)].values.push_back(static_cast<float>(e[k]));
+    }
+    colours.push_back(c);
+  }
+  if (estimate.sun) properties.push_back({"sun_visibility", visibility.front()});
+  const fs::path out_dir = o.out_dir;
+  skylit::scene::write_ply(out_dir / "building.ply", mesh, colours, properties);
+  char caption[160];
+  std::snprintf(caption, sizeof caption, "irradiance per vertex, linear; white = %.4g (the 99th percentile)%s", white,
+                estimate.sun ? ", the sun's shadows included" : "");
+  skylit::baker::write_vertex_picture(out_dir / "building.png", mesh, E, white, caption);
+  const double n = static_cast<double>(std::max<std::size_t>(1, E.size()));
+  nlohmann::json building{{"vertices", mesh.vertex_count()},
+                          {"ply", "building.ply"},
+                          {"picture", "building.png"},
+                          {"mean_irradiance", vec(sum / n)},
+                          {"white", white}};
+  if (estimate.sun) {
+    double lit = 0;
+    for (float v : visibility.front()) lit += v;
+    building["mean_sun_visibility"] = lit / n;
+  }
+  spdlog::info("building: {} vertices, mean irradiance RGB {:.4g} {:.4g} {:.4g}", mesh.vertex_count(), sum.x() / n, sum.y() / n,
+               sum.z() / n);
+  return building;
+}
+
 // One plane's T under the sky: blended, written as EXR and PNG, summarised for sky.json.
 nlohmann::json shade_plane(const Options& o, const skylit::bake_format::Manifest& manifest, std::size_t j,
                            std::span<const Eigen::Vector3d> S, std::span<const skylit::blend::SunLight> lights,
@@ -317,12 +398,16 @@ int run(const Options& o) {
   std::vector<skylit::blend::SunLight> lights;
   std::vector<std::vector<std::vector<float>>> visibility;  // [source][plane][texel]
   double visibility_ms = 0;
+  // The site's model: for the sources' shadows and the building's light. Without it (a bake
+  // moved away from its site) the planes are still shaded when no source needs shadows.
+  const fs::path site_file = o.site.empty() ? fs::path(manifest.plan.site_file) : fs::path(o.site);
+  std::optional<skylit::scene::Mesh> mesh;
+  if (!estimate.sources.empty() || fs::exists(site_file)) mesh = site_mesh(o, manifest);
   if (!estimate.sources.empty()) {
     t = Clock::now();
-    const skylit::scene::Mesh mesh = site_mesh(o, manifest);
     for (const skylit::sky::Sun& source : estimate.sources) {
       lights.push_back(skylit::blend::SunLight{source.direction, source.energy});
-      visibility.push_back(sun_visibility(o, manifest, mesh, source));
+      visibility.push_back(sun_visibility(o, manifest, *mesh, source));
     }
     visibility_ms = ms_since(t);
   }
@@ -331,6 +416,16 @@ int run(const Options& o) {
   double blend_ms = 0;
   for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
     planes_json.push_back(shade_plane(o, manifest, j, S, lights, visibility, blend_ms));
+  }
+
+  nlohmann::json building = nullptr;
+  double building_ms = 0;
+  if (mesh) {
+    t = Clock::now();
+    building = shade_building(o, manifest, *mesh, S, estimate);
+    building_ms = ms_since(t);
+  } else {
+    spdlog::warn("{}: the site is not here: the building's light is left out (pass --site SITE.yaml)", site_file.string());
   }
 
   const nlohmann::json faces = faces_json(dome, estimate, manifest.plan.basis);
@@ -351,7 +446,8 @@ int run(const Options& o) {
                      {"sun_mode", o.sun},
                      {"sun_reason", estimate.sun_reason},
                      {"max_sources", o.sources},
-                     {"planes", planes_json}};
+                     {"planes", planes_json},
+                     {"building", building}};
   sky["sun"] = estimate.sun ? source_json(*estimate.sun) : nlohmann::json(nullptr);
   // Every separated source, the sun first when there is one ("sun": true on it).
   nlohmann::json sources_json = nlohmann::json::array();
@@ -364,7 +460,7 @@ int run(const Options& o) {
   if (o.sources > 1) sky["sources_reason"] = estimate.sources_reason;
   sky["timings_ms"] = {{"load_frames", load_ms},  {"table", table_ms},         {"sun", estimate.sun_ms},
                        {"luminance", estimate.luminance_ms}, {"sun_visibility", visibility_ms},
-                       {"blend", blend_ms},       {"total", ms_since(start)}};
+                       {"blend", blend_ms},       {"building", building_ms}, {"total", ms_since(start)}};
   skylit::write_file_atomic(out_dir / "sky.json", sky.dump(2) + "\n");
   skylit::sky::write_image(out_dir / "sky_overlay.png",
                            skylit::sky::draw_sky_overlay(estimator.lens(), dome, frame.radiance, estimate));
@@ -374,8 +470,8 @@ int run(const Options& o) {
   if (o.sources > 1) {
     spdlog::info("{} separated source(s) (at most {}): {}", estimate.sources.size(), o.sources, estimate.sources_reason);
   }
-  spdlog::info("wrote {} plane(s), sky.json and sky_overlay.png to {} in {:.0f} ms", manifest.planes.size(),
-               out_dir.string(), ms_since(start));
+  spdlog::info("wrote {} plane(s), {}sky.json and sky_overlay.png to {} in {:.0f} ms", manifest.planes.size(),
+               mesh ? "building.ply, building.png, " : "", out_dir.string(), ms_since(start));
   return 0;
 }
 

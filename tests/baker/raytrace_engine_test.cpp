@@ -425,3 +425,60 @@ TEST(AreaLightVisibility, WeighsEachDirectionByItsShareAndCosine) {
 
 }  // namespace
 }  // namespace skylit::baker
+
+namespace skylit::baker {
+namespace raytrace_engine_test {
+
+TEST(WeightedVertexIrradiance, SumsTheLightEachVertexSeesUnderAnOverhang) {
+  // The roof over a floor tile again: each vertex gets Σ w_k max(0, n·ω_k) over the directions
+  // its own geometry leaves open, RGB weights kept apart.
+  const Box roof{{-1.0, -1.0, 2.0}, {1.0, 1.0, 2.2}};
+  const Box tile{{-0.5, -0.5, -0.1}, {0.5, 0.5, 0.0}};
+  const std::vector<Box> boxes{roof, tile};
+  const scene::Mesh mesh = mesh_of(boxes);
+  const std::vector<Vec3> directions{direction(80, 10), direction(75, 140), direction(15, 45), direction(10, 260),
+                                     direction(85, 300), direction(-20, 0)};
+  const std::vector<Eigen::Vector3d> weights{{1, 2, 3}, {0.5, 0.5, 0.5}, {4, 0, 1}, {2, 2, 0}, {0, 0, 0}, {9, 9, 9}};
+  std::vector<Eigen::Vector3d> out(mesh.vertex_count());
+  weighted_vertex_irradiance(mesh, {}, directions, weights, out, {.threads = 2});
+  for (std::size_t v = 0; v < mesh.vertex_count(); ++v) {
+    const Vec3 p = mesh.positions[v].cast<double>();
+    const Vec3 n = mesh.normals[v].cast<double>();
+    Eigen::Vector3d expected = Eigen::Vector3d::Zero();
+    for (std::size_t k = 0; k < directions.size(); ++k) {
+      if (visible(p + 1e-3 * n, directions[k], boxes)) expected += std::max(0.0, n.dot(directions[k])) * weights[k];
+    }
+    EXPECT_LT((out[v] - expected).norm(), 1e-9) << "vertex " << v << " at " << p.transpose();
+  }
+  // The tile's top vertices, under the roof: only the two low directions reach them.
+  for (std::size_t v = 0; v < mesh.vertex_count(); ++v) {
+    if (mesh.normals[v].z() > 0.5 && mesh.positions[v].z() == 0.0f) {
+      const Eigen::Vector3d low = directions[2].z() * weights[2] + directions[3].z() * weights[3];
+      EXPECT_LT((out[v] - low).norm(), 1e-9);
+    }
+  }
+  std::vector<Eigen::Vector3d> wrong(mesh.vertex_count() - 1);
+  EXPECT_THROW(weighted_vertex_irradiance(mesh, {}, directions, weights, wrong), std::invalid_argument);
+}
+
+TEST(AreaLightVertexVisibility, IsTheShareOfTheDiscEachVertexSees) {
+  const Box roof{{-1.0, -1.0, 2.0}, {1.0, 1.0, 2.2}};
+  const Box tile{{-0.5, -0.5, -0.1}, {0.5, 0.5, 0.0}};
+  const std::vector<Box> boxes{roof, tile};
+  const scene::Mesh mesh = mesh_of(boxes);
+  // A low sun (passes under the roof) and a high one (the roof blocks it over the tile).
+  const std::vector<Vec3> disc{direction(12, 45), direction(70, 45)};
+  const std::vector<double> weights{0.4, 0.6};
+  std::vector<float> v(mesh.vertex_count());
+  area_light_vertex_visibility(mesh, {}, disc, weights, v);
+  for (std::size_t i = 0; i < mesh.vertex_count(); ++i) {
+    const Vec3 p = mesh.positions[i].cast<double>(), n = mesh.normals[i].cast<double>();
+    const double c0 = weights[0] * std::max(0.0, n.dot(disc[0])), c1 = weights[1] * std::max(0.0, n.dot(disc[1]));
+    const double expected = c0 + c1 > 0 ? (c0 * visible(p + 1e-3 * n, disc[0], boxes) + c1 * visible(p + 1e-3 * n, disc[1], boxes)) / (c0 + c1)
+                                        : 1.0;
+    EXPECT_NEAR(v[i], expected, 1e-6) << "vertex " << i << " at " << p.transpose();
+  }
+}
+
+}  // namespace
+}  // namespace skylit::baker

@@ -1,13 +1,18 @@
 // End to end with the corners and quadratics bases: skylit-bake --basis corners|quadratics,
-// verify, and skylit-shade on a real sky, as a user would run them.
+// verify, and skylit-shade on a real sky (its planes and the building), as a user would run them.
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "cli_support.hpp"
 #include "skylit/camera/lens.hpp"
@@ -68,6 +73,58 @@ double check_ratios(const fs::path& out) {
   return ground;
 }
 
+// building.ply as a viewer reads it: its header's vertex properties in order, then the binary
+// records; checks that each vertex's irradiance is finite and not negative, that its sun
+// visibility is in [0, 1], that faces turned to the sky get more light than faces turned to the
+// ground, and that building.png is a picture.
+void check_building(const fs::path& out, std::size_t vertices) {
+  std::ifstream in(out / "building.ply", std::ios::binary);
+  const std::string all((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::size_t end = all.find("end_header\n");
+  ASSERT_NE(end, std::string::npos);
+  std::istringstream header(all.substr(0, end));
+  std::vector<std::pair<std::string, std::string>> properties;  // type, name of each vertex property
+  std::size_t count = 0;
+  for (std::string line; std::getline(header, line);) {
+    std::istringstream words(line);
+    std::string first, second, third;
+    words >> first >> second >> third;
+    if (first == "element" && second == "vertex") count = std::stoul(third);
+    if (first == "element" && second == "face") break;
+    if (first == "property") properties.emplace_back(second, third);
+  }
+  ASSERT_EQ(count, vertices);
+  std::size_t at = end + std::strlen("end_header\n");
+  double up = 0, down = 0;
+  int ups = 0, downs = 0;
+  for (std::size_t v = 0; v < count; ++v) {
+    std::map<std::string, double> value;
+    for (const auto& [type, name] : properties) {
+      if (type == "float") {
+        float f;
+        std::memcpy(&f, all.data() + at, 4);
+        at += 4;
+        value[name] = f;
+      } else {
+        value[name] = static_cast<unsigned char>(all[at++]);
+      }
+    }
+    for (const char* channel : {"irradiance_r", "irradiance_g", "irradiance_b"}) {
+      ASSERT_TRUE(std::isfinite(value.at(channel)) && value.at(channel) >= 0) << "vertex " << v << " " << channel;
+    }
+    EXPECT_GE(value.at("sun_visibility"), 0.0);
+    EXPECT_LE(value.at("sun_visibility"), 1.0);
+    const double e = value["irradiance_r"] + value["irradiance_g"] + value["irradiance_b"];
+    if (value["nz"] > 0.9) up += e, ++ups;
+    if (value["nz"] < -0.9) down += e, ++downs;
+  }
+  ASSERT_GT(ups, 0);
+  ASSERT_GT(downs, 0);
+  EXPECT_GT(up / ups, 2 * down / downs) << "faces turned to the sky get more light than faces turned to the ground";
+  const cv::Mat picture = cv::imread((out / "building.png").string());
+  EXPECT_EQ(picture.cols, 960);
+}
+
 TEST(SkylitCorners, BakeVerifyAndShade) {
   TempDir dir;
   const std::string site = (kSource / "config" / "sample_site.yaml").string();
@@ -94,6 +151,9 @@ TEST(SkylitCorners, BakeVerifyAndShade) {
     }
   }
   check_ratios(out);
+  ASSERT_TRUE(sky["building"].is_object()) << sky.dump(2);
+  EXPECT_EQ(sky["building"]["ply"], "building.ply");
+  check_building(out, sky["building"]["vertices"].get<std::size_t>());
 }
 
 TEST(SkylitQuadratics, BakeVerifyAndShade) {

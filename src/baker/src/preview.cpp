@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
+#include <stdexcept>
 #include <vector>
 
 #include <opencv2/imgcodecs.hpp>
@@ -162,6 +164,71 @@ void write_plane_previews(const fs::path& preview_dir, const bake_format::Manife
     }
   }
   write_png(preview_dir / (record.plane.name + "_uniform_sky.png"), uniform);
+}
+
+void write_vertex_picture(const fs::path& file, const scene::Mesh& mesh, std::span<const Eigen::Vector3d> linear_rgb,
+                          double white, const std::string& caption, int width) {
+  if (linear_rgb.size() != mesh.vertex_count()) throw std::invalid_argument("write_vertex_picture: one colour per vertex");
+  const int height = width * 3 / 4, caption_rows = 28;
+  cv::Mat image(height + caption_rows, width, CV_8UC3, cv::Scalar(48, 48, 48));
+  if (mesh.vertex_count() > 0) {
+    // The camera: on a sphere round the model's box, from the south-west and 20° up, looking at
+    // its centre with a 40° vertical field of view.
+    const Eigen::Vector3d lo = mesh.bounds_min().cast<double>(), hi = mesh.bounds_max().cast<double>();
+    const Eigen::Vector3d centre = 0.5 * (lo + hi);
+    const double radius = std::max(0.5 * (hi - lo).norm(), 1e-6);
+    const double fov = 40 * std::numbers::pi / 180, elevation = 20 * std::numbers::pi / 180;
+    const double azimuth = 225 * std::numbers::pi / 180;  // from north towards east: south-west
+    const Eigen::Vector3d back(std::sin(azimuth) * std::cos(elevation), std::cos(azimuth) * std::cos(elevation), std::sin(elevation));
+    const Eigen::Vector3d eye = centre + back * (radius / std::sin(fov / 2));
+    const Eigen::Vector3d forward = (centre - eye).normalized();
+    const Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();
+    const Eigen::Vector3d up = right.cross(forward);
+    const double focal = 0.5 * height / std::tan(fov / 2);
+    std::vector<Eigen::Vector3d> screen(mesh.vertex_count());  // x, y pixels; z depth
+    for (std::size_t v = 0; v < mesh.vertex_count(); ++v) {
+      const Eigen::Vector3d d = mesh.positions[v].cast<double>() - eye;
+      const double z = d.dot(forward);
+      screen[v] = Eigen::Vector3d(0.5 * width + focal * d.dot(right) / z, 0.5 * height - focal * d.dot(up) / z, z);
+    }
+    std::vector<double> depth(static_cast<std::size_t>(width) * height, std::numeric_limits<double>::infinity());
+    const auto encode = [white](double linear) {
+      const double x = std::clamp(linear / white, 0.0, 1.0);
+      return 255.0 * (x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1 / 2.4) - 0.055);
+    };
+    for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
+      const std::uint32_t* index = &mesh.indices[3 * t];
+      const Eigen::Vector3d &a = screen[index[0]], &b = screen[index[1]], &c = screen[index[2]];
+      if (a.z() <= 1e-6 || b.z() <= 1e-6 || c.z() <= 1e-6) continue;  // behind the camera: the view holds the model
+      const double area = (b.x() - a.x()) * (c.y() - a.y()) - (b.y() - a.y()) * (c.x() - a.x());
+      if (std::abs(area) < 1e-12) continue;
+      const int x0 = std::max(0, static_cast<int>(std::floor(std::min({a.x(), b.x(), c.x()}))));
+      const int x1 = std::min(width - 1, static_cast<int>(std::ceil(std::max({a.x(), b.x(), c.x()}))));
+      const int y0 = std::max(0, static_cast<int>(std::floor(std::min({a.y(), b.y(), c.y()}))));
+      const int y1 = std::min(height - 1, static_cast<int>(std::ceil(std::max({a.y(), b.y(), c.y()}))));
+      for (int y = y0; y <= y1; ++y) {
+        for (int x = x0; x <= x1; ++x) {
+          const double px = x + 0.5, py = y + 0.5;
+          const double wa = ((b.x() - px) * (c.y() - py) - (b.y() - py) * (c.x() - px)) / area;
+          const double wb = ((c.x() - px) * (a.y() - py) - (c.y() - py) * (a.x() - px)) / area;
+          const double wc = 1 - wa - wb;
+          if (wa < 0 || wb < 0 || wc < 0) continue;
+          // Perspective-correct: interpolate 1/z and the colour over z.
+          const double inverse_z = wa / a.z() + wb / b.z() + wc / c.z();
+          const double z = 1 / inverse_z;
+          double& nearest = depth[static_cast<std::size_t>(y) * width + x];
+          if (z >= nearest) continue;
+          nearest = z;
+          const Eigen::Vector3d rgb = z * (wa / a.z() * linear_rgb[index[0]] + wb / b.z() * linear_rgb[index[1]] +
+                                           wc / c.z() * linear_rgb[index[2]]);
+          image.at<cv::Vec3b>(y, x) = cv::Vec3b(cv::saturate_cast<uchar>(encode(rgb.z())), cv::saturate_cast<uchar>(encode(rgb.y())),
+                                                cv::saturate_cast<uchar>(encode(rgb.x())));
+        }
+      }
+    }
+  }
+  cv::putText(image, caption, {8, height + 19}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(230, 230, 230), 1, cv::LINE_AA);
+  write_png(file, image);
 }
 
 }  // namespace skylit::baker

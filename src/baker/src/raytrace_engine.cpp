@@ -286,6 +286,72 @@ class RaytraceEngine final : public VisibilityEngine {
     errors_->throw_if_any("weighted_plane_visibility");
   }
 
+  // Σ_k weight_k max(0, n_v·ω_k) V(v, ω_k) per vertex and channel (see visibility.hpp).
+  void weighted_vertex_irradiance(std::span<const Vec3> directions, std::span<const Eigen::Vector3d> weights,
+                                  std::span<Eigen::Vector3d> out) {
+    if (directions.size() != weights.size() || out.size() != mesh_.vertex_count()) {
+      throw std::invalid_argument("weighted_vertex_irradiance: one weight per direction, one output per vertex");
+    }
+    std::vector<Vec3> unit(directions.size());
+    for (std::size_t k = 0; k < directions.size(); ++k) {
+      const double length = directions[k].norm();
+      if (!std::isfinite(length) || length == 0.0) {
+        throw std::invalid_argument("weighted_vertex_irradiance: a direction is zero or not finite");
+      }
+      unit[k] = directions[k] / length;
+    }
+    constexpr int kVerticesPerTask = 16;
+    constexpr std::size_t kBatch = 256;
+    const int vertex_count = static_cast<int>(mesh_.vertex_count());
+    const int tasks = (vertex_count + kVerticesPerTask - 1) / kVerticesPerTask;
+    const float offset = static_cast<float>(offset_);
+    parallel_for(tasks, threads_, [&](int task) {
+      RTCIntersectContext context;
+      rtcInitIntersectContext(&context);
+      std::vector<RTCRay> rays(kBatch);
+      std::vector<std::pair<std::size_t, double>> batch;  // light, cosine
+      batch.reserve(kBatch);
+      const int end = std::min(vertex_count, (task + 1) * kVerticesPerTask);
+      for (int v = task * kVerticesPerTask; v < end; ++v) {
+        const auto index = static_cast<std::size_t>(v);
+        const Eigen::Vector3f& normal = mesh_.normals[index];
+        const Vec3 normal_d = normal.cast<double>();
+        const Eigen::Vector3f origin = mesh_.positions[index] + offset * normal;
+        Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+        const auto flush = [&] {
+          for (std::size_t r = 0; r < batch.size(); ++r) {
+            const Eigen::Vector3f w = unit[batch[r].first].cast<float>();
+            RTCRay& ray = rays[r];
+            ray = RTCRay{};
+            ray.org_x = origin.x();
+            ray.org_y = origin.y();
+            ray.org_z = origin.z();
+            ray.dir_x = w.x();
+            ray.dir_y = w.y();
+            ray.dir_z = w.z();
+            ray.tnear = 0.0f;  // the origin is already nudged off the surface
+            ray.tfar = kInfinity;
+            ray.mask = ~0u;
+          }
+          rtcOccluded1M(scene_.get(), &context, rays.data(), static_cast<unsigned>(batch.size()), sizeof(RTCRay));
+          for (std::size_t r = 0; r < batch.size(); ++r) {
+            if (rays[r].tfar >= 0.0f) sum += batch[r].second * weights[batch[r].first];
+          }
+          batch.clear();
+        };
+        for (std::size_t k = 0; k < unit.size(); ++k) {
+          const double c = normal_d.dot(unit[k]);
+          if (c <= 0.0 || weights[k].isZero()) continue;
+          batch.emplace_back(k, c);
+          if (batch.size() == kBatch) flush();
+        }
+        if (!batch.empty()) flush();
+        out[index] = sum;
+      }
+    });
+    errors_->throw_if_any("weighted_vertex_irradiance");
+  }
+
   void vertex_fractions(std::span<float> out) override {
     const std::size_t vertices = mesh_.vertex_count();
     if (out.size() != static_cast<std::size_t>(layers_) * vertices) {
@@ -427,6 +493,31 @@ void weighted_plane_visibility(const scene::Mesh& mesh, const geom::Plane& plane
   const std::vector<geom::Plane> planes{plane};
   RaytraceEngine engine(mesh, planes, options);
   engine.weighted_plane_visibility(0, directions, weights, out);
+}
+
+void weighted_vertex_irradiance(const scene::Mesh& mesh, std::span<const geom::Plane> planes, std::span<const Vec3> directions,
+                                std::span<const Eigen::Vector3d> weights, std::span<Eigen::Vector3d> out,
+                                const RaytraceOptions& options) {
+  RaytraceEngine engine(mesh, planes, options);
+  engine.weighted_vertex_irradiance(directions, weights, out);
+}
+
+void area_light_vertex_visibility(const scene::Mesh& mesh, std::span<const geom::Plane> planes, std::span<const Vec3> directions,
+                                  std::span<const double> weights, std::span<float> out, const RaytraceOptions& options) {
+  if (directions.size() != weights.size() || directions.empty() || out.size() != mesh.vertex_count()) {
+    throw std::invalid_argument("area_light_vertex_visibility: one weight per direction, at least one direction, one output per vertex");
+  }
+  std::vector<Eigen::Vector3d> weight3;
+  for (double w : weights) weight3.push_back(Eigen::Vector3d::Constant(w));
+  std::vector<Eigen::Vector3d> visible(out.size());
+  weighted_vertex_irradiance(mesh, planes, directions, weight3, visible, options);
+  for (std::size_t v = 0; v < out.size(); ++v) {
+    double facing = 0.0;
+    for (std::size_t k = 0; k < directions.size(); ++k) {
+      facing += weights[k] * std::max(0.0, mesh.normals[v].cast<double>().dot(directions[k].normalized()));
+    }
+    out[v] = facing > 0.0 ? static_cast<float>(std::clamp(visible[v].x() / facing, 0.0, 1.0)) : 1.0f;
+  }
 }
 
 void area_light_visibility(const scene::Mesh& mesh, const geom::Plane& plane, std::span<const Vec3> directions,

@@ -94,6 +94,21 @@ void area_light_visibility(const scene::Mesh& mesh, const geom::Plane& plane, st
                            std::span<const double> weights, std::span<float> out,
                            const RaytraceOptions& options = {});
 
+// The dense reference for the model itself: for every mesh vertex v, seen from the vertex
+// (nudged off the surface along its normal n_v, as vertex_fractions does),
+//     out[v] = Σ_k weights[k] · max(0, n_v·ω_k) · V(v, ω_k)        (per channel)
+// the irradiance the model's own geometry lets reach it from lights of radiance × solid angle
+// `weights` (the building's light, no dome). `planes`: the site's, which set the nudge as in the
+// bake (surface_offset).
+void weighted_vertex_irradiance(const scene::Mesh& mesh, std::span<const geom::Plane> planes, std::span<const Vec3> directions,
+                                std::span<const Eigen::Vector3d> weights, std::span<Eigen::Vector3d> out,
+                                const RaytraceOptions& options = {});
+
+// Visibility of an area light for every mesh vertex, as area_light_visibility for texels.
+void area_light_vertex_visibility(const scene::Mesh& mesh, std::span<const geom::Plane> planes, std::span<const Vec3> directions,
+                                  std::span<const double> weights, std::span<float> out,
+                                  const RaytraceOptions& options = {});
+
 // How far a ray origin is nudged off a surface, and the shadow-map depth bias: both scale with
 // the size of the scene so that a 2 m model and a 200 m site behave alike.
 double surface_offset(const scene::Mesh& mesh, std::span<const geom::Plane> planes);

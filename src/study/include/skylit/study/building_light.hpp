@@ -1,0 +1,60 @@
+#pragma once
+// The building's own light, measured: per model vertex, the irradiance the live path gives it
+// (transfer vectors times S, plus each separated source through its visibility) against a dense
+// reference (every pixel of the equirect sky a light, the model's self-occlusion ray-traced, no
+// dome), as a share of the sky's horizontal irradiance.
+#include <span>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "skylit/scene/mesh.hpp"
+#include "skylit/scene/site.hpp"
+#include "skylit/study/study.hpp"
+
+namespace skylit::study {
+
+// Every pixel of an equirect sky above the horizon as a light: its direction and radiance ×
+// solid angle (RGB). With supersample N > 1 the pixels near a bright one (over
+// kBrightOverMedian × the median, or next to one) become N×N sub-directions with the bilinearly
+// interpolated radiance (dense_reference's lights).
+struct EquirectLights {
+  std::vector<Vec3> directions;
+  std::vector<Eigen::Vector3d> weights;
+  std::size_t supersampled = 0;  // pixels split into sub-directions
+};
+EquirectLights equirect_lights(const cv::Mat& equirect, int supersample);
+
+// E_h = Σ_k w_k max(0, ω_k·z), RGB: the unoccluded horizontal irradiance, the scale the
+// building's error is given in (as T's is a share of each plane's own irradiance).
+Eigen::Vector3d horizontal_irradiance(const EquirectLights& lights);
+
+// E_ref(v) = Σ_k w_k max(0, n_v·ω_k) V(v, ω_k), RGB, per mesh vertex: V ray-traced against the
+// model (Embree), seen from the vertex as the bake sees it.
+std::vector<Eigen::Vector3d> building_reference(const EquirectLights& lights, const scene::Site& site, const scene::Mesh& mesh);
+
+// A separated source (a sun, a lamp) as the live path lights the building: its energy at normal
+// incidence and its disc as an area light.
+struct SourceLight {
+  Vec3 direction = Vec3::UnitZ();
+  Eigen::Vector3d energy = Eigen::Vector3d::Zero();
+  std::vector<Vec3> disc_directions;
+  std::vector<double> disc_weights;
+};
+
+// What the live path gives vertex v (blend::vertex_irradiance, the compositor's building term):
+//     E(v) = Σ_i S_i t_{v,i} + Σ_k E_k max(0, n_v·ω_k) V_k(v)
+// with t the bake's transfer vectors (vertex-major, S.size() per vertex) and V_k the source's
+// disc ray-cast from the vertex: a perfect shadow map, so that this measures the transfer and the
+// sky stage, not the shadow map's resolution. std::invalid_argument when the sizes do not fit.
+std::vector<Eigen::Vector3d> building_estimate(std::span<const float> transfer, std::span<const Eigen::Vector3d> S,
+                                               std::span<const SourceLight> sources, const scene::Site& site,
+                                               const scene::Mesh& mesh);
+
+// |E(v) − E_ref(v)| / E_h over every vertex and channel. A vertex that sees nothing of the sky in
+// either counts with its (zero) error: the model's hidden faces are part of what it shows.
+Errors building_errors(std::span<const Eigen::Vector3d> estimate, std::span<const Eigen::Vector3d> reference,
+                       const Eigen::Vector3d& horizontal);
+
+}  // namespace skylit::study
