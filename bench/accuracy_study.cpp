@@ -236,6 +236,7 @@ int main(int argc, char** argv) {
   struct BuildingRow {
     std::string sky, config;
     Errors errors;
+    std::string worst;  // where the largest error is
   };
   std::vector<BuildingRow> building_rows;
   std::printf("| sky | configuration | ν | K | basis | sun | RMS | p99 | max | sun found |\n"
@@ -360,9 +361,15 @@ int main(int argc, char** argv) {
       if (sources.empty() && sun) building_sources.push_back({sun->direction, sun->energy, disc_directions, disc_weights});
       std::vector<std::size_t> transfer_shape;
       const std::vector<float> transfer = skylit::bake_format::read_npy(bake_dir / manifest.transfer_file, &transfer_shape);
-      const Errors building =
-          building_errors(building_estimate(transfer, S, building_sources, site, mesh), building_ref, horizontal);
-      building_rows.push_back({sky_file.stem().string(), c.name, building});
+      const std::vector<Eigen::Vector3d> building_E = building_estimate(transfer, S, building_sources, site, mesh);
+      const Errors building = building_errors(building_E, building_ref, horizontal);
+      const std::size_t worst = worst_vertex(building_E, building_ref, horizontal);
+      char where[320];
+      std::snprintf(where, sizeof where, "vertex %zu at (%.2f, %.2f, %.2f) m, normal (%.2f, %.2f, %.2f): E %.4g, E_ref %.4g (luminance), E_h %.4g",
+                    worst, mesh.positions[worst].x(), mesh.positions[worst].y(), mesh.positions[worst].z(), mesh.normals[worst].x(),
+                    mesh.normals[worst].y(), mesh.normals[worst].z(), luminance(building_E[worst]), luminance(building_ref[worst]),
+                    luminance(horizontal));
+      building_rows.push_back({sky_file.stem().string(), c.name, building, where});
       if (estimate.sun && oracle.found && !noted) {
         // The detected sun against the equirect's: where, how wide, how much energy.
         noted = true;
@@ -528,10 +535,10 @@ int main(int argc, char** argv) {
     }
   }
   std::printf("\nThe building: |E − E_ref| per vertex and channel, as a share of the sky's horizontal irradiance\n\n"
-              "| sky | configuration | RMS | p99 | max |\n|---|---|---|---|---|\n");
+              "| sky | configuration | RMS | p99 | max | the max's vertex |\n|---|---|---|---|---|---|\n");
   for (const BuildingRow& row : building_rows) {
-    std::printf("| %s | %s | %.4f | %.4f | %.4f |\n", row.sky.c_str(), row.config.c_str(), row.errors.rms, row.errors.p99,
-                row.errors.max);
+    std::printf("| %s | %s | %.4f | %.4f | %.4f | %s |\n", row.sky.c_str(), row.config.c_str(), row.errors.rms, row.errors.p99,
+                row.errors.max, row.worst.c_str());
   }
   if (!pca_rows.empty()) {
     std::printf("\n| sky | configuration | K | vs full: RMS / p99 / max | vs reference: RMS / p99 / max | full vs reference RMS |\n"

@@ -125,4 +125,20 @@ Errors building_errors(std::span<const Eigen::Vector3d> estimate, std::span<cons
   return errors_of(std::move(diffs));
 }
 
+std::size_t worst_vertex(std::span<const Eigen::Vector3d> estimate, std::span<const Eigen::Vector3d> reference,
+                         const Eigen::Vector3d& horizontal) {
+  std::size_t worst = 0;
+  double largest = -1;
+  for (std::size_t v = 0; v < std::min(estimate.size(), reference.size()); ++v) {
+    for (int c = 0; c < 3; ++c) {
+      const double e = horizontal[c] > 0 ? std::abs(estimate[v][c] - reference[v][c]) / horizontal[c] : 0.0;
+      if (e > largest) {
+        largest = e;
+        worst = v;
+      }
+    }
+  }
+  return worst;
+}
+
 }  // namespace skylit::study

@@ -56,5 +56,8 @@ std::vector<Eigen::Vector3d> building_estimate(std::span<const float> transfer, 
 // either counts with its (zero) error: the model's hidden faces are part of what it shows.
 Errors building_errors(std::span<const Eigen::Vector3d> estimate, std::span<const Eigen::Vector3d> reference,
                        const Eigen::Vector3d& horizontal);
+// The vertex with the largest such error (0 when there are none).
+std::size_t worst_vertex(std::span<const Eigen::Vector3d> estimate, std::span<const Eigen::Vector3d> reference,
+                         const Eigen::Vector3d& horizontal);
 
 }  // namespace skylit::study
