@@ -263,18 +263,18 @@ void Service::State::SkyThread::run_from_link() {
 // What the sky node's /site shows of this node (docs/site.md, "Node status").
 void Service::State::SkyThread::publish_node_status() {
   const nlohmann::json report = s.status_report();
-  nlohmann::json status;
-  status["node"] = s.sky_link->node();
-  status["state"] = report["state"];
-  status["frame_rate"] = report["frame_rate"];
-  status["frame_time_ms"] = report["frame_time_ms"];
-  status["latency_ms"] = report["latency_ms"];
-  status["sky_to_screen_ms"] = report["sky_to_screen_ms"];
-  status["flags"] = report["flags"];
-  status["sky_sequence"] = report["sky"].contains("sequence") ? report["sky"]["sequence"] : nlohmann::json(nullptr);
-  status["frames"] = report["frames"];
-  status["time"] = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-  s.sky_link->publish_status(status);
+  nlohmann::json node_status;
+  node_status["node"] = s.sky_link->node();
+  node_status["state"] = report["state"];
+  node_status["frame_rate"] = report["frame_rate"];
+  node_status["frame_time_ms"] = report["frame_time_ms"];
+  node_status["latency_ms"] = report["latency_ms"];
+  node_status["sky_to_screen_ms"] = report["sky_to_screen_ms"];
+  node_status["flags"] = report["flags"];
+  node_status["sky_sequence"] = report["sky"].contains("sequence") ? report["sky"]["sequence"] : nlohmann::json(nullptr);
+  node_status["frames"] = report["frames"];
+  node_status["time"] = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+  s.sky_link->publish_status(node_status);
 }
 
 // False when the maps are closed (the service is stopping).
