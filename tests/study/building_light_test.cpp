@@ -4,6 +4,7 @@
 #include "skylit/study/building_light.hpp"
 
 #include <cmath>
+#include <fstream>
 #include <numbers>
 #include <vector>
 
@@ -109,6 +110,64 @@ TEST_F(BuildingLight, TheTransferVectorsGiveTheSameLightAndEachSourceItsCosine) 
                                                     kPi * kRadiance);
   EXPECT_NEAR(half.max, 1.0, 1e-4) << "the top's error against nothing is the whole horizontal irradiance";
   EXPECT_THROW(study::building_estimate(std::vector<float>(3), S, {}, s, mesh), std::invalid_argument);
+}
+
+// The extremes: a sun behind another block (the cube's east face in its shadow) and a model
+// vertex inside a wall (a small cube buried in the block): the shadowed face gets no sun, the
+// buried vertices no light at all, in the estimate and the reference alike.
+TEST(BuildingLightExtremes, ASourceBehindABlockAndVerticesInsideAWall) {
+  skylit::test::TempDir dir("building_extremes");
+  const auto cube = [](std::ofstream& obj, int first, const Vector3d& lo, const Vector3d& hi) {
+    for (int k = 0; k < 8; ++k) {
+      obj << "v " << (k & 1 ? hi.x() : lo.x()) << " " << (k & 2 ? hi.y() : lo.y()) << " " << (k & 4 ? hi.z() : lo.z()) << "\n";
+    }
+    // Faces counter-clockwise seen from outside (vertex k: bit 0 x, bit 1 y, bit 2 z).
+    const int faces[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+    for (const auto& f : faces) obj << "f " << first + f[0] << " " << first + f[1] << " " << first + f[2] << " " << first + f[3] << "\n";
+  };
+  {
+    std::ofstream obj(dir.path() / "blocks.obj");
+    cube(obj, 1, {-1, -1, 0}, {1, 1, 2});            // the building
+    cube(obj, 9, {2, -3, 0}, {2.5, 3, 4});           // a block 1 m east of it, 4 m tall
+    cube(obj, 17, {2.1, -0.2, 1}, {2.4, 0.2, 1.4});  // buried in the block
+  }
+  std::ofstream(dir.path() / "site.yaml") << "scene:\n  model: blocks.obj\n  up: z\n  scale: 1\ndome:\n  frequency: 2\nplanes:\n"
+                                             "  - name: ground\n    origin: [-6, -6, 0.01]\n    u: [12, 0, 0]\n"
+                                             "    v: [0, 12, 0]\n    resolution: [8, 8]\n";
+  skylit::test::quiet_bake(dir.path() / "site.yaml", dir.path() / "bake", 16);
+  const skylit::scene::Site s = skylit::scene::load_site(dir.path() / "site.yaml");
+  const skylit::scene::Mesh mesh = skylit::scene::load_model(s.model, s.up, s.scale);
+  const skylit::bake_format::Manifest manifest = skylit::bake_format::read_manifest(dir.path() / "bake");
+  std::vector<std::size_t> shape;
+  const std::vector<float> t = skylit::bake_format::read_npy(dir.path() / "bake" / manifest.transfer_file, &shape);
+  const std::vector<Vector3d> S(shape.at(1), kRadiance);
+  study::SourceLight sun;
+  sun.direction = Vector3d(std::cos(kPi / 9), 0, std::sin(kPi / 9));  // 20° up in the east
+  sun.energy = Vector3d(5, 5, 5);
+  sun.disc_directions = {sun.direction};
+  sun.disc_weights = {1.0};
+  const std::vector<Vector3d> sky_only = study::building_estimate(t, S, {}, s, mesh);
+  const std::vector<Vector3d> with_sun = study::building_estimate(t, S, std::vector{sun}, s, mesh);
+  cv::Mat equirect(128, 256, CV_32FC3, cv::Scalar(kRadiance.z(), kRadiance.y(), kRadiance.x()));
+  const std::vector<Vector3d> reference = study::building_reference(study::equirect_lights(equirect, 1), s, mesh);
+  int shaded = 0, buried = 0;
+  for (std::size_t v = 0; v < mesh.vertex_count(); ++v) {
+    const Eigen::Vector3f& p = mesh.positions[v];
+    if (p.x() > 2.05f && p.x() < 2.45f && p.z() > 0.95f && p.z() < 1.45f) {
+      ++buried;
+      EXPECT_EQ(with_sun[v], Vector3d::Zero()) << "a vertex inside the block gets no light: " << p.transpose();
+      EXPECT_EQ(reference[v], Vector3d::Zero()) << p.transpose();
+    } else if (p.x() == 1.0f && mesh.normals[v].x() > 0.5f) {
+      ++shaded;
+      EXPECT_LT((with_sun[v] - sky_only[v]).norm(), 1e-9) << "the east face is in the block's shadow: " << p.transpose();
+      // The block hides part of its sky; the reference and the transfer agree on how much.
+      EXPECT_LT(reference[v].x(), 0.9 * kPi / 2 * kRadiance.x()) << p.transpose();
+      EXPECT_NEAR(sky_only[v].x(), reference[v].x(), 0.05 * kPi * kRadiance.x()) << p.transpose();
+    }
+  }
+  // As the OBJ loader gives them: a quad's two triangles keep their own corners (6 per face).
+  EXPECT_EQ(shaded, 6);
+  EXPECT_EQ(buried, 36);
 }
 
 }  // namespace
