@@ -237,6 +237,7 @@ int main(int argc, char** argv) {
     std::string sky, config;
     Errors errors;
     std::string worst;  // where the largest error is
+    Errors planes;      // the building's planes' texels
   };
   std::vector<BuildingRow> building_rows;
   std::printf("| sky | configuration | ν | K | basis | sun | RMS | p99 | max | sun found |\n"
@@ -369,7 +370,7 @@ int main(int argc, char** argv) {
                     worst, mesh.positions[worst].x(), mesh.positions[worst].y(), mesh.positions[worst].z(), mesh.normals[worst].x(),
                     mesh.normals[worst].y(), mesh.normals[worst].z(), luminance(building_E[worst]), luminance(building_ref[worst]),
                     luminance(horizontal));
-      building_rows.push_back({sky_file.stem().string(), c.name, building, where});
+      building_rows.push_back({sky_file.stem().string(), c.name, building, where, Errors{}});
       if (estimate.sun && oracle.found && !noted) {
         // The detected sun against the equirect's: where, how wide, how much energy.
         noted = true;
@@ -412,7 +413,7 @@ int main(int argc, char** argv) {
         sun_notes.push_back(bins);
       }
 
-      std::vector<double> diffs;
+      std::vector<double> diffs, building_plane_diffs;
       nlohmann::json per_plane;
       // Per K: |T_pca − T_full| and |T_pca − T_ref| over every texel and channel.
       std::map<int, std::vector<double>> pca_vs_full, pca_vs_reference;
@@ -425,6 +426,7 @@ int main(int argc, char** argv) {
                                                visibility);
         }
         const auto w = skylit::blend::blend_weights(basis, S, sun);
+        Eigen::Vector3d denominator = w.denominator;  // D_j: what the compositor multiplies T by on the building
         std::vector<float> T(basis.texel_count() * 3);
         skylit::blend::blend_cpu(basis, w, w.sun.isZero() ? std::span<const float>() : std::span<const float>(visibility), T);
         std::vector<skylit::blend::SunLight> lights;
@@ -441,7 +443,9 @@ int main(int argc, char** argv) {
                                                  sources[k].disc_weights, source_visibility[k]);
           }
           for (const auto& v : source_visibility) views.emplace_back(v);
-          skylit::blend::blend_cpu_sources(basis, skylit::blend::blend_weights_sources(basis, S, lights), views, T);
+          const auto ws = skylit::blend::blend_weights_sources(basis, S, lights);
+          denominator = ws.denominator;
+          skylit::blend::blend_cpu_sources(basis, ws, views, T);
         }
         {
           for (const int k : pca_components) {
@@ -472,6 +476,21 @@ int main(int argc, char** argv) {
           }
         }
         diffs.insert(diffs.end(), plane_diffs.begin(), plane_diffs.end());
+        // A virtual plane covers the building: its texels get E = T D_j (the compositor), against
+        // E_ref = T_ref Σ L Ω max(0, n·ω), as a share of E_h like the vertices.
+        const auto site_plane = std::find_if(site.planes.begin(), site.planes.end(),
+                                             [&](const skylit::geom::Plane& p) { return p.name == basis.name; });
+        if (site_plane != site.planes.end() &&
+            site.surface_of(static_cast<std::size_t>(site_plane - site.planes.begin())) == skylit::scene::PlaneSurface::Virtual) {
+          for (std::size_t x = 0; x < basis.texel_count(); ++x) {
+            for (int ch = 0; ch < 3; ++ch) {
+              if (horizontal[ch] <= 0) continue;
+              const double e = T[x * 3 + static_cast<std::size_t>(ch)] * denominator[ch];
+              const double e_ref = reference[j][x][ch] * dense.totals[j][ch];
+              building_plane_diffs.push_back(std::abs(e - e_ref) / horizontal[ch]);
+            }
+          }
+        }
         if (dump) {
           // Picture per plane: T, the reference, and max over channels of |T − T_ref| × 5 (green), side by side.
           const int width = basis.width, h = basis.height;
@@ -497,6 +516,8 @@ int main(int argc, char** argv) {
         per_plane[basis.name] = {{"rms", pe.rms}, {"p99", pe.p99}, {"max", pe.max}};
       }
       const Errors e = errors_of(std::move(diffs));
+      const Errors building_planes = errors_of(std::move(building_plane_diffs));
+      building_rows.back().planes = building_planes;
       const std::string found = !c.sun                                         ? "-"
                                 : c.mix == Config::Mix::Sources                ? std::to_string(sources.size()) + " sources"
                                 : use_oracle                                   ? "oracle"
@@ -528,6 +549,7 @@ int main(int argc, char** argv) {
                          {"corners_from_mean", estimate.luminance.corners_from_mean},
                          {"sun_reason", estimate.sun_reason}, {"rms", e.rms}, {"p99", e.p99}, {"max", e.max},
                          {"planes", per_plane}, {"reference_seconds", reference_seconds},
+                         {"building_planes", {{"rms", building_planes.rms}, {"p99", building_planes.p99}, {"max", building_planes.max}}},
                          {"building", {{"rms", building.rms}, {"p99", building.p99}, {"max", building.max},
                                        {"of", "the horizontal irradiance"}, {"vertices", mesh.vertex_count()},
                                        {"reference_seconds", building_reference_seconds}}},
@@ -535,10 +557,11 @@ int main(int argc, char** argv) {
     }
   }
   std::printf("\nThe building: |E − E_ref| per vertex and channel, as a share of the sky's horizontal irradiance\n\n"
-              "| sky | configuration | RMS | p99 | max | the max's vertex |\n|---|---|---|---|---|---|\n");
+              "| sky | configuration | vertices: RMS | p99 | max | virtual planes' texels: RMS / p99 / max | the vertices' max at |\n"
+              "|---|---|---|---|---|---|---|\n");
   for (const BuildingRow& row : building_rows) {
-    std::printf("| %s | %s | %.4f | %.4f | %.4f | %s |\n", row.sky.c_str(), row.config.c_str(), row.errors.rms, row.errors.p99,
-                row.errors.max, row.worst.c_str());
+    std::printf("| %s | %s | %.4f | %.4f | %.4f | %.4f / %.4f / %.4f | %s |\n", row.sky.c_str(), row.config.c_str(), row.errors.rms,
+                row.errors.p99, row.errors.max, row.planes.rms, row.planes.p99, row.planes.max, row.worst.c_str());
   }
   if (!pca_rows.empty()) {
     std::printf("\n| sky | configuration | K | vs full: RMS / p99 / max | vs reference: RMS / p99 / max | full vs reference RMS |\n"

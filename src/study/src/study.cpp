@@ -149,6 +149,7 @@ DenseReference dense_reference(const cv::Mat& equirect, const scene::Site& site,
       for (int c = 0; c < 3; ++c) v[c] = total[c] > 0.0 ? v[c] / total[c] : 1.0;
     }
     reference.planes.push_back(std::move(visible));
+    reference.totals.push_back(total);
   }  reference.seconds = seconds_since(t);
   return reference;
 }

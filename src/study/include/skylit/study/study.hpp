@@ -69,6 +69,7 @@ cv::Mat read_clean_sky(const std::filesystem::path& file);
 inline constexpr double kBrightOverMedian = 20.0;
 struct DenseReference {
   std::vector<std::vector<Eigen::Vector3d>> planes;
+  std::vector<Eigen::Vector3d> totals;  // per plane: Σ_p L_p Ω_p max(0, n·ω_p), T_ref's denominator
   double seconds = 0;            // the ray casts
   std::size_t supersampled = 0;  // pixels split into sub-directions
 };
