@@ -308,7 +308,7 @@ def main():
     report["disk_fault"] = can_fill
     write(os.path.join(out, "soak.json"), json.dumps(report, indent=2) + "\n")
     write_samples(os.path.join(out, "samples.csv"), samples)
-    plot(os.path.join(out, "soak.png"), samples, windows)
+    plot(os.path.join(out, "soak.png"), samples, windows, args.settle_frames)
     print(json.dumps(report, indent=2))
     return 0 if report["ok"] else 1
 
@@ -451,8 +451,10 @@ def write_samples(path, samples):
             f.write(",".join(str(s[k]) for k in keys) + "," + " ".join(s["flags"]) + "\n")
 
 
-def plot(path, samples, windows):
-    """Heap in use, RSS, open files, threads and frame time against time, the faults shaded (Pillow)."""
+def plot(path, samples, windows, settle_frames=0):
+    """Heap in use, RSS, open files, threads and frame time against time, the faults shaded (Pillow).
+    Each panel's scale spans the samples after `settle_frames` (start-up would flatten the rest);
+    earlier samples are drawn clipped to it."""
     try:
         from PIL import Image, ImageDraw
     except ImportError:
@@ -474,10 +476,11 @@ def plot(path, samples, windows):
         for fault, begin, end in windows:
             d.rectangle([x_of(begin), top + 15, x_of(end), top + ph - 20], fill=colours.get(fault, (230, 230, 230)))
         values = [value(s) for s in samples]
-        lo, hi = min(values), max(values)
+        settled = [v for s, v in zip(samples, values) if s["frames"] >= settle_frames] or values
+        lo, hi = min(settled), max(settled)
         if hi - lo < 1e-9:
             hi = lo + 1
-        y_of = lambda v: top + ph - 20 - (ph - 40) * (v - lo) / (hi - lo)
+        y_of = lambda v: top + ph - 20 - (ph - 40) * (min(max(v, lo), hi) - lo) / (hi - lo)
         d.text((margin, top), f"{title}: {lo:.4g} to {hi:.4g}", fill="black")
         d.line([(x_of(s["t"]), y_of(v)) for s, v in zip(samples, values)], fill=(20, 60, 160), width=2)
         d.rectangle([margin, top + 15, w - margin, top + ph - 20], outline=(150, 150, 150))
