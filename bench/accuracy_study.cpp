@@ -250,7 +250,9 @@ int main(int argc, char** argv) {
     // Reference weights: every pixel above the horizon, radiance × solid angle (bad pixels as 0);
     // with --reference-supersample N, the pixels near a bright one as N×N sub-directions
     // (study::dense_reference).
-    const DenseReference dense = dense_reference(equirect, site, mesh, reference_supersample);
+    // The lights once, for the planes' reference and the building's.
+    const EquirectLights sky_lights = equirect_lights(equirect, reference_supersample);
+    const DenseReference dense = dense_reference(sky_lights, site, mesh);
     if (dense.supersampled > 0) {
       std::fprintf(stderr, "%s: reference: %zu pixels near bright ones as %d² sub-directions\n",
                    sky_file.stem().c_str(), dense.supersampled, reference_supersample);
@@ -258,7 +260,6 @@ int main(int argc, char** argv) {
     const std::vector<std::vector<Eigen::Vector3d>>& reference = dense.planes;
     const double reference_seconds = dense.seconds;
     // The building's reference: the same lights at every model vertex, the model's own occlusion.
-    const EquirectLights sky_lights = equirect_lights(equirect, reference_supersample);
     const Eigen::Vector3d horizontal = horizontal_irradiance(sky_lights);
     const auto building_start = Clock::now();
     const std::vector<Eigen::Vector3d> building_ref = building_reference(sky_lights, site, mesh);

@@ -32,6 +32,7 @@
 #include "skylit/sky/overlay.hpp"
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/sky_estimate.hpp"
+#include "skylit/sky/srgb.hpp"
 #include "command_line.hpp"
 
 namespace {
@@ -223,8 +224,7 @@ nlohmann::json shade_building(const Options& o, const skylit::bake_format::Manif
   for (const Eigen::Vector3d& e : E) {
     std::array<std::uint8_t, 3> c{};
     for (int k = 0; k < 3; ++k) {
-      const double x = std::clamp(e[k] / white, 0.0, 1.0);
-      c[static_cast<std::size_t>(k)] = static_cast<std::uint8_t>(std::lround(255 * (x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1 / 2.4) - 0.055)));
+      c[static_cast<std::size_t>(k)] = skylit::sky::srgb_encode8(e[k] / white);
       properties[static_cast<std::size_t>(k)].values.push_back(static_cast<float>(e[k]));
     }
     colours.push_back(c);

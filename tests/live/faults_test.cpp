@@ -316,6 +316,12 @@ TEST(ServiceStatus, StatusAndMetricsOverHttpWhileRunning) {
   EXPECT_EQ(status["camera"]["state"], "running");
   EXPECT_NEAR(status["camera"]["frame_rate_hz"].get<double>(), 30.0, 0.01);  // the rig films at 30 frames/s
   EXPECT_EQ(status["state"], "running");
+  // The memory a leak would grow: the heap the program holds, within what malloc keeps, within
+  // what is resident.
+  const json& memory = status["memory"];
+  EXPECT_GT(memory["heap_in_use_bytes"].get<double>(), 1e6) << memory.dump();
+  EXPECT_GE(memory["heap_held_bytes"].get<double>(), memory["heap_in_use_bytes"].get<double>()) << memory.dump();
+  EXPECT_GT(memory["resident_bytes"].get<double>(), 1e6) << memory.dump();
   // blend.device auto: the CPU on a software GL renderer (llvmpipe), the GPU on a real one.
   EXPECT_EQ(status["blend"]["setting"], "auto");
   EXPECT_EQ(status["blend"]["device"], status["blend"]["software_renderer"].get<bool>() ? "cpu" : "gpu")
@@ -330,7 +336,8 @@ TEST(ServiceStatus, StatusAndMetricsOverHttpWhileRunning) {
        {"# TYPE skylit_frames_total counter\nskylit_frames_total ", "# TYPE skylit_frame_time_seconds summary\n",
         "skylit_frame_time_seconds{quantile=\"0.99\"} ", "skylit_frame_time_seconds_count ", "skylit_sky_luminance{layer=\"0\",channel=\"r\"} ",
         "skylit_sun_detected 1\n", "skylit_sky_age_seconds ", "skylit_waiting_for_sky 0\n",
-        "skylit_source_state{source=\"sky\",state=\"ended\"} 1\n", "skylit_source_seconds_since_frame{source=\"camera\"} "}) {
+        "skylit_source_state{source=\"sky\",state=\"ended\"} 1\n", "skylit_source_seconds_since_frame{source=\"camera\"} ",
+        "# TYPE skylit_heap_in_use_bytes gauge\nskylit_heap_in_use_bytes ", "# TYPE process_resident_memory_bytes gauge\n"}) {
     EXPECT_NE(metrics->body.find(expected), std::string::npos) << expected << "\n" << metrics->body;
   }
   // Prometheus' own tool accepts them (a quantile belongs to a summary, not a gauge).

@@ -12,6 +12,7 @@
 
 #include "skylit/base/files.hpp"
 #include "skylit/bake_format/arrays.hpp"
+#include "skylit/sky/srgb.hpp"
 
 namespace skylit::baker {
 namespace fs = std::filesystem;
@@ -192,10 +193,6 @@ void write_vertex_picture(const fs::path& file, const scene::Mesh& mesh, std::sp
       screen[v] = Eigen::Vector3d(0.5 * width + focal * d.dot(right) / z, 0.5 * height - focal * d.dot(up) / z, z);
     }
     std::vector<double> depth(static_cast<std::size_t>(width) * height, std::numeric_limits<double>::infinity());
-    const auto encode = [white](double linear) {
-      const double x = std::clamp(linear / white, 0.0, 1.0);
-      return 255.0 * (x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1 / 2.4) - 0.055);
-    };
     for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
       const std::uint32_t* index = &mesh.indices[3 * t];
       const Eigen::Vector3d &a = screen[index[0]], &b = screen[index[1]], &c = screen[index[2]];
@@ -221,8 +218,8 @@ void write_vertex_picture(const fs::path& file, const scene::Mesh& mesh, std::sp
           nearest = z;
           const Eigen::Vector3d rgb = z * (wa / a.z() * linear_rgb[index[0]] + wb / b.z() * linear_rgb[index[1]] +
                                            wc / c.z() * linear_rgb[index[2]]);
-          image.at<cv::Vec3b>(y, x) = cv::Vec3b(cv::saturate_cast<uchar>(encode(rgb.z())), cv::saturate_cast<uchar>(encode(rgb.y())),
-                                                cv::saturate_cast<uchar>(encode(rgb.x())));
+          image.at<cv::Vec3b>(y, x) =
+              cv::Vec3b(sky::srgb_encode8(rgb.z() / white), sky::srgb_encode8(rgb.y() / white), sky::srgb_encode8(rgb.x() / white));
         }
       }
     }

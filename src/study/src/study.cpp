@@ -1,5 +1,4 @@
 #include "skylit/study/study.hpp"
-#include "skylit/study/building_light.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -132,10 +131,87 @@ cv::Mat read_clean_sky(const fs::path& file) {
   return equirect;
 }
 
+EquirectLights equirect_lights(const cv::Mat& equirect, int supersample) {
+  EquirectLights lights;
+  std::vector<Vec3>& directions = lights.directions;
+  std::vector<Eigen::Vector3d>& weights = lights.weights;
+  cv::Mat near_bright(equirect.size(), CV_8UC1, cv::Scalar(0));
+  if (supersample > 1) {
+    std::vector<double> all;
+    for (int row = 0; row < equirect.rows / 2; ++row) {
+      for (int col = 0; col < equirect.cols; ++col) {
+        const cv::Vec3f& l = equirect.at<cv::Vec3f>(row, col);
+        all.push_back(luminance(Eigen::Vector3d(l[2], l[1], l[0])));
+      }
+    }
+    std::nth_element(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(all.size() / 2), all.end());
+    const double median_y = all[all.size() / 2];
+    for (int row = 0; row < equirect.rows; ++row) {
+      for (int col = 0; col < equirect.cols; ++col) {
+        const cv::Vec3f& l = equirect.at<cv::Vec3f>(row, col);
+        if (luminance(Eigen::Vector3d(l[2], l[1], l[0])) <= kBrightOverMedian * median_y) continue;
+        for (int dy = -2; dy <= 2; ++dy) {
+          for (int dx = -2; dx <= 2; ++dx) {
+            near_bright.at<std::uint8_t>(std::clamp(row + dy, 0, equirect.rows - 1),
+                                         (col + dx + equirect.cols) % equirect.cols) = 255;
+          }
+        }
+      }
+    }
+  }
+  const auto bilinear = [&](double x, double y) {
+    const int w = equirect.cols, h = equirect.rows;
+    const double fx = std::floor(x), fy = std::floor(y);
+    const double tx = x - fx, ty = y - fy;
+    const int x0 = (static_cast<int>(fx) % w + w) % w, x1 = (x0 + 1) % w;
+    const int y0 = std::clamp(static_cast<int>(fy), 0, h - 1), y1 = std::clamp(static_cast<int>(fy) + 1, 0, h - 1);
+    Eigen::Vector3d rgb;
+    for (int ch = 0; ch < 3; ++ch) {
+      const double top = (1 - tx) * equirect.at<cv::Vec3f>(y0, x0)[ch] + tx * equirect.at<cv::Vec3f>(y0, x1)[ch];
+      const double bottom = (1 - tx) * equirect.at<cv::Vec3f>(y1, x0)[ch] + tx * equirect.at<cv::Vec3f>(y1, x1)[ch];
+      rgb[2 - ch] = (1 - ty) * top + ty * bottom;
+    }
+    return rgb;
+  };
+  for (int row = 0; row < equirect.rows; ++row) {
+    const double solid_angle = sky::equirect_pixel_solid_angle(equirect.cols, equirect.rows, row);
+    for (int col = 0; col < equirect.cols; ++col) {
+      if (near_bright.at<std::uint8_t>(row, col)) {
+        ++lights.supersampled;
+        const int n = supersample;
+        for (int j = 0; j < n; ++j) {
+          const double y = row - 0.5 + (j + 0.5) / n;
+          // Solid angle of the sub-row: the band between its edges, split over n columns.
+          const double top = M_PI / 2 - M_PI * (y + 0.5 - 0.5 / n) / equirect.rows;
+          const double bottom = M_PI / 2 - M_PI * (y + 0.5 + 0.5 / n) / equirect.rows;
+          const double sub_angle = 2.0 * M_PI / equirect.cols / n * (std::sin(top) - std::sin(bottom));
+          for (int i = 0; i < n; ++i) {
+            const double x = col - 0.5 + (i + 0.5) / n;
+            const Vec3 d = sky::equirect_direction(equirect.cols, equirect.rows, x, y);
+            if (d.z() <= 0.0) continue;
+            directions.push_back(d);
+            weights.push_back(bilinear(x, y) * sub_angle);
+          }
+        }
+        continue;
+      }
+      const Vec3 d = sky::equirect_direction(equirect.cols, equirect.rows, col, row);
+      if (d.z() <= 0.0) continue;
+      const cv::Vec3f& l = equirect.at<cv::Vec3f>(row, col);
+      directions.push_back(d);
+      weights.emplace_back(l[2] * solid_angle, l[1] * solid_angle, l[0] * solid_angle);
+    }
+  }
+  return lights;
+}
+
 DenseReference dense_reference(const cv::Mat& equirect, const scene::Site& site, const scene::Mesh& mesh,
                                int reference_supersample) {
+  return dense_reference(equirect_lights(equirect, reference_supersample), site, mesh);
+}
+
+DenseReference dense_reference(const EquirectLights& lights, const scene::Site& site, const scene::Mesh& mesh) {
   DenseReference reference;
-  const EquirectLights lights = equirect_lights(equirect, reference_supersample);
   reference.supersampled = lights.supersampled;
   const std::vector<Vec3>& directions = lights.directions;
   const std::vector<Eigen::Vector3d>& weights = lights.weights;
@@ -189,18 +265,9 @@ struct ReferenceSums {
 };
 
 ReferenceSums reference_sums(const cv::Mat& equirect, const scene::Site& site, const scene::Mesh& mesh) {
-  std::vector<Vec3> directions;
-  std::vector<Eigen::Vector3d> weights;
-  for (int row = 0; row < equirect.rows; ++row) {
-    const double solid_angle = sky::equirect_pixel_solid_angle(equirect.cols, equirect.rows, row);
-    for (int col = 0; col < equirect.cols; ++col) {
-      const Vec3 d = sky::equirect_direction(equirect.cols, equirect.rows, col, row);
-      if (d.z() <= 0.0) continue;
-      const cv::Vec3f& l = equirect.at<cv::Vec3f>(row, col);
-      directions.push_back(d);
-      weights.emplace_back(l[2] * solid_angle, l[1] * solid_angle, l[0] * solid_angle);
-    }
-  }
+  const EquirectLights lights = equirect_lights(equirect, 1);
+  const std::vector<Vec3>& directions = lights.directions;
+  const std::vector<Eigen::Vector3d>& weights = lights.weights;
   ReferenceSums sums;
   for (const auto& plane : site.planes) {
     std::vector<Eigen::Vector3d> visible(static_cast<std::size_t>(plane.width) * plane.height);

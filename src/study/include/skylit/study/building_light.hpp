@@ -15,17 +15,6 @@
 
 namespace skylit::study {
 
-// Every pixel of an equirect sky above the horizon as a light: its direction and radiance ×
-// solid angle (RGB). With supersample N > 1 the pixels near a bright one (over
-// kBrightOverMedian × the median, or next to one) become N×N sub-directions with the bilinearly
-// interpolated radiance (dense_reference's lights).
-struct EquirectLights {
-  std::vector<Vec3> directions;
-  std::vector<Eigen::Vector3d> weights;
-  std::size_t supersampled = 0;  // pixels split into sub-directions
-};
-EquirectLights equirect_lights(const cv::Mat& equirect, int supersample);
-
 // E_h = Σ_k w_k max(0, ω_k·z), RGB: the unoccluded horizontal irradiance, the scale the
 // building's error is given in (as T's is a share of each plane's own irradiance).
 Eigen::Vector3d horizontal_irradiance(const EquirectLights& lights);

@@ -59,6 +59,17 @@ std::filesystem::path coarse_site(const std::filesystem::path& site_file, int sc
 // fisheye does not count as error of the dome.
 cv::Mat read_clean_sky(const std::filesystem::path& file);
 
+// Every pixel of an equirect sky above the horizon as a light: its direction and radiance ×
+// solid angle (RGB). With supersample N > 1 the pixels near a bright one (over
+// kBrightOverMedian × the median, or next to one) become N×N sub-directions with the bilinearly
+// interpolated radiance (dense_reference's lights).
+struct EquirectLights {
+  std::vector<Vec3> directions;
+  std::vector<Eigen::Vector3d> weights;
+  std::size_t supersampled = 0;  // pixels split into sub-directions
+};
+EquirectLights equirect_lights(const cv::Mat& equirect, int supersample);
+
 // T_ref of every plane of `site` (per texel, RGB):
 //
 //   T_ref(x) = Σ_p L_p Ω_p max(0, n·ω_p) V(x, ω_p) / Σ_p L_p Ω_p max(0, n·ω_p)   (per channel)
@@ -75,6 +86,9 @@ struct DenseReference {
 };
 DenseReference dense_reference(const cv::Mat& equirect, const scene::Site& site, const scene::Mesh& mesh,
                                int reference_supersample);
+// dense_reference from lights already made: a caller that also needs the building's reference
+// (building_light.hpp) makes them once.
+DenseReference dense_reference(const EquirectLights& lights, const scene::Site& site, const scene::Mesh& mesh);
 
 // A sky sequence (skylit-bench trade --sequence, docs/trade.md): an analytic clear sky (the sky
 // simulator's, sky::analytic_sky) over `frames` seconds from `start`, one sky per `interval_s`,
