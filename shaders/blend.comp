@@ -1,6 +1,6 @@
 #version 310 es
 // Shadow ratios of one plane (blend/gpu_blend.hpp): per texel
-//     T = Σ_i w_i B_i + w_sun V     per colour channel, fp32,
+//     T = Σ_i w_i B_i + Σ_k w_k V_k     per colour channel, fp32 (k: the separated sources, the sun first),
 // then a channel without light is 1 and T is clamped to [0, 1], as blend_cpu does. One
 // invocation per texel. The basis array holds one layer per slice (R16F, R8, R11 EAC) or
 // several, one per colour channel (RGBA16F, RGBA8: four; RG11 EAC: two); the CPU lists the
@@ -52,12 +52,15 @@ uniform int slice_count;   // entries of `slices` to sum (per tile; unpaged)
 uniform int tile_size;     // texels per side of a tile (clustered PCA, or a page); 0: one tile, the plane
 uniform int tiles_x;       // tiles per row of tiles (row-major tile index)
 uniform bool paged;        // a cropped basis in pages (the tile records say what to read)
-uniform vec3 sun_weight;   // w_sun
-uniform bool use_sun;      // add w_sun V (false: no sun term, V is not read)
+// The separated sources that light the plane: xyz w_k, w the layer of `source_visibility` that
+// holds V_k. Only the first source_count entries are read (0: no separated term).
+const int kMaxSources = 32;  // blend::kMaxGpuSources
+uniform vec4 source_term[kMaxSources];
+uniform int source_count;
 uniform bvec3 no_light;    // channels whose T is 1
 
 layout(binding = 0) uniform sampler2DArray basis;       // B: a layer per slice or per channel
-layout(binding = 1) uniform sampler2D sun_visibility;   // V in red, same texels as B
+layout(binding = 1) uniform sampler2DArray source_visibility;   // V_k in red of a layer, same texels as B
 layout(SKYLIT_T_FORMAT, binding = 0) writeonly uniform image2D shadow_ratio;
 
 void main() {
@@ -100,11 +103,11 @@ void main() {
     vec4 b = texelFetch(basis, ivec3(slices[s].index.yz + at, slices[s].index.x), 0);
     sum += vec3(dot(slices[s].red, b), dot(slices[s].green, b), dot(slices[s].blue, b));
   }
-  if (use_sun) {
+  for (int j = 0; j < source_count; ++j) {
     // blend_cpu rejects a V outside [0, 1]; here it is clamped (NaN to 0).
-    float v = texelFetch(sun_visibility, texel, 0).r;
+    float v = texelFetch(source_visibility, ivec3(texel, int(source_term[j].w)), 0).r;
     v = v > 1.0 ? 1.0 : (v >= 0.0 ? v : 0.0);
-    sum += sun_weight * v;
+    sum += source_term[j].xyz * v;
   }
   vec3 t;
   for (int c = 0; c < 3; ++c) {

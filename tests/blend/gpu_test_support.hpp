@@ -9,20 +9,23 @@
 
 namespace skylit::blend::test {
 
-// An R32F texture holding V per texel (row-major, as the basis images), owned here.
+// An R32F texture array holding V per texel (row-major, as the basis images), one layer per
+// separated source (`values` holds the layers one after the other), owned here.
 struct VisibilityTexture {
   VisibilityTexture(int width, int height, std::span<const float> values) : owner(gpu::make_texture()) {
-    if (values.size() != static_cast<std::size_t>(width) * static_cast<std::size_t>(height)) {
-      throw std::invalid_argument("VisibilityTexture: one value per texel");
+    const std::size_t texels = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
+    if (texels == 0 || values.empty() || values.size() % texels != 0) {
+      throw std::invalid_argument("VisibilityTexture: one value per texel and layer");
     }
-    glBindTexture(GL_TEXTURE_2D, owner.get());
-    glTexStorage2D(GL_TEXTURE_2D, 1, GL_R32F, width, height);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    const auto layers = static_cast<int>(values.size() / texels);
+    glBindTexture(GL_TEXTURE_2D_ARRAY, owner.get());
+    glTexStorage3D(GL_TEXTURE_2D_ARRAY, 1, GL_R32F, width, height, layers);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-    glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, width, height, GL_RED, GL_FLOAT, values.data());
+    glTexSubImage3D(GL_TEXTURE_2D_ARRAY, 0, 0, 0, 0, width, height, layers, GL_RED, GL_FLOAT, values.data());
     gpu::check_gl_error("VisibilityTexture");
-    texture = {owner.get(), width, height, 1};
+    texture = {owner.get(), width, height, 1, layers};
   }
   gpu::Texture owner;
   SunVisibilityTexture texture;

@@ -333,8 +333,8 @@ GpuBlender::GpuBlender(const BasisImages& basis, const GpuBlendOptions& options)
   group_size_x_ = std::max(group_size[0], 1);
   group_size_y_ = std::max(group_size[1], 1);
   slice_count_location_ = uniform_location(program_.get(), "slice_count");
-  sun_weight_location_ = uniform_location(program_.get(), "sun_weight");
-  use_sun_location_ = uniform_location(program_.get(), "use_sun");
+  source_term_location_ = uniform_location(program_.get(), "source_term");
+  source_count_location_ = uniform_location(program_.get(), "source_count");
   no_light_location_ = uniform_location(program_.get(), "no_light");
   tile_size_location_ = uniform_location(program_.get(), "tile_size");
   tiles_x_location_ = uniform_location(program_.get(), "tiles_x");
@@ -588,16 +588,20 @@ std::size_t GpuBlender::basis_bytes() const {
                 : stored_bytes(options_.storage, layers_per_slice_, width_, height_, slices_);
 }
 
-bool GpuBlender::unchanged_since_last(const BlendWeights& weights, const SunVisibilityTexture* sun) const {
-  if (!has_result_ || weights.no_light != last_no_light_) return false;
-  const bool sun_now = !weights.sun.isZero(0);
-  const bool sun_then = !last_sun_.isZero(0);
-  const GLuint texture = sun_now ? sun->texture : 0;
-  const std::uint64_t revision = sun_now ? sun->revision : 0;
-  if (sun_now && sun_then && (texture != last_sun_texture_ || revision != last_sun_revision_)) return false;
+bool GpuBlender::unchanged_since_last(const BlendWeights& weights, const std::vector<Eigen::Vector3f>& terms,
+                                      const SunVisibilityTexture* sources) const {
+  if (!has_result_ || weights.no_light != last_no_light_ || terms.size() != last_sources_.size()) return false;
+  const auto lit = [](const std::vector<Eigen::Vector3f>& w) {
+    return std::any_of(w.begin(), w.end(), [](const Eigen::Vector3f& x) { return !x.isZero(0); });
+  };
+  const bool lit_now = lit(terms);
+  const GLuint texture = lit_now ? sources->texture : 0;
+  const std::uint64_t revision = lit_now ? sources->revision : 0;
+  if (lit_now && lit(last_sources_) && (texture != last_sun_texture_ || revision != last_sun_revision_)) return false;
   // The largest change of T any texel can see, per channel (B ≤ layer_max, V ≤ 1); summed over
   // every tile's weights, which bounds the change in any one tile.
-  Eigen::Vector3d bound = (weights.sun - last_sun_).cwiseAbs().cast<double>();
+  Eigen::Vector3d bound = Eigen::Vector3d::Zero();
+  for (std::size_t k = 0; k < terms.size(); ++k) bound += (terms[k] - last_sources_[k]).cwiseAbs().cast<double>();
   const std::size_t layers = static_cast<std::size_t>(layers_);
   for (std::size_t i = 0; i < weights.face.size(); ++i) {
     bound += (weights.face[i] - last_face_[i]).cwiseAbs().cast<double>() * static_cast<double>(layer_max_[i % layers]);
@@ -616,7 +620,8 @@ struct GpuBlender::SliceList {
 };
 
 // InputError unless the weights are this basis's and the sun's visibility is there when needed.
-void GpuBlender::check_blend_input(const BlendWeights& weights, const SunVisibilityTexture* sun) const {
+void GpuBlender::check_blend_input(const BlendWeights& weights, const std::vector<Eigen::Vector3f>& terms,
+                                   const SunVisibilityTexture* sources) const {
   const auto layers = static_cast<std::size_t>(layers_);
   const auto tiles = static_cast<std::size_t>(tile_count_);
   const std::size_t weight_count = layers * tiles;  // face[t · layers + i]: layer i within tile t
@@ -640,18 +645,32 @@ void GpuBlender::check_blend_input(const BlendWeights& weights, const SunVisibil
   for (const Eigen::Vector3f& w : weights.face) {
     if (!w.allFinite()) refuse_gpu_input("weights.face", "holds a value that is not finite", "compute the weights with blend_weights");
   }
-  if (!weights.sun.allFinite()) refuse_gpu_input("weights.sun", "is not finite", "compute the weights with blend_weights");
-  const bool use_sun = !weights.sun.isZero(0);
-  if (use_sun) {
-    if (sun == nullptr || sun->texture == 0) {
+  if (terms.size() > static_cast<std::size_t>(kMaxGpuSources)) {
+    refuse_gpu_input("weights.sources", std::to_string(terms.size()) + " separated sources; the GPU blend sums " +
+                                            std::to_string(kMaxGpuSources) + " at most",
+                     "separate fewer sources (sky max_sources)");
+  }
+  std::size_t needed = 0;  // layers the lit sources need
+  for (std::size_t k = 0; k < terms.size(); ++k) {
+    const std::string field = weights.sources.empty() ? std::string("weights.sun") : "weights.sources[" + std::to_string(k) + "]";
+    if (!terms[k].allFinite()) refuse_gpu_input(field, "is not finite", "compute the weights with blend_weights");
+    if (!terms[k].isZero(0)) needed = k + 1;
+  }
+  if (needed > 0) {
+    if (sources == nullptr || sources->texture == 0) {
       refuse_gpu_input("sun_visibility", "is missing but the sun lights plane '" + name_ + "'",
                 "pass the plane's SunVisibilityTexture (SunShadowMap::visibility), or blend without the sun");
     }
-    if (sun->width != width_ || sun->height != height_) {
-      refuse_gpu_input("sun_visibility", "is " + std::to_string(sun->width) + "x" + std::to_string(sun->height) +
+    if (sources->width != width_ || sources->height != height_) {
+      refuse_gpu_input("sun_visibility", "is " + std::to_string(sources->width) + "x" + std::to_string(sources->height) +
                                       "; plane '" + name_ + "' has " + std::to_string(width_) + "x" +
                                       std::to_string(height_) + " texels",
                 "pass this plane's visibility texture");
+    }
+    if (static_cast<std::size_t>(sources->layers) < needed) {
+      refuse_gpu_input("sun_visibility", "holds " + std::to_string(sources->layers) + " source layer(s); plane '" + name_ +
+                                             "' is lit by " + std::to_string(needed) + " separated sources",
+                       "draw the shadow maps with max_sources at least the sky's (SunShadowOptions::max_sources)");
     }
   }
 }
@@ -801,8 +820,8 @@ GpuBlender::SliceList GpuBlender::layer_slices(const BlendWeights& weights, cons
 }
 
 // Uploads the slice weights and tile records and runs the compute shader over the plane.
-void GpuBlender::dispatch(const SliceList& list, const BlendWeights& weights, const SunVisibilityTexture* sun,
-                          bool use_sun) {
+void GpuBlender::dispatch(const SliceList& list, const BlendWeights& weights, const std::vector<Eigen::Vector3f>& terms,
+                          const SunVisibilityTexture* sources) {
   const std::vector<SliceWeights>& slices = list.slices;
   const std::vector<TileRecord>& tile_records = list.tile_records;
   const std::size_t read = list.read;
@@ -820,13 +839,20 @@ void GpuBlender::dispatch(const SliceList& list, const BlendWeights& weights, co
   }
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, tile_buffer_.get());
   glUniform1i(slice_count_location_, static_cast<GLint>(read));
-  glUniform3f(sun_weight_location_, weights.sun.x(), weights.sun.y(), weights.sun.z());
-  glUniform1i(use_sun_location_, use_sun ? 1 : 0);
+  // The lit sources, each with its layer of the visibility texture.
+  std::vector<float> source_terms;
+  for (std::size_t k = 0; k < terms.size(); ++k) {
+    if (terms[k].isZero(0)) continue;
+    source_terms.insert(source_terms.end(), {terms[k].x(), terms[k].y(), terms[k].z(), static_cast<float>(k)});
+  }
+  const auto source_count = static_cast<GLsizei>(source_terms.size() / 4);
+  if (source_count > 0) glUniform4fv(source_term_location_, source_count, source_terms.data());
+  glUniform1i(source_count_location_, source_count);
   glUniform3i(no_light_location_, weights.no_light[0] ? 1 : 0, weights.no_light[1] ? 1 : 0, weights.no_light[2] ? 1 : 0);
   glActiveTexture(GL_TEXTURE0);
   glBindTexture(GL_TEXTURE_2D_ARRAY, basis_.get());
   glActiveTexture(GL_TEXTURE1);
-  glBindTexture(GL_TEXTURE_2D, use_sun ? sun->texture : 0);
+  glBindTexture(GL_TEXTURE_2D_ARRAY, source_count > 0 ? sources->texture : 0);
   glActiveTexture(GL_TEXTURE0);
   const GLenum format = options_.output == ShadowRatioFormat::Float ? GL_RGBA32F : GL_RGBA16F;
   glBindImageTexture(0, output_.get(), 0, GL_FALSE, 0, GL_WRITE_ONLY, format);
@@ -839,15 +865,18 @@ void GpuBlender::dispatch(const SliceList& list, const BlendWeights& weights, co
 
 }
 
-bool GpuBlender::blend(const BlendWeights& weights, const SunVisibilityTexture* sun) {
-  check_blend_input(weights, sun);
-  const bool use_sun = !weights.sun.isZero(0);
-  if (unchanged_since_last(weights, sun)) return false;
+bool GpuBlender::blend(const BlendWeights& weights, const SunVisibilityTexture* sources) {
+  // The separated terms as blend_cpu_sources takes them: every source, or the sun alone.
+  std::vector<Eigen::Vector3f> terms = weights.sources;
+  if (terms.empty() && !weights.sun.isZero(0)) terms.push_back(weights.sun);
+  check_blend_input(weights, terms, sources);
+  const bool lit = std::any_of(terms.begin(), terms.end(), [](const Eigen::Vector3f& w) { return !w.isZero(0); });
+  if (unchanged_since_last(weights, terms, sources)) return false;
   std::vector<double> contribution;
   std::vector<bool> keep;
   choose_skipped(weights, contribution, keep);
   const SliceList list = paged_ ? paged_slices(weights, contribution, keep) : layer_slices(weights, contribution, keep);
-  dispatch(list, weights, sun, use_sun);
+  dispatch(list, weights, terms, sources);
 
   const std::vector<SliceWeights>& slices = list.slices;
   const std::size_t read = list.read;
@@ -855,10 +884,10 @@ bool GpuBlender::blend(const BlendWeights& weights, const SunVisibilityTexture* 
   const double skipped = list.skipped;
   has_result_ = true;
   last_face_ = weights.face;
-  last_sun_ = weights.sun;
+  last_sources_ = std::move(terms);
   last_no_light_ = weights.no_light;
-  last_sun_texture_ = use_sun ? sun->texture : 0;
-  last_sun_revision_ = use_sun ? sun->revision : 0;
+  last_sun_texture_ = lit ? sources->texture : 0;
+  last_sun_revision_ = lit ? sources->revision : 0;
   summed_layers_ = summed;
   summed_slices_ = static_cast<int>(paged_ ? slices.size() : read);
   skipped_layers_ = skipped_count;

@@ -195,14 +195,16 @@ std::string plane_list(const scene::Site& site) {
 }  // namespace
 
 Eigen::Vector3d plane_irradiance(const bake_format::PlaneRecord& plane, std::span<const Eigen::Vector3d> sky,
-                                 const std::optional<blend::SunLight>& sun) {
+                                 const std::optional<blend::SunLight>& sun, std::span<const blend::SunLight> lamps) {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   const std::size_t layers = std::min(sky.size(), plane.unoccluded.size());
   for (std::size_t i = 0; i < layers; ++i) sum += plane.unoccluded[i] * finite_nonnegative(sky[i], nullptr);
-  if (sun) {
-    const double cosine = plane.plane.normal().dot(sun->direction.normalized());
-    if (std::isfinite(cosine) && cosine > 0.0) sum += cosine * finite_nonnegative(sun->energy, nullptr);
-  }
+  const auto add = [&](const blend::SunLight& light) {
+    const double cosine = plane.plane.normal().dot(light.direction.normalized());
+    if (std::isfinite(cosine) && cosine > 0.0) sum += cosine * finite_nonnegative(light.energy, nullptr);
+  };
+  if (sun) add(*sun);
+  for (const blend::SunLight& lamp : lamps) add(lamp);
   return sum;
 }
 
@@ -237,7 +239,10 @@ struct Compositor::State {
   // (irradiance_sky; empty: not yet): summed on the CPU when the sky changes, not per frame.
   std::vector<float> transfer_by_layer;
   std::vector<Eigen::Vector3d> irradiance_sky;
-  std::vector<float> vertex_irradiance;          // rgb per vertex
+  std::vector<float> sky_sum;                    // rgb per vertex: Σ_i S_i t_{v,i}
+  std::vector<float> vertex_irradiance;          // rgb per vertex: the sky sum and the lamps
+  std::vector<Eigen::Vector3f> vertex_normals;   // the mesh's, for the lamps' cosines
+  bool lamps_added = false;                      // vertex_irradiance holds lamps' light
 
   // Building geometry, grouped by material for one draw each.
   struct MaterialDraw {
@@ -283,7 +288,7 @@ struct Compositor::State {
   void upload_building(const scene::Mesh& mesh, std::span<const float> transfer_values);
   void make_targets();
   void upload_camera(const cv::Mat& frame);
-  void update_irradiance(const std::vector<Eigen::Vector3d>& sky_values);
+  void update_irradiance(const std::vector<Eigen::Vector3d>& sky_values, const CompositeInput& input);
   void draw_building(const CompositeInput& input, const std::vector<Eigen::Vector3d>& sky_values,
                      const PhotometricMatch& photometric);
   void draw_composite(const CompositeInput& input);
@@ -373,7 +378,10 @@ void Compositor::State::upload_building(const scene::Mesh& mesh, std::span<const
     }
   }
   vertex_irradiance.assign(3 * vertex_count, 0.0f);
+  sky_sum.assign(3 * vertex_count, 0.0f);
   irradiance_sky.clear();
+  vertex_normals = mesh.normals;
+  vertex_normals.resize(vertex_count, Eigen::Vector3f::UnitZ());
 
   // Vertices (texcoords zero when the model has none) and indices grouped by material.
   building_vertices = gpu::make_vertex_array();
@@ -512,34 +520,76 @@ void Compositor::State::upload_camera(const cv::Mat& frame) {
   check_gl_error("Compositor: uploading the camera frame");
 }
 
-void Compositor::State::update_irradiance(const std::vector<Eigen::Vector3d>& sky_values) {
-  if (!irradiance_sky.empty() && irradiance_sky == sky_values) return;
-  // E_v = Σ_i S_i t_{v,i} in float, layer after layer (the order and precision the vertex shader
-  // summed in before), every vertex of a layer at once.
+void Compositor::State::update_irradiance(const std::vector<Eigen::Vector3d>& sky_values, const CompositeInput& input) {
   const auto count = static_cast<std::size_t>(vertices);
-  std::vector<float> red(count, 0.0f), green(count, 0.0f), blue(count, 0.0f);
-  for (std::size_t i = 0; i < sky_values.size(); ++i) {
-    const auto r = static_cast<float>(sky_values[i].x());
-    const auto g = static_cast<float>(sky_values[i].y());
-    const auto b = static_cast<float>(sky_values[i].z());
-    if (r == 0.0f && g == 0.0f && b == 0.0f) continue;
-    const float* t = transfer_by_layer.data() + i * count;
-    for (std::size_t v = 0; v < count; ++v) {
-      red[v] += t[v] * r;
-      green[v] += t[v] * g;
-      blue[v] += t[v] * b;
+  if (!input.lamp_vertex_visibility.empty() && input.lamp_vertex_visibility.size() != input.lamps.size()) {
+    throw InputError(input_message({}, -1, -1, "lamp_vertex_visibility",
+                                   std::to_string(input.lamp_vertex_visibility.size()) + " visibilities for " +
+                                       std::to_string(input.lamps.size()) + " lamps",
+                                   "pass one per lamp (SunShadowMap::read_vertex_visibility), or none"));
+  }
+  for (std::size_t k = 0; k < input.lamp_vertex_visibility.size(); ++k) {
+    const std::size_t size = input.lamp_vertex_visibility[k].size();
+    if (size != 0 && size != count) {
+      throw InputError(input_message({}, -1, -1, "lamp_vertex_visibility[" + std::to_string(k) + "]",
+                                     std::to_string(size) + " values for a model of " + std::to_string(count) + " vertices",
+                                     "read it from the shadow map drawn for this model"));
     }
   }
-  for (std::size_t v = 0; v < count; ++v) {
-    vertex_irradiance[3 * v] = red[v];
-    vertex_irradiance[3 * v + 1] = green[v];
-    vertex_irradiance[3 * v + 2] = blue[v];
+  const bool sky_changed = irradiance_sky.empty() || irradiance_sky != sky_values;
+  if (sky_changed) {
+    // E_v = Σ_i S_i t_{v,i} in float, layer after layer (the order and precision the vertex
+    // shader summed in before), every vertex of a layer at once.
+    std::vector<float> red(count, 0.0f), green(count, 0.0f), blue(count, 0.0f);
+    for (std::size_t i = 0; i < sky_values.size(); ++i) {
+      const auto r = static_cast<float>(sky_values[i].x());
+      const auto g = static_cast<float>(sky_values[i].y());
+      const auto b = static_cast<float>(sky_values[i].z());
+      if (r == 0.0f && g == 0.0f && b == 0.0f) continue;
+      const float* t = transfer_by_layer.data() + i * count;
+      for (std::size_t v = 0; v < count; ++v) {
+        red[v] += t[v] * r;
+        green[v] += t[v] * g;
+        blue[v] += t[v] * b;
+      }
+    }
+    for (std::size_t v = 0; v < count; ++v) {
+      sky_sum[3 * v] = red[v];
+      sky_sum[3 * v + 1] = green[v];
+      sky_sum[3 * v + 2] = blue[v];
+    }
+    irradiance_sky = sky_values;
   }
+  // The lamps change with every sky frame and their visibility with every map: added each frame
+  // they light (vertices × lamps multiply-adds).
+  const bool lamps = !input.lamps.empty();
+  if (!sky_changed && !lamps && !lamps_added) return;
+  vertex_irradiance = sky_sum;
+  for (std::size_t k = 0; k < input.lamps.size(); ++k) {
+    const blend::SunLight& lamp = input.lamps[k];
+    const double length = lamp.direction.norm();
+    if (!lamp.direction.allFinite() || !(length > 0.0)) continue;
+    const Eigen::Vector3f w = (lamp.direction / length).cast<float>();
+    const Eigen::Vector3f energy = finite_nonnegative(lamp.energy, &stats.sky_values_replaced).cast<float>();
+    if (energy.isZero(0)) continue;
+    const std::vector<float>* visibility =
+        k < input.lamp_vertex_visibility.size() && !input.lamp_vertex_visibility[k].empty() ? &input.lamp_vertex_visibility[k]
+                                                                                              : nullptr;
+    for (std::size_t v = 0; v < count; ++v) {
+      float facing = std::max(0.0f, vertex_normals[v].dot(w));
+      if (facing == 0.0f) continue;
+      if (visibility != nullptr) {
+        const float x = (*visibility)[v];
+        facing *= x > 1.0f ? 1.0f : (x >= 0.0f ? x : 0.0f);  // NaN counts as 0
+      }
+      for (int c = 0; c < 3; ++c) vertex_irradiance[3 * v + static_cast<std::size_t>(c)] += facing * energy[c];
+    }
+  }
+  lamps_added = lamps;
   glBindBuffer(GL_ARRAY_BUFFER, irradiance_values.get());
   glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(vertex_irradiance.size() * sizeof(float)),
                   vertex_irradiance.data());
   glBindBuffer(GL_ARRAY_BUFFER, 0);
-  irradiance_sky = sky_values;
 }
 
 GLuint Compositor::State::ratio_texture(const CompositeInput& input, int plane) const {
@@ -550,7 +600,7 @@ GLuint Compositor::State::ratio_texture(const CompositeInput& input, int plane) 
 
 void Compositor::State::draw_building(const CompositeInput& input, const std::vector<Eigen::Vector3d>& sky_values,
                                       const PhotometricMatch& photometric) {
-  update_irradiance(sky_values);
+  update_irradiance(sky_values, input);
 
   // Camera: site → camera → the pinhole's clip space, with image row y at window row y (so that
   // texel row 0 is the image's top row, like every other image here).
@@ -632,7 +682,7 @@ void Compositor::State::draw_building(const CompositeInput& input, const std::ve
     s_axis.push_back(g.s_axis);
     t_axis.push_back(g.t_axis);
     normal.push_back(g.normal);
-    irradiance.push_back(plane_irradiance(record, sky_values, input.sun).cast<float>());
+    irradiance.push_back(plane_irradiance(record, sky_values, input.sun, input.lamps).cast<float>());
   }
   set_vec3_array(program, "plane_origin", origin);
   set_vec3_array(program, "plane_s_axis", s_axis);

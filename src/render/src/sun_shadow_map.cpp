@@ -1,6 +1,7 @@
-// The sun's shadow map and the visibility of the planes (see sun_shadow_map.hpp). The depth pass
-// is the baker's (shaders/shadow_depth.*, same slope-scaled offset); the visibility pass is a
-// compute shader over plane texels (shaders/sun_visibility.comp + sun_shadow.glsl).
+// The separated sources' shadow maps and the visibility of the planes and vertices (see
+// sun_shadow_map.hpp). The depth pass is the baker's (shaders/shadow_depth.*, same slope-scaled
+// offset); the visibility passes are compute shaders over plane texels and mesh vertices
+// (shaders/sun_visibility.comp, source_vertex_visibility.comp, both with sun_shadow.glsl).
 #include "skylit/render/sun_shadow_map.hpp"
 
 #include <algorithm>
@@ -8,6 +9,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <cstring>
 #include <string>
 
 #include <Eigen/Geometry>
@@ -19,6 +21,7 @@ namespace skylit::render {
 namespace {
 
 constexpr int kGroupSize = 8;  // sun_visibility.comp's local size, both axes
+constexpr int kVertexGroupSize = 64;  // source_vertex_visibility.comp's local size
 // Slope-scaled depth offset of the depth pass, as the baker's raster engine: the comparison at
 // a point uses the depth at the nearest texel centre, up to half a texel away.
 constexpr float kPolygonOffsetFactor = 2.0f;
@@ -54,6 +57,16 @@ SunShadowMap::SunShadowMap(const scene::Mesh& mesh, std::span<const geom::Plane>
   }
   if (!std::isfinite(options_.bias_texels) || options_.bias_texels < 0.0) {
     bad_input("sun shadow bias_texels", "is not finite and >= 0", "use about 1.5");
+  }
+  if (options_.max_sources < 1 || options_.max_sources > blend::kMaxGpuSources) {
+    bad_input("sun shadow max_sources", std::to_string(options_.max_sources) + " is outside 1 … " +
+                                            std::to_string(blend::kMaxGpuSources),
+              "draw between 1 (the sun alone) and " + std::to_string(blend::kMaxGpuSources) + " separated sources");
+  }
+  if (mesh.normals.size() != mesh.positions.size()) {
+    bad_input("mesh", "has " + std::to_string(mesh.normals.size()) + " normals for " +
+                          std::to_string(mesh.positions.size()) + " vertices",
+              "load the model with load_model (it computes missing normals)");
   }
   if (mesh.indices.size() % 3 != 0) bad_input("mesh", "index count is not a multiple of 3", "load the model with load_model");
   for (const std::uint32_t index : mesh.indices) {
@@ -92,6 +105,7 @@ SunShadowMap::SunShadowMap(const scene::Mesh& mesh, std::span<const geom::Plane>
   depth_program_ = gpu::load_program(shader_dir, {"shadow_depth.vert", "shadow_depth.frag"});
   visibility_program_ = gpu::load_program(shader_dir, {"sun_visibility.comp"});
   minmax_program_ = gpu::load_program(shader_dir, {"sun_shadow_minmax.comp"});
+  vertex_program_ = gpu::load_program(shader_dir, {"source_vertex_visibility.comp"});
 
   vertex_array_ = gpu::make_vertex_array();
   glBindVertexArray(vertex_array_.get());
@@ -107,6 +121,18 @@ SunShadowMap::SunShadowMap(const scene::Mesh& mesh, std::span<const geom::Plane>
                mesh.indices.empty() ? nullptr : mesh.indices.data(), GL_STATIC_DRAW);
   index_count_ = static_cast<GLsizei>(mesh.indices.size());
   glBindVertexArray(0);
+  vertex_count_ = static_cast<GLsizei>(mesh.positions.size());
+  normal_buffer_ = gpu::make_buffer();
+  glBindBuffer(GL_SHADER_STORAGE_BUFFER, normal_buffer_.get());
+  glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(std::max<std::size_t>(mesh.normals.size(), 1) * 3 * sizeof(float)),
+               mesh.normals.empty() ? nullptr : mesh.normals.data(), GL_STATIC_DRAW);
+  vertex_visibility_ = gpu::make_buffer();
+  glBindBuffer(GL_SHADER_STORAGE_BUFFER, vertex_visibility_.get());
+  glBufferData(GL_SHADER_STORAGE_BUFFER,
+               static_cast<GLsizeiptr>(std::max<std::size_t>(mesh.positions.size(), 1) *
+                                       static_cast<std::size_t>(options_.max_sources) * sizeof(float)),
+               nullptr, GL_DYNAMIC_READ);
+  glBindBuffer(GL_SHADER_STORAGE_BUFFER, 0);
 
   depth_texture_ = gpu::make_texture();
   glBindTexture(GL_TEXTURE_2D, depth_texture_.get());
@@ -138,26 +164,55 @@ SunShadowMap::SunShadowMap(const scene::Mesh& mesh, std::span<const geom::Plane>
     PlaneTarget target;
     target.plane = plane;
     target.texture = gpu::make_texture();
-    glBindTexture(GL_TEXTURE_2D, target.texture.get());
-    glTexStorage2D(GL_TEXTURE_2D, 1, GL_R32F, plane.width, plane.height);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-    target.visibility = {target.texture.get(), plane.width, plane.height, 0};
+    glBindTexture(GL_TEXTURE_2D_ARRAY, target.texture.get());
+    glTexStorage3D(GL_TEXTURE_2D_ARRAY, 1, GL_R32F, plane.width, plane.height, options_.max_sources);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    target.visibility = {target.texture.get(), plane.width, plane.height, 0, options_.max_sources};
     planes_.push_back(std::move(target));
   }
   gpu::check_gl_error("sun shadow map: setup");
 }
 
 void SunShadowMap::update(const Eigen::Vector3d& direction, double angular_radius) {
-  const double length = direction.norm();
-  if (!direction.allFinite() || !(length > 0.0)) {
-    bad_input("sun.direction", "is zero or not finite", "pass a vector towards the sun, site frame");
+  const ShadowSource sun{direction, angular_radius};
+  update(std::span<const ShadowSource>(&sun, 1));
+}
+
+void SunShadowMap::update(std::span<const ShadowSource> sources) {
+  if (sources.empty() || sources.size() > static_cast<std::size_t>(options_.max_sources)) {
+    bad_input("sources", std::to_string(sources.size()) + " separated sources; this map draws 1 … " +
+                             std::to_string(options_.max_sources),
+              "raise SunShadowOptions::max_sources (live: sky.max_sources), or pass fewer sources");
   }
-  if (!std::isfinite(angular_radius) || angular_radius < 0.0 || angular_radius >= 0.5) {
-    bad_input("sun.angular_radius", std::to_string(angular_radius) + " rad is not in [0, 0.5)",
-              "pass the disc's angular radius in radians (the sun's is 0.0047)");
+  for (std::size_t k = 0; k < sources.size(); ++k) {
+    const std::string name = k == 0 ? std::string("sun") : "sources[" + std::to_string(k) + "]";
+    const double length = sources[k].direction.norm();
+    if (!sources[k].direction.allFinite() || !(length > 0.0)) {
+      bad_input(name + ".direction", "is zero or not finite", "pass a vector towards the source, site frame");
+    }
+    const double radius = sources[k].angular_radius;
+    if (!std::isfinite(radius) || radius < 0.0 || radius >= 0.5) {
+      bad_input(name + ".angular_radius", std::to_string(radius) + " rad is not in [0, 0.5)",
+                "pass the disc's angular radius in radians (the sun's is 0.0047)");
+    }
   }
-  const Eigen::Vector3d w = direction / length;
+  // The last drawn stays in the depth map: source 0's, which sampling() and bind() describe.
+  ++revision_;
+  for (std::size_t k = sources.size(); k-- > 0;) sampling_ = draw_source(sources[k], static_cast<int>(k));
+  source_count_ = static_cast<int>(sources.size());
+  for (PlaneTarget& target : planes_) target.visibility.revision = revision_;
+  // The blend (texelFetch), a framebuffer read, image loads and buffer reads see the new values.
+  glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_FRAMEBUFFER_BARRIER_BIT |
+                  GL_TEXTURE_UPDATE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
+  gpu::check_gl_error("sun shadow map: visibility passes");
+}
+
+// One source: its depth map, pyramid, and visibility into layer `layer` of every plane's
+// texture and of the vertices' values; returns how to sample its map.
+SunShadowSampling SunShadowMap::draw_source(const ShadowSource& source, int layer) {
+  const Eigen::Vector3d w = source.direction.normalized();
+  const double angular_radius = source.angular_radius;
 
   // Orthographic view along -w fitted to the corners of the site's bounds: x, y across, depth
   // growing away from the sun; square texels.
@@ -192,14 +247,15 @@ void SunShadowMap::update(const Eigen::Vector3d& direction, double angular_radiu
   shadow_from_clip(3, 3) = 1.0;
   shadow_from_clip.block<3, 1>(0, 3).setConstant(0.5);
 
-  sampling_.depth_texture = depth_texture_.get();
-  sampling_.shadow_from_world = (shadow_from_clip * clip).cast<float>();
-  sampling_.direction = w.cast<float>();
-  sampling_.texel_m = static_cast<float>(side / resolution);
-  sampling_.depth_range_m = static_cast<float>(far - near);
-  sampling_.tan_angular_radius = static_cast<float>(std::tan(angular_radius));
-  sampling_.bias_m = static_cast<float>(options_.bias_texels * side / resolution);
-  sampling_.minmax_texture = minmax_texture_.get();
+  SunShadowSampling sampling;
+  sampling.depth_texture = depth_texture_.get();
+  sampling.shadow_from_world = (shadow_from_clip * clip).cast<float>();
+  sampling.direction = w.cast<float>();
+  sampling.texel_m = static_cast<float>(side / resolution);
+  sampling.depth_range_m = static_cast<float>(far - near);
+  sampling.tan_angular_radius = static_cast<float>(std::tan(angular_radius));
+  sampling.bias_m = static_cast<float>(options_.bias_texels * side / resolution);
+  sampling.minmax_texture = minmax_texture_.get();
 
   // Depth pass.
   GLint previous_framebuffer = 0;
@@ -249,10 +305,10 @@ void SunShadowMap::update(const Eigen::Vector3d& direction, double angular_radiu
   };
   for (int level = 0; level < minmax_levels_; ++level) {
     const int size = minmax_size_ >> level;
-    const Eigen::Vector2i source = level_origin(std::max(level - 1, 0));
+    const Eigen::Vector2i from = level_origin(std::max(level - 1, 0));
     const Eigen::Vector2i target = level_origin(level);
     glUniform1i(glGetUniformLocation(minmax, "from_depth"), level == 0 ? 1 : 0);
-    glUniform2i(glGetUniformLocation(minmax, "source_origin"), source.x(), source.y());
+    glUniform2i(glGetUniformLocation(minmax, "source_origin"), from.x(), from.y());
     glUniform2i(glGetUniformLocation(minmax, "target_origin"), target.x(), target.y());
     glUniform1i(glGetUniformLocation(minmax, "target_size"), size);
     const auto groups = static_cast<GLuint>((size + kGroupSize - 1) / kGroupSize);
@@ -261,24 +317,36 @@ void SunShadowMap::update(const Eigen::Vector3d& direction, double angular_radiu
   }
   gpu::check_gl_error("sun shadow map: minimum/maximum pyramid");
 
-  // Visibility of every plane texel.
+  // Visibility of every plane texel, into this source's layer.
   glUseProgram(visibility_program_.get());
-  bind(visibility_program_.get(), 0, 1);
-  ++revision_;
+  bind_sampling(visibility_program_.get(), sampling, 0, 1);
   for (PlaneTarget& target : planes_) {
     const geom::Plane& plane = target.plane;
     set_plane_uniform(visibility_program_.get(), "plane_origin", plane.origin);
     set_plane_uniform(visibility_program_.get(), "plane_u", plane.u);
     set_plane_uniform(visibility_program_.get(), "plane_v", plane.v);
-    glBindImageTexture(0, target.texture.get(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_R32F);
+    glBindImageTexture(0, target.texture.get(), 0, GL_FALSE, layer, GL_WRITE_ONLY, GL_R32F);
     glDispatchCompute(static_cast<GLuint>((plane.width + kGroupSize - 1) / kGroupSize),
                       static_cast<GLuint>((plane.height + kGroupSize - 1) / kGroupSize), 1);
-    target.visibility.revision = revision_;
   }
-  // The blend (texelFetch), a framebuffer read and image loads see the new values.
-  glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_FRAMEBUFFER_BARRIER_BIT |
-                  GL_TEXTURE_UPDATE_BARRIER_BIT);
-  gpu::check_gl_error("sun shadow map: visibility pass");
+
+  // Visibility at every mesh vertex.
+  if (vertex_count_ > 0) {
+    const GLuint program = vertex_program_.get();
+    glUseProgram(program);
+    bind_sampling(program, sampling, 0, 1);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, position_buffer_.get());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, normal_buffer_.get());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, vertex_visibility_.get());
+    glUniform1i(glGetUniformLocation(program, "vertex_count"), vertex_count_);
+    glUniform1i(glGetUniformLocation(program, "first_value"), layer * vertex_count_);
+    glUniform1f(glGetUniformLocation(program, "normal_offset"), sampling.bias_m);
+    glDispatchCompute(static_cast<GLuint>((vertex_count_ + kVertexGroupSize - 1) / kVertexGroupSize), 1, 1);
+  }
+  // The next source's depth pass rewrites the map these passes read.
+  glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_FRAMEBUFFER_BARRIER_BIT);
+  gpu::check_gl_error("sun shadow map: visibility of a source");
+  return sampling;
 }
 
 const blend::SunVisibilityTexture& SunShadowMap::visibility(int plane) const {
@@ -288,13 +356,16 @@ const blend::SunVisibilityTexture& SunShadowMap::visibility(int plane) const {
   return planes_[static_cast<std::size_t>(plane)].visibility;
 }
 
-std::vector<float> SunShadowMap::read_visibility(int plane) const {
+std::vector<float> SunShadowMap::read_visibility(int plane, int source) const {
   const blend::SunVisibilityTexture& v = visibility(plane);
+  if (source < 0 || source >= options_.max_sources) {
+    bad_input("source", "index " + std::to_string(source) + " is out of range", "use 0 … max_sources - 1");
+  }
   GLint previous = 0;
   glGetIntegerv(GL_FRAMEBUFFER_BINDING, &previous);
   const gpu::Framebuffer framebuffer = gpu::make_framebuffer();
   glBindFramebuffer(GL_FRAMEBUFFER, framebuffer.get());
-  glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, v.texture, 0);
+  glFramebufferTextureLayer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, v.texture, 0, source);
   if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
     glBindFramebuffer(GL_FRAMEBUFFER, static_cast<GLuint>(previous));
     throw std::runtime_error("sun shadow map: the driver cannot read back an R32F texture (it lacks "
@@ -312,6 +383,27 @@ std::vector<float> SunShadowMap::read_visibility(int plane) const {
   return out;
 }
 
+std::vector<float> SunShadowMap::read_vertex_visibility(int source) const {
+  if (source < 0 || source >= options_.max_sources) {
+    bad_input("source", "index " + std::to_string(source) + " is out of range", "use 0 … max_sources - 1");
+  }
+  std::vector<float> out(static_cast<std::size_t>(vertex_count_));
+  if (out.empty()) return out;
+  const auto bytes = static_cast<GLsizeiptr>(out.size() * sizeof(float));
+  glBindBuffer(GL_SHADER_STORAGE_BUFFER, vertex_visibility_.get());
+  const void* mapped = glMapBufferRange(GL_SHADER_STORAGE_BUFFER, static_cast<GLintptr>(source) * bytes, bytes, GL_MAP_READ_BIT);
+  if (mapped == nullptr) {
+    glBindBuffer(GL_SHADER_STORAGE_BUFFER, 0);
+    gpu::check_gl_error("sun shadow map: mapping the vertices' visibility");
+    throw gpu::GlError("sun shadow map: the driver could not map the vertices' visibility");
+  }
+  std::memcpy(out.data(), mapped, out.size() * sizeof(float));
+  glUnmapBuffer(GL_SHADER_STORAGE_BUFFER);
+  glBindBuffer(GL_SHADER_STORAGE_BUFFER, 0);
+  gpu::check_gl_error("sun shadow map: reading the vertices' visibility");
+  return out;
+}
+
 SunShadowSampling SunShadowMap::sampling() const { return sampling_; }
 
 void SunShadowMap::bind(GLuint program, int unit) const {
@@ -322,7 +414,9 @@ void SunShadowMap::bind(GLuint program, int unit) const {
   bind(program, unit, -1);
 }
 
-void SunShadowMap::bind(GLuint program, int unit, int minmax_unit) const {
+void SunShadowMap::bind(GLuint program, int unit, int minmax_unit) const { bind_sampling(program, sampling_, unit, minmax_unit); }
+
+void SunShadowMap::bind_sampling(GLuint program, const SunShadowSampling& sampling, int unit, int minmax_unit) const {
   glActiveTexture(static_cast<GLenum>(GL_TEXTURE0 + unit));
   glBindTexture(GL_TEXTURE_2D, depth_texture_.get());
   if (minmax_unit >= 0) {
@@ -335,13 +429,13 @@ void SunShadowMap::bind(GLuint program, int unit, int minmax_unit) const {
     glUniform1i(at, minmax_unit);
   }
   if (const GLint at = glGetUniformLocation(program, "sun_shadow_from_world"); at >= 0) {
-    glUniformMatrix4fv(at, 1, GL_FALSE, sampling_.shadow_from_world.data());
+    glUniformMatrix4fv(at, 1, GL_FALSE, sampling.shadow_from_world.data());
   }
   if (const GLint at = glGetUniformLocation(program, "sun_shadow_params"); at >= 0) {
-    glUniform4f(at, sampling_.texel_m, sampling_.depth_range_m, sampling_.tan_angular_radius, sampling_.bias_m);
+    glUniform4f(at, sampling.texel_m, sampling.depth_range_m, sampling.tan_angular_radius, sampling.bias_m);
   }
   if (const GLint at = glGetUniformLocation(program, "sun_shadow_direction"); at >= 0) {
-    glUniform3f(at, sampling_.direction.x(), sampling_.direction.y(), sampling_.direction.z());
+    glUniform3f(at, sampling.direction.x(), sampling.direction.y(), sampling.direction.z());
   }
   gpu::check_gl_error("sun shadow map: binding to a program");
 }

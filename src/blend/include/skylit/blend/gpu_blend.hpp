@@ -41,8 +41,9 @@ enum class ShadowRatioFormat {
 //                     (max_x B includes the fill); a page is read when any of its layers is kept.
 //   change_threshold  a blend is skipped, the last T kept, while the weights differ from those
 //                     of the last blend that ran by at most this much in T:
-//                     Σ_i |Δw_{i,c}| max_x B_i(x) + |Δw_sun,c| ≤ change_threshold for every c
-//                     (and the channels without light and the sun visibility are unchanged).
+//                     Σ_i |Δw_{i,c}| max_x B_i(x) + Σ_k |Δw_k,c| ≤ change_threshold for every c
+//                     (and the channels without light, the number of separated sources and their
+//                     visibility are unchanged).
 //                     0: skipped only when nothing changed.
 struct GpuBlendOptions {
   BasisStorage storage = BasisStorage::Half;
@@ -56,16 +57,21 @@ struct GpuBlendOptions {
   std::filesystem::path shader_dir;  // empty: gpu::find_shader_dir's default search
 };
 
-// The sun's visibility over a plane (SunShadowMap makes these): V in [0, 1] in the red channel of
-// a GL_TEXTURE_2D of the plane's width × height, texel (col, row) as the basis images, read with
-// texelFetch (any format; a float one needs NEAREST filtering to be complete). The blender
-// clamps V to [0, 1] (blend_cpu rejects values outside instead).
+// The visibility of the separated sources over a plane (SunShadowMap makes these): V_k in [0, 1]
+// in the red channel of layer k of a GL_TEXTURE_2D_ARRAY of the plane's width × height, one layer
+// per source (the sun first), texel (col, row) as the basis images, read with texelFetch (any
+// format; a float one needs NEAREST filtering to be complete). The blender clamps V to [0, 1]
+// (blend_cpu rejects values outside instead).
 struct SunVisibilityTexture {
   GLuint texture = 0;
   int width = 0;
   int height = 0;
   std::uint64_t revision = 0;  // changes whenever the texture's content does
+  int layers = 1;              // sources it holds V for: layer k is BlendWeights::sources[k]'s
 };
+
+// Separated terms the GPU blend sums at most (BlendWeights::sources; shaders/blend.comp).
+inline constexpr int kMaxGpuSources = 32;
 
 // A cropped basis (BasisImages::cropped(), the cropped form) stays cropped on the GPU, in pages
 // of an atlas. The plane is cut into tiles of kGpuPageSize × kGpuPageSize texels (16; row-major,
@@ -92,8 +98,12 @@ std::size_t gpu_basis_bytes(const BasisImages& basis, const GpuBlendOptions& opt
 
 // The blend:
 //
-//   T(x) = Σ_{i active} w_i B_i(x) + w_sun V(x)   per colour channel, fp32, in layer order,
-//   then a channel without light is 1 and T is clamped to [0, 1].
+//   T(x) = Σ_{i active} w_i B_i(x) + Σ_k w_k V_k(x)   per colour channel, fp32, in layer order,
+//   then a channel without light is 1 and T is clamped to [0, 1];
+//
+// k over the separated sources (BlendWeights::sources, the sun first; when that is empty, the
+// sun alone, BlendWeights::sun), as blend_cpu_sources sums them, V_k from layer k of the
+// visibility texture. A source whose weight is zero is not read.
 //
 // A tiled (clustered PCA) basis (BasisImages::tile) sums, at each texel, its tile's weights
 // (weights.face[t · layers + i]) over one slice list shared by all tiles (see skip_threshold above).
@@ -113,10 +123,11 @@ class GpuBlender {
   // GL_MAX_ARRAY_TEXTURE_LAYERS, a plane larger than GL_MAX_TEXTURE_SIZE).
   explicit GpuBlender(const BasisImages& basis, const GpuBlendOptions& options = {});
 
-  // Blends with weights from blend_weights for this basis, unless change_threshold says the
-  // last result still holds; returns whether it ran. `sun` is needed when weights.sun is not
-  // zero (InputError otherwise, as blend_cpu); it may be null otherwise.
-  bool blend(const BlendWeights& weights, const SunVisibilityTexture* sun = nullptr);
+  // Blends with weights from blend_weights (or blend_weights_sources) for this basis, unless
+  // change_threshold says the last result still holds; returns whether it ran. `sources` is
+  // needed when a separated term is not zero, with a layer for each term (InputError otherwise,
+  // as blend_cpu_sources; and for more than kMaxGpuSources terms); it may be null otherwise.
+  bool blend(const BlendWeights& weights, const SunVisibilityTexture* sources = nullptr);
 
   // The next blend runs whatever its weights (e.g. after the caller rewrote its sun visibility
   // texture without changing the revision).
@@ -162,14 +173,17 @@ class GpuBlender {
 
  private:
   struct SliceList;
-  void check_blend_input(const BlendWeights& weights, const SunVisibilityTexture* sun) const;
-  bool unchanged_since_last(const BlendWeights& weights, const SunVisibilityTexture* sun) const;
+  void check_blend_input(const BlendWeights& weights, const std::vector<Eigen::Vector3f>& terms,
+                         const SunVisibilityTexture* sources) const;
+  bool unchanged_since_last(const BlendWeights& weights, const std::vector<Eigen::Vector3f>& terms,
+                            const SunVisibilityTexture* sources) const;
   void choose_skipped(const BlendWeights& weights, std::vector<double>& contribution, std::vector<bool>& keep) const;
   SliceList paged_slices(const BlendWeights& weights, const std::vector<double>& contribution,
                          const std::vector<bool>& keep) const;
   SliceList layer_slices(const BlendWeights& weights, const std::vector<double>& contribution,
                          const std::vector<bool>& keep) const;
-  void dispatch(const SliceList& list, const BlendWeights& weights, const SunVisibilityTexture* sun, bool use_sun);
+  void dispatch(const SliceList& list, const BlendWeights& weights, const std::vector<Eigen::Vector3f>& terms,
+                const SunVisibilityTexture* sources);
   void upload_layers(const BasisImages& basis);  // whole layers, one or more per slice
   void upload_pages(const BasisImages& basis);   // a cropped basis, in pages of an atlas
 
@@ -207,8 +221,8 @@ class GpuBlender {
   gpu::Buffer tile_buffer_;  // per-tile constants and page ranges (paged; one unused record otherwise)
   GLint slice_count_location_ = -1;
   GLint paged_location_ = -1;
-  GLint sun_weight_location_ = -1;
-  GLint use_sun_location_ = -1;
+  GLint source_term_location_ = -1;
+  GLint source_count_location_ = -1;
   GLint no_light_location_ = -1;
   GLint tile_size_location_ = -1;
   GLint tiles_x_location_ = -1;
@@ -216,7 +230,7 @@ class GpuBlender {
   // The weights and inputs of the last blend that ran (for change_threshold).
   bool has_result_ = false;
   std::vector<Eigen::Vector3f> last_face_;
-  Eigen::Vector3f last_sun_ = Eigen::Vector3f::Zero();
+  std::vector<Eigen::Vector3f> last_sources_;  // the separated terms (separated_terms)
   std::array<bool, 3> last_no_light_{false, false, false};
   GLuint last_sun_texture_ = 0;
   std::uint64_t last_sun_revision_ = 0;

@@ -70,6 +70,13 @@ struct CompositeInput {
   // sun_visibility, shaders/sun_shadow.glsl), updated for this sun. Null: the sun term is
   // unshadowed (CompositeStats says so).
   const SunShadowMap* sun_shadow = nullptr;
+  // Separated sources after the sun (lamps: the sky stage's sources[1…]), with each one's visible
+  // fraction at every model vertex (SunShadowMap::read_vertex_visibility(k + 1): one value per
+  // vertex, or empty for 1). A lamp lights the building per vertex, E_k max(0, n_v·ω_k) V_k(v)
+  // added to the transfer sum, and a virtual plane through its D_j; its shadow on the ground
+  // comes with the shadow ratios (the GPU blend's separated terms). Bad energies count as 0.
+  std::span<const blend::SunLight> lamps;
+  std::span<const std::vector<float>> lamp_vertex_visibility;
   std::optional<PhotometricMatch> photometric;   // overrides CompositorOptions::photometric
   // α: how much of the virtual content (the building and its shadows) is shown, a linear blend
   // of the composite towards the camera image (the live service fades the building out when
@@ -99,10 +106,11 @@ struct CompositeTimings {
   Stage read_back;   // composite() only: glReadPixels and the cv::Mat
 };
 
-// The unoccluded irradiance of plane `plane` (RGB): D_j = Σ_i S_i A_{j,i} + E_sun max(0, n_j·ω_sun),
-// the denominator of its shadow ratio. Non-finite or negative S_i count as 0.
+// The unoccluded irradiance of plane `plane` (RGB): D_j = Σ_i S_i A_{j,i} + E_sun max(0, n_j·ω_sun)
+// + Σ_k E_k max(0, n_j·ω_k) over the lamps, the denominator of its shadow ratio. Non-finite or
+// negative S_i and energies count as 0.
 Eigen::Vector3d plane_irradiance(const bake_format::PlaneRecord& plane, std::span<const Eigen::Vector3d> sky,
-                                 const std::optional<blend::SunLight>& sun);
+                                 const std::optional<blend::SunLight>& sun, std::span<const blend::SunLight> lamps = {});
 
 // A shadow-ratio texture from CPU data (blend::blend_cpu's output: width × height × 3 floats, RGB, row-major
 // texels): RGBA32F, T in rgb. For the CPU blend path and for tests.
@@ -117,7 +125,8 @@ gpu::Texture upload_shadow_ratio(std::span<const float> rgb, int width, int heig
 //                     plane j covers the fragment (within cover_distance of its rectangle,
 //                     normals within cover_max_angle_deg): exact, and no double occlusion;
 //                 E = Σ_i S_i t_{v,i} (interpolated) + E_sun max(0, n·ω_sun) V_sun  elsewhere,
-//                     V_sun from the sun's shadow map (SunShadowMap; 1 without one);
+//                     V_sun from the sun's shadow map (SunShadowMap; 1 without one), and each
+//                     lamp's E_k max(0, n_v·ω_k) V_k(v) per vertex, interpolated with the sum;
 //   output      L over B, except where a real plane is nearer than the building by more than
 //               occlusion_margin (the real surface hides it);
 //   faded       (1 − α) camera(p) + α output, α = CompositeInput::opacity: α = 1 is the output,

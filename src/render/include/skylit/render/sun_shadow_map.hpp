@@ -1,7 +1,7 @@
 #pragma once
-// The sun's real-time shadow: the site mesh's depth seen from the sun (orthographic, fitted to
-// the bounds of the mesh and the shadowing planes), and from it the visible fraction of the
-// sun's disc at every texel of every plane, for the GPU blend's sun term (gpu_blend.hpp).
+// The real-time shadows of the separated sources (the sun, lamps): the site mesh's depth seen
+// from each (orthographic, fitted to the site's bounds), and from it the visible fraction of the
+// source's disc at every plane texel (the GPU blend's separated terms) and model vertex.
 #include <cstdint>
 #include <filesystem>
 #include <span>
@@ -22,7 +22,16 @@ struct SunShadowOptions {
   // (besides the slope-scaled offset of the depth pass): keeps surfaces from shadowing
   // themselves, at the price of shadows that start this much late at a contact.
   double bias_texels = 1.5;
+  // Separated sources one update draws at most (1: the sun alone): the layers of every plane's
+  // visibility texture. Each source costs a depth pass, its pyramid and its visibility passes.
+  int max_sources = 1;
   std::filesystem::path shader_dir;  // empty: gpu::find_shader_dir's default search
+};
+
+// A separated source whose shadow the map draws.
+struct ShadowSource {
+  Eigen::Vector3d direction = Eigen::Vector3d::UnitZ();  // towards it, site frame, any length > 0
+  double angular_radius = 0.0;  // radians, [0, 0.5): the disc (the real sun's is 0.0047)
 };
 
 // What a shader needs to sample the map (the uniforms of shaders/sun_shadow.glsl).
@@ -60,13 +69,23 @@ class SunShadowMap {
   // `angular_radius` (radians, >= 0; the real sun's is 0.0047), then every plane's
   // visibility. Each call bumps the visibility textures' revision.
   void update(const Eigen::Vector3d& direction, double angular_radius);
+  // The same for 1 … max_sources separated sources, the sun (or brightest) first: source k's
+  // visibility goes to layer k of every plane's texture and to the vertices' values; the depth
+  // map left for sampling() and bind() is source 0's. InputError for a bad source or count.
+  void update(std::span<const ShadowSource> sources);
+  int source_count() const { return source_count_; }  // of the last update
 
   int plane_count() const { return static_cast<int>(planes_.size()); }
   // V over plane `plane` (its texels, as the basis images), for blend::GpuBlender::blend. Valid after
   // the first update.
   const blend::SunVisibilityTexture& visibility(int plane) const;
-  // V of every texel of the plane, row-major (for tests and tools; blocks until the GPU is done).
-  std::vector<float> read_visibility(int plane) const;
+  // V of every texel of the plane for source `source`, row-major (for tests and tools; blocks
+  // until the GPU is done).
+  std::vector<float> read_visibility(int plane, int source = 0) const;
+  // V of source `source` at every mesh vertex (its position moved bias_texels along its normal),
+  // in the mesh's order: the building's light from a lamp, per vertex (blocks until the GPU is
+  // done; the live service reads it once per drawn map, off the render thread).
+  std::vector<float> read_vertex_visibility(int source) const;
 
   // The map for other shaders (valid after the first update).
   SunShadowSampling sampling() const;
@@ -86,7 +105,12 @@ class SunShadowMap {
     blend::SunVisibilityTexture visibility;
   };
 
+  SunShadowSampling draw_source(const ShadowSource& source, int layer);
+  void bind_sampling(GLuint program, const SunShadowSampling& sampling, int unit, int minmax_unit) const;
+
   SunShadowOptions options_;
+  int source_count_ = 0;
+  GLsizei vertex_count_ = 0;
   Eigen::Vector3d bounds_min_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d bounds_max_ = Eigen::Vector3d::Zero();
   GLsizei index_count_ = 0;
@@ -95,7 +119,10 @@ class SunShadowMap {
   gpu::Program depth_program_;
   gpu::Program visibility_program_;
   gpu::Program minmax_program_;
+  gpu::Program vertex_program_;      // V at the mesh's vertices
   gpu::Buffer position_buffer_;
+  gpu::Buffer normal_buffer_;
+  gpu::Buffer vertex_visibility_;    // vertex_count_ × max_sources floats, source-major
   gpu::Buffer index_buffer_;
   gpu::VertexArray vertex_array_;
   gpu::Texture depth_texture_;
