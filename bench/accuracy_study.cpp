@@ -10,7 +10,7 @@
 //   accuracy_study [--skies DIR] [--site SITE.yaml] [--calib CALIB.yaml] [--texel-scale 8]
 //                  [--out DIR] [--configs paper,area,area+sun,area64+sun,nu4,nu8,nu4-corners,nu4-quadratics64,corners,corners-nosun,corners64,area+oracle,corners+oracle,corners64+oracle]
 //                  [--sky NAME] [--pictures] [--sun-disc-factor F] [--sun-halo DEG] [--sun-min-contrast C]
-//                  [--sun-max-core DEG] [--reference-supersample N] [--sources N] [--pca K,K,...]
+//                  [--sun-max-core DEG] [--reference-supersample N] [--sources N] [--pca K,K,...] [--gpu]
 // With --pca, each configuration's bake is also compressed to K principal components (a copy per
 // K, skylit-bake compress) and blended with the same sky: its error against the reference and
 // against the uncompressed blend are printed in a second table (and JSON, "pca").
@@ -24,13 +24,18 @@
 // plane and every channel) and writes the same as JSON to DIR/accuracy.json. The building too
 // (study/building_light.hpp): per model vertex, E from the transfer vectors and the separated
 // sources against E_ref from the same lights with the model's self-occlusion, |E − E_ref| as a
-// share of the sky's horizontal irradiance, in a second table.
+// share of the sky's horizontal irradiance, in a second table. With --gpu, also the live GPU
+// path (study/gpu_path.hpp: every separated source's shadow map, the GPU blend, the building lit
+// through the maps) in a third table, beside the CPU path's ray-cast visibility.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <cstdlib>
+#include <numeric>
+#include <numbers>
 #include <optional>
 #include <string>
 #include <tuple>
@@ -52,7 +57,9 @@
 #include "skylit/sky/simulate.hpp"
 #include "skylit/sky/sky_estimate.hpp"
 #include "skylit/bake_format/arrays.hpp"
+#include "skylit/gpu/egl_context.hpp"
 #include "skylit/study/building_light.hpp"
+#include "skylit/study/gpu_path.hpp"
 #include "skylit/study/study.hpp"
 
 namespace {
@@ -168,7 +175,20 @@ int main(int argc, char** argv) {
   app.add_option("--pca-sky-correlation", pca_correlation, "--pca: the sky prior's correlation angle, degrees (0: none)");
   app.add_flag("--pictures", dump, "write T | reference | 5×|difference| per sky, setting and plane as PNG");
   app.add_option("--sky", only_sky, "only this sky (file stem, e.g. park)");
+  bool gpu_path_too = false;
+  app.add_flag("--gpu", gpu_path_too, "also the live GPU path: shadow maps per source, GPU blend (OpenGL ES, EGL)");
+  std::string gpu_radius = "shadow";
+  app.add_option("--gpu-radius", gpu_radius,
+                 "--gpu: each lamp's disc for its map: shadow (Sun::shadow_radius, as the live service), core "
+                 "(the detector's core radius)")
+      ->check(CLI::IsMember({"shadow", "core"}))
+      ->capture_default_str();
+  skylit::render::SunShadowOptions gpu_maps;
+  app.add_option("--gpu-map-resolution", gpu_maps.resolution, "--gpu: texels along each side of the shadow maps")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  std::optional<skylit::gpu::HeadlessContext> gl;
+  if (gpu_path_too) gl.emplace();
 
   std::vector<Config> configs;
   for (const Config& c : kConfigs) {
@@ -240,6 +260,14 @@ int main(int argc, char** argv) {
     Errors planes;      // the building's planes' texels
   };
   std::vector<BuildingRow> building_rows;
+  struct GpuRow {
+    std::string sky, config;
+    std::size_t sources = 0;
+    Errors cpu, disc, gpu, building;
+    double gpu_vs_cpu = 0;  // max |T_gpu − T_cpu|
+    double shadow_ms = 0, blend_ms = 0;
+  };
+  std::vector<GpuRow> gpu_rows;
   std::printf("| sky | configuration | ν | K | basis | sun | RMS | p99 | max | sun found |\n"
               "|---|---|---|---|---|---|---|---|---|---|\n");
   for (const fs::path& sky_file : skies) {
@@ -311,6 +339,7 @@ int main(int argc, char** argv) {
       // Several separated sources (SkyEstimateOptions::max_sources): found one after the other, all
       // taken out of the dome, each its own term in the blend below.
       std::vector<skylit::sky::Sun> sources;
+      const bool first_is_sun = estimate.sun.has_value();  // sources[0] is the sun (the live path's disc rule differs)
       if (c.mix == Config::Mix::Sources) {
         sources = estimate.sources;
         estimate.sun.reset();
@@ -415,6 +444,8 @@ int main(int argc, char** argv) {
       }
 
       std::vector<double> diffs, building_plane_diffs;
+      std::vector<std::vector<float>> cpu_ratios;  // T of each plane, for the GPU path's comparison
+      std::vector<std::vector<std::vector<float>>> ray_visibility;  // [plane][source]: the CPU path's V
       nlohmann::json per_plane;
       // Per K: |T_pca − T_full| and |T_pca − T_ref| over every texel and channel.
       std::map<int, std::vector<double>> pca_vs_full, pca_vs_reference;
@@ -470,6 +501,10 @@ int main(int argc, char** argv) {
             }
           }
         }
+        if (gpu_path_too) {
+          cpu_ratios.push_back(T);
+          ray_visibility.push_back(sources.empty() ? std::vector<std::vector<float>>{visibility} : source_visibility);
+        }
         std::vector<double> plane_diffs;
         for (std::size_t x = 0; x < basis.texel_count(); ++x) {
           for (int ch = 0; ch < 3; ++ch) {
@@ -517,6 +552,126 @@ int main(int argc, char** argv) {
         per_plane[basis.name] = {{"rms", pe.rms}, {"p99", pe.p99}, {"max", pe.max}};
       }
       const Errors e = errors_of(std::move(diffs));
+      nlohmann::json gpu_json;
+      if (gpu_path_too && (c.mix == Config::Mix::None || c.mix == Config::Mix::Sources) && !use_oracle) {
+        // The live GPU path: the sun's disc at least the real sun's, the lamps as found.
+        std::vector<skylit::blend::SunLight> lights;
+        std::vector<double> radii;
+        // As the live service draws them: the sun's disc at least the real sun's, each lamp's
+        // shadow radius (--gpu-radius core: its core radius, the diagnosis).
+        for (std::size_t k = 0; k < sources.size(); ++k) {
+          lights.push_back({sources[k].direction, sources[k].energy});
+          if (k == 0 && first_is_sun) {
+            radii.push_back(std::max(sources[k].angular_radius, 0.0047));
+          } else {
+            radii.push_back(gpu_radius == "shadow" && sources[k].shadow_radius > 0 ? sources[k].shadow_radius
+                                                                                    : sources[k].angular_radius);
+          }
+        }
+        if (sources.empty() && estimate.sun) {
+          lights.push_back(*sun);
+          radii.push_back(std::max(estimate.sun->angular_radius, 0.0047));
+        }
+        const GpuPathResult g = gpu_path(bake_dir, manifest, mesh, transfer, S, lights, radii, gpu_maps);
+        std::vector<double> gpu_diffs;
+        double vs_cpu = 0;
+        for (std::size_t j = 0; j < g.ratios.size(); ++j) {
+          for (std::size_t x = 0; x < g.ratios[j].size() / 3; ++x) {
+            for (int ch = 0; ch < 3; ++ch) {
+              const std::size_t at = x * 3 + static_cast<std::size_t>(ch);
+              gpu_diffs.push_back(std::abs(g.ratios[j][at] - reference[j][x][ch]));
+              vs_cpu = std::max(vs_cpu, static_cast<double>(std::abs(g.ratios[j][at] - cpu_ratios[j][at])));
+            }
+          }
+        }
+        const Errors ge = errors_of(std::move(gpu_diffs));
+        // Each source's V from its map against the ray-cast light the CPU path uses (the detector's
+        // pixels) and against a uniform disc of the same radius (what the map models).
+        std::vector<std::vector<std::vector<float>>> uniform_visibility(g.visibility.size(),
+                                                                        std::vector<std::vector<float>>(lights.size()));
+        for (std::size_t k = 0; k < lights.size(); ++k) {
+          double to_pixels = 0, to_disc = 0, disc_to_pixels = 0;
+          std::size_t count = 0;
+          const Vec3& w = lights[k].direction;
+          const Vec3 a = (std::abs(w.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX()).cross(w).normalized();
+          const Vec3 b = w.cross(a);
+          std::vector<Vec3> disc;
+          for (int q = 0; q < 256; ++q) {
+            const double r = radii[k] * std::sqrt((q + 0.5) / 256), phi = q * std::numbers::pi * (3.0 - std::sqrt(5.0));
+            disc.push_back((w + std::tan(r) * (std::cos(phi) * a + std::sin(phi) * b)).normalized());
+          }
+          const std::vector<double> disc_weights_uniform(disc.size(), 1.0 / static_cast<double>(disc.size()));
+          for (std::size_t j = 0; j < g.visibility.size(); ++j) {
+            const std::vector<float>& ray = ray_visibility[j][k];
+            if (ray.empty()) continue;
+            std::vector<float> uniform(ray.size());
+            skylit::baker::area_light_visibility(mesh, manifest.planes[j].plane, disc, disc_weights_uniform, uniform);
+            for (std::size_t x = 0; x < ray.size(); ++x) {
+              to_pixels += std::abs(static_cast<double>(g.visibility[j][k][x]) - ray[x]);
+              to_disc += std::abs(static_cast<double>(g.visibility[j][k][x]) - uniform[x]);
+              disc_to_pixels += std::abs(static_cast<double>(uniform[x]) - ray[x]);
+              ++count;
+            }
+            uniform_visibility[j][k] = std::move(uniform);
+          }
+          const double n = std::max<double>(static_cast<double>(count), 1.0);
+          // At the model's vertices that face the source: the map's V against the ray-cast light.
+          std::vector<float> vertex_ray(mesh.vertex_count());
+          if (sources.empty()) {
+            skylit::baker::area_light_vertex_visibility(mesh, site.planes, disc_directions, disc_weights, vertex_ray);
+          } else {
+            skylit::baker::area_light_vertex_visibility(mesh, site.planes, sources[k].disc_directions, sources[k].disc_weights, vertex_ray);
+          }
+          double vertex_sum = 0, vertex_signed = 0;
+          std::size_t facing = 0;
+          for (std::size_t v = 0; v < mesh.vertex_count(); ++v) {
+            if (mesh.normals[v].cast<double>().dot(w) <= 0) continue;
+            vertex_sum += std::abs(static_cast<double>(g.vertex_visibility[k][v]) - vertex_ray[v]);
+            vertex_signed += static_cast<double>(g.vertex_visibility[k][v]) - vertex_ray[v];
+            ++facing;
+          }
+          if (std::getenv("SKYLIT_STUDY_WORST_VERTICES") != nullptr) {
+            std::vector<std::size_t> order(mesh.vertex_count());
+            std::iota(order.begin(), order.end(), std::size_t{0});
+            std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
+              return g.vertex_visibility[k][x] - vertex_ray[x] > g.vertex_visibility[k][y] - vertex_ray[y];
+            });
+            for (std::size_t q = 0; q < 6; ++q) {
+              const std::size_t v = order[q];
+              std::fprintf(stderr, "  vertex %zu (%.2f, %.2f, %.2f) n (%.2f, %.2f, %.2f): V_map %.3f V_ray %.3f\n", v, mesh.positions[v].x(),
+                           mesh.positions[v].y(), mesh.positions[v].z(), mesh.normals[v].x(), mesh.normals[v].y(), mesh.normals[v].z(),
+                           g.vertex_visibility[k][v], vertex_ray[v]);
+            }
+          }
+          std::fprintf(stderr, "%s %s source %zu: vertices facing it: mean |V_map − V_ray| %.4f, mean V_map − V_ray %.4f over %zu\n",
+                       sky_file.stem().c_str(), c.name.c_str(), k, vertex_sum / std::max<double>(static_cast<double>(facing), 1.0),
+                       vertex_signed / std::max<double>(static_cast<double>(facing), 1.0), facing);
+          std::fprintf(stderr, "%s %s source %zu: elevation %.1f°, radius %.2f°, E %.4g: mean |V_map − V_pixels| %.4f, "
+                       "|V_map − V_disc| %.4f, |V_disc − V_pixels| %.4f over %zu texels\n",
+                       sky_file.stem().c_str(), c.name.c_str(), k, std::asin(std::clamp(w.z(), -1.0, 1.0)) * 180 / std::numbers::pi,
+                       radii[k] * 180 / std::numbers::pi, luminance(lights[k].energy), to_pixels / n, to_disc / n,
+                       disc_to_pixels / n, count);
+        }
+        // The CPU blend with each source as the uniform disc the maps model, ray-cast: what the disc
+        // model alone costs, the maps' approximation left out.
+        std::vector<double> disc_diffs;
+        for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
+          const skylit::blend::BasisImages basis = skylit::blend::load_basis(bake_dir, manifest, static_cast<int>(j));
+          const std::vector<std::span<const float>> views(uniform_visibility[j].begin(), uniform_visibility[j].end());
+          std::vector<float> T_disc(basis.texel_count() * 3);
+          skylit::blend::blend_cpu_sources(basis, skylit::blend::blend_weights_sources(basis, S, lights), views, T_disc);
+          for (std::size_t x = 0; x < basis.texel_count(); ++x) {
+            for (int ch = 0; ch < 3; ++ch) disc_diffs.push_back(std::abs(T_disc[x * 3 + static_cast<std::size_t>(ch)] - reference[j][x][ch]));
+          }
+        }
+        const Errors disc_model = errors_of(std::move(disc_diffs));
+        const Errors gb = building_errors(g.building, building_ref, horizontal);
+        gpu_rows.push_back({sky_file.stem().string(), c.name, lights.size(), e, disc_model, ge, gb, vs_cpu, g.shadow_ms, g.blend_ms});
+        gpu_json = {{"sources", lights.size()}, {"rms", ge.rms}, {"p99", ge.p99}, {"max", ge.max}, {"vs_cpu_max", vs_cpu},
+                    {"disc_model", {{"rms", disc_model.rms}, {"p99", disc_model.p99}, {"max", disc_model.max}}},
+                    {"building", {{"rms", gb.rms}, {"p99", gb.p99}, {"max", gb.max}}},
+                    {"shadow_ms", g.shadow_ms}, {"blend_ms", g.blend_ms}};
+      }
       const Errors building_planes = errors_of(std::move(building_plane_diffs));
       building_rows.back().planes = building_planes;
       const std::string found = !c.sun                                         ? "-"
@@ -554,6 +709,7 @@ int main(int argc, char** argv) {
                          {"building", {{"rms", building.rms}, {"p99", building.p99}, {"max", building.max},
                                        {"of", "the horizontal irradiance"}, {"vertices", mesh.vertex_count()},
                                        {"reference_seconds", building_reference_seconds}}},
+                         {"gpu_path", gpu_json},
                          {"bake_seconds", bake_seconds.at(key_of(c))}});
     }
   }
@@ -563,6 +719,19 @@ int main(int argc, char** argv) {
   for (const BuildingRow& row : building_rows) {
     std::printf("| %s | %s | %.4f | %.4f | %.4f | %.4f / %.4f / %.4f | %s |\n", row.sky.c_str(), row.config.c_str(), row.errors.rms,
                 row.errors.p99, row.errors.max, row.planes.rms, row.planes.p99, row.planes.max, row.worst.c_str());
+  }
+  if (!gpu_rows.empty()) {
+    std::printf("\nThe live GPU path (every source's shadow map, the GPU blend, half-float T) against the CPU path's "
+                "ray-cast visibility; the building through the maps' vertex visibility (llvmpipe times)\n\n"
+                "| sky | configuration | sources | CPU path: RMS / p99 / max | CPU, uniform discs ray-cast: RMS / p99 / max | "
+                "GPU path: RMS / p99 / max | max |T_gpu − T_cpu| | building (GPU): RMS / p99 / max | maps, ms | blend, ms |\n"
+                "|---|---|---|---|---|---|---|---|---|---|\n");
+    for (const GpuRow& r : gpu_rows) {
+      std::printf("| %s | %s | %zu | %.4f / %.4f / %.4f | %.4f / %.4f / %.4f | %.4f / %.4f / %.4f | %.4f | %.4f / %.4f / %.4f | %.1f | %.1f |\n",
+                  r.sky.c_str(), r.config.c_str(), r.sources, r.cpu.rms, r.cpu.p99, r.cpu.max, r.disc.rms, r.disc.p99, r.disc.max,
+                  r.gpu.rms, r.gpu.p99, r.gpu.max, r.gpu_vs_cpu, r.building.rms, r.building.p99, r.building.max, r.shadow_ms,
+                  r.blend_ms);
+    }
   }
   if (!pca_rows.empty()) {
     std::printf("\n| sky | configuration | K | vs full: RMS / p99 / max | vs reference: RMS / p99 / max | full vs reference RMS |\n"

@@ -7,7 +7,9 @@
 // llvmpipe these are CPU figures: process CPU time is the work done, wall time depends on what
 // else runs on the machine. SKYLIT_COMPOSE_BENCH_DOME=FREQUENCY,BASIS,SAMPLES (e.g. 4,corners,16:
 // the balanced preset's bake) bakes that dome instead of the sample site's own (ν=2 faces); the
-// number of layers sets the cost of the building's per-vertex sky irradiance.
+// number of layers sets the cost of the building's per-vertex sky irradiance. Separated sources
+// (sky.max_sources): the shadow maps of N sources, the GPU blend of every plane with N terms, and
+// a frame whose building takes N − 1 lamps per vertex, each against N = 1.
 #include <algorithm>
 #include <array>
 #include <cstdio>
@@ -29,6 +31,8 @@
 #include "skylit/gpu/egl_context.hpp"
 #include "skylit/render/compositor.hpp"
 #include "skylit/blend/cpu_blend.hpp"
+#include "skylit/blend/basis.hpp"
+#include "skylit/blend/gpu_blend.hpp"
 #include "skylit/render/hmd_distortion.hpp"
 #include "skylit/render/sun_shadow_map.hpp"
 #include "skylit/scene/site.hpp"
@@ -266,6 +270,97 @@ void BM_SunShadowUpdate(benchmark::State& state) {
 }
 
 BENCHMARK(BM_SunShadowUpdate)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// N separated sources: the sun, and N − 1 lamps of 2° radius spread over the sky (elevations
+// 35°–75°, azimuths a golden angle apart).
+std::vector<render::ShadowSource> separated_sources(const Scene& scene, int count) {
+  std::vector<render::ShadowSource> sources{{scene.sun.direction, 0.0047}};
+  for (int k = 1; k < count; ++k) {
+    const double az = k * 137.5 * std::numbers::pi / 180, el = (35.0 + 40.0 * ((k * 7) % 11) / 10.0) * std::numbers::pi / 180;
+    sources.push_back({Eigen::Vector3d(std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)), 2.0 * std::numbers::pi / 180});
+  }
+  return sources;
+}
+
+std::vector<blend::SunLight> source_lights(const Scene& scene, const std::vector<render::ShadowSource>& sources) {
+  std::vector<blend::SunLight> lights{scene.sun};
+  for (std::size_t k = 1; k < sources.size(); ++k) lights.push_back({sources[k].direction, Eigen::Vector3d::Constant(0.2)});
+  return lights;
+}
+
+// Every source's shadow map redrawn (depth pass, pyramid, planes' and vertices' V), glFinish
+// included. arg: sources.
+void BM_SourceShadowUpdate(benchmark::State& state) {
+  Scene& scene = Scene::get();
+  std::vector<geom::Plane> planes;
+  for (const auto& record : scene.manifest.planes) planes.push_back(record.plane);
+  render::SunShadowOptions options;
+  options.max_sources = static_cast<int>(state.range(0));
+  render::SunShadowMap map(scene.mesh, planes, options);
+  const std::vector<render::ShadowSource> sources = separated_sources(scene, options.max_sources);
+  map.update(sources);
+  glFinish();
+  for (auto _ : state) {
+    map.update(sources);
+    glFinish();
+  }
+}
+
+// The GPU blend of every plane (half storage, packed, half T) with N separated terms, V from the
+// maps, glFinish included. arg: sources.
+void BM_SourceBlend(benchmark::State& state) {
+  Scene& scene = Scene::get();
+  std::vector<geom::Plane> planes;
+  for (const auto& record : scene.manifest.planes) planes.push_back(record.plane);
+  render::SunShadowOptions options;
+  options.max_sources = static_cast<int>(state.range(0));
+  render::SunShadowMap map(scene.mesh, planes, options);
+  const std::vector<render::ShadowSource> sources = separated_sources(scene, options.max_sources);
+  map.update(sources);
+  const std::vector<blend::SunLight> lights = source_lights(scene, sources);
+  std::vector<blend::BasisImages> bases;
+  std::vector<std::unique_ptr<blend::GpuBlender>> blenders;
+  std::vector<blend::BlendWeights> weights;
+  for (std::size_t j = 0; j < scene.manifest.planes.size(); ++j) {
+    bases.push_back(blend::load_basis(scene.dir, scene.manifest, static_cast<int>(j)));
+    blenders.push_back(std::make_unique<blend::GpuBlender>(bases.back()));
+    weights.push_back(blend::blend_weights_sources(bases.back(), scene.sky, lights));
+  }
+  glFinish();
+  for (auto _ : state) {
+    for (std::size_t j = 0; j < blenders.size(); ++j) {
+      blenders[j]->invalidate();
+      blenders[j]->blend(weights[j], &map.visibility(static_cast<int>(j)));
+    }
+    glFinish();
+  }
+}
+
+// A 640×480 frame (draw, glFinish) whose building takes N − 1 lamps per vertex besides the sun,
+// summed on the CPU every frame. arg: sources.
+void BM_CompositeDrawLamps(benchmark::State& state) {
+  Scene& scene = Scene::get();
+  const camera::CameraCalibration calibration = camera(640, 480);
+  render::Compositor compositor(scene.site, scene.mesh, scene.manifest, scene.transfer, calibration);
+  cv::Mat image;
+  render::CompositeInput input = frame_input(scene, calibration, image);
+  const std::vector<render::ShadowSource> sources = separated_sources(scene, static_cast<int>(state.range(0)));
+  const std::vector<blend::SunLight> lights = source_lights(scene, sources);
+  const std::vector<blend::SunLight> lamps(lights.begin() + 1, lights.end());
+  const std::vector<std::vector<float>> visibility(lamps.size(), std::vector<float>(scene.mesh.vertex_count(), 0.8f));
+  input.lamps = lamps;
+  input.lamp_vertex_visibility = visibility;
+  compositor.composite(input);
+  for (auto _ : state) {
+    compositor.draw(input);
+    glFinish();
+  }
+  state.counters["vertices"] = static_cast<double>(scene.mesh.vertex_count());
+}
+
+BENCHMARK(BM_SourceShadowUpdate)->ArgNames({"sources"})->Arg(1)->Arg(2)->Arg(4)->Arg(16)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_SourceBlend)->ArgNames({"sources"})->Arg(1)->Arg(2)->Arg(4)->Arg(16)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_CompositeDrawLamps)->ArgNames({"sources"})->Arg(1)->Arg(16)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // An HMD frame on the generic profile (config/hmd/generic.yaml: 2 × 1920×1080, lens distortion
 // per channel through a 40×40 mesh per eye) from a 1920×1080 camera, glFinish included.

@@ -415,6 +415,48 @@ TEST_F(CompositorTest, ANewSkyReachesTheBuildingOnTheNextFrame) {
   EXPECT_GT(cv::norm(first, second, cv::NORM_INF), 0.01);  // the building changed with the sky
 }
 
+TEST_F(CompositorTest, LampsLightTheBuildingPerVertexThroughTheirVisibility) {
+  // A lamp (a separated source after the sun) lights the building per vertex: on the flat faces
+  // of this model, with its visibility 1 at every vertex, exactly as an unshadowed sun of the
+  // same light does per pixel; with visibility v, v times that. No virtual plane covers the
+  // building here (cover_distance 0), and the sky is black, so the lamp is all the light.
+  const BakedSite& baked = BakedSite::get();
+  render::CompositorOptions options;
+  options.cover_distance = 0.0;
+  render::Compositor compositor = make(options);
+  const cv::Mat camera(240, 320, CV_32FC3, cv::Scalar::all(0.0));
+  const std::vector<Vector3d> black = uniform_sky(0.0);
+  const blend::SunLight lamp{Vector3d(-0.5, -0.7, 0.5), Vector3d(3.0, 2.0, 1.0)};
+  const std::size_t vertices = baked.mesh.vertex_count();
+  auto draw = [&](const std::optional<blend::SunLight>& sun, std::span<const blend::SunLight> lamps,
+                  std::span<const std::vector<float>> visibility) {
+    render::CompositeInput input;
+    input.camera = camera;
+    input.pose = hmd_pose(4.0, -8.0, 8.0, 40.0);
+    input.sky = black;
+    input.sun = sun;
+    input.lamps = lamps;
+    input.lamp_vertex_visibility = visibility;
+    return compositor.composite(input);
+  };
+  const cv::Mat as_sun = draw(lamp, {}, {});
+  const std::vector<std::vector<float>> seen{std::vector<float>(vertices, 1.0f)};
+  const cv::Mat lit = draw(std::nullopt, std::span(&lamp, 1), seen);
+  const std::vector<std::vector<float>> quarter{std::vector<float>(vertices, 0.25f)};
+  const cv::Mat dimmed = draw(std::nullopt, std::span(&lamp, 1), quarter);
+  const std::vector<std::vector<float>> hidden{std::vector<float>(vertices, 0.0f)};
+  const cv::Mat dark = draw(std::nullopt, std::span(&lamp, 1), hidden);
+  double peak = 0;
+  cv::minMaxLoc(as_sun.reshape(1), nullptr, &peak);
+  ASSERT_GT(peak, 0.05) << "the lamp lights the building in view";
+  EXPECT_LE(cv::norm(lit, as_sun, cv::NORM_INF), 1e-5 * peak);
+  EXPECT_LE(cv::norm(dimmed, 0.25 * as_sun, cv::NORM_INF), 1e-5 * peak);
+  EXPECT_EQ(cv::norm(dark, cv::NORM_INF), 0.0);
+  // A visibility of the wrong size is refused, naming the field.
+  const std::vector<std::vector<float>> short_one{std::vector<float>(vertices - 1, 1.0f)};
+  EXPECT_THROW(draw(std::nullopt, std::span(&lamp, 1), short_one), InputError);
+}
+
 TEST_F(CompositorTest, OpacityBlendsTheCompositeTowardsTheCameraImage) {
   // The building and its shadow on the ground (a low sun in the west-south-west), over a random
   // real world: opacity 0 must give the camera image exactly, 0.5 the midpoint of the camera

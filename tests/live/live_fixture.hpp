@@ -126,6 +126,7 @@ struct RigOptions {
   bool sky_loop = false;
   std::string sky_realtime;            // "" for none
   std::string sun = "auto";
+  int max_sources = 1;                 // sky.max_sources (written when above 1)
   double stale_after = 30;
   std::string status;                  // status.listen, "" for none
   std::string camera_source_extra;     // more YAML in camera.source (lines indented by 4)
@@ -169,6 +170,7 @@ class Rig {
         << (options_.sky_realtime.empty() ? "" : "    realtime: " + options_.sky_realtime + "\n")
         << "  rate: 0\n"
         << "  sun: " << options_.sun << "\n"
+        << (options_.max_sources > 1 ? "  max_sources: " + std::to_string(options_.max_sources) + "\n" : std::string())
         << "  stale_after: " << options_.stale_after << "\n"
         << "camera:\n"
         << "  calibration: hmd.yaml\n"

@@ -1,11 +1,13 @@
 // The service end to end: recorded sky and camera frames in, composited frames out, against the
 // compositor driven directly with the same inputs (the sky estimate of the same sky frame, the CPU
-// blend of T with the same sun visibility), with the service's blend on the CPU and on the GPU;
-// the box's shadow on the ground where geometry puts it. Measured figures are printed
+// blend of T with the same sun visibility), with the service's blend on the CPU and on the GPU,
+// with the sun alone and with lamps besides (sky.max_sources); the box's shadow on the ground
+// where geometry puts it. Measured figures are printed
 // ("measured:" lines).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <numbers>
 
 #include <gtest/gtest.h>
@@ -33,23 +35,22 @@ struct Outputs {
   render::CameraPose pose;
   camera::CameraCalibration hmd;
   Vector3d sun_direction = Vector3d::Zero();
+  std::size_t lamps = 0;               // separated besides the sun
   std::string error;
 
-  // device: the service's blend.device, "cpu" or "gpu".
-  static const Outputs& get(const std::string& device) {
-    if (device == "gpu") {
-      static const Outputs gpu = make("gpu");
-      return gpu;
-    }
-    static const Outputs cpu = make("cpu");
-    return cpu;
+  // run: the service's blend.device, "cpu" or "gpu", and "_lamps" for sky.max_sources 4.
+  static const Outputs& get(const std::string& run) {
+    static std::map<std::string, Outputs> made;
+    if (!made.count(run)) made.emplace(run, make(run.substr(0, 3), run.ends_with("_lamps") ? 4 : 1));
+    return made.at(run);
   }
 
  private:
-  static Outputs make(const std::string& device) {
+  static Outputs make(const std::string& device, int max_sources) {
     Outputs out;
     RigOptions rig_options;
     rig_options.extra = "blend:\n  device: " + device + "\n";
+    rig_options.max_sources = max_sources;
     const Rig rig(rig_options);
     const live::LiveConfig config = rig.config();
     live::ServiceOptions options = quiet_options();
@@ -84,6 +85,7 @@ struct Outputs {
     const geom::Dome dome(manifest.plan.frequency);
     sky::SkyEstimateOptions estimate_options;
     estimate_options.table.basis = manifest.plan.basis;
+    estimate_options.max_sources = max_sources;
     const sky::SkyEstimator estimator(camera::load_calibration(config.sky.calibration), dome, estimate_options);
     const cv::Mat sky_frame = sky::read_sky_image(rig.dir() / "sky" / "frame_0000.exr");
     const sky::SkyEstimate estimate =
@@ -95,18 +97,36 @@ struct Outputs {
     const std::vector<Vector3d> S = sky::layer_radiances(estimate.luminance);
     const blend::SunLight sun{estimate.sun->direction, estimate.sun->energy};
     out.sun_direction = sun.direction;
+    // The sun (its disc at least the real sun's, as the service draws it), then the lamps (their
+    // shadow radius).
+    std::vector<blend::SunLight> sources{sun};
+    std::vector<render::ShadowSource> drawn{{sun.direction, std::max(estimate.sun->angular_radius, 0.0047)}};
+    std::vector<blend::SunLight> lamps;
+    for (std::size_t k = 1; k < estimate.sources.size(); ++k) {
+      lamps.push_back({estimate.sources[k].direction, estimate.sources[k].energy});
+      sources.push_back(lamps.back());
+      drawn.push_back({estimate.sources[k].direction, estimate.sources[k].shadow_radius});
+    }
+    out.lamps = lamps.size();
 
     std::vector<geom::Plane> planes;
     for (const auto& record : manifest.planes) planes.push_back(record.plane);
-    render::SunShadowMap shadow_map(mesh, planes);
-    shadow_map.update(sun.direction, std::max(estimate.sun->angular_radius, 0.0047));
+    render::SunShadowOptions map_options;
+    map_options.max_sources = max_sources;
+    render::SunShadowMap shadow_map(mesh, planes, map_options);
+    shadow_map.update(drawn);
+    std::vector<std::vector<float>> lamp_vertex_visibility;
+    for (std::size_t k = 1; k < drawn.size(); ++k) lamp_vertex_visibility.push_back(shadow_map.read_vertex_visibility(static_cast<int>(k)));
     std::vector<gpu::Texture> textures;
     std::vector<GLuint> names;
     for (std::size_t j = 0; j < manifest.planes.size(); ++j) {
       const blend::BasisImages basis = blend::load_basis(config.bake, manifest, static_cast<int>(j));
-      const blend::BlendWeights weights = blend::blend_weights(basis, S, sun);
+      const blend::BlendWeights weights = blend::blend_weights_sources(basis, S, sources);
+      std::vector<std::vector<float>> visibility;
+      for (std::size_t k = 0; k < drawn.size(); ++k) visibility.push_back(shadow_map.read_visibility(static_cast<int>(j), static_cast<int>(k)));
+      const std::vector<std::span<const float>> views(visibility.begin(), visibility.end());
       std::vector<float> rgb(basis.texel_count() * 3);
-      blend::blend_cpu(basis, weights, shadow_map.read_visibility(static_cast<int>(j)), rgb);
+      blend::blend_cpu_sources(basis, weights, views, rgb);
       textures.push_back(render::upload_shadow_ratio(rgb, basis.width, basis.height));
       names.push_back(textures.back().get());
     }
@@ -124,6 +144,8 @@ struct Outputs {
       input.sun = sun;
       input.shadow_ratios = names;
       input.sun_shadow = &shadow_map;
+      input.lamps = lamps;
+      input.lamp_vertex_visibility = lamp_vertex_visibility;
       out.direct.push_back(compositor.composite(input));
     }
     return out;
@@ -158,8 +180,18 @@ TEST_P(ServiceBlend, RecordedFramesMatchTheCompositorDrivenDirectly) {
   ASSERT_TRUE(out.error.empty()) << out.error;
   ASSERT_EQ(out.recorded.size(), 30u);
   ASSERT_LT(out.frames_without_sky, 25) << "the sky came too late to compare frames";
-  EXPECT_EQ(out.status["blend"]["device"], GetParam()) << out.status["blend"].dump();
-  EXPECT_EQ(out.status["blend"]["setting"], GetParam());
+  const std::string device = GetParam().substr(0, 3);
+  EXPECT_EQ(out.status["blend"]["device"], device) << out.status["blend"].dump();
+  EXPECT_EQ(out.status["blend"]["setting"], device);
+  // With sky.max_sources 4 the clear sky's lamp detector finds further sources (patches of the
+  // bright circumsolar sky): each gets its shadow map and its term, as the direct path does.
+  if (GetParam().ends_with("_lamps")) {
+    EXPECT_GE(out.lamps, 1u) << "the test needs lamps to mean anything";
+    EXPECT_EQ(out.status["sky"]["lamps"].size(), out.lamps) << out.status["sky"].dump();
+  } else {
+    EXPECT_EQ(out.lamps, 0u);
+    EXPECT_TRUE(out.status["sky"]["lamps"].empty());
+  }
   // The sun's shadow map is drawn on the sky thread, never on the render thread: a frame that
   // takes a new sky switches to the finished map (sun_shadow_exchange.hpp).
   const auto& maps = out.status["sun_shadow_maps"];
@@ -182,9 +214,9 @@ TEST_P(ServiceBlend, RecordedFramesMatchTheCompositorDrivenDirectly) {
     for (const cv::Mat& input : out.inputs) to_input = std::min(to_input, max_difference(out.recorded[k], input));
     EXPECT_EQ(to_input, 0) << "frame " << k << ", composited before the sky came";
   }
-  std::printf("measured: blend on the %s: %zu frames with the sky (%lld before it came): max |service − direct| %d "
-              "codes of 255; to the other camera frames' composites ≥ %d codes\n",
-              GetParam().c_str(), out.recorded.size() - static_cast<std::size_t>(out.frames_without_sky),
+  std::printf("measured: blend on the %s (%zu lamps besides the sun): %zu frames with the sky (%lld before it came): "
+              "max |service − direct| %d codes of 255; to the other camera frames' composites ≥ %d codes\n",
+              GetParam().c_str(), out.lamps, out.recorded.size() - static_cast<std::size_t>(out.frames_without_sky),
               static_cast<long long>(out.frames_without_sky), worst, nearest_other);
   // The direct composite blends on the CPU into a float texture. The service's CPU blend is the
   // same sum over the same halves with the same sun visibility; its GPU blend sums in fp32 and
@@ -194,7 +226,7 @@ TEST_P(ServiceBlend, RecordedFramesMatchTheCompositorDrivenDirectly) {
   EXPECT_GE(nearest_other, 10);
 }
 
-INSTANTIATE_TEST_SUITE_P(Device, ServiceBlend, ::testing::Values("cpu", "gpu"),
+INSTANTIATE_TEST_SUITE_P(Device, ServiceBlend, ::testing::Values("cpu", "gpu", "cpu_lamps", "gpu_lamps"),
                          [](const auto& param_info) { return param_info.param; });
 
 // The two blends give the same composited frames: per camera frame of the rig, the service's

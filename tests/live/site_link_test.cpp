@@ -3,6 +3,7 @@
 // the sky node's skies; it keeps compositing with the last one when the sky node or the broker
 // goes away, says so in its flags, and takes the skies of a new sky node without a restart; bad
 // messages are dropped and counted.
+#include <algorithm>
 #include <memory>
 #include <optional>
 #include <random>
@@ -25,20 +26,22 @@ namespace skylit::live_test {
 namespace {
 
 // The rig's sky frames (two, looped at 2 per second) as a sky node's config.
-std::string sky_node_config(const Rig& rig, int broker_port) {
+std::string sky_node_config(const Rig& rig, int broker_port, int max_sources = 1) {
   const BakedSite& baked = BakedSite::get();
   return "root: /\nsite: " + quoted(baked.dir / "site.yaml") + "\nbake: " + quoted(baked.dir / "bake") +
          "\nsky:\n  calibration: " + quoted(rig.dir() / "sky.yaml") + "\n  source:\n    kind: images\n    path: " +
          quoted(rig.dir() / "sky") + "\n    loop: true\n    realtime: 1\n  rate: 0\n  sun: auto\n" +
+         "  max_sources: " + std::to_string(max_sources) + "\n" +
          "link:\n  broker: 127.0.0.1:" + std::to_string(broker_port) + "\n  node: sky\n";
 }
 
 // The rig's config with its sky from the broker.
-std::string hmd_node_config(const Rig& rig, int broker_port) {
+std::string hmd_node_config(const Rig& rig, int broker_port, int max_sources = 1) {
   std::string text = rig.config_text();
   const std::size_t sky = text.find("sky:\n"), camera = text.find("camera:\n");
   return text.replace(sky, camera - sky, "sky:\n  source:\n    kind: mqtt\n    broker: 127.0.0.1:" + std::to_string(broker_port) +
-                                             "\n    node: hmd-test\n  stale_after: 1\n");
+                                             "\n    node: hmd-test\n  stale_after: 1\n  max_sources: " +
+                                             std::to_string(max_sources) + "\n");
 }
 
 // A sky node running on a thread of its own until destroyed (which says goodbye).
@@ -163,6 +166,32 @@ TEST(SiteLink, AnHmdNodeCompositesTheSkyNodesSkiesAndOutlivesTheSkyNodeAndTheBro
   EXPECT_EQ(test::promtool_problems(metrics), "") << metrics;
   EXPECT_EQ(test::promtool_problems(sky_node->metrics()), "") << sky_node->metrics();
   EXPECT_TRUE(hmd.error().empty()) << hmd.error();
+}
+
+// A sky node that separates lamps publishes them; an HMD node draws a shadow map for each it
+// takes (sky.max_sources), and one that takes the sun alone leaves them out.
+TEST(SiteLink, LampsCrossTheLinkAndEachNodeTakesAsManyAsItDraws) {
+  test::MosquittoBroker broker;
+  RigOptions options;
+  options.sky_frames = 2;
+  Rig rig(options);
+  std::ofstream(rig.dir() / "sky_node.yaml") << sky_node_config(rig, broker.port(), 4);
+  const RunningSkyNode sky_node(live::load_sky_node_config(rig.dir() / "sky_node.yaml"));
+  for (const int max_sources : {4, 1}) {
+    std::ofstream(rig.dir() / "hmd_node.yaml") << hmd_node_config(rig, broker.port(), max_sources);
+    RunningService hmd(live::load_live_config(rig.dir() / "hmd_node.yaml"), quiet_options());
+    ASSERT_TRUE(hmd.wait_for([](const nlohmann::json& s) { return s["state"] == "running" && taken(s) >= 2; }))
+        << hmd.status().dump(2);
+    const nlohmann::json status = hmd.status();
+    const int published = sky_node.status()["sky"]["lamps"].get<int>();
+    ASSERT_GE(published, 1) << "the sky node separated no lamp: " << sky_node.status()["sky"].dump();
+    ASSERT_FALSE(status["sky"]["sun"].is_null());
+    EXPECT_EQ(status["sky"]["lamps"].size(), static_cast<std::size_t>(std::min(published, max_sources - 1)))
+        << status["sky"].dump();
+    for (const auto& lamp : status["sky"]["lamps"]) EXPECT_GT(lamp["shadow_radius_deg"].get<double>(), 0.0);
+    EXPECT_GE(status["sun_shadow_maps"]["drawn"].get<std::int64_t>(), 1);
+    EXPECT_TRUE(hmd.error().empty()) << hmd.error();
+  }
 }
 
 TEST(SiteLink, ABrokerThatIsDownAtStartIsWaitedFor) {

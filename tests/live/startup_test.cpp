@@ -215,6 +215,24 @@ TEST(ServiceConfig, BlendDeviceAndRecordSettings) {
   }
 }
 
+TEST(ServiceConfig, MaxSourcesIsASettingWithinTheGpuBlendsLimit) {
+  RigOptions options;
+  EXPECT_EQ(live::load_live_config(Rig(options).config_file()).sky.max_sources, 1);
+  options.max_sources = 16;
+  EXPECT_EQ(live::load_live_config(Rig(options).config_file()).sky.max_sources, 16);
+  for (const int bad : {0, 33}) {
+    options.max_sources = bad > 1 ? bad : 1;
+    const Rig rig(options);
+    const fs::path file = rig.dir() / "bad_sources.yaml";
+    std::string text = rig.config_text();
+    if (bad <= 1) text.insert(text.find("  stale_after:"), "  max_sources: 0\n");
+    std::ofstream(file) << text;
+    const std::string message = skylit::test::error_of([&] { live::load_live_config(file); });
+    EXPECT_NE(message.find("field 'sky.max_sources'"), std::string::npos) << message;
+    EXPECT_NE(message.find("32"), std::string::npos) << message;
+  }
+}
+
 // Every input a config names lies inside its root (its folder, or `root:`); secrets and outputs
 // may lie anywhere. The root is judged by names: a link inside it may point anywhere.
 TEST(ServiceConfig, EveryInputItNamesLiesInsideItsRoot) {

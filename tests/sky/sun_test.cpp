@@ -93,12 +93,48 @@ TEST(SunDetector, FindsADiscWithItsDirectionAndEnergy) {
     EXPECT_NEAR(d.sun->background[c], background[c], 0.1 * background[c]);
   }
   EXPECT_NEAR(d.sun->angular_radius, sky.radius, 0.3 * kDeg);
+  // A uniform disc's shadow radius (its pixels' second moment) is its radius, within pixelisation.
+  EXPECT_NEAR(d.sun->shadow_radius, sky.radius, 0.15 * kDeg);
   EXPECT_FALSE(d.sun->clipped);
   // The mask covers the disc's pixels, no more.
   EXPECT_EQ(cv::countNonZero(d.mask), d.sun->pixel_count);
   const auto centre = lens.site_to_pixel(sky.sun);
   ASSERT_TRUE(centre);
   EXPECT_EQ(d.mask.at<std::uint8_t>(static_cast<int>(std::lround(centre->y())), static_cast<int>(std::lround(centre->x()))), 255);
+}
+
+// An extended lamp (a bright tube 8° long and 1° wide, brightest at its middle): its core radius
+// reaches towards its ends, but its shadows are as soft as a disc of its spread; the shadow
+// radius is that disc's (√2 × the energy-weighted RMS angle, here integrated on a fine grid).
+TEST(SunDetector, AnExtendedLampsShadowRadiusMatchesItsSpread) {
+  const camera::Lens lens(zenith_camera(1024));
+  const SunDetector detector(lens, cv::Mat(), lamp_options());
+  const Vec3 centre = from_angles(90.0, 60.0);
+  const Vec3 along = Vec3::UnitZ().cross(centre).normalized();  // horizontal, across the azimuth
+  const Vec3 across = centre.cross(along);
+  const double half_length = 4.0 * kDeg, half_width = 0.5 * kDeg;
+  const auto tube = [&](double u, double v) {  // radiance over the background of 1
+    if (std::abs(u) > half_length || std::abs(v) > half_width) return 0.0;
+    return 500.0 * (1.0 - 0.5 * (u / half_length) * (u / half_length));
+  };
+  const cv::Mat frame = paint(lens, [&](const Vec3& d) -> Eigen::Vector3d {
+    if (d.z() < 0) return Eigen::Vector3d::Zero();
+    const double u = std::atan2(d.dot(along), d.dot(centre)), v = std::atan2(d.dot(across), d.dot(centre));
+    return Eigen::Vector3d::Constant(1.0 + tube(u, v));
+  });
+  double second = 0, total = 0;
+  for (int i = -400; i <= 400; ++i) {
+    for (int j = -50; j <= 50; ++j) {
+      const double u = i * half_length / 400, v = j * half_width / 50, w = tube(u, v);
+      second += w * (u * u + v * v);
+      total += w;
+    }
+  }
+  const double expected = std::sqrt(2.0 * second / total);  // about 2.9°
+  const SunDetection d = detector.detect(frame, cv::Mat());
+  ASSERT_TRUE(d.sun) << d.reason;
+  EXPECT_NEAR(d.sun->shadow_radius, expected, 0.1 * expected);
+  EXPECT_GT(d.sun->angular_radius, d.sun->shadow_radius) << "the core reaches towards the tube's ends";
 }
 
 // A glow around the disc (1°–3°, 5× the sky) fainter than disc_factor × the background stays

@@ -79,6 +79,49 @@ TEST(SkyMessage, AMessageWithoutTimeOrSourcesRoundTrips) {
   EXPECT_TRUE(got.message->sources.empty());
 }
 
+TEST(SkyMessage, LampsKeepTheirPlaceAndAnOlderSkyNodesSourceIsTheSun) {
+  // A sky node with sky.max_sources > 1 publishes the sun and lamps, each saying which it is.
+  SkyMessage sent = sample_message();
+  sent.sources[0].sun = true;
+  sent.sources.push_back({Eigen::Vector3d(0, 0.6, 0.8), Eigen::Vector3d(3, 2, 1), 0.05, false, false});
+  sent.sources.push_back({Eigen::Vector3d(0.8, 0, 0.6), Eigen::Vector3d(1, 1, 1), 0.02, false, false, 0.035});
+  const DecodedSky got = decode_sky_message(encode_sky_message(sent), gate_identity(), std::nullopt);
+  ASSERT_TRUE(got.message) << got.detail;
+  ASSERT_EQ(got.message->sources.size(), 3u);
+  EXPECT_TRUE(got.message->sources[0].sun);
+  EXPECT_FALSE(got.message->sources[1].sun);
+  EXPECT_FALSE(got.message->sources[2].sun);
+  EXPECT_EQ(bits(got.message->sources[2].angular_radius), bits(0.02));
+  EXPECT_EQ(bits(got.message->sources[2].shadow_radius), bits(0.035));
+
+  // No sun, lamps only: the first source is a lamp.
+  SkyMessage lamps_only = sent;
+  lamps_only.sources.erase(lamps_only.sources.begin());
+  const DecodedSky lamps = decode_sky_message(encode_sky_message(lamps_only), gate_identity(), std::nullopt);
+  ASSERT_TRUE(lamps.message) << lamps.detail;
+  EXPECT_FALSE(lamps.message->sources[0].sun);
+
+  // An older sky node's message has no "sun" field: it published the sun alone, first.
+  nlohmann::json older = nlohmann::json::from_cbor(encode_sky_message(sent));
+  for (auto& source : older["sources"]) {
+    source.erase("sun");
+    source.erase("shadow_radius");
+  }
+  const DecodedSky old = decode_sky_message(nlohmann::json::to_cbor(older), gate_identity(), std::nullopt);
+  ASSERT_TRUE(old.message) << old.detail;
+  EXPECT_TRUE(old.message->sources[0].sun);
+  EXPECT_FALSE(old.message->sources[1].sun);
+  EXPECT_EQ(old.message->sources[2].shadow_radius, 0.0);
+
+  // A "sun" that is not true or false is malformed.
+  nlohmann::json bad = nlohmann::json::from_cbor(encode_sky_message(sent));
+  bad["sources"][1]["sun"] = 1;
+  const DecodedSky refused = decode_sky_message(nlohmann::json::to_cbor(bad), gate_identity(), std::nullopt);
+  EXPECT_FALSE(refused.message);
+  EXPECT_EQ(refused.dropped, DropReason::Malformed);
+  EXPECT_NE(refused.detail.find("sources.sun"), std::string::npos) << refused.detail;
+}
+
 TEST(SkyMessage, EveryTruncationIsDroppedAsMalformed) {
   const std::vector<std::uint8_t> bytes = encode_sky_message(sample_message());
   for (std::size_t n = 0; n < bytes.size(); ++n) {

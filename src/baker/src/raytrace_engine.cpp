@@ -329,7 +329,9 @@ class RaytraceEngine final : public VisibilityEngine {
             ray.dir_x = w.x();
             ray.dir_y = w.y();
             ray.dir_z = w.z();
-            ray.tnear = 0.0f;  // the origin is already nudged off the surface
+            // Nudged off its own surface, and past any other the vertex lies on (a column's
+            // foot on its plinth: a hit at t = 0 would shade every ray above the plinth).
+            ray.tnear = offset;
             ray.tfar = kInfinity;
             ray.mask = ~0u;
           }
@@ -382,7 +384,9 @@ class RaytraceEngine final : public VisibilityEngine {
           ray.dir_x = w.x;
           ray.dir_y = w.y;
           ray.dir_z = w.z;
-          ray.tnear = 0.0f;  // the origin is already nudged off the surface
+          // Nudged off its own surface, and past any other the vertex lies on (a column's foot
+          // on its plinth: a hit at t = 0 would shade every ray above the plinth).
+          ray.tnear = offset;
           ray.tfar = kInfinity;
           ray.mask = ~0u;
           rtcOccluded1(scene_.get(), &context, &ray);

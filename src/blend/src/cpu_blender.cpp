@@ -42,15 +42,33 @@ CpuBlender::CpuBlender(const blend::BasisImages& basis, double skip_threshold, d
   rgb_.resize(3 * texels);
 }
 
-bool CpuBlender::unchanged_since_last(const blend::BlendWeights& weights, std::uint64_t sun_revision) const {
-  if (!has_result_ || weights.no_light != last_no_light_ || weights.face.size() != last_face_.size()) return false;
-  const bool sun_now = !weights.sun.isZero(0);
-  const bool sun_then = !last_sun_.isZero(0);
-  if (sun_now && sun_then && sun_revision != last_sun_revision_) return false;
+namespace {
+
+// The separated terms as blend_cpu_sources takes them: every source, or the sun alone.
+std::vector<Eigen::Vector3f> separated_terms(const blend::BlendWeights& weights) {
+  std::vector<Eigen::Vector3f> terms = weights.sources;
+  if (terms.empty() && !weights.sun.isZero(0)) terms.push_back(weights.sun);
+  return terms;
+}
+
+bool any_lit(const std::vector<Eigen::Vector3f>& terms) {
+  return std::any_of(terms.begin(), terms.end(), [](const Eigen::Vector3f& w) { return !w.isZero(0); });
+}
+
+}  // namespace
+
+bool CpuBlender::unchanged_since_last(const blend::BlendWeights& weights, const std::vector<Eigen::Vector3f>& terms,
+                                      std::uint64_t sun_revision) const {
+  if (!has_result_ || weights.no_light != last_no_light_ || weights.face.size() != last_face_.size() ||
+      terms.size() != last_sources_.size()) {
+    return false;
+  }
+  if (any_lit(terms) && any_lit(last_sources_) && sun_revision != last_sun_revision_) return false;
   // The largest change of T any texel can see, per channel (B ≤ layer_max, V ≤ 1).
   // A tiled basis (clustered PCA) has a set of weights per tile; summed over every tile, the
   // bound is looser than a texel's own tile needs, never tighter.
-  Eigen::Vector3d bound = (weights.sun - last_sun_).cwiseAbs().cast<double>();
+  Eigen::Vector3d bound = Eigen::Vector3d::Zero();
+  for (std::size_t k = 0; k < terms.size(); ++k) bound += (terms[k] - last_sources_[k]).cwiseAbs().cast<double>();
   for (std::size_t i = 0; i < weights.face.size(); ++i) {
     bound += (weights.face[i] - last_face_[i]).cwiseAbs().cast<double>() *
              static_cast<double>(layer_max_[i % layer_max_.size()]);
@@ -59,8 +77,14 @@ bool CpuBlender::unchanged_since_last(const blend::BlendWeights& weights, std::u
 }
 
 bool CpuBlender::blend(const blend::BlendWeights& weights, std::span<const float> sun_visibility,
-                            std::uint64_t sun_revision, blend::BlendWorkers* workers) {
-  if (unchanged_since_last(weights, sun_revision)) return false;
+                       std::uint64_t sun_revision, blend::BlendWorkers* workers) {
+  return blend_sources(weights, sun_visibility, sun_revision, workers);
+}
+
+bool CpuBlender::blend_sources(const blend::BlendWeights& weights, std::span<const float> source_visibility,
+                               std::uint64_t sun_revision, blend::BlendWorkers* workers) {
+  std::vector<Eigen::Vector3f> terms = separated_terms(weights);
+  if (unchanged_since_last(weights, terms, sun_revision)) return false;
 
   // skip_threshold: leave out the layers of least possible contribution while their bounds add
   // up to no more than the threshold (the GPU blender's rule, layer by layer).
@@ -96,17 +120,34 @@ bool CpuBlender::blend(const blend::BlendWeights& weights, std::span<const float
 
   blend::BlendOptions options;
   options.workers = workers;
-  const bool use_sun = !weights.sun.isZero(0);
-  blend::blend_cpu(basis_, used, use_sun ? sun_visibility : std::span<const float>(), rgb_, options);
+  const bool lit = any_lit(terms);
+  if (terms.size() <= 1) {
+    blend::blend_cpu(basis_, used, lit ? source_visibility : std::span<const float>(), rgb_, options);
+  } else {
+    // V_k of each source, one plane after another.
+    const std::size_t texels = basis_.texel_count();
+    std::vector<std::span<const float>> visibility;
+    if (lit) {
+      if (source_visibility.size() != terms.size() * texels) {
+        throw InputError(input_message({}, -1, -1, "sun_visibility",
+                                       std::to_string(source_visibility.size()) + " values for " +
+                                           std::to_string(terms.size()) + " sources over plane '" + basis_.name +
+                                           "' of " + std::to_string(texels) + " texels",
+                                       "pass V of every separated source, the plane's texels source after source"));
+      }
+      for (std::size_t k = 0; k < terms.size(); ++k) visibility.push_back(source_visibility.subspan(k * texels, texels));
+    }
+    blend::blend_cpu_sources(basis_, used, visibility, rgb_, options);
+  }
   auto rgba = std::make_shared<std::vector<float>>(4 * basis_.texel_count(), 1.0f);
   for (std::size_t k = 0; k < basis_.texel_count(); ++k) std::copy_n(rgb_.data() + 3 * k, 3, rgba->data() + 4 * k);
   rgba_ = std::move(rgba);
 
   has_result_ = true;
   last_face_ = weights.face;
-  last_sun_ = weights.sun;
+  last_sources_ = std::move(terms);
   last_no_light_ = weights.no_light;
-  last_sun_revision_ = use_sun ? sun_revision : 0;
+  last_sun_revision_ = lit ? sun_revision : 0;
   skipped_layers_ = skipped_count;
   return true;
 }

@@ -10,6 +10,7 @@
 #include "skylit/base/presets.hpp"
 #include "skylit/base/files.hpp"
 #include "skylit/base/yaml_reader.hpp"
+#include "skylit/blend/gpu_blend.hpp"
 #include "skylit/sky_link/site_topics.hpp"
 
 namespace skylit::live {
@@ -20,8 +21,8 @@ constexpr std::array<std::string_view, 16> kTopKeys{"site",     "bake",  "preset
                                                     "fusion",   "tracking", "blend", "render", "photometric", "output", "status", "display",
                                                     "root"};
 constexpr std::array<std::string_view, 1> kRenderKeys{"scale"};
-constexpr std::array<std::string_view, 7> kSkyKeys{"calibration", "source", "response", "rate",
-                                                   "sun", "smoothing", "stale_after"};
+constexpr std::array<std::string_view, 8> kSkyKeys{"calibration", "source", "response", "rate",
+                                                   "sun", "smoothing", "stale_after", "max_sources"};
 constexpr std::array<std::string_view, 2> kCameraKeys{"calibration", "source"};
 constexpr std::array<std::string_view, 9> kLinkKeys{"broker",   "topic",         "node", "username",   "password",
                                                     "password_file", "tls", "keepalive_s", "kind"};
@@ -186,6 +187,13 @@ LinkSettings parse_link(const YamlReader& r, const YAML::Node& node, const std::
   return link;
 }
 
+void parse_max_sources(const YamlReader& r, const YAML::Node& sky, SkySettings& settings) {
+  if (auto n = YamlReader::optional(sky, "max_sources")) {
+    settings.max_sources = static_cast<int>(r.integer(n, "sky.max_sources", 1, blend::kMaxGpuSources,
+                                                      "1 (the sun alone) outdoors; 16 under many lamps (docs/live.md)"));
+  }
+}
+
 void parse_sky(const YamlReader& r, const YAML::Node& root, const std::filesystem::path& file, LiveConfig& c) {
   const YAML::Node sky = r.require(root, "sky", "sky", "the sky camera: calibration and source");
   r.expect_map(sky, "sky", kDocs);
@@ -195,6 +203,7 @@ void parse_sky(const YamlReader& r, const YAML::Node& root, const std::filesyste
     // An HMD node: the sky node estimates; its calibration and settings are its own.
     c.sky.link = parse_link(r, source, "sky.source");
     if (auto n = YamlReader::optional(sky, "stale_after")) c.sky.stale_after = r.positive(n, "sky.stale_after", "seconds, e.g. 30");
+    parse_max_sources(r, sky, c.sky);
     return;
   }
   c.sky.calibration = r.path(r.require(sky, "calibration", "sky.calibration", "the sky camera's calibration YAML"),
@@ -211,6 +220,7 @@ void parse_sky(const YamlReader& r, const YAML::Node& root, const std::filesyste
   }
   if (auto n = YamlReader::optional(sky, "smoothing")) c.sky.smoothing = r.non_negative(n, "sky.smoothing", "seconds, 0 for none");
   if (auto n = YamlReader::optional(sky, "stale_after")) c.sky.stale_after = r.positive(n, "sky.stale_after", "seconds, e.g. 30");
+  parse_max_sources(r, sky, c.sky);
 }
 
 void parse_camera(const YamlReader& r, const YAML::Node& root, const std::filesystem::path& file, LiveConfig& c) {

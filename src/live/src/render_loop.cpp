@@ -1,6 +1,7 @@
 // The render thread (Service::run): each camera frame in turn through numbered stages, each
 // timed by a StageTimer into the frame statistics: the newest sky and its sun's shadow map, T
 // uploaded or blended, the pose, the composite shown, the frame recorded, its times kept.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <future>
@@ -421,7 +422,9 @@ void Service::State::RenderLoop::blend_behind_sky(FrameStageTimes& times, bool s
       if (sky_changed && !cpu) ++s.plane_views[j].blends_out_of_view;  // the sky thread counts its own
       continue;
     }
-    const blend::BlendWeights weights = blend::blend_weights(s.bases[j], sky->S, sky->sun);
+    const blend::BlendWeights weights = blend::blend_weights_sources(s.bases[j], sky->S, separated_sources(*sky));
+    const bool lit = std::any_of(weights.sources.begin(), weights.sources.end(),
+                                 [](const Eigen::Vector3f& w) { return !w.isZero(0); });
     bool ran = false;
     if (cpu) {
       std::shared_ptr<const std::vector<float>> rgba;
@@ -431,7 +434,7 @@ void Service::State::RenderLoop::blend_behind_sky(FrameStageTimes& times, bool s
         const std::span<const float> sun_visibility = j < sky->sun_visibility.size() && sky->sun_visibility[j]
                                                           ? std::span<const float>(*sky->sun_visibility[j])
                                                           : std::span<const float>();
-        ran = shared.ratios.blend(weights, sun_visibility, sky->sun_revision, nullptr);
+        ran = shared.ratios.blend_sources(weights, sun_visibility, sky->sun_revision, nullptr);
         rgba = shared.ratios.rgba();
       }
       if (rgba && rgba != uploaded[j]) {
@@ -440,7 +443,7 @@ void Service::State::RenderLoop::blend_behind_sky(FrameStageTimes& times, bool s
       }
       ++s.plane_views[j].blends_on_return;
     } else {
-      ran = blenders[j]->blend(weights, weights.sun.isZero(0) || !sun_map ? nullptr : &sun_map->map().visibility(static_cast<int>(j)));
+      ran = blenders[j]->blend(weights, !lit || !sun_map ? nullptr : &sun_map->map().visibility(static_cast<int>(j)));
       if (!sky_changed) ++s.plane_views[j].blends_on_return;
     }
     ++(ran ? s.counters.blends_run : s.counters.blends_skipped);
@@ -458,7 +461,7 @@ void Service::State::RenderLoop::estimate_photometric(const capture::Frame& fram
   const sky::RadianceFrame linear = sky::linearise(frame.image, sky::ResponseCurve::srgb(8), {});
   const render::PhotometricEstimate found = render::estimate_photometric_match(
       linear.radiance, region,
-      render::plane_irradiance(s.manifest.planes[static_cast<std::size_t>(*reference_plane)], sky->S, sky->sun),
+      render::plane_irradiance(s.manifest.planes[static_cast<std::size_t>(*reference_plane)], sky->S, sky->sun, sky->lamps),
       s.config.photometric.albedo);
   if (found.ok) {
     std::lock_guard lock(s.stats_mutex);
@@ -485,6 +488,14 @@ cv::Mat Service::State::RenderLoop::composite_and_show(FrameStageTimes& times, c
   input.sun = sky->sun;
   input.shadow_ratios = ratios;
   input.sun_shadow = sky->sun && sun_map ? &sun_map->map() : nullptr;
+  // The lamps light the building per vertex, through their visibility from the same map (its
+  // sources: the sun first when there is one).
+  input.lamps = sky->lamps;
+  if (!sky->lamps.empty() && sun_map) {
+    const std::vector<std::vector<float>>& vertex = sun_map->vertex_visibility();
+    const std::size_t first = sky->sun ? 1 : 0;
+    if (vertex.size() == first + sky->lamps.size()) input.lamp_vertex_visibility = std::span(vertex).subspan(first);
+  }
   input.opacity = opacity;
   if (reference_plane &&
       (!last_photometric_estimate || frames - *last_photometric_estimate >= s.config.photometric.every)) {

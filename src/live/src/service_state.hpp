@@ -57,6 +57,11 @@ struct SkyState {
   std::vector<Eigen::Vector3d> S;  // one RGB per bake layer
   std::optional<blend::SunLight> sun;
   double sun_angular_radius = 0;
+  // Separated sources besides the sun (sky.max_sources > 1: lamps), brightest first, and the
+  // radius of the disc each one's shadow map draws (sky::Sun::shadow_radius). The shadow maps
+  // hold the sun (when there is one) and then these.
+  std::vector<blend::SunLight> lamps;
+  std::vector<double> lamp_shadow_radius;
   std::string sun_reason;
   int unseen_faces = 0;
   std::int64_t bad_pixels = 0;
@@ -68,8 +73,9 @@ struct SkyState {
   // render thread uploads what changed, even when it missed the skies in between. Null for a
   // plane out of view (blend.cull_planes): the render thread blends it when it comes into view.
   std::vector<std::shared_ptr<const std::vector<float>>> shadow_ratios;
-  // The sun's visibility V over each plane behind this sky's blends (empty without a sun shadow
-  // map) and its revision: what the render thread needs to blend a plane the sky thread left out.
+  // The separated sources' visibility V over each plane behind this sky's blends (empty without a
+  // shadow map; every source's texels one after another) and its revision: what the render
+  // thread needs to blend a plane the sky thread left out.
   std::vector<std::shared_ptr<const std::vector<float>>> sun_visibility;
   std::uint64_t sun_revision = 0;
   // The sun's shadow map for this sky's sun, drawn and complete on the sky thread (the newest
@@ -79,6 +85,15 @@ struct SkyState {
   double cpu_blend_ms = 0;        // the CPU blend of every plane
   double sun_visibility_ms = 0;   // the sky thread's sun shadow map, and V read back for the CPU blend (when the sun moved)
 };
+
+// Every separated source of a sky in the shadow maps' order: the sun (when there is one), then
+// the lamps. What blend::blend_weights_sources takes.
+inline std::vector<blend::SunLight> separated_sources(const SkyState& sky) {
+  std::vector<blend::SunLight> sources;
+  if (sky.sun) sources.push_back(*sky.sun);
+  sources.insert(sources.end(), sky.lamps.begin(), sky.lamps.end());
+  return sources;
+}
 
 // One plane's view of the current frame (blend.cull_planes): the render thread writes in_view
 // from each frame's pose, the sky thread reads it to leave out the planes no view can see.

@@ -45,8 +45,17 @@ sky_link::SkyMessage message_of(const sky_link::SkyIdentity& identity, std::uint
   m.frame_timestamp = frame.timestamp;
   if (frame.utc) m.utc = frame.utc->time_since_epoch().count();
   m.S = sky::layer_radiances(estimate.luminance);
-  if (estimate.sun) {  // the service separates the sun alone (max_sources 1): the sun, or nothing
-    m.sources.push_back({estimate.sun->direction, estimate.sun->energy, estimate.sun->angular_radius, estimate.sun->clipped});
+  // Every separated source (sky.max_sources), the sun first when there is one.
+  for (std::size_t k = 0; k < estimate.sources.size(); ++k) {
+    const sky::Sun& source = estimate.sources[k];
+    const bool sun = k == 0 && estimate.sun.has_value();
+    // The sun as smoothed (its energy), the lamps as found.
+    const sky::Sun& published = sun ? *estimate.sun : source;
+    m.sources.push_back({published.direction, published.energy, published.angular_radius, published.clipped, sun,
+                         published.shadow_radius});
+  }
+  if (estimate.sources.empty() && estimate.sun) {
+    m.sources.push_back({estimate.sun->direction, estimate.sun->energy, estimate.sun->angular_radius, estimate.sun->clipped, true});
   }
   m.sun_reason = estimate.sun_reason;
   m.unseen_faces = estimate.luminance.unseen_faces;
@@ -294,7 +303,9 @@ nlohmann::json SkyNode::State::status_report() const {
                 {"bad_pixels", latest->bad_pixels},
                 {"clipped_pixels", latest->clipped_pixels}};
     std::optional<Eigen::Vector3d> found;
-    if (!latest->sources.empty()) {
+    j["sky"]["lamps"] = static_cast<int>(std::count_if(latest->sources.begin(), latest->sources.end(),
+                                                        [](const sky_link::PublishedSource& p) { return !p.sun; }));
+    if (!latest->sources.empty() && latest->sources.front().sun) {
       const sky_link::PublishedSource& sun = latest->sources.front();
       found = sun.direction;
       j["sky"]["sun"] = sun_direction_json(sun.direction);

@@ -11,6 +11,7 @@ sky::SkyEstimateOptions estimate_options(geom::DomeBasis basis, const SkySetting
   sky::SkyEstimateOptions options;
   options.sun_mode = settings.sun ? sky::SunMode::Auto : sky::SunMode::Off;
   options.table.basis = basis;
+  options.max_sources = settings.max_sources;
   return options;
 }
 

@@ -93,7 +93,7 @@ class Service::State::SkyThread {
   SunShadowHandle last_map;
   std::vector<std::shared_ptr<const std::vector<float>>> visibility;
   std::uint64_t sun_revision = 0;
-  Eigen::Vector3d shadow_direction = Eigen::Vector3d::Zero();
+  std::vector<render::ShadowSource> shadow_sources;  // what the last map was drawn for
   double last_estimate = -1e300, last_overlay = -1e300;
   std::uint64_t sequence = 0;
 };
@@ -155,7 +155,9 @@ void Service::State::SkyThread::set_up() {
   }
   if (s.config.sky.sun) {
     context.emplace(s.share_group);
-    s.sun_maps.create(s.mesh, bake_planes(s.manifest));
+    render::SunShadowOptions map_options;
+    map_options.max_sources = s.config.sky.max_sources;
+    s.sun_maps.create(s.mesh, bake_planes(s.manifest), map_options);
     maps_owner.maps = &s.sun_maps;
     shadow_maps = true;
   }
@@ -202,6 +204,12 @@ EstimatedSky Service::State::SkyThread::estimate(const capture::Frame& frame) {
     state.sun_angular_radius = estimate.sun->angular_radius;
     state.sun_clipped = estimate.sun->clipped;
   }
+  // sources[0] is the sun when there is one; the rest are lamps (sky.max_sources).
+  for (std::size_t k = estimate.sun ? 1 : 0; k < estimate.sources.size(); ++k) {
+    state.lamps.push_back(blend::SunLight{estimate.sources[k].direction, estimate.sources[k].energy});
+    const sky::Sun& lamp = estimate.sources[k];
+    state.lamp_shadow_radius.push_back(lamp.shadow_radius > 0 ? lamp.shadow_radius : lamp.angular_radius);
+  }
   state.sun_reason = estimate.sun_reason;
   state.unseen_faces = estimate.luminance.unseen_faces;
   state.bad_pixels = estimate.luminance.nan_pixels + estimate.luminance.inf_pixels + estimate.luminance.negative_pixels;
@@ -212,8 +220,9 @@ EstimatedSky Service::State::SkyThread::estimate(const capture::Frame& frame) {
 
 namespace {
 
-// A published sky as the render thread takes it: the same S and sun as the sky node's own.
-SkyState sky_from_message(const sky_link::SkyMessage& message) {
+// A published sky as the render thread takes it: the same S and sources as the sky node's own,
+// at most max_sources of them.
+SkyState sky_from_message(const sky_link::SkyMessage& message, int max_sources) {
   SkyState state;
   state.sequence = message.sequence;
   state.frame_timestamp = message.frame_timestamp;
@@ -221,11 +230,17 @@ SkyState sky_from_message(const sky_link::SkyMessage& message) {
   state.received = now_seconds();
   state.published = message.published;
   state.S = message.S;
-  if (!message.sources.empty()) {  // the sun first, when there is one
+  if (!message.sources.empty() && message.sources.front().sun) {  // the sun first, when there is one
     const sky_link::PublishedSource& sun = message.sources.front();
     state.sun = blend::SunLight{sun.direction, sun.energy};
     state.sun_angular_radius = sun.angular_radius;
     state.sun_clipped = sun.clipped;
+  }
+  for (std::size_t k = state.sun ? 1 : 0; k < message.sources.size(); ++k) {
+    if (static_cast<int>(k) >= max_sources) break;
+    state.lamps.push_back(blend::SunLight{message.sources[k].direction, message.sources[k].energy});
+    const sky_link::PublishedSource& lamp = message.sources[k];
+    state.lamp_shadow_radius.push_back(lamp.shadow_radius > 0 ? lamp.shadow_radius : lamp.angular_radius);
   }
   state.sun_reason = message.sun_reason;
   state.unseen_faces = message.unseen_faces;
@@ -250,7 +265,7 @@ void Service::State::SkyThread::run_from_link() {
     try {
       ++s.counters.sky_frames;
       s.sky_activity.frame();
-      EstimatedSky sky{sky_from_message(*message), {}, {}};
+      EstimatedSky sky{sky_from_message(*message, s.config.sky.max_sources), {}, {}};
       if (!draw_sun_map(sky.state)) break;
       if (cpu) blend_planes(sky.state);
       publish(sky);
@@ -279,21 +294,37 @@ void Service::State::SkyThread::publish_node_status() {
 
 // False when the maps are closed (the service is stopping).
 bool Service::State::SkyThread::draw_sun_map(SkyState& state) {
-  if (state.sun && shadow_maps && sun_moved(shadow_direction, state.sun->direction, state.sun_angular_radius)) {
+  // The sources to draw: the sun (its disc at least the real sun's), then the lamps.
+  std::vector<render::ShadowSource> sources;
+  if (state.sun) sources.push_back({state.sun->direction.normalized(), shadow_angular_radius(state.sun_angular_radius)});
+  for (std::size_t k = 0; k < state.lamps.size(); ++k) {
+    sources.push_back({state.lamps[k].direction.normalized(), std::max(state.lamp_shadow_radius[k], 0.0)});
+  }
+  // Drawn again when the set of sources changed or one moved by a tenth of its radius.
+  bool moved = sources.size() != shadow_sources.size();
+  for (std::size_t k = 0; !moved && k < sources.size(); ++k) {
+    moved = sun_moved(shadow_sources[k].direction, sources[k].direction, sources[k].angular_radius);
+  }
+  if (!sources.empty() && shadow_maps && moved) {
     const auto sun_start = Clock::now();
-    SunShadowHandle map = s.sun_maps.draw(state.sun->direction, shadow_angular_radius(state.sun_angular_radius));
+    SunShadowHandle map = s.sun_maps.draw(sources, !state.lamps.empty());
     if (!map) return false;
     last_map = std::move(map);
-    shadow_direction = state.sun->direction;
+    shadow_sources = sources;
     ++sun_revision;
     if (cpu) {
       for (std::size_t j = 0; j < visibility.size(); ++j) {
-        visibility[j] = std::make_shared<const std::vector<float>>(last_map->map().read_visibility(static_cast<int>(j)));
+        std::vector<float> values;
+        for (int k = 0; k < static_cast<int>(sources.size()); ++k) {
+          const std::vector<float> layer = last_map->map().read_visibility(static_cast<int>(j), k);
+          values.insert(values.end(), layer.begin(), layer.end());
+        }
+        visibility[j] = std::make_shared<const std::vector<float>>(std::move(values));
       }
     }
     state.sun_visibility_ms = std::chrono::duration<double, std::milli>(Clock::now() - sun_start).count();
   }
-  if (state.sun) state.sun_map = last_map;
+  if (!sources.empty()) state.sun_map = last_map;
   return true;
 }
 
@@ -307,11 +338,11 @@ void Service::State::SkyThread::blend_planes(SkyState& state) {
       state.shadow_ratios.push_back(nullptr);
       continue;
     }
-    const blend::BlendWeights weights = blend::blend_weights(s.bases[j], state.S, state.sun);
+    const blend::BlendWeights weights = blend::blend_weights_sources(s.bases[j], state.S, separated_sources(state));
     const std::span<const float> sun_visibility =
         shadow_maps && visibility[j] ? std::span<const float>(*visibility[j]) : std::span<const float>();
     std::lock_guard blend_lock(s.cpu_blends[j]->mutex);
-    const bool ran = s.cpu_blends[j]->ratios.blend(weights, sun_visibility, sun_revision, workers.get());
+    const bool ran = s.cpu_blends[j]->ratios.blend_sources(weights, sun_visibility, sun_revision, workers.get());
     ++(ran ? s.counters.blends_run : s.counters.blends_skipped);
     state.shadow_ratios.push_back(s.cpu_blends[j]->ratios.rgba());
   }

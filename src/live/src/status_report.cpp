@@ -155,6 +155,15 @@ nlohmann::json Service::State::status_report() const {
     } else {
       sky_json["sun"] = nullptr;
     }
+    // The lamps (sky.max_sources > 1), each with its shadow map.
+    nlohmann::json lamps = nlohmann::json::array();
+    for (std::size_t k = 0; k < latest->lamps.size(); ++k) {
+      nlohmann::json lamp = sun_direction_json(latest->lamps[k].direction);
+      lamp["energy"] = {latest->lamps[k].energy.x(), latest->lamps[k].energy.y(), latest->lamps[k].energy.z()};
+      lamp["shadow_radius_deg"] = latest->lamp_shadow_radius[k] * 180 / M_PI;
+      lamps.push_back(std::move(lamp));
+    }
+    sky_json["lamps"] = std::move(lamps);
     const nlohmann::json expected = expected_sun(site, latest->utc, latest->sun ? std::optional(latest->sun->direction) : std::nullopt);
     if (!expected.is_null()) sky_json["sun_expected"] = expected;
     if (age > config.sky.stale_after) flags.push_back("sky_stale");
@@ -275,6 +284,8 @@ std::string Service::metrics_text() const {
   m.push_back({"skylit_sky_age_seconds", "Age of the newest sky estimate.", "gauge",
                sky["age_s"].is_null() ? std::numeric_limits<double>::infinity() : sky["age_s"].get<double>(), ""});
   m.push_back({"skylit_sun_detected", "1 while the newest sky has a sun.", "gauge", sky.contains("sun") && !sky["sun"].is_null() ? 1.0 : 0.0, ""});
+  m.push_back({"skylit_lamps_separated", "Lamps separated in the newest sky, each with a shadow map (sky.max_sources).", "gauge",
+               sky.contains("lamps") ? static_cast<double>(sky["lamps"].size()) : 0.0, ""});
   if (sky.contains("S")) {
     const char* channels[3] = {"r", "g", "b"};
     for (std::size_t i = 0; i < sky["S"].size(); ++i) {

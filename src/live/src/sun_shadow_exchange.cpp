@@ -50,6 +50,12 @@ void SunShadowExchange::create(const scene::Mesh& mesh, std::span<const geom::Pl
 }
 
 SunShadowHandle SunShadowExchange::draw(const Eigen::Vector3d& direction, double angular_radius) {
+  const render::ShadowSource sun{direction, angular_radius};
+  return draw(std::span<const render::ShadowSource>(&sun, 1));
+}
+
+SunShadowHandle SunShadowExchange::draw(std::span<const render::ShadowSource> sources, bool vertex_visibility) {
+  std::vector<std::vector<float>> vertex_values;
   int chosen = -1;
   GLsync released = nullptr;
   GLsync ready = nullptr;
@@ -81,10 +87,13 @@ SunShadowHandle SunShadowExchange::draw(const Eigen::Vector3d& direction, double
     delete_fence(released);
     delete_fence(ready);
     render::SunShadowMap& map = *slots_[static_cast<std::size_t>(chosen)].map;
-    map.update(direction, angular_radius);
+    map.update(sources);
     GLsync fence = glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
     glFlush();
     client_wait(fence, "drawing a map");  // complete before it is handed over
+    if (vertex_visibility) {
+      for (int k = 0; k < map.source_count(); ++k) vertex_values.push_back(map.read_vertex_visibility(k));
+    }
     gpu::check_gl_error("sun shadow exchange: drawing a map");
     std::lock_guard lock(mutex_);
     slots_[static_cast<std::size_t>(chosen)].ready = fence;
@@ -94,8 +103,9 @@ SunShadowHandle SunShadowExchange::draw(const Eigen::Vector3d& direction, double
     free_slot(chosen);
     throw;
   }
-  return SunShadowHandle(
-      new SunShadowFrame(*this, chosen, direction.normalized(), angular_radius, sequence));
+  std::vector<render::ShadowSource> drawn(sources.begin(), sources.end());
+  for (render::ShadowSource& source : drawn) source.direction.normalize();
+  return SunShadowHandle(new SunShadowFrame(*this, chosen, std::move(drawn), std::move(vertex_values), sequence));
 }
 
 void SunShadowExchange::release(SunShadowHandle& frame) {

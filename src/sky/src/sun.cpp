@@ -42,11 +42,15 @@ void merge_disc(Sun& sun, const std::vector<std::pair<Vec3, double>>& pixels) {
   const Vec3 axis = sun.direction;
   const Vec3 t1 = (std::abs(axis.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX()).cross(axis).normalized();
   const Vec3 t2 = axis.cross(t1);
+  double second_moment = 0.0;
   for (const auto& [d, e] : pixels) {
     total += e;
     extent = std::max({extent, std::abs(d.dot(t1)), std::abs(d.dot(t2))});
+    const double angle = std::acos(std::clamp(d.dot(axis), -1.0, 1.0));
+    second_moment += std::max(e, 0.0) * angle * angle;
   }
   if (total <= 0.0) return;
+  sun.shadow_radius = std::sqrt(2.0 * second_moment / total);
   const double half_cells = std::sqrt(static_cast<double>(kMaxDiscSamples)) / 2.0;
   const double cell = std::max(extent / half_cells, 1e-12);
   std::map<std::pair<long, long>, std::pair<Vec3, double>> cells;

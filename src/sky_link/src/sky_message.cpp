@@ -81,6 +81,13 @@ SkyMessage parse(const json& root) {
   if (!sources.is_array() || sources.size() > 1024) throw BadField("'sources' is not a list of at most 1024");
   for (const json& s : sources) {
     PublishedSource p;
+    // "sun" came with lamps; before, the one source published was the sun.
+    if (s.is_object() && s.contains("sun")) {
+      if (!s["sun"].is_boolean()) throw BadField("'sources.sun' is not true or false");
+      p.sun = s["sun"].get<bool>();
+    } else {
+      p.sun = m.sources.empty();
+    }
     p.direction = vector3(field(s, "direction"), "sources.direction");
     if (std::abs(p.direction.norm() - 1.0) > 1e-6) throw BadField("'sources.direction' is not a unit vector");
     p.energy = vector3(field(s, "energy"), "sources.energy");
@@ -88,6 +95,10 @@ SkyMessage parse(const json& root) {
     if (p.angular_radius < 0) throw BadField("'sources.angular_radius' is negative");
     if (!field(s, "clipped").is_boolean()) throw BadField("'sources.clipped' is not true or false");
     p.clipped = field(s, "clipped").get<bool>();
+    if (s.is_object() && s.contains("shadow_radius")) {  // came with lamps; absent in older messages
+      p.shadow_radius = finite_number(s["shadow_radius"], "sources.shadow_radius");
+      if (p.shadow_radius < 0) throw BadField("'sources.shadow_radius' is negative");
+    }
     m.sources.push_back(p);
   }
   m.sun_reason = text(field(root, "sun_reason"), "sun_reason");
@@ -130,7 +141,9 @@ std::vector<std::uint8_t> encode_sky_message(const SkyMessage& m) {
     sources.push_back({{"direction", to_json(p.direction)},
                        {"energy", to_json(p.energy)},
                        {"angular_radius", p.angular_radius},
-                       {"clipped", p.clipped}});
+                       {"clipped", p.clipped},
+                       {"sun", p.sun},
+                       {"shadow_radius", p.shadow_radius}});
   }
   const json root = {
       {"version", kSkyMessageVersion},

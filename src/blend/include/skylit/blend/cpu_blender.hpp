@@ -17,8 +17,9 @@ namespace skylit::blend {
 // The two savings:
 //
 //   change_threshold  the blend is skipped, the last T kept, while
-//                     Σ_i |Δw_{i,c}| max_x B_i(x) + |Δw_sun,c| ≤ change_threshold for every c
-//                     (and the channels without light and the sun visibility are unchanged);
+//                     Σ_i |Δw_{i,c}| max_x B_i(x) + Σ_k |Δw_k,c| ≤ change_threshold for every c
+//                     (and the channels without light, the number of separated sources and
+//                     their visibility are unchanged);
 //   skip_threshold    the layers of least possible contribution c_i = max_c |w_{i,c}| max_x B_i(x)
 //                     are left out while their c_i add up to at most the threshold.
 //
@@ -35,6 +36,11 @@ class CpuBlender {
   // needed when weights.sun is not zero; `sun_revision` changes whenever V does.
   bool blend(const blend::BlendWeights& weights, std::span<const float> sun_visibility, std::uint64_t sun_revision,
              blend::BlendWorkers* workers);
+  // The same with several separated sources (weights from blend::blend_weights_sources):
+  // source_visibility holds V_k of every source, one plane's texels after another's (k · texels
+  // on; empty when no source lights the plane), as blend::blend_cpu_sources takes them.
+  bool blend_sources(const blend::BlendWeights& weights, std::span<const float> source_visibility,
+                     std::uint64_t sun_revision, blend::BlendWorkers* workers);
 
   // T of the last blend as RGBA floats (T in rgb, alpha 1), row-major texels as the basis: what a
   // GL_RGBA32F texture takes as it is. A new vector for every blend that ran; null before the first.
@@ -45,7 +51,8 @@ class CpuBlender {
   const std::vector<float>& layer_max() const { return layer_max_; }
 
  private:
-  bool unchanged_since_last(const blend::BlendWeights& weights, std::uint64_t sun_revision) const;
+  bool unchanged_since_last(const blend::BlendWeights& weights, const std::vector<Eigen::Vector3f>& terms,
+                            std::uint64_t sun_revision) const;
 
   const blend::BasisImages& basis_;
   double skip_threshold_;
@@ -55,7 +62,7 @@ class CpuBlender {
 
   bool has_result_ = false;
   std::vector<Eigen::Vector3f> last_face_;
-  Eigen::Vector3f last_sun_ = Eigen::Vector3f::Zero();
+  std::vector<Eigen::Vector3f> last_sources_;  // the separated terms of the last blend
   std::array<bool, 3> last_no_light_{false, false, false};
   std::uint64_t last_sun_revision_ = 0;
   int skipped_layers_ = 0;

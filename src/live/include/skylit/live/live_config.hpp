@@ -44,6 +44,10 @@ struct SkySettings {
   bool sun = true;                    // sun separation (auto)
   double smoothing = 0.0;             // seconds
   double stale_after = 30.0;          // seconds
+  // Separated sources at most (sky::SkyEstimateOptions::max_sources): 1, the sun alone; more,
+  // the sun and lamps, each with its own shadow map and term in the blend. An HMD node takes at
+  // most this many of the sources its sky node publishes (and draws their shadow maps).
+  int max_sources = 1;
 };
 
 struct CameraSettings {
@@ -124,6 +128,7 @@ struct DisplaySettings {
 //     response: srgb | linear | FILE    # 8/16-bit frames: how codes become radiance (default srgb)
 //     rate: 1                           # sky estimates per second at most (0: every frame)
 //     sun: auto | off
+//     max_sources: 1                    # separated sources (the sun, lamps): 1 … 32, a shadow map each
 //     smoothing: 0                      # seconds, time constant of S's smoothing (0: off)
 //     stale_after: 30                   # seconds without a new sky before it is flagged stale
 //   camera:

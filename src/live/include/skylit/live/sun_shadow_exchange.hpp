@@ -30,8 +30,13 @@ class SunShadowFrame {
   // The map (const: the user binds and samples it, and may read it back). std::logic_error
   // after the producer destroyed the maps.
   const render::SunShadowMap& map() const;
-  const Eigen::Vector3d& direction() const { return direction_; }  // towards the sun, as drawn (unit)
-  double angular_radius() const { return angular_radius_; }
+  const Eigen::Vector3d& direction() const { return sources_.front().direction; }  // towards source 0 (the sun), unit
+  double angular_radius() const { return sources_.front().angular_radius; }
+  // Every source drawn, in the map's layer order (directions unit).
+  const std::vector<render::ShadowSource>& sources() const { return sources_; }
+  // V of each source at every mesh vertex (SunShadowMap::read_vertex_visibility), read once by
+  // the producer after the map was complete, for the compositor's lamps.
+  const std::vector<std::vector<float>>& vertex_visibility() const { return vertex_visibility_; }
   std::uint64_t sequence() const { return sequence_; }             // 1 for the first map drawn
   // On the user's thread, its context current: its later GL commands wait for the producer's
   // (glWaitSync on the producer's fence). Call before the first use of the map in that context.
@@ -39,14 +44,15 @@ class SunShadowFrame {
 
  private:
   friend class SunShadowExchange;
-  SunShadowFrame(SunShadowExchange& exchange, int slot, const Eigen::Vector3d& direction, double angular_radius,
-                 std::uint64_t sequence)
-      : exchange_(exchange), slot_(slot), direction_(direction), angular_radius_(angular_radius), sequence_(sequence) {}
+  SunShadowFrame(SunShadowExchange& exchange, int slot, std::vector<render::ShadowSource> sources,
+                 std::vector<std::vector<float>> vertex_visibility, std::uint64_t sequence)
+      : exchange_(exchange), slot_(slot), sources_(std::move(sources)), vertex_visibility_(std::move(vertex_visibility)),
+        sequence_(sequence) {}
 
   SunShadowExchange& exchange_;
   int slot_;
-  Eigen::Vector3d direction_;
-  double angular_radius_;
+  std::vector<render::ShadowSource> sources_;
+  std::vector<std::vector<float>> vertex_visibility_;
   std::uint64_t sequence_;
 };
 
@@ -92,6 +98,10 @@ class SunShadowExchange {
   // into a free slot (waiting for one while the user holds them all), and returns it complete.
   // Null once closed (nothing drawn). InputError as SunShadowMap::update.
   SunShadowHandle draw(const Eigen::Vector3d& direction, double angular_radius);
+  // The same for several separated sources (SunShadowMap::update's; at most the options'
+  // max_sources), the sun first when there is one. With `vertex_visibility`, V of every source
+  // at the mesh's vertices is read back once the map is complete (the frame holds it).
+  SunShadowHandle draw(std::span<const render::ShadowSource> sources, bool vertex_visibility = false);
   // Producer, its context current, at its end: destroys the maps, after the user's commands on
   // them are complete. The user must no longer use any map (handles may outlive this).
   void destroy();

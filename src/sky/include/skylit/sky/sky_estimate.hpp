@@ -41,9 +41,9 @@ struct SkyEstimate {
   std::optional<Sun> sun;           // the first source when it passes the sun's tests
   std::string sun_reason;           // why there is (no) sun; "sun separation off" when off
   // Every separated source, in the order found (brightest first): sources[0] is `sun` when there
-  // is a sun; with max_sources 1 this is `sun` or nothing. Consumers that take only `sun` (the
-  // live service, its GPU blend and sky smoothing) must run with max_sources 1, since S lacks
-  // every source's disc.
+  // is a sun; with max_sources 1 this is `sun` or nothing. A consumer that takes only `sun`
+  // must run with max_sources 1, since S lacks every source's disc (the live service takes them
+  // all: sky.max_sources; its smoothing smooths the sun's energy, not the lamps').
   std::vector<Sun> sources;
   std::string sources_reason;       // why the search for further sources stopped (max_sources > 1)
   double luminance_ms = 0;

@@ -25,6 +25,8 @@ struct PublishedSource {
   Eigen::Vector3d energy = Eigen::Vector3d::Zero();      // E, RGB: irradiance facing the source
   double angular_radius = 0;                             // radians
   bool clipped = false;                                  // E is a lower bound
+  bool sun = false;                                      // the sun (first when there is one); else a lamp
+  double shadow_radius = 0;                              // radians: the disc its shadow map draws (sky::Sun::shadow_radius); 0: angular_radius
 };
 
 // What the sky was computed for: a node whose bake differs refuses it.
