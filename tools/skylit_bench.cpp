@@ -37,6 +37,10 @@ int main(int argc, char** argv) {
   trade->add_option("--forms", o.forms, "full, lean, cropped, pcaK, pcaKtN (clustered PCA, tiles of N texels)")->delimiter(',')->capture_default_str();
   trade->add_option("--bits", o.bits, "layer bit depth: 16 (half), 8 (unorm8; not with PCA)")->delimiter(',')->capture_default_str();
   trade->add_option("--sun", o.sun, "sun separation: on, off")->delimiter(',')->capture_default_str();
+  trade->add_option("--sources", o.sources,
+                    "separated sources at most with the sun on (sky.max_sources): 1, the sun alone; N, the sun and lamps")
+      ->delimiter(',')
+      ->capture_default_str();
   trade->add_option("--skip-thresholds", o.skip_thresholds, "S threshold (blend.skip_threshold), T units")
       ->delimiter(',')
       ->capture_default_str();

@@ -5,6 +5,7 @@
 #include <fstream>
 #include <random>
 #include <sstream>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -115,6 +116,37 @@ TEST(SkylitBenchTrade, TinyGridWritesTheTableThePlotAndTheParetoFront) {
   EXPECT_EQ(circles, settings.size());
   const std::string md = read_all(out / "trade.md");
   EXPECT_NE(md.find("| Pareto |"), std::string::npos);
+}
+
+// The separated sources' count is a setting (sky.max_sources): under the warehouse's lamps, eight
+// sources (each a ray-cast area light of its pixels in the blend, each lamp a shadow map and a
+// per-vertex term in the frame) halve the error of one; the sun off has no sources.
+TEST(SkylitBenchTrade, SeparatedSourcesAreASettingOfTheGrid) {
+  const test::TempDir dir;
+  const fs::path out = dir / "trade";
+  const cli_test::Result result = cli_test::run_program(
+      kBin / "skylit-bench",
+      "trade --site " + (kSource / "config/sample_site.yaml").string() + " --calib " +
+          (kSource / "config/sky_camera.yaml").string() + " --hmd-camera " + (kSource / "config/hmd_camera.yaml").string() +
+          " --skies " + (kSource / "data/hdri").string() +
+          " --sky warehouse --frequencies 2 --bases faces --samples 3 --texel-scales 32 --forms full --bits 16"
+          " --sun on,off --sources 1,8 --skip-thresholds 0 --frame-width 160 --frame-height 120 --frame-repeats 3"
+          " --blend-repeats 2 --timing-scale 8 --supersample 1 --out " +
+          out.string());
+  ASSERT_EQ(result.status, 0) << result.output;
+  const nlohmann::json doc = nlohmann::json::parse(read_all(out / "trade.json"));
+  const auto& settings = doc.at("settings");
+  ASSERT_EQ(settings.size(), 3u);  // sun on with 1 and 8 sources, sun off
+  std::map<int, double> rms;
+  for (const auto& s : settings) rms[s.at("sources").get<int>()] = s.at("rms").get<double>();
+  ASSERT_EQ(rms.size(), 3u);
+  ASSERT_TRUE(rms.count(0) && rms.count(1) && rms.count(8));
+  std::printf("measured: warehouse at 1/32, faces K = 3: RMS %.4f without the sun's separation, %.4f with one source, "
+              "%.4f with eight\n", rms[0], rms[1], rms[8]);
+  EXPECT_LT(rms[8], 0.75 * rms[1]);
+  const std::string md = read_all(out / "trade.md");
+  EXPECT_NE(md.find("| on+7 |"), std::string::npos) << md;
+  EXPECT_NE(result.output.find("sun+7"), std::string::npos) << result.output;
 }
 
 // --sequence on a tiny grid: ΔS thresholds 0 and 0.05, smoothings 0 and 10 s, 24 skies with a

@@ -140,16 +140,22 @@ Grid make_grid(const TradeOptions& o) {
               if (bits == 8 && form.form == blend::BasisForm::Pca) continue;
               for (const std::string& sun : o.sun) {
                 if (sun != "on" && sun != "off") throw InputError("option --sun: on, off");
+                for (int sources : sun == "on" ? o.sources : std::vector<int>{1}) {
+                if (sources < 1 || sources > blend::kMaxGpuSources) {
+                  throw InputError("option --sources: " + std::to_string(sources) + ". Fix: 1 … " +
+                                   std::to_string(blend::kMaxGpuSources));
+                }
                 for (double skip : o.skip_thresholds) {
                   for (double change : o.change_thresholds) {
                     for (double smoothing : o.smoothings) {
                       for (double render_scale : o.render_scales) {
-                        settings.push_back({key, form, bits, sun == "on", skip, change, smoothing, render_scale});
+                        settings.push_back({key, form, bits, sun == "on", sources, skip, change, smoothing, render_scale});
                         bake_keys.insert(key);
                         if (form.form == blend::BasisForm::Pca) pca_keys.insert({key, form.components, form.tile});
                       }
                     }
                   }
+                }
                 }
               }
             }
@@ -335,20 +341,21 @@ References make_references(const TradeOptions& o, const std::vector<SkyData>& sk
   return references;
 }
 
-using EstimatorKey = std::tuple<int, geom::DomeBasis, bool>;
+using EstimatorKey = std::tuple<int, geom::DomeBasis, bool, int>;
 
-// The sky estimators per (ν, basis, sun separation), each with its dome (which it keeps by
-// reference), made when first asked for.
+// The sky estimators per (ν, basis, sun separation, sources), each with its dome (which it keeps
+// by reference), made when first asked for.
 struct Estimators {
   explicit Estimators(const camera::CameraCalibration& c) : calibration(c) {}
   const sky::SkyEstimator& estimator_for(const Setting& s) {
-    auto& estimator = by_key[{s.bake.frequency, s.bake.basis, s.sun}];
+    auto& estimator = by_key[{s.bake.frequency, s.bake.basis, s.sun, s.sources}];
     if (!estimator) {
       auto& dome = domes[s.bake.frequency];
       if (!dome) dome = std::make_unique<geom::Dome>(s.bake.frequency);
       sky::SkyEstimateOptions sky_options;
       sky_options.sun_mode = s.sun ? sky::SunMode::Auto : sky::SunMode::Off;
       sky_options.table.basis = s.bake.basis;
+      sky_options.max_sources = s.sources;
       estimator = std::make_unique<sky::SkyEstimator>(calibration, *dome, sky_options);
     }
     return *estimator;
@@ -403,7 +410,7 @@ SequenceInputs prepare_sequence(const Run& run, const camera::Lens& lens, const 
 }
 
 const SunTrack& sun_track(SequenceInputs& inputs, const Sites& sites, const Setting& s, const bake_format::Manifest& manifest) {
-  const EstimatorKey key{s.bake.frequency, s.bake.basis, s.sun};
+  const EstimatorKey key{s.bake.frequency, s.bake.basis, s.sun, s.sources};
   SunTrack& track = inputs.sun_tracks[{key, s.bake.texel_scale}];
   if (!track.revision.empty()) return track;
   const scene::Mesh& mesh = sites.at(s.bake.texel_scale).mesh;
@@ -427,10 +434,12 @@ const SunTrack& sun_track(SequenceInputs& inputs, const Sites& sites, const Sett
   return track;
 }
 
-// One compositor per (bake, sun map, render scale), all made first and then timed a frame each
+// One compositor per (bake, sun map, sources, render scale), all made first and then timed a frame each
 // in turn, round after round, so that a change of the machine's load falls on all alike.
 struct FrameRig {
   std::unique_ptr<render::SunShadowMap> shadow_map;
+  std::vector<blend::SunLight> lamps;               // sources after the sun
+  std::vector<std::vector<float>> lamp_visibility;  // at the vertices, from their maps
   std::vector<gpu::Texture> ratios;
   std::vector<GLuint> names;
   std::vector<Eigen::Vector3d> sky_radiance;
@@ -439,10 +448,13 @@ struct FrameRig {
   render::CompositeInput input;
   std::vector<double> wall, cpu;
 };
-using FrameKey = std::tuple<BakeKey, bool, double>;
+using FrameKey = std::tuple<BakeKey, bool, int, double>;
 using FrameTimes = std::map<FrameKey, std::pair<double, double>>;  // median wall and CPU ms
 
-// The compositor's frame time per (bake, sun map, render scale), on the GL context current.
+// The compositor's frame time per (bake, sun map, sources, render scale), on the GL context
+// current. N sources: the bench sun and N − 1 lamps of 2° spread over the sky, each drawn into the
+// map and lighting the building per vertex (the frame's share of what a lamp costs; their maps
+// are the sky thread's, drawn when they move).
 FrameTimes time_frames(const TradeOptions& o, const Grid& grid, const Sites& sites, const Bakes& made) {
   const std::map<BakeKey, fs::path>& bakes = made.dirs;
   const camera::CameraCalibration hmd = study::scaled_camera(o.hmd_calib, o.frame_width, o.frame_height);
@@ -451,7 +463,7 @@ FrameTimes time_frames(const TradeOptions& o, const Grid& grid, const Sites& sit
                                    Eigen::Vector3d::Constant(3.0)};
   std::map<FrameKey, std::unique_ptr<FrameRig>> frame_rigs;
   for (const Setting& s : grid.settings) {
-    auto& rig = frame_rigs[std::make_tuple(s.bake, s.sun, s.render_scale)];
+    auto& rig = frame_rigs[std::make_tuple(s.bake, s.sun, s.sources, s.render_scale)];
     if (rig) continue;
     rig = std::make_unique<FrameRig>();
     const SiteData& site = sites.at(s.bake.texel_scale);
@@ -462,8 +474,18 @@ FrameTimes time_frames(const TradeOptions& o, const Grid& grid, const Sites& sit
     std::vector<geom::Plane> planes;
     for (const auto& record : manifest.planes) planes.push_back(record.plane);
     if (s.sun) {
-      rig->shadow_map = std::make_unique<render::SunShadowMap>(site.mesh, planes);
-      rig->shadow_map->update(bench_sun.direction, 0.0047);
+      render::SunShadowOptions map_options;
+      map_options.max_sources = s.sources;
+      rig->shadow_map = std::make_unique<render::SunShadowMap>(site.mesh, planes, map_options);
+      std::vector<render::ShadowSource> drawn{{bench_sun.direction, 0.0047}};
+      for (int k = 1; k < s.sources; ++k) {
+        const double lamp_az = k * 137.5 * std::numbers::pi / 180, lamp_el = (35.0 + 4.0 * ((k * 7) % 11)) * std::numbers::pi / 180;
+        const Eigen::Vector3d d(std::sin(lamp_az) * std::cos(lamp_el), std::cos(lamp_az) * std::cos(lamp_el), std::sin(lamp_el));
+        drawn.push_back({d, 2.0 * std::numbers::pi / 180});
+        rig->lamps.push_back({d, Eigen::Vector3d::Constant(0.2)});
+      }
+      rig->shadow_map->update(drawn);
+      for (int k = 1; k < s.sources; ++k) rig->lamp_visibility.push_back(rig->shadow_map->read_vertex_visibility(k));
     }
     for (const auto& plane : planes) {
       const std::vector<float> T(static_cast<std::size_t>(plane.width) * plane.height * 3, 0.8f);
@@ -482,6 +504,8 @@ FrameTimes time_frames(const TradeOptions& o, const Grid& grid, const Sites& sit
     if (s.sun) rig->input.sun = bench_sun;
     rig->input.shadow_ratios = rig->names;
     rig->input.sun_shadow = rig->shadow_map.get();
+    rig->input.lamps = rig->lamps;
+    rig->input.lamp_vertex_visibility = rig->lamp_visibility;
     rig->compositor->composite(rig->input);  // warm-up: first-use allocations in the driver
   }
   std::printf("timing %zu compositors × %d frames ...\n", frame_rigs.size(), o.frame_repeats);
@@ -548,7 +572,14 @@ void time_blend(const Bench& bench, std::size_t j, const blend::BasisImages& bas
   const geom::Plane& full = bench.sites.at(s.bake.texel_scale).full_planes[j];
   const int width = std::max(4, full.width / o.timing_scale), height = std::max(4, full.height / o.timing_scale);
   const blend::BasisImages fine = upsampled(basis, width, height);
-  const std::vector<float> fine_visibility = upsampled(visibility, basis.width, basis.height, fine.width, fine.height);
+  // Every source's V (one plane's texels after another's), each upsampled.
+  std::vector<float> fine_visibility;
+  for (std::size_t at = 0; at < visibility.size(); at += basis.texel_count()) {
+    const std::vector<float> layer(visibility.begin() + static_cast<std::ptrdiff_t>(at),
+                                   visibility.begin() + static_cast<std::ptrdiff_t>(at + basis.texel_count()));
+    const std::vector<float> fine_layer = upsampled(layer, basis.width, basis.height, fine.width, fine.height);
+    fine_visibility.insert(fine_visibility.end(), fine_layer.begin(), fine_layer.end());
+  }
   // What the GPU blend allocates for the plane at this resolution (packed layers): whole
   // layers, or a cropped basis's pages (upsampled keeps it cropped).
   blend::GpuBlendOptions gpu_options;
@@ -559,11 +590,12 @@ void time_blend(const Bench& bench, std::size_t j, const blend::BasisImages& bas
   blend::BlendWeights nudged = w;
   for (auto& f : nudged.face) f *= 1.0001f;
   nudged.sun *= 1.0001f;
+  for (auto& source : nudged.sources) source *= 1.0001f;
   std::vector<double> times, cpu;
   for (int rep = 0; rep <= o.blend_repeats; ++rep) {
     const auto t = Clock::now();
     const std::clock_t c = std::clock();
-    timed.blend(rep % 2 ? nudged : w, fine_visibility, 1, &bench.workers);
+    timed.blend_sources(rep % 2 ? nudged : w, fine_visibility, 1, &bench.workers);
     if (rep > 0) {  // the first: allocations
       times.push_back(1000.0 * seconds_since(t));
       cpu.push_back(cpu_ms_since(c));
@@ -588,20 +620,23 @@ void evaluate_skies(const Bench& bench, const SettingBake& bake, const sky::SkyE
   for (std::size_t i = 0; i < skies.size(); ++i) {
     const sky::SkyEstimate estimate = estimator.estimate(skies[i].frame);
     const std::vector<Eigen::Vector3d> S = sky::layer_radiances(estimate.luminance);
-    std::optional<blend::SunLight> sun;
-    if (estimate.sun) sun = blend::SunLight{estimate.sun->direction, estimate.sun->energy};
+    // Every separated source (the sun alone with sources 1), each an area light of its disc's pixels.
+    std::vector<sky::Sun> separated = estimate.sources;
+    if (separated.empty() && estimate.sun) separated.push_back(*estimate.sun);
+    std::vector<blend::SunLight> lights;
+    for (const sky::Sun& source : separated) lights.push_back({source.direction, source.energy});
     const auto& reference = bench.references.at({s.bake.texel_scale, i});
     std::vector<double> sky_diffs;
     for (std::size_t j = 0; j < basis.size(); ++j) {
-      std::vector<float> visibility;
-      if (sun) {
-        visibility.resize(basis[j].texel_count());
-        baker::area_light_visibility(site.mesh, manifest.planes[j].plane, estimate.sun->disc_directions,
-                                     estimate.sun->disc_weights, visibility);
+      std::vector<float> visibility;  // V of each source, one after another
+      for (const sky::Sun& source : separated) {
+        std::vector<float> layer(basis[j].texel_count());
+        baker::area_light_visibility(site.mesh, manifest.planes[j].plane, source.disc_directions, source.disc_weights, layer);
+        visibility.insert(visibility.end(), layer.begin(), layer.end());
       }
-      const blend::BlendWeights w = blend::blend_weights(basis[j], S, sun);
+      const blend::BlendWeights w = blend::blend_weights_sources(basis[j], S, lights);
       blend::CpuBlender ratios(basis[j], s.skip_threshold, 0.0);
-      ratios.blend(w, visibility, 1, &bench.workers);
+      ratios.blend_sources(w, visibility, 1, &bench.workers);
       const std::vector<float>& rgba = *ratios.rgba();
       std::vector<float> T(basis[j].texel_count() * 3);
       for (std::size_t x = 0; x < basis[j].texel_count(); ++x) std::copy_n(rgba.data() + 4 * x, 3, T.data() + 3 * x);
@@ -632,7 +667,7 @@ SequenceResult run_sequence(const Bench& bench, const SettingBake& bake, const S
   const study::SequenceOptions& sequence = bench.run.sequence;
   const std::vector<blend::BasisImages>& basis = bake.basis;
   blend::BlendWorkers& workers = bench.workers;
-  const auto& estimates = bench.sequence_inputs.estimates.at({s.bake.frequency, s.bake.basis, s.sun});
+  const auto& estimates = bench.sequence_inputs.estimates.at({s.bake.frequency, s.bake.basis, s.sun, s.sources});
   const SunTrack& track = sun_track(bench.sequence_inputs, bench.sites, s, bake.manifest);
   const auto& reference = bench.sequence_inputs.references.at(s.bake.texel_scale).frames;
   SequenceResult q;
@@ -680,7 +715,7 @@ SequenceResult run_sequence(const Bench& bench, const SettingBake& bake, const S
 // The whole frame's time (compositor + blend), and the cost the plot and the front use.
 void add_frame_cost(const TradeOptions& o, const FrameTimes& frame_ms, Result& r) {
   const Setting& s = r.setting;
-  std::tie(r.frame_ms, r.frame_cpu_ms) = frame_ms.at(std::make_tuple(s.bake, s.sun, s.render_scale));
+  std::tie(r.frame_ms, r.frame_cpu_ms) = frame_ms.at(std::make_tuple(s.bake, s.sun, s.sources, s.render_scale));
   r.whole_frame_ms = r.frame_ms + r.blend_ms;
   r.whole_frame_cpu_ms = r.frame_cpu_ms + r.blend_cpu_ms;
   if (o.sky_interval <= 0.0) {
@@ -704,7 +739,8 @@ Result evaluate_setting(const Bench& bench, const Setting& s, int index, std::si
   const SettingBake bake = load_setting_bake(bench.bakes, r);
   const sky::SkyEstimator* estimator = &bench.estimators.estimator_for(s);
   evaluate_skies(bench, bake, *estimator, r);
-  if (bench.run.o.sequence) r.sequence = run_sequence(bench, bake, s);
+  // The sequence follows the sun alone (the sky simulator has no lamps).
+  if (bench.run.o.sequence && s.sources == 1) r.sequence = run_sequence(bench, bake, s);
   add_frame_cost(bench.run.o, bench.frame_ms, r);
   std::printf("[%d/%zu] %-44s RMS %.4f p99 %.4f max %.4f | blend %.2f ms frame %.2f ms (%.1f s)\n", index, count,
               s.label().c_str(), r.error.rms, r.error.p99, r.error.max, r.blend_ms, r.frame_ms, seconds_since(t_setting));

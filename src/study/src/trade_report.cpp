@@ -188,6 +188,7 @@ nlohmann::json to_json(const Result& r) {
           {"form", r.setting.form.name()},
           {"bits", r.setting.bits},
           {"sun_separation", r.setting.sun},
+          {"sources", r.setting.sun ? r.setting.sources : 0},
           {"skip_threshold", r.setting.skip_threshold},
           {"change_threshold", r.setting.change_threshold},
           {"smoothing", r.setting.smoothing},
@@ -224,26 +225,28 @@ std::string markdown_table(const std::vector<Result>& results) {
   for (const Result& r : results) {
     const Setting& s = r.setting;
     char edge[48] = "—";
+    const std::string sun = !s.sun ? "off" : s.sources > 1 ? "on+" + std::to_string(s.sources - 1) : "on";
     if (r.edge_m) std::snprintf(edge, sizeof edge, "%.3f / %.3f", *r.edge_m, *r.edge_deg);
     char row[512];
     std::snprintf(row, sizeof row,
                   "| %d | %d | %s | %d | 1/%d | %s | %d | %s | %g | %g | %g | %g | %.4f | %.4f | %.4f | %s | %.1f | %.2f | %.1f | %.1f / %.1f | "
                   "%.1f / %.1f | %.1f (%.0f) | %s |\n",
                   k++, s.bake.frequency, std::string(geom::basis_name(s.bake.basis)).c_str(), s.bake.samples,
-                  s.bake.texel_scale, s.form.name().c_str(), s.bits, s.sun ? "on" : "off", s.skip_threshold, s.change_threshold, s.smoothing, s.render_scale, r.error.rms,
+                  s.bake.texel_scale, s.form.name().c_str(), s.bits, sun.c_str(), s.skip_threshold, s.change_threshold, s.smoothing, s.render_scale, r.error.rms,
                   r.error.p99, r.error.max, edge, r.bake_seconds, static_cast<double>(r.bake_bytes) / 1e6,
                   static_cast<double>(r.gpu_bytes) / 1e6, r.blend_ms, r.blend_cpu_ms, r.frame_ms, r.frame_cpu_ms, r.cost_ms,
                   1000.0 / r.cost_ms,
                   r.pareto ? "**yes**" : "");
     md += row;
   }
-  if (!results.empty() && results.front().sequence) {
+  if (std::any_of(results.begin(), results.end(), [](const Result& r) { return r.sequence.has_value(); })) {
     md += "\nSky sequence (--sequence): error of T against each frame's reference, mean over the frames (worst "
           "frame); still: a fresh blend of each frame's own estimate; re-blends: share of frames × planes blended.\n\n"
           "| # | setting | ΔS thr. | smoothing s | RMS mean (worst) | p99 mean (worst) | max | still RMS mean | still max | "
           "re-blends |\n|---|---|---|---|---|---|---|---|---|---|\n";
     k = 0;
     for (const Result& r : results) {
+      if (!r.sequence) continue;  // several sources: the sequence follows the sun alone
       const SequenceResult& q = *r.sequence;
       char row[512];
       std::snprintf(row, sizeof row, "| %d | %s | %g | %g | %.4f (%.4f) | %.4f (%.4f) | %.4f | %.4f | %.4f | %.0f%% |\n", k++,

@@ -62,6 +62,7 @@ struct Setting {
   Form form;
   int bits = 16;
   bool sun = true;
+  int sources = 1;  // separated sources at most (sun on): sky.max_sources
   double skip_threshold = 0;
   double change_threshold = 0.002;
   double smoothing = 0;
@@ -71,6 +72,7 @@ struct Setting {
     std::snprintf(text, sizeof text, "%s %s %db%s S%g", bake.name().c_str(), form.name().c_str(), bits,
                   sun ? " sun" : " nosun", skip_threshold);
     std::string s = text;
+    if (sun && sources > 1) s.insert(s.find(" sun") + 4, "+" + std::to_string(sources - 1));  // lamps besides the sun
     char live[64];
     std::snprintf(live, sizeof live, " dS%g", change_threshold);
     s += live;

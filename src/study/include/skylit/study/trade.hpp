@@ -21,6 +21,10 @@ struct TradeOptions {
   std::vector<std::string> forms{"full", "lean", "pca8"};
   std::vector<int> bits{16, 8};
   std::vector<std::string> sun{"on", "off"};
+  // Separated sources at most with the sun on (sky.max_sources): 1, the sun alone; N, the sun and
+  // lamps, each its own term (a ray-cast visibility per source in the blend, a shadow map per
+  // source and the lamps per vertex in the frame).
+  std::vector<int> sources{1};
   std::vector<double> skip_thresholds{0.0, 0.005};
   std::vector<double> change_thresholds{0.002};
   std::vector<double> smoothings{0.0};
