@@ -202,6 +202,60 @@ TEST_F(SourceShadows, BlendSumsEverySourceAsTheCpu) {
   EXPECT_NE(T2, T);
 }
 
+// The extremes: a sun on the horizon, a lamp at the zenith (the map's axes switch), a lamp below
+// the horizon (behind the ground: it lights nothing there) and a lamp of no size. Every V is a
+// number in [0, 1], and the GPU blend still sums as the CPU's.
+TEST_F(SourceShadows, SourcesAtTheExtremesStayFiniteAndBlendAsTheCpu) {
+  const scene::Mesh mesh = lamp_site();
+  const geom::Plane plane = lamp_ground();
+  const std::vector<geom::Plane> planes{plane};
+  const std::vector<ShadowSource> sources{{direction(0.5, 250), 0.0047}, {Vec3::UnitZ(), 3.0 * kDegrees},
+                                          {direction(-20, 90), 2.0 * kDegrees}, {direction(45, 45), 0.0}};
+  SunShadowMap map(mesh, planes, options_for(4));
+  map.update(sources);
+  for (int k = 0; k < 4; ++k) {
+    for (const std::vector<float>& values : {map.read_visibility(0, k), map.read_vertex_visibility(k)}) {
+      for (const float v : values) {
+        ASSERT_TRUE(std::isfinite(v)) << "source " << k;
+        ASSERT_GE(v, 0.0f) << "source " << k;
+        ASSERT_LE(v, 1.0f) << "source " << k;
+      }
+    }
+  }
+  // The zenith lamp: the cube's footprint is in its umbra, the open ground lit.
+  const std::vector<float> zenith = map.read_visibility(0, 1);
+  EXPECT_LT(zenith[static_cast<std::size_t>(48 * 96 + 48)], 0.05f);  // the ground's centre, under the cube
+  EXPECT_GT(zenith[static_cast<std::size_t>(5 * 96 + 5)], 0.95f);    // a corner of the ground
+
+  const std::vector<double> A(40, 2.0 * std::numbers::pi / 40 * 0.5);
+  blend::BasisImages basis;
+  basis.name = "ground";
+  basis.width = plane.width;
+  basis.height = plane.height;
+  basis.layers = 40;
+  basis.unoccluded = A;
+  basis.half.assign(basis.texel_count() * 40, blend::float_to_half(static_cast<float>(A[0])));
+  basis.normal = plane.normal();
+  const std::vector<Eigen::Vector3d> S(40, Eigen::Vector3d(0.4, 0.6, 1.0));
+  std::vector<blend::SunLight> lights;
+  for (const ShadowSource& source : sources) lights.push_back({source.direction, Eigen::Vector3d(5, 4, 3)});
+  const blend::BlendWeights w = blend::blend_weights_sources(basis, S, lights);
+  EXPECT_TRUE(w.sources[2].isZero(0)) << "a lamp below the ground lights nothing on it";
+  std::vector<std::vector<float>> V;
+  for (int k = 0; k < 4; ++k) V.push_back(k == 2 ? std::vector<float>() : map.read_visibility(0, k));
+  const std::vector<std::span<const float>> views(V.begin(), V.end());
+  std::vector<float> expected(3 * basis.texel_count());
+  blend::blend_cpu_sources(basis, w, views, expected);
+  blend::GpuBlendOptions blend_options;
+  blend_options.output = blend::ShadowRatioFormat::Float;
+  blend::GpuBlender blender(basis, blend_options);
+  ASSERT_TRUE(blender.blend(w, &map.visibility(0)));
+  const std::vector<float> T = blender.read_back();
+  double worst = 0;
+  for (std::size_t t = 0; t < T.size(); ++t) worst = std::max(worst, std::abs(static_cast<double>(T[t]) - expected[t]));
+  EXPECT_LE(worst, 1e-5);
+}
+
 TEST_F(SourceShadows, BadCountsAreInputErrors) {
   const scene::Mesh mesh = lamp_site();
   const std::vector<geom::Plane> planes{lamp_ground()};
