@@ -1,5 +1,6 @@
 // skylit-bench: measurements of the sky stage. `trade`: the trade table (study/trade.hpp,
 // docs/trade.md).
+#include <filesystem>
 #include <cstdio>
 #include <exception>
 #include <string>
@@ -37,6 +38,11 @@ int main(int argc, char** argv) {
   trade->add_option("--forms", o.forms, "full, lean, cropped, pcaK, pcaKtN (clustered PCA, tiles of N texels)")->delimiter(',')->capture_default_str();
   trade->add_option("--bits", o.bits, "layer bit depth: 16 (half), 8 (unorm8; not with PCA)")->delimiter(',')->capture_default_str();
   trade->add_option("--sun", o.sun, "sun separation: on, off")->delimiter(',')->capture_default_str();
+  trade->add_option("--live-seconds", o.live_seconds,
+                    "also run skylit-live on each setting's bake for this long (a 60 Hz camera, the sky changing every "
+                    "--sky-interval seconds) and report its own frame rate")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   trade->add_option("--sources", o.sources,
                     "separated sources at most with the sun on (sky.max_sources): 1, the sun alone; N, the sun and lamps")
       ->delimiter(',')
@@ -120,6 +126,10 @@ int main(int argc, char** argv) {
       unless_given("--frame-repeats", o.frame_repeats, 10);
       unless_given("--blend-repeats", o.blend_repeats, 5);
     }
+    // skylit-live beside this program (the build tree's bin/, or an installation's).
+    std::error_code no_proc;
+    const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", no_proc);
+    if (!no_proc && std::filesystem::exists(self.parent_path() / "skylit-live")) o.live_program = (self.parent_path() / "skylit-live").string();
     return run_trade(o);
   } catch (const InputError& e) {
     std::fprintf(stderr, "skylit-bench: error: %s\n", e.what());

@@ -149,6 +149,37 @@ TEST(SkylitBenchTrade, SeparatedSourcesAreASettingOfTheGrid) {
   EXPECT_NE(result.output.find("sun+7"), std::string::npos) << result.output;
 }
 
+// --live-seconds: each setting's frame rate also from skylit-live itself, run on the setting's bake
+// with a 60 Hz camera and a changing sky; its own /status in the table.
+TEST(SkylitBenchTrade, TheServiceItselfGivesEachSettingsFrameRate) {
+  const test::TempDir dir;
+  const fs::path out = dir / "trade";
+  const cli_test::Result result = cli_test::run_program(
+      kBin / "skylit-bench",
+      "trade --site " + (kSource / "config/sample_site.yaml").string() + " --calib " +
+          (kSource / "config/sky_camera.yaml").string() + " --hmd-camera " + (kSource / "config/hmd_camera.yaml").string() +
+          " --skies " + (kSource / "data/hdri").string() +
+          " --sky park --frequencies 2 --bases faces,corners --samples 3 --texel-scales 32 --forms full --bits 16"
+          " --sun on --skip-thresholds 0 --frame-width 160 --frame-height 120 --frame-repeats 3 --blend-repeats 2"
+          " --timing-scale 8 --supersample 1 --live-seconds 1 --out " +
+          out.string());
+  ASSERT_EQ(result.status, 0) << result.output;
+  const nlohmann::json doc = nlohmann::json::parse(read_all(out / "trade.json"));
+  ASSERT_EQ(doc.at("settings").size(), 2u);
+  for (const auto& s : doc.at("settings")) {
+    SCOPED_TRACE(s.at("label").get<std::string>());
+    const auto& live = s.at("live");
+    ASSERT_TRUE(live.is_object()) << s.dump();
+    EXPECT_GE(live.at("composited").get<std::int64_t>(), 30);
+    EXPECT_GT(live.at("frames_per_second").get<double>(), 0.0);
+    EXPECT_GT(live.at("frame_p50_ms").get<double>(), 0.0);
+    EXPECT_GE(live.at("camera_frames").get<std::int64_t>(), live.at("composited").get<std::int64_t>());
+    EXPECT_TRUE(live.at("blend_device") == "cpu" || live.at("blend_device") == "gpu") << live.dump();
+  }
+  EXPECT_NE(read_all(out / "trade.md").find("service frames/s"), std::string::npos);
+  EXPECT_NE(result.output.find("service: "), std::string::npos) << result.output;
+}
+
 // --sequence on a tiny grid: ΔS thresholds 0 and 0.05, smoothings 0 and 10 s, 24 skies with a
 // passing cloud. Threshold 0 without smoothing blends every frame and is the still-sky path; a
 // large threshold blends fewer and stays within its bound; a long time constant lags the cloud.

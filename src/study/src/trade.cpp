@@ -742,8 +742,21 @@ Result evaluate_setting(const Bench& bench, const Setting& s, int index, std::si
   // The sequence follows the sun alone (the sky simulator has no lamps).
   if (bench.run.o.sequence && s.sources == 1) r.sequence = run_sequence(bench, bake, s);
   add_frame_cost(bench.run.o, bench.frame_ms, r);
+  const TradeOptions& o = bench.run.o;
+  if (o.live_seconds > 0) {
+    const bool pca = s.form.form == blend::BasisForm::Pca;
+    const fs::path bake_dir = pca ? bench.bakes.pca_dirs.at({s.bake, s.form.components, s.form.tile}) : bench.bakes.dirs.at(s.bake);
+    r.live = run_live(o.live_program, s, bench.sites.at(s.bake.texel_scale).file, bake_dir, o.sky_calib, o.hmd_calib,
+                      o.frame_width, o.frame_height, o.live_seconds, o.sky_interval, o.sequence_lat, o.sequence_lon,
+                      fs::path(o.out_dir) / "live");
+  }
   std::printf("[%d/%zu] %-44s RMS %.4f p99 %.4f max %.4f | blend %.2f ms frame %.2f ms (%.1f s)\n", index, count,
               s.label().c_str(), r.error.rms, r.error.p99, r.error.max, r.blend_ms, r.frame_ms, seconds_since(t_setting));
+  if (r.live) {
+    std::printf("    service: %.1f frames/s, frame p50 %.1f ms p99 %.1f ms, %lld of %lld camera frames dropped (blend on the %s)\n",
+                r.live->frames_per_second, r.live->frame_p50_ms, r.live->frame_p99_ms, static_cast<long long>(r.live->dropped),
+                static_cast<long long>(r.live->camera_frames), r.live->device.c_str());
+  }
   if (r.sequence) {
     std::printf("    sequence: RMS %.4f (worst %.4f, still %.4f) max %.4f, re-blends %.0f%%\n", mean_of(r.sequence->rms),
                 max_of(r.sequence->rms), mean_of(r.sequence->still_rms), max_of(r.sequence->max), 100.0 * blend_fraction(*r.sequence));

@@ -187,6 +187,12 @@ nlohmann::json to_json(const Result& r) {
           {"texel_scale", r.setting.bake.texel_scale},
           {"form", r.setting.form.name()},
           {"bits", r.setting.bits},
+          {"live", r.live ? nlohmann::json{{"frames_per_second", r.live->frames_per_second},
+                                            {"frame_p50_ms", r.live->frame_p50_ms}, {"frame_p99_ms", r.live->frame_p99_ms},
+                                            {"composited", r.live->composited}, {"dropped", r.live->dropped},
+                                            {"camera_frames", r.live->camera_frames}, {"seconds", r.live->seconds},
+                                            {"blend_device", r.live->device}}
+                          : nlohmann::json(nullptr)},
           {"sun_separation", r.setting.sun},
           {"sources", r.setting.sun ? r.setting.sources : 0},
           {"skip_threshold", r.setting.skip_threshold},
@@ -219,23 +225,29 @@ nlohmann::json to_json(const Result& r) {
 std::string markdown_table(const std::vector<Result>& results) {
   std::string md =
       "| # | ν | basis | K | texel scale | form | bits | sun | S thr. | ΔS thr. | smoothing s | render scale | RMS | p99 | max | edge (m / °) | bake s | "
-      "bake MB | GPU MB | blend ms wall / CPU | frame ms wall / CPU | cost ms (frames/s) | Pareto |\n"
-      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+      "bake MB | GPU MB | blend ms wall / CPU | frame ms wall / CPU | cost ms (frames/s) | service frames/s (p50 ms, dropped) | Pareto |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   int k = 0;
   for (const Result& r : results) {
     const Setting& s = r.setting;
     char edge[48] = "—";
     const std::string sun = !s.sun ? "off" : s.sources > 1 ? "on+" + std::to_string(s.sources - 1) : "on";
     if (r.edge_m) std::snprintf(edge, sizeof edge, "%.3f / %.3f", *r.edge_m, *r.edge_deg);
-    char row[512];
+    char service[96] = "—";
+    if (r.live) {
+      std::snprintf(service, sizeof service, "%.1f (%.1f, %.0f%%)", r.live->frames_per_second, r.live->frame_p50_ms,
+                    r.live->camera_frames > 0 ? 100.0 * static_cast<double>(r.live->dropped) / static_cast<double>(r.live->camera_frames)
+                                              : 0.0);
+    }
+    char row[640];
     std::snprintf(row, sizeof row,
                   "| %d | %d | %s | %d | 1/%d | %s | %d | %s | %g | %g | %g | %g | %.4f | %.4f | %.4f | %s | %.1f | %.2f | %.1f | %.1f / %.1f | "
-                  "%.1f / %.1f | %.1f (%.0f) | %s |\n",
+                  "%.1f / %.1f | %.1f (%.0f) | %s | %s |\n",
                   k++, s.bake.frequency, std::string(geom::basis_name(s.bake.basis)).c_str(), s.bake.samples,
                   s.bake.texel_scale, s.form.name().c_str(), s.bits, sun.c_str(), s.skip_threshold, s.change_threshold, s.smoothing, s.render_scale, r.error.rms,
                   r.error.p99, r.error.max, edge, r.bake_seconds, static_cast<double>(r.bake_bytes) / 1e6,
                   static_cast<double>(r.gpu_bytes) / 1e6, r.blend_ms, r.blend_cpu_ms, r.frame_ms, r.frame_cpu_ms, r.cost_ms,
-                  1000.0 / r.cost_ms,
+                  1000.0 / r.cost_ms, service,
                   r.pareto ? "**yes**" : "");
     md += row;
   }

@@ -95,8 +95,21 @@ struct SequenceResult {
   int sun_redraws = 0;       // frames whose sun visibility was recomputed (the sun moved): they re-blend
 };
 
+// The service's own frames for a setting (--live-seconds): skylit-live itself on the setting's
+// bake, a 60 Hz camera in, composites out, the sky changing; from its final /status.
+struct LiveRun {
+  double frames_per_second = 0;  // composited, over the run (frame_rate)
+  double frame_p50_ms = 0, frame_p99_ms = 0;
+  std::int64_t composited = 0;
+  std::int64_t dropped = 0;      // camera frames replaced before the renderer took them
+  std::int64_t camera_frames = 0;
+  double seconds = 0;            // the run's wall time
+  std::string device;            // blend.device as resolved (cpu, gpu)
+};
+
 struct Result {
   Setting setting;
+  std::optional<LiveRun> live;
   std::optional<SequenceResult> sequence;
   study::Errors error;
   std::map<std::string, double> rms_per_sky;
@@ -126,6 +139,17 @@ double cpu_ms_since(std::clock_t t);
 std::vector<std::pair<double, double>> edge_points(const std::vector<double>& y, const geom::Plane& plane, double level);
 std::pair<double, int> edge_displacement(const std::vector<float>& T, const std::vector<Eigen::Vector3d>& reference,
                                          const geom::Plane& plane);
+
+// ---- the service's own frames (trade_live.cpp) ----
+
+// Runs `program` (skylit-live) headless on the setting's bake for `seconds` of 60 Hz camera
+// frames (random images of the frame size, the visitor's pose), the sky a clear day from the sky
+// simulator changing every `sky_interval` seconds, everything written under `work_dir`.
+// std::runtime_error naming the log when it fails.
+LiveRun run_live(const std::string& program, const Setting& s, const std::filesystem::path& site_file,
+                 const std::filesystem::path& bake_dir, const std::string& sky_calib, const std::string& hmd_calib,
+                 int frame_width, int frame_height, double seconds, double sky_interval, double latitude, double longitude,
+                 const std::filesystem::path& work_dir);
 
 // ---- what is written (trade_report.cpp) ----
 

@@ -44,6 +44,12 @@ struct TradeOptions {
   // frame (the worst frame: the one whose sky changed, on one thread).
   double sky_interval = 0.0;
   bool quick = false;
+  // > 0: each setting's frame rate also from the live service itself (skylit-live, `live_program`),
+  // run this many seconds of a 60 Hz camera on the setting's bake with the sky changing every
+  // sky_interval seconds (1 when 0): camera in, composite out (docs/trade.md, "The service's own
+  // frame rate").
+  double live_seconds = 0;
+  std::string live_program = "skylit-live";
   // The sky sequence (--sequence): measures the change threshold and the smoothing.
   bool sequence = false;
   int sequence_frames = 60;
