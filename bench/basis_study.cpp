@@ -165,7 +165,7 @@ int main(int argc, char** argv) {
     p.width = std::max(4, p.width / texel_scale);
     p.height = std::max(4, p.height / texel_scale);
   }
-  const skylit::scene::Mesh mesh = skylit::scene::load_model(site.model, site.up, site.scale);
+  const skylit::scene::Mesh mesh = skylit::scene::load_site_model(site);
   const int sky_height = sky_width / 2;
 
   // Sky pixels above the horizon.

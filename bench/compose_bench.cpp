@@ -81,7 +81,7 @@ struct Scene {
     std::fclose(quiet);
     manifest = bake_format::read_manifest(dir);
     site = scene::load_site(options.site_file);
-    mesh = scene::load_model(site.model, site.up, site.scale);
+    mesh = scene::load_site_model(site);
     std::vector<std::size_t> shape;
     transfer = bake_format::read_npy(dir / manifest.transfer_file, &shape);
     sky.assign(transfer.size() / mesh.vertex_count(), Eigen::Vector3d(0.3, 0.4, 0.6));  // one value per basis layer

@@ -103,7 +103,7 @@ cv::Mat film_equirect(const std::string& file, const skylit::camera::Lens& lens,
 
 int run(const Options& o) {
   const skylit::scene::Site site = skylit::scene::load_site(o.site);
-  const skylit::scene::Mesh mesh = skylit::scene::load_model(site.model, site.up, site.scale);
+  const skylit::scene::Mesh mesh = skylit::scene::load_site_model(site);
   const skylit::bake_format::Manifest manifest = skylit::bake_format::read_manifest(o.bake_dir);
   std::vector<std::size_t> shape;
   const std::vector<float> transfer = skylit::bake_format::read_npy(fs::path(o.bake_dir) / manifest.transfer_file, &shape);

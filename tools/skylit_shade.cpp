@@ -126,7 +126,7 @@ skylit::scene::Mesh site_mesh(const Options& o, const skylit::bake_format::Manif
                                           "need its model. Fix: pass --site SITE.yaml, or --sun off");
   }
   const skylit::scene::Site site = skylit::scene::load_site(site_file);
-  const skylit::scene::Mesh mesh = skylit::scene::load_model(site.model, site.up, site.scale);
+  const skylit::scene::Mesh mesh = skylit::scene::load_site_model(site);
   if (skylit::sha256_file(site.model) != manifest.plan.model_sha256) {
     spdlog::warn("the model {} changed since the bake was made: the sun's shadows follow the new model",
                  site.model.string());

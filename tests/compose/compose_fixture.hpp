@@ -165,7 +165,7 @@ struct BakedSite {
     site = scene::load_site(dir / "site.yaml");
     // The model as the bake saw it has the same vertex order as the mesh in memory, which keeps
     // its texcoords and texture (write_glb does not store them).
-    const scene::Mesh loaded = scene::load_model(site.model, site.up, site.scale);
+    const scene::Mesh loaded = scene::load_site_model(site);
     if (loaded.vertex_count() != mesh.vertex_count()) throw std::runtime_error("glb round trip changed the vertices");
     std::vector<std::size_t> shape;
     transfer = bake_format::read_npy(dir / "bake" / manifest.transfer_file, &shape);

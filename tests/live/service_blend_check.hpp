@@ -91,7 +91,7 @@ inline void check_service_blend(const Rig& rig, const ServiceBlendSetup& setup, 
   // The same sky without the service.
   const gpu::HeadlessContext context;
   const scene::Site site = scene::load_site(config.site);
-  const scene::Mesh mesh = scene::load_model(site.model, site.up, site.scale);
+  const scene::Mesh mesh = scene::load_site_model(site);
   std::vector<std::size_t> shape;
   const std::vector<float> transfer = bake_format::read_npy(setup.bake_dir / manifest.transfer_file, &shape);
   const geom::Dome dome(manifest.plan.frequency);

@@ -78,7 +78,7 @@ struct Outputs {
     // visibility → compositor.
     const gpu::HeadlessContext context;
     const scene::Site site = scene::load_site(config.site);
-    const scene::Mesh mesh = scene::load_model(site.model, site.up, site.scale);
+    const scene::Mesh mesh = scene::load_site_model(site);
     const bake_format::Manifest manifest = bake_format::read_manifest(config.bake);
     std::vector<std::size_t> shape;
     const std::vector<float> transfer = bake_format::read_npy(config.bake / manifest.transfer_file, &shape);
@@ -288,7 +288,7 @@ TEST(Service, TheBoxShadowLandsOnTheGroundWhereGeometryPutsIt) {
   const cv::Mat& frame = out.recorded.back();
   const cv::Mat& input = out.inputs[nearest(frame, out.direct).index];
   const BakedSite& baked = BakedSite::get();
-  const scene::Mesh mesh = scene::load_model(baked.site.model, baked.site.up, baked.site.scale);
+  const scene::Mesh mesh = scene::load_site_model(baked.site);
   const compose_test::RayCaster caster(mesh);
   const camera::Lens lens(out.hmd);
   const geom::Plane& ground = baked.manifest.planes[0].plane;

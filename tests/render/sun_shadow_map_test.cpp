@@ -160,7 +160,7 @@ TEST_F(SunShadow, ShadowLandsWhereTheRayTracerPutsIt) {
 // with the ray tracer away from penumbra edges, with the default options of the live service.
 TEST_F(SunShadow, SampleSiteGroundUnderAHighSun) {
   const scene::Site site = scene::load_site(SKYLIT_SOURCE_DIR "/config/sample_site.yaml");
-  const scene::Mesh mesh = scene::load_model(site.model, site.up, site.scale);
+  const scene::Mesh mesh = scene::load_site_model(site);
   const std::vector<geom::Plane> planes{site.planes.at(0)};
   ASSERT_EQ(planes[0].name, "ground");
   SunShadowMap map(mesh, planes, SunShadowOptions{});

@@ -205,7 +205,7 @@ TEST(SampleSite, CommittedYamlMatchesTheCode) {
   }
   EXPECT_EQ(file.plane_surfaces.size(), file.planes.size());
   // And the model it names loads.
-  EXPECT_EQ(load_model(file.model, file.up, file.scale).triangle_count(),
+  EXPECT_EQ(load_site_model(file).triangle_count(),
             make_sample_gate().triangle_count());
 }
 

@@ -95,7 +95,7 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
                                         "  - name: north_wall\n    origin: [1, 1.01, 0]\n    u: [-2, 0, 0]\n"
                                         "    v: [0, 0, 2]\n    resolution: [8, 8]\n");
     const scene::Site site = scene::load_site(*dir_ / "site.yaml");
-    mesh_ = new scene::Mesh(scene::load_model(site.model, site.up, site.scale));
+    mesh_ = new scene::Mesh(scene::load_site_model(site));
     context_ = new gpu::HeadlessContext();
   }
   static void TearDownTestSuite() {

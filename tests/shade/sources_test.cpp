@@ -101,7 +101,7 @@ class SourcesShadeTest : public ::testing::Test {
       skylit::test::quiet_bake(*dir_ / "site.yaml", *dir_ / "bake");
       manifest_ = new bake_format::Manifest(bake_format::read_manifest(*dir_ / "bake"));
       const scene::Site site = scene::load_site(*dir_ / "site.yaml");
-      mesh_ = new scene::Mesh(scene::load_model(site.model, site.up, site.scale));
+      mesh_ = new scene::Mesh(scene::load_site_model(site));
     });
   }
   void SetUp() override { setup_.require(); }

@@ -58,7 +58,7 @@ skylit::test::TempDir* BuildingLight::dir_ = nullptr;
 
 TEST_F(BuildingLight, TheReferenceIntegratesAUniformSkyOverEachFace) {
   const skylit::scene::Site s = site();
-  const skylit::scene::Mesh mesh = skylit::scene::load_model(s.model, s.up, s.scale);
+  const skylit::scene::Mesh mesh = skylit::scene::load_site_model(s);
   cv::Mat equirect(128, 256, CV_32FC3, cv::Scalar(kRadiance.z(), kRadiance.y(), kRadiance.x()));
   const study::EquirectLights lights = study::equirect_lights(equirect, 1);
   const Vector3d horizontal = study::horizontal_irradiance(lights);
@@ -71,9 +71,31 @@ TEST_F(BuildingLight, TheReferenceIntegratesAUniformSkyOverEachFace) {
   }
 }
 
+// Inside the triangles: four points per triangle with their face's normal, each lit by the
+// uniform sky as its face is, in the reference and in E interpolated from the vertices alike.
+TEST_F(BuildingLight, InsideTheTrianglesTheCubesFacesAreLitAsAtTheirVertices) {
+  const skylit::scene::Site s = site();
+  const skylit::scene::Mesh mesh = skylit::scene::load_site_model(s);
+  const study::TrianglePoints points = study::triangle_points(mesh);
+  ASSERT_EQ(points.positions.size(), 4 * mesh.triangle_count());
+  for (std::size_t k = 0; k < points.weights.size(); ++k) EXPECT_NEAR(points.weights[k].sum(), 1.0, 1e-12);
+  cv::Mat equirect(128, 256, CV_32FC3, cv::Scalar(kRadiance.z(), kRadiance.y(), kRadiance.x()));
+  const study::EquirectLights lights = study::equirect_lights(equirect, 1);
+  const std::vector<Vector3d> reference = study::building_reference_at(lights, s, mesh, points);
+  const std::vector<Vector3d> interpolated = study::interpolated_at(points, study::building_reference(lights, s, mesh));
+  ASSERT_EQ(reference.size(), points.positions.size());
+  for (std::size_t k = 0; k < points.positions.size(); ++k) {
+    const Vector3d expected = uniform_sky_irradiance(points.normals[k]);
+    EXPECT_LT((reference[k] - expected).norm(), 5e-3 * kPi) << "point " << k;
+    EXPECT_LT((interpolated[k] - expected).norm(), 5e-3 * kPi) << "point " << k;
+  }
+  const study::Errors inside = study::building_errors(interpolated, reference, study::horizontal_irradiance(lights));
+  EXPECT_LT(inside.max, 5e-3);
+}
+
 TEST_F(BuildingLight, TheTransferVectorsGiveTheSameLightAndEachSourceItsCosine) {
   const skylit::scene::Site s = site();
-  const skylit::scene::Mesh mesh = skylit::scene::load_model(s.model, s.up, s.scale);
+  const skylit::scene::Mesh mesh = skylit::scene::load_site_model(s);
   std::size_t layers = 0;
   const std::vector<float> t = transfer(&layers);
   const std::vector<Vector3d> S(layers, kRadiance);
@@ -136,7 +158,7 @@ TEST(BuildingLightExtremes, ASourceBehindABlockAndVerticesInsideAWall) {
                                              "    v: [0, 12, 0]\n    resolution: [8, 8]\n";
   skylit::test::quiet_bake(dir.path() / "site.yaml", dir.path() / "bake", 16);
   const skylit::scene::Site s = skylit::scene::load_site(dir.path() / "site.yaml");
-  const skylit::scene::Mesh mesh = skylit::scene::load_model(s.model, s.up, s.scale);
+  const skylit::scene::Mesh mesh = skylit::scene::load_site_model(s);
   const skylit::bake_format::Manifest manifest = skylit::bake_format::read_manifest(dir.path() / "bake");
   std::vector<std::size_t> shape;
   const std::vector<float> t = skylit::bake_format::read_npy(dir.path() / "bake" / manifest.transfer_file, &shape);

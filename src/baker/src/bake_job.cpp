@@ -406,7 +406,7 @@ struct LoadedSite {
 
 LoadedSite load(const fs::path& site_file) {
   LoadedSite loaded{scene::load_site(site_file), {}};
-  loaded.mesh = scene::load_model(loaded.site.model, loaded.site.up, loaded.site.scale);
+  loaded.mesh = scene::load_site_model(loaded.site);
   return loaded;
 }
 
@@ -683,7 +683,7 @@ BakeSummary merge_bakes(const std::vector<fs::path>& shard_dirs, const fs::path&
 
   const scene::Mesh mesh = [&] {
     const scene::Site site = scene::load_site(plan->site_file);
-    scene::Mesh m = scene::load_model(site.model, site.up, site.scale);
+    scene::Mesh m = scene::load_site_model(site);
     if (sha256_file(site.model) != plan->model_sha256 || m.vertex_count() != plan->vertex_count) {
       throw InputError("the model '" + site.model.string() +
                        "' changed since the shards were baked. Fix: re-bake the shards");

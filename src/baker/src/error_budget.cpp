@@ -388,7 +388,7 @@ ErrorBudgetReport run_error_budget_bake(const BakeOptions& bake, const ErrorBudg
 
   const bake_format::Manifest reference_manifest = bake_format::read_manifest(reference_dir);
   report.reference_basis = reference_manifest.plan.basis;
-  const scene::Mesh mesh = scene::load_model(site.model, site.up, site.scale);
+  const scene::Mesh mesh = scene::load_site_model(site);
   std::vector<geom::Plane> planes;
   for (const bake_format::PlaneRecord& r : reference_manifest.planes) planes.push_back(r.plane);
   say(log, "skylit-bake: error budget: sun visibility for %zu skies on %zu plane(s), sky frames\n", skies.size(),

@@ -131,7 +131,7 @@ Service::Service(const LiveConfig& config, const ServiceOptions& options) : stat
   s.options = options;
   check_bake_matches_site(config.bake, config.site, config.preset);
   s.site = scene::load_site(config.site);
-  s.mesh = scene::load_model(s.site.model, s.site.up, s.site.scale);
+  s.mesh = scene::load_site_model(s.site);
   s.manifest = bake_format::read_manifest(config.bake);
   std::vector<std::size_t> shape;
   s.transfer = bake_format::read_npy(config.bake / s.manifest.transfer_file, &shape);

@@ -27,7 +27,7 @@ constexpr std::size_t kMaxPlaneNameLength = 128;
 
 const std::array<std::string_view, 5> kTopKeys{"scene", "dome", "location", "planes", "root"};
 const std::array<std::string_view, 2> kLocationKeys{"latitude", "longitude"};
-const std::array<std::string_view, 3> kSceneKeys{"model", "up", "scale"};
+const std::array<std::string_view, 4> kSceneKeys{"model", "up", "scale", "max_edge"};
 const std::array<std::string_view, 2> kDomeKeys{"frequency", "basis"};
 const std::array<std::string_view, 6> kPlaneKeys{"name", "origin", "u", "v", "resolution", "surface"};
 
@@ -134,6 +134,10 @@ class SiteParser {
       site.scale = r_.positive(scale, "scene.scale",
                                "write the length of one model unit in metres, e.g. 'scale: 0.01' for a model in "
                                "centimetres");
+    }
+    if (const YAML::Node max_edge = YamlReader::optional(scene, "max_edge")) {
+      site.max_edge = r_.non_negative(max_edge, "scene.max_edge",
+                                      "write the longest triangle edge in metres, e.g. 'max_edge: 1', or 0 for the model as it is");
     }
   }
 
@@ -317,8 +321,11 @@ std::string site_to_yaml(const Site& site) {
       << Comment("glTF 2.0 (.glb/.gltf) or OBJ, relative to this file")
       << Key << "up" << Value << (site.up == UpAxis::Y ? "y" : "z")
       << Comment("the model's up axis: y (glTF standard) or z")
-      << Key << "scale" << Value << YamlNumber{site.scale} << Comment("metres per model unit")
-      << YAML::EndMap << Key << "dome" << Value << YAML::BeginMap
+      << Key << "scale" << Value << YamlNumber{site.scale} << Comment("metres per model unit");
+  if (site.max_edge > 0.0) {
+    out << Key << "max_edge" << Value << YamlNumber{site.max_edge} << Comment("metres: longer triangle edges are split");
+  }
+  out << YAML::EndMap << Key << "dome" << Value << YAML::BeginMap
       << Key << "frequency" << Value << site.dome_frequency
       << Comment("geodesic sky dome, even: 2 = 40 faces, 4 = 160, 6 = 360, 8 = 640");
   if (site.dome_basis != geom::DomeBasis::Faces) {

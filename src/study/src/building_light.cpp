@@ -38,6 +38,47 @@ std::vector<Eigen::Vector3d> building_estimate(std::span<const float> transfer, 
   return blend::vertex_irradiance(transfer, S, mesh.normals, lights, visibility);
 }
 
+TrianglePoints triangle_points(const scene::Mesh& mesh) {
+  TrianglePoints points;
+  const std::array<Eigen::Vector3d, 4> barycentric{Eigen::Vector3d(1.0, 1.0, 1.0) / 3.0, Eigen::Vector3d(4.0, 1.0, 1.0) / 6.0,
+                                                   Eigen::Vector3d(1.0, 4.0, 1.0) / 6.0, Eigen::Vector3d(1.0, 1.0, 4.0) / 6.0};
+  for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+    const std::array<std::uint32_t, 3> c{mesh.indices[t], mesh.indices[t + 1], mesh.indices[t + 2]};
+    for (const Eigen::Vector3d& b : barycentric) {
+      Eigen::Vector3f p = Eigen::Vector3f::Zero(), n = Eigen::Vector3f::Zero();
+      for (int k = 0; k < 3; ++k) {
+        p += static_cast<float>(b[k]) * mesh.positions[c[static_cast<std::size_t>(k)]];
+        n += static_cast<float>(b[k]) * mesh.normals[c[static_cast<std::size_t>(k)]];
+      }
+      if (!(n.norm() > 0.0f)) continue;  // opposite normals cancel: no surface to light
+      points.positions.push_back(p);
+      points.normals.push_back(n.normalized());
+      points.corners.push_back(c);
+      points.weights.push_back(b);
+    }
+  }
+  return points;
+}
+
+std::vector<Eigen::Vector3d> interpolated_at(const TrianglePoints& points, std::span<const Eigen::Vector3d> vertex_E) {
+  std::vector<Eigen::Vector3d> out(points.positions.size(), Eigen::Vector3d::Zero());
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    for (int c = 0; c < 3; ++c) out[k] += points.weights[k][c] * vertex_E[points.corners[k][static_cast<std::size_t>(c)]];
+  }
+  return out;
+}
+
+std::vector<Eigen::Vector3d> building_reference_at(const EquirectLights& lights, const scene::Site& site,
+                                                   const scene::Mesh& mesh, const TrianglePoints& points) {
+  scene::Mesh with_points = mesh;  // the same triangles; the points as vertices none of them uses
+  with_points.positions.insert(with_points.positions.end(), points.positions.begin(), points.positions.end());
+  with_points.normals.insert(with_points.normals.end(), points.normals.begin(), points.normals.end());
+  with_points.texcoords.clear();
+  std::vector<Eigen::Vector3d> all(with_points.vertex_count());
+  baker::weighted_vertex_irradiance(with_points, site.planes, lights.directions, lights.weights, all);
+  return {all.begin() + static_cast<std::ptrdiff_t>(mesh.vertex_count()), all.end()};
+}
+
 Errors building_errors(std::span<const Eigen::Vector3d> estimate, std::span<const Eigen::Vector3d> reference,
                        const Eigen::Vector3d& horizontal) {
   if (estimate.size() != reference.size()) throw std::invalid_argument("building_errors: estimate and reference differ in length");

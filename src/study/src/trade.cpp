@@ -212,7 +212,7 @@ Sites load_sites(const Run& run, const std::set<int>& scales) {
     SiteData d;
     d.file = study::coarse_site(o.site_file, s, dir);
     d.site = scene::load_site(d.file);
-    d.mesh = scene::load_model(d.site.model, d.site.up, d.site.scale);
+    d.mesh = scene::load_site_model(d.site);
     for (const auto& p : full_site.planes) d.full_planes.push_back(p);
     sites.emplace(s, std::move(d));
   }

@@ -1,6 +1,6 @@
 #pragma once
 // The site description: a YAML file (the schema is a contract, see docs/site-format.md).
-//   scene:  {model: models/gate.glb, up: z|y, scale: 1.0}
+//   scene:  {model: models/gate.glb, up: z|y, scale: 1.0, max_edge: 0}
 //   dome:   {frequency: 2, basis: faces|corners}
 //   location: {latitude: 34.69, longitude: 135.80}     (optional)
 //   planes: [{name, origin: [x,y,z], u: [..], v: [..], resolution: [W, H], surface}, ...]
@@ -36,6 +36,11 @@ struct Site {
   std::filesystem::path root;
   UpAxis up = UpAxis::Z;         // default z for OBJ, y for glTF when `up` is absent
   double scale = 1.0;
+  // `scene.max_edge`, metres, optional: triangles are split until no edge is longer (0: as
+  // modelled). The building's light is per vertex; a large face with vertices only where it
+  // meets other parts shows their light across its middle (bench/RESULTS.md, "Inside the
+  // triangles"). The bake and the live service load the model alike (load_site_model).
+  double max_edge = 0.0;
   int dome_frequency = 2;
   geom::DomeBasis dome_basis = geom::DomeBasis::Faces;  // `dome.basis`, optional
   std::optional<GeoLocation> location;                  // `location`, optional
@@ -56,5 +61,15 @@ Site load_site(const std::filesystem::path& file);
 
 // Writes a site back as YAML (for tools and tests that produce sites).
 std::string site_to_yaml(const Site& site);
+
+// The site's model as every program uses it: load_model with the site's up axis and scale, then
+// split to scene.max_edge (subdivide). The bake's per-vertex data follow this mesh.
+Mesh load_site_model(const Site& site);
+
+// Splits every triangle with an edge longer than max_edge (metres, > 0) at its edges' midpoints
+// (one into four, again until none is longer), each new vertex shared by the triangles on its
+// edge, its normal and texture coordinates interpolated; vertices already there keep their
+// order, and the new ones follow. max_edge <= 0 or not finite: the mesh unchanged.
+void subdivide(Mesh& mesh, double max_edge);
 
 }  // namespace skylit::scene

@@ -3,6 +3,8 @@
 // (transfer vectors times S, plus each separated source through its visibility) against a dense
 // reference (every pixel of the equirect sky a light, the model's self-occlusion ray-traced, no
 // dome), as a share of the sky's horizontal irradiance.
+#include <array>
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -40,6 +42,26 @@ struct SourceLight {
 std::vector<Eigen::Vector3d> building_estimate(std::span<const float> transfer, std::span<const Eigen::Vector3d> S,
                                                std::span<const SourceLight> sources, const scene::Site& site,
                                                const scene::Mesh& mesh);
+
+// Points inside the model's triangles, where the compositor shows E interpolated from the
+// vertices: per triangle its centroid and the three points halfway from it to each corner
+// (barycentric (2/3, 1/6, 1/6) and its turns), each with its triangle's corners and weights and
+// the interpolated normal (normalised, as the fragment shader takes it).
+struct TrianglePoints {
+  std::vector<Eigen::Vector3f> positions;
+  std::vector<Eigen::Vector3f> normals;
+  std::vector<std::array<std::uint32_t, 3>> corners;
+  std::vector<Eigen::Vector3d> weights;  // barycentric, sum 1
+};
+TrianglePoints triangle_points(const scene::Mesh& mesh);
+
+// E at the points as the compositor interpolates it from the vertices' E.
+std::vector<Eigen::Vector3d> interpolated_at(const TrianglePoints& points, std::span<const Eigen::Vector3d> vertex_E);
+
+// E_ref at the points: building_reference's integral with the point's normal, the model's
+// occlusion ray-traced (the points ride along as vertices no triangle uses).
+std::vector<Eigen::Vector3d> building_reference_at(const EquirectLights& lights, const scene::Site& site,
+                                                   const scene::Mesh& mesh, const TrianglePoints& points);
 
 // |E(v) − E_ref(v)| / E_h over every vertex and channel. A vertex that sees nothing of the sky in
 // either counts with its (zero) error: the model's hidden faces are part of what it shows.
