@@ -33,8 +33,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
-#include <cstdlib>
-#include <numeric>
 #include <numbers>
 #include <optional>
 #include <string>
@@ -417,19 +415,6 @@ int main(int argc, char** argv) {
         }
       }
       const Errors inside = building_errors(inside_E, inside_seen_ref, horizontal);
-      if (std::getenv("SKYLIT_STUDY_WORST_POINTS") != nullptr) {
-        std::vector<std::size_t> order(inside_E.size());
-        std::iota(order.begin(), order.end(), std::size_t{0});
-        std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-          return std::abs(luminance(inside_E[a]) - luminance(inside_seen_ref[a])) >
-                 std::abs(luminance(inside_E[b]) - luminance(inside_seen_ref[b]));
-        });
-        for (std::size_t q = 0; q < 8; ++q) {
-          const std::size_t k = order[q];
-          std::fprintf(stderr, "  point %zu of the seen: E %.4g E_ref %.4g\n", k, luminance(inside_E[k]),
-                       luminance(inside_seen_ref[k]));
-        }
-      }
       const std::size_t worst = worst_vertex(building_E, building_ref, horizontal);
       char where[320];
       std::snprintf(where, sizeof where, "vertex %zu at (%.2f, %.2f, %.2f) m, normal (%.2f, %.2f, %.2f): E %.4g, E_ref %.4g (luminance), E_h %.4g",
@@ -665,19 +650,6 @@ int main(int argc, char** argv) {
             vertex_sum += std::abs(static_cast<double>(g.vertex_visibility[k][v]) - vertex_ray[v]);
             vertex_signed += static_cast<double>(g.vertex_visibility[k][v]) - vertex_ray[v];
             ++facing;
-          }
-          if (std::getenv("SKYLIT_STUDY_WORST_VERTICES") != nullptr) {
-            std::vector<std::size_t> order(mesh.vertex_count());
-            std::iota(order.begin(), order.end(), std::size_t{0});
-            std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
-              return g.vertex_visibility[k][x] - vertex_ray[x] > g.vertex_visibility[k][y] - vertex_ray[y];
-            });
-            for (std::size_t q = 0; q < 6; ++q) {
-              const std::size_t v = order[q];
-              std::fprintf(stderr, "  vertex %zu (%.2f, %.2f, %.2f) n (%.2f, %.2f, %.2f): V_map %.3f V_ray %.3f\n", v, mesh.positions[v].x(),
-                           mesh.positions[v].y(), mesh.positions[v].z(), mesh.normals[v].x(), mesh.normals[v].y(), mesh.normals[v].z(),
-                           g.vertex_visibility[k][v], vertex_ray[v]);
-            }
           }
           std::fprintf(stderr, "%s %s source %zu: vertices facing it: mean |V_map − V_ray| %.4f, mean V_map − V_ray %.4f over %zu\n",
                        sky_file.stem().c_str(), c.name.c_str(), k, vertex_sum / std::max<double>(static_cast<double>(facing), 1.0),

@@ -271,37 +271,31 @@ void BM_SunShadowUpdate(benchmark::State& state) {
 
 BENCHMARK(BM_SunShadowUpdate)->Unit(benchmark::kMillisecond)->UseRealTime();
 
-// N separated sources: the sun, and N − 1 lamps of 2° radius spread over the sky (elevations
-// 35°–75°, azimuths a golden angle apart).
-std::vector<render::ShadowSource> separated_sources(const Scene& scene, int count) {
-  std::vector<render::ShadowSource> sources{{scene.sun.direction, 0.0047}};
-  for (int k = 1; k < count; ++k) {
-    const double az = k * 137.5 * std::numbers::pi / 180, el = (35.0 + 40.0 * ((k * 7) % 11) / 10.0) * std::numbers::pi / 180;
-    sources.push_back({Eigen::Vector3d(std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)), 2.0 * std::numbers::pi / 180});
+// N separated sources (study::bench_sources: the sun and N − 1 lamps of 2°) and their shadow
+// maps over the site's planes, drawn once.
+struct SourceMaps {
+  SourceMaps(const Scene& scene, int count) : sources(study::bench_sources(scene.sun.direction, count, Eigen::Vector3d::Constant(0.2))) {
+    std::vector<geom::Plane> planes;
+    for (const auto& record : scene.manifest.planes) planes.push_back(record.plane);
+    render::SunShadowOptions options;
+    options.max_sources = count;
+    map = std::make_unique<render::SunShadowMap>(scene.mesh, planes, options);
+    map->update(sources.discs);
+    lights.push_back(scene.sun);
+    lights.insert(lights.end(), sources.lamps.begin(), sources.lamps.end());
+    glFinish();
   }
-  return sources;
-}
-
-std::vector<blend::SunLight> source_lights(const Scene& scene, const std::vector<render::ShadowSource>& sources) {
-  std::vector<blend::SunLight> lights{scene.sun};
-  for (std::size_t k = 1; k < sources.size(); ++k) lights.push_back({sources[k].direction, Eigen::Vector3d::Constant(0.2)});
-  return lights;
-}
+  study::BenchSources sources;
+  std::unique_ptr<render::SunShadowMap> map;
+  std::vector<blend::SunLight> lights;  // the sun, then the lamps
+};
 
 // Every source's shadow map redrawn (depth pass, pyramid, planes' and vertices' V), glFinish
 // included. arg: sources.
 void BM_SourceShadowUpdate(benchmark::State& state) {
-  Scene& scene = Scene::get();
-  std::vector<geom::Plane> planes;
-  for (const auto& record : scene.manifest.planes) planes.push_back(record.plane);
-  render::SunShadowOptions options;
-  options.max_sources = static_cast<int>(state.range(0));
-  render::SunShadowMap map(scene.mesh, planes, options);
-  const std::vector<render::ShadowSource> sources = separated_sources(scene, options.max_sources);
-  map.update(sources);
-  glFinish();
+  const SourceMaps maps(Scene::get(), static_cast<int>(state.range(0)));
   for (auto _ : state) {
-    map.update(sources);
+    maps.map->update(maps.sources.discs);
     glFinish();
   }
 }
@@ -310,27 +304,20 @@ void BM_SourceShadowUpdate(benchmark::State& state) {
 // maps, glFinish included. arg: sources.
 void BM_SourceBlend(benchmark::State& state) {
   Scene& scene = Scene::get();
-  std::vector<geom::Plane> planes;
-  for (const auto& record : scene.manifest.planes) planes.push_back(record.plane);
-  render::SunShadowOptions options;
-  options.max_sources = static_cast<int>(state.range(0));
-  render::SunShadowMap map(scene.mesh, planes, options);
-  const std::vector<render::ShadowSource> sources = separated_sources(scene, options.max_sources);
-  map.update(sources);
-  const std::vector<blend::SunLight> lights = source_lights(scene, sources);
+  const SourceMaps maps(scene, static_cast<int>(state.range(0)));
   std::vector<blend::BasisImages> bases;
   std::vector<std::unique_ptr<blend::GpuBlender>> blenders;
   std::vector<blend::BlendWeights> weights;
   for (std::size_t j = 0; j < scene.manifest.planes.size(); ++j) {
     bases.push_back(blend::load_basis(scene.dir, scene.manifest, static_cast<int>(j)));
     blenders.push_back(std::make_unique<blend::GpuBlender>(bases.back()));
-    weights.push_back(blend::blend_weights_sources(bases.back(), scene.sky, lights));
+    weights.push_back(blend::blend_weights_sources(bases.back(), scene.sky, maps.lights));
   }
   glFinish();
   for (auto _ : state) {
     for (std::size_t j = 0; j < blenders.size(); ++j) {
       blenders[j]->invalidate();
-      blenders[j]->blend(weights[j], &map.visibility(static_cast<int>(j)));
+      blenders[j]->blend(weights[j], &maps.map->visibility(static_cast<int>(j)));
     }
     glFinish();
   }
@@ -344,9 +331,9 @@ void BM_CompositeDrawLamps(benchmark::State& state) {
   render::Compositor compositor(scene.site, scene.mesh, scene.manifest, scene.transfer, calibration);
   cv::Mat image;
   render::CompositeInput input = frame_input(scene, calibration, image);
-  const std::vector<render::ShadowSource> sources = separated_sources(scene, static_cast<int>(state.range(0)));
-  const std::vector<blend::SunLight> lights = source_lights(scene, sources);
-  const std::vector<blend::SunLight> lamps(lights.begin() + 1, lights.end());
+  const study::BenchSources sources = study::bench_sources(scene.sun.direction, static_cast<int>(state.range(0)),
+                                                          Eigen::Vector3d::Constant(0.2));
+  const std::vector<blend::SunLight>& lamps = sources.lamps;
   const std::vector<std::vector<float>> visibility(lamps.size(), std::vector<float>(scene.mesh.vertex_count(), 0.8f));
   input.lamps = lamps;
   input.lamp_vertex_visibility = visibility;

@@ -480,5 +480,28 @@ TEST(AreaLightVertexVisibility, IsTheShareOfTheDiscEachVertexSees) {
   }
 }
 
+// A vertex that lies on a second face (a post standing on its plinth: the post's foot lies in
+// the plinth's top) sees what lies above the plinth. Its rays start in that face's plane; a
+// hit there at t = 0 must not shade them.
+TEST(AreaLightVertexVisibility, AVertexOnAnotherFaceSeesOverIt) {
+  const Box plinth{{-1.0, -1.0, 0.0}, {1.0, 1.0, 0.3}};
+  const Box post{{-0.2, -0.2, 0.3}, {0.2, 0.2, 3.0}};
+  const scene::Mesh mesh = mesh_of({plinth, post});
+  const std::vector<Vec3> disc{direction(40, 90)};  // up and to the east
+  const std::vector<double> weight{1.0};
+  std::vector<float> v(mesh.vertex_count());
+  area_light_vertex_visibility(mesh, {}, disc, weight, v);
+  int feet = 0;
+  for (std::size_t i = 0; i < mesh.vertex_count(); ++i) {
+    const Eigen::Vector3f& p = mesh.positions[i];
+    // The post's east face at its foot, on the plinth's top.
+    if (mesh.normals[i].x() > 0.5f && std::abs(p.x() - 0.2f) < 1e-6f && std::abs(p.z() - 0.3f) < 1e-6f) {
+      EXPECT_FLOAT_EQ(v[i], 1.0f) << "vertex " << i << " at " << p.transpose();
+      ++feet;
+    }
+  }
+  EXPECT_EQ(feet, 2);
+}
+
 }  // namespace
 }  // namespace skylit::baker

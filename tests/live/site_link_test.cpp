@@ -190,6 +190,15 @@ TEST(SiteLink, LampsCrossTheLinkAndEachNodeTakesAsManyAsItDraws) {
         << status["sky"].dump();
     for (const auto& lamp : status["sky"]["lamps"]) EXPECT_GT(lamp["shadow_radius_deg"].get<double>(), 0.0);
     EXPECT_GE(status["sun_shadow_maps"]["drawn"].get<std::int64_t>(), 1);
+    // /metrics counts them too (of the newest sky, which may have changed since the status).
+    const std::string metrics = hmd.service().metrics_text();
+    const std::size_t gauge = metrics.find("\nskylit_lamps_separated ");
+    ASSERT_NE(gauge, std::string::npos) << metrics;
+    const double lamps = std::stod(metrics.substr(gauge + std::string("\nskylit_lamps_separated ").size()));
+    EXPECT_LE(lamps, max_sources - 1);
+    if (max_sources == 1) {
+      EXPECT_EQ(lamps, 0.0);
+    }
     EXPECT_TRUE(hmd.error().empty()) << hmd.error();
   }
 }

@@ -12,6 +12,7 @@
 
 #include "../baker/box_scene.hpp"
 #include "../support/gl_suite.hpp"
+#include "shadow_scene.hpp"
 #include "skylit/baker/visibility.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/blend/gpu_blend.hpp"
@@ -26,6 +27,9 @@ using baker::test::Box;
 using baker::test::direction;
 using baker::test::mesh_of;
 using geom::Vec3;
+using test::disc_samples;
+using test::ground_plane;
+using test::open_sky_basis;
 
 constexpr double kDegrees = std::numbers::pi / 180.0;
 
@@ -53,17 +57,6 @@ scene::Mesh lamp_site() {
   return mesh;
 }
 
-geom::Plane lamp_ground() {
-  geom::Plane plane;
-  plane.name = "ground";
-  plane.origin = Vec3(-6, -6, 0.01);
-  plane.u = Vec3(12, 0, 0);
-  plane.v = Vec3(0, 12, 0);
-  plane.width = 96;
-  plane.height = 96;
-  return plane;
-}
-
 // A sun and two lamps: low and broad, from three sides.
 std::vector<ShadowSource> three_sources() {
   return {ShadowSource{direction(40, 135), 0.0047}, ShadowSource{direction(30, 250), 2.0 * kDegrees},
@@ -79,7 +72,7 @@ SunShadowOptions options_for(int sources) {
 
 TEST_F(SourceShadows, EachSourceHasItsLayerAsIfDrawnAlone) {
   const scene::Mesh mesh = lamp_site();
-  const std::vector<geom::Plane> planes{lamp_ground()};
+  const std::vector<geom::Plane> planes{ground_plane()};
   const std::vector<ShadowSource> sources = three_sources();
   SunShadowMap map(mesh, planes, options_for(3));
   map.update(sources);
@@ -110,24 +103,16 @@ TEST_F(SourceShadows, EachSourceHasItsLayerAsIfDrawnAlone) {
 
 TEST_F(SourceShadows, VertexVisibilityAgreesWithTheRayTracer) {
   const scene::Mesh mesh = lamp_site();
-  const std::vector<geom::Plane> planes{lamp_ground()};
+  const std::vector<geom::Plane> planes{ground_plane()};
   const std::vector<ShadowSource> sources = three_sources();
   SunShadowMap map(mesh, planes, options_for(3));
   map.update(sources);
   const std::size_t count = mesh.vertex_count();
   for (std::size_t k = 0; k < sources.size(); ++k) {
-    // The disc as 256 equal directions (a sunflower pattern).
     const Vec3 w = sources[k].direction.normalized();
-    const Vec3 a = (std::abs(w.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX()).cross(w).normalized();
-    const Vec3 b = w.cross(a);
     std::vector<Vec3> directions;
-    constexpr int kSamples = 256;
-    for (int s = 0; s < kSamples; ++s) {
-      const double r = sources[k].angular_radius * std::sqrt((s + 0.5) / kSamples);
-      const double phi = s * std::numbers::pi * (3.0 - std::sqrt(5.0));
-      directions.push_back((w + std::tan(r) * (std::cos(phi) * a + std::sin(phi) * b)).normalized());
-    }
-    const std::vector<double> weights(kSamples, 1.0 / kSamples);
+    std::vector<double> weights;
+    disc_samples(w, sources[k].angular_radius, 256, directions, weights);
     std::vector<float> reference(count);
     baker::area_light_vertex_visibility(mesh, planes, directions, weights, reference);
     const std::vector<float> gpu = map.read_vertex_visibility(static_cast<int>(k));
@@ -153,22 +138,14 @@ TEST_F(SourceShadows, VertexVisibilityAgreesWithTheRayTracer) {
 
 TEST_F(SourceShadows, BlendSumsEverySourceAsTheCpu) {
   const scene::Mesh mesh = lamp_site();
-  const geom::Plane plane = lamp_ground();
+  const geom::Plane plane = ground_plane();
   const std::vector<geom::Plane> planes{plane};
   const std::vector<ShadowSource> sources = three_sources();
   SunShadowMap map(mesh, planes, options_for(4));  // a spare layer: fewer sources than layers
   map.update(sources);
 
   // An open sky (B = A) on 40 faces, so that the sources' shadows are all there is.
-  const std::vector<double> A(40, 2.0 * std::numbers::pi / 40 * 0.5);
-  blend::BasisImages basis;
-  basis.name = "ground";
-  basis.width = plane.width;
-  basis.height = plane.height;
-  basis.layers = 40;
-  basis.unoccluded = A;
-  basis.half.assign(basis.texel_count() * 40, blend::float_to_half(static_cast<float>(A[0])));
-  basis.normal = plane.normal();
+  const blend::BasisImages basis = open_sky_basis(plane);
   const std::vector<Eigen::Vector3d> S(40, Eigen::Vector3d(0.4, 0.6, 1.0));
   std::vector<blend::SunLight> lights;
   const std::vector<Eigen::Vector3d> energies{{20, 18, 15}, {3, 2.5, 2}, {1.5, 1.5, 1.8}};
@@ -207,7 +184,7 @@ TEST_F(SourceShadows, BlendSumsEverySourceAsTheCpu) {
 // number in [0, 1], and the GPU blend still sums as the CPU's.
 TEST_F(SourceShadows, SourcesAtTheExtremesStayFiniteAndBlendAsTheCpu) {
   const scene::Mesh mesh = lamp_site();
-  const geom::Plane plane = lamp_ground();
+  const geom::Plane plane = ground_plane();
   const std::vector<geom::Plane> planes{plane};
   const std::vector<ShadowSource> sources{{direction(0.5, 250), 0.0047}, {Vec3::UnitZ(), 3.0 * kDegrees},
                                           {direction(-20, 90), 2.0 * kDegrees}, {direction(45, 45), 0.0}};
@@ -227,15 +204,7 @@ TEST_F(SourceShadows, SourcesAtTheExtremesStayFiniteAndBlendAsTheCpu) {
   EXPECT_LT(zenith[static_cast<std::size_t>(48 * 96 + 48)], 0.05f);  // the ground's centre, under the cube
   EXPECT_GT(zenith[static_cast<std::size_t>(5 * 96 + 5)], 0.95f);    // a corner of the ground
 
-  const std::vector<double> A(40, 2.0 * std::numbers::pi / 40 * 0.5);
-  blend::BasisImages basis;
-  basis.name = "ground";
-  basis.width = plane.width;
-  basis.height = plane.height;
-  basis.layers = 40;
-  basis.unoccluded = A;
-  basis.half.assign(basis.texel_count() * 40, blend::float_to_half(static_cast<float>(A[0])));
-  basis.normal = plane.normal();
+  const blend::BasisImages basis = open_sky_basis(plane);
   const std::vector<Eigen::Vector3d> S(40, Eigen::Vector3d(0.4, 0.6, 1.0));
   std::vector<blend::SunLight> lights;
   for (const ShadowSource& source : sources) lights.push_back({source.direction, Eigen::Vector3d(5, 4, 3)});
@@ -258,7 +227,7 @@ TEST_F(SourceShadows, SourcesAtTheExtremesStayFiniteAndBlendAsTheCpu) {
 
 TEST_F(SourceShadows, BadCountsAreInputErrors) {
   const scene::Mesh mesh = lamp_site();
-  const std::vector<geom::Plane> planes{lamp_ground()};
+  const std::vector<geom::Plane> planes{ground_plane()};
   EXPECT_THROW(SunShadowMap(mesh, planes, options_for(0)), InputError);
   EXPECT_THROW(SunShadowMap(mesh, planes, options_for(blend::kMaxGpuSources + 1)), InputError);
   SunShadowMap map(mesh, planes, options_for(2));

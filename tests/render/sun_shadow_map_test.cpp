@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include "../baker/box_scene.hpp"
+#include "shadow_scene.hpp"
 #include "../support/gl_suite.hpp"
 #include "skylit/baker/visibility.hpp"
 #include "skylit/base/error.hpp"
@@ -31,6 +32,8 @@ using baker::test::Box;
 using baker::test::direction;
 using baker::test::mesh_of;
 using geom::Vec3;
+using test::disc_samples;
+using test::ground_plane;
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
@@ -38,34 +41,6 @@ class SunShadow : public skylit::test::GlSuite {};
 
 // A 2 m cube and a 4 m pole on the ground, and a 12 m ground plane (12.5 cm texels) just above it.
 scene::Mesh site_mesh() { return mesh_of({Box{{-1, -1, 0}, {1, 1, 2}}, Box{{2.5, -3.2, 0}, {2.8, -2.9, 4}}}); }
-
-geom::Plane ground_plane() {
-  geom::Plane plane;
-  plane.name = "ground";
-  plane.origin = Vec3(-6, -6, 0.01);
-  plane.u = Vec3(12, 0, 0);
-  plane.v = Vec3(0, 12, 0);
-  plane.width = 96;
-  plane.height = 96;
-  return plane;
-}
-
-// The sun's disc as `count` equal-weight directions spread evenly over it (a sunflower pattern).
-void disc_samples(const Vec3& centre, double radius, int count, std::vector<Vec3>& directions,
-                  std::vector<double>& weights) {
-  const Vec3 w = centre.normalized();
-  const Vec3 helper = std::abs(w.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX();
-  const Vec3 a = helper.cross(w).normalized();
-  const Vec3 b = w.cross(a);
-  const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
-  directions.clear();
-  weights.assign(static_cast<std::size_t>(count), 1.0 / count);
-  for (int k = 0; k < count; ++k) {
-    const double r = radius * std::sqrt((k + 0.5) / count);
-    const double phi = k * golden;
-    directions.push_back((w + std::tan(r) * (std::cos(phi) * a + std::sin(phi) * b)).normalized());
-  }
-}
 
 struct Agreement {
   double away_from_edges = 0;  // fraction of the texels away from penumbra edges that agree
@@ -227,15 +202,7 @@ TEST_F(SunShadow, BlendWithTheMapsVisibilityMatchesTheCpu) {
   const std::vector<float> V = map.read_visibility(0);
 
   // An open sky (B = A) on 40 faces, so that the sun's shadow is all there is.
-  std::vector<double> A(40, 2.0 * std::numbers::pi / 40 * 0.5);
-  blend::BasisImages basis;
-  basis.name = "ground";
-  basis.width = plane.width;
-  basis.height = plane.height;
-  basis.layers = 40;
-  basis.unoccluded = A;
-  basis.half.assign(basis.texel_count() * 40, blend::float_to_half(static_cast<float>(A[0])));
-  basis.normal = plane.normal();
+  const blend::BasisImages basis = test::open_sky_basis(plane);
   const std::vector<Eigen::Vector3d> S(40, Eigen::Vector3d(0.4, 0.6, 1.0));
   const blend::BlendWeights w = blend::blend_weights(basis, S, blend::SunLight{sun_direction, Eigen::Vector3d(20, 18, 15)});
   std::vector<float> expected(3 * basis.texel_count());

@@ -27,6 +27,13 @@ std::string read_all(const fs::path& file) {
   return out.str();
 }
 
+// skylit-bench trade on the sample site, its cameras and the bundled skies; the grid follows.
+std::string trade_command() {
+  return "trade --site " + (kSource / "config/sample_site.yaml").string() + " --calib " +
+         (kSource / "config/sky_camera.yaml").string() + " --hmd-camera " + (kSource / "config/hmd_camera.yaml").string() +
+         " --skies " + (kSource / "data/hdri").string();
+}
+
 bool dominates(const nlohmann::json& a, const nlohmann::json& b) {
   const double ac = a.at("cost_ms"), bc = b.at("cost_ms"), ae = a.at("rms"), be = b.at("rms");
   return ac <= bc && ae <= be && (ac < bc || ae < be);
@@ -37,10 +44,7 @@ TEST(SkylitBenchTrade, TinyGridWritesTheTableThePlotAndTheParetoFront) {
   const fs::path out = dir / "trade";
   const cli_test::Result result = cli_test::run_program(
       kBin / "skylit-bench",
-      "trade --site " + (kSource / "config/sample_site.yaml").string() + " --calib " +
-          (kSource / "config/sky_camera.yaml").string() + " --hmd-camera " + (kSource / "config/hmd_camera.yaml").string() +
-          " --skies " + (kSource / "data/hdri").string() +
-          " --sky park --frequencies 2 --bases faces --samples 3 --texel-scales 32 --forms full,lean,cropped,pca2,pca2t4 --bits 16,8"
+      trade_command() + " --sky park --frequencies 2 --bases faces --samples 3 --texel-scales 32 --forms full,lean,cropped,pca2,pca2t4 --bits 16,8"
           " --sun on --skip-thresholds 0,0.01 --frame-width 160 --frame-height 120 --frame-repeats 3 --blend-repeats 2"
           " --timing-scale 8 --supersample 1 --out " +
           out.string());
@@ -126,10 +130,7 @@ TEST(SkylitBenchTrade, SeparatedSourcesAreASettingOfTheGrid) {
   const fs::path out = dir / "trade";
   const cli_test::Result result = cli_test::run_program(
       kBin / "skylit-bench",
-      "trade --site " + (kSource / "config/sample_site.yaml").string() + " --calib " +
-          (kSource / "config/sky_camera.yaml").string() + " --hmd-camera " + (kSource / "config/hmd_camera.yaml").string() +
-          " --skies " + (kSource / "data/hdri").string() +
-          " --sky warehouse --frequencies 2 --bases faces --samples 3 --texel-scales 32 --forms full --bits 16"
+      trade_command() + " --sky warehouse --frequencies 2 --bases faces --samples 3 --texel-scales 32 --forms full --bits 16"
           " --sun on,off --sources 1,8 --skip-thresholds 0 --frame-width 160 --frame-height 120 --frame-repeats 3"
           " --blend-repeats 2 --timing-scale 8 --supersample 1 --out " +
           out.string());
@@ -156,10 +157,7 @@ TEST(SkylitBenchTrade, TheServiceItselfGivesEachSettingsFrameRate) {
   const fs::path out = dir / "trade";
   const cli_test::Result result = cli_test::run_program(
       kBin / "skylit-bench",
-      "trade --site " + (kSource / "config/sample_site.yaml").string() + " --calib " +
-          (kSource / "config/sky_camera.yaml").string() + " --hmd-camera " + (kSource / "config/hmd_camera.yaml").string() +
-          " --skies " + (kSource / "data/hdri").string() +
-          " --sky park --frequencies 2 --bases faces,corners --samples 3 --texel-scales 32 --forms full --bits 16"
+      trade_command() + " --sky park --frequencies 2 --bases faces,corners --samples 3 --texel-scales 32 --forms full --bits 16"
           " --sun on --skip-thresholds 0 --frame-width 160 --frame-height 120 --frame-repeats 3 --blend-repeats 2"
           " --timing-scale 8 --supersample 1 --live-seconds 1 --out " +
           out.string());
@@ -189,10 +187,7 @@ TEST(SkylitBenchTrade, SequenceMeasuresTheChangeThresholdAndTheSmoothing) {
   const double large = 0.05;
   const cli_test::Result result = cli_test::run_program(
       kBin / "skylit-bench",
-      "trade --site " + (kSource / "config/sample_site.yaml").string() + " --calib " +
-          (kSource / "config/sky_camera.yaml").string() + " --hmd-camera " + (kSource / "config/hmd_camera.yaml").string() +
-          " --skies " + (kSource / "data/hdri").string() +
-          " --sky park --frequencies 2 --bases faces --samples 3 --texel-scales 32 --forms full --bits 16 --sun on"
+      trade_command() + " --sky park --frequencies 2 --bases faces --samples 3 --texel-scales 32 --forms full --bits 16 --sun on"
           " --skip-thresholds 0 --change-thresholds 0,0.05 --smoothings 0,10 --frame-width 160 --frame-height 120"
           " --frame-repeats 2 --blend-repeats 2 --timing-scale 8 --supersample 1 --sequence --sequence-frames 24 --out " +
           out.string());

@@ -574,8 +574,7 @@ BlendStats blend_cpu_sources(const BasisImages& basis, const BlendWeights& weigh
                              std::span<const std::span<const float>> source_visibility, std::span<float> out,
                              const BlendOptions& options) {
   check_weights(basis, weights, options);
-  std::vector<Eigen::Vector3f> sources = weights.sources;
-  if (sources.empty() && !weights.sun.isZero(0)) sources.push_back(weights.sun);
+  const std::vector<Eigen::Vector3f> sources = separated_terms(weights);
   const std::size_t texels = basis.texel_count();
   if (out.size() != 3 * texels) {
     bad_input("out", "has " + std::to_string(out.size()) + " values; plane '" + basis.name + "' needs " +

@@ -44,13 +44,6 @@ CpuBlender::CpuBlender(const blend::BasisImages& basis, double skip_threshold, d
 
 namespace {
 
-// The separated terms as blend_cpu_sources takes them: every source, or the sun alone.
-std::vector<Eigen::Vector3f> separated_terms(const blend::BlendWeights& weights) {
-  std::vector<Eigen::Vector3f> terms = weights.sources;
-  if (terms.empty() && !weights.sun.isZero(0)) terms.push_back(weights.sun);
-  return terms;
-}
-
 bool any_lit(const std::vector<Eigen::Vector3f>& terms) {
   return std::any_of(terms.begin(), terms.end(), [](const Eigen::Vector3f& w) { return !w.isZero(0); });
 }

@@ -866,9 +866,7 @@ void GpuBlender::dispatch(const SliceList& list, const BlendWeights& weights, co
 }
 
 bool GpuBlender::blend(const BlendWeights& weights, const SunVisibilityTexture* sources) {
-  // The separated terms as blend_cpu_sources takes them: every source, or the sun alone.
-  std::vector<Eigen::Vector3f> terms = weights.sources;
-  if (terms.empty() && !weights.sun.isZero(0)) terms.push_back(weights.sun);
+  std::vector<Eigen::Vector3f> terms = separated_terms(weights);
   check_blend_input(weights, terms, sources);
   const bool lit = std::any_of(terms.begin(), terms.end(), [](const Eigen::Vector3f& w) { return !w.isZero(0); });
   if (unchanged_since_last(weights, terms, sources)) return false;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <cstdint>
 
 #include "skylit/baker/visibility.hpp"
@@ -376,6 +377,18 @@ render::CameraPose visitor_pose() {
   pose.R_site_from_camera.col(2) = forward;
   pose.t_site_from_camera = eye;
   return pose;
+}
+
+BenchSources bench_sources(const Eigen::Vector3d& sun, int count, const Eigen::Vector3d& lamp_energy) {
+  BenchSources out;
+  out.discs.push_back({sun, 0.0047});
+  for (int k = 1; k < count; ++k) {
+    const double az = k * 137.5 * std::numbers::pi / 180, el = (35.0 + 4.0 * ((k * 7) % 11)) * std::numbers::pi / 180;
+    const Eigen::Vector3d d(std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el));
+    out.discs.push_back({d, 2.0 * std::numbers::pi / 180});
+    out.lamps.push_back({d, lamp_energy});
+  }
+  return out;
 }
 
 }  // namespace skylit::study

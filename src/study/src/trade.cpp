@@ -477,14 +477,9 @@ FrameTimes time_frames(const TradeOptions& o, const Grid& grid, const Sites& sit
       render::SunShadowOptions map_options;
       map_options.max_sources = s.sources;
       rig->shadow_map = std::make_unique<render::SunShadowMap>(site.mesh, planes, map_options);
-      std::vector<render::ShadowSource> drawn{{bench_sun.direction, 0.0047}};
-      for (int k = 1; k < s.sources; ++k) {
-        const double lamp_az = k * 137.5 * std::numbers::pi / 180, lamp_el = (35.0 + 4.0 * ((k * 7) % 11)) * std::numbers::pi / 180;
-        const Eigen::Vector3d d(std::sin(lamp_az) * std::cos(lamp_el), std::cos(lamp_az) * std::cos(lamp_el), std::sin(lamp_el));
-        drawn.push_back({d, 2.0 * std::numbers::pi / 180});
-        rig->lamps.push_back({d, Eigen::Vector3d::Constant(0.2)});
-      }
-      rig->shadow_map->update(drawn);
+      const BenchSources sources = bench_sources(bench_sun.direction, s.sources, Eigen::Vector3d::Constant(0.2));
+      rig->lamps = sources.lamps;
+      rig->shadow_map->update(sources.discs);
       for (int k = 1; k < s.sources; ++k) rig->lamp_visibility.push_back(rig->shadow_map->read_vertex_visibility(k));
     }
     for (const auto& plane : planes) {

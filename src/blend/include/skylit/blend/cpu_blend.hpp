@@ -90,6 +90,15 @@ BlendStats blend_cpu(const BasisImages& basis, const BlendWeights& weights,
                      std::span<const float> sun_visibility, std::span<float> out,
                      const BlendOptions& options = {});
 
+// The separated terms a blend sums, in source order: weights.sources, or the sun alone when
+// that is empty and weights.sun is not zero (weights made by blend_weights for one sun). Inline:
+// the GPU blend uses it and builds without this library (bench/gpu_standalone.sh).
+inline std::vector<Eigen::Vector3f> separated_terms(const BlendWeights& weights) {
+  std::vector<Eigen::Vector3f> terms = weights.sources;
+  if (terms.empty() && !weights.sun.isZero(0)) terms.push_back(weights.sun);
+  return terms;
+}
+
 // Several separated sources: source_visibility[k] is V_k per texel in [0, 1] for weights.sources[k]
 // (an empty span is allowed for a source of zero weight). InputError when the count differs from
 // weights.sources (or from one, when only weights.sun is set), or a V is missing or out of range.

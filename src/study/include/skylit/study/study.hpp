@@ -129,4 +129,13 @@ camera::CameraCalibration scaled_camera(const std::filesystem::path& calibration
 render::CameraPose visitor_pose();
 inline constexpr double kVisitorDistance = 18.0;  // m, eye to the gate's centre
 
+// The benchmarks' separated sources: the sun towards `sun` (the real sun's 0.27° disc) and
+// count − 1 lamps of 2° radius spread over the sky (elevations 35°–75°, azimuths a golden angle
+// apart), each of `lamp_energy`.
+struct BenchSources {
+  std::vector<render::ShadowSource> discs;  // for the shadow maps, the sun first
+  std::vector<blend::SunLight> lamps;       // the lamps as lights (after the sun)
+};
+BenchSources bench_sources(const Eigen::Vector3d& sun, int count, const Eigen::Vector3d& lamp_energy);
+
 }  // namespace skylit::study
