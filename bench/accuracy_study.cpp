@@ -173,6 +173,11 @@ int main(int argc, char** argv) {
   app.add_option("--pca-sky-correlation", pca_correlation, "--pca: the sky prior's correlation angle, degrees (0: none)");
   app.add_flag("--pictures", dump, "write T | reference | 5×|difference| per sky, setting and plane as PNG");
   app.add_option("--sky", only_sky, "only this sky (file stem, e.g. park)");
+  double ground_albedo = 0.0;
+  app.add_option("--ground-albedo", ground_albedo,
+                 "a lambertian ground (z = 0) of this albedo in the building's reference, and the bake's ground layer "
+                 "in its estimate (0: neither)")
+      ->check(CLI::Range(0.0, 1.0));
   double max_edge = -1;
   app.add_option("--max-edge", max_edge, "the site's scene.max_edge for this study, metres (default: the site's own)");
   bool gpu_path_too = false;
@@ -264,6 +269,9 @@ int main(int argc, char** argv) {
     std::string worst;  // where the largest error is
     Errors planes;      // the building's planes' texels
     Errors inside;      // points inside the triangles, E interpolated from the vertices
+    // With --ground-albedo: the estimate without the ground layer, and the reference's ground
+    // taken as uniformly lit (E_h) against the shadowed one, both against the reference.
+    std::optional<Errors> no_ground, uniform_ground;
   };
   std::vector<BuildingRow> building_rows;
   struct GpuRow {
@@ -296,11 +304,36 @@ int main(int argc, char** argv) {
     // The building's reference: the same lights at every model vertex, the model's own occlusion.
     const Eigen::Vector3d horizontal = horizontal_irradiance(sky_lights);
     const auto building_start = Clock::now();
-    const std::vector<Eigen::Vector3d> building_ref = building_reference(sky_lights, site, mesh);
-    const double building_reference_seconds = seconds_since(building_start);
+    std::vector<Eigen::Vector3d> building_ref = building_reference(sky_lights, site, mesh);
     // And inside the triangles, where the compositor interpolates the vertices' E.
     const TrianglePoints inside_points = triangle_points(mesh);
-    const std::vector<Eigen::Vector3d> inside_ref = building_reference_at(sky_lights, site, mesh, inside_points);
+    std::vector<Eigen::Vector3d> inside_ref = building_reference_at(sky_lights, site, mesh, inside_points);
+    // The ground's light: lit as the dense reference lights the site's horizontal plane at the
+    // ground (the model's shadow on it), and uniformly (E_h) for what that assumption costs.
+    std::vector<Eigen::Vector3d> uniform_ground_ref;
+    if (ground_albedo > 0.0) {
+      GroundReferenceOptions ground;
+      ground.albedo = Eigen::Vector3d::Constant(ground_albedo);
+      const std::vector<Eigen::Vector3d> uniform = ground_reference(sky_lights, site, mesh, ground);
+      for (std::size_t j = 0; j < site.planes.size(); ++j) {
+        const skylit::geom::Plane& p = site.planes[j];
+        if (p.normal().z() > 0.999 && std::abs(p.origin.z()) < 0.05 && ground.shadow_plane == nullptr) {
+          ground.shadow_plane = &p;
+          ground.shadow_ratio = dense.planes[j];
+        }
+      }
+      const std::vector<Eigen::Vector3d> shadowed = ground_reference(sky_lights, site, mesh, ground);
+      const std::vector<Eigen::Vector3d> shadowed_inside = ground_reference_at(sky_lights, site, mesh, inside_points, ground);
+      uniform_ground_ref = building_ref;
+      for (std::size_t v = 0; v < building_ref.size(); ++v) {
+        uniform_ground_ref[v] += uniform[v];
+        building_ref[v] += shadowed[v];
+      }
+      for (std::size_t k = 0; k < inside_ref.size(); ++k) {
+        if (!inside_ref[k].isZero(0)) inside_ref[k] += shadowed_inside[k];  // enclosed points stay out
+      }
+    }
+    const double building_reference_seconds = seconds_since(building_start);
 
     const skylit::sky::RadianceFrame frame{skylit::sky::render_fisheye(lens, equirect, {.supersample = supersample}), cv::Mat()};
     // The oracle's frame: the sun's pixels replaced by the background around them.
@@ -401,7 +434,22 @@ int main(int argc, char** argv) {
       if (sources.empty() && sun) building_sources.push_back({sun->direction, sun->energy, disc_directions, disc_weights});
       std::vector<std::size_t> transfer_shape;
       const std::vector<float> transfer = skylit::bake_format::read_npy(bake_dir / manifest.transfer_file, &transfer_shape);
-      const std::vector<Eigen::Vector3d> building_E = building_estimate(transfer, S, building_sources, site, mesh);
+      std::optional<Errors> no_ground, uniform_ground;
+      std::vector<float> ground_transfer;
+      skylit::blend::GroundLight ground;
+      if (ground_albedo > 0.0) {
+        if (!manifest.ground) throw std::runtime_error(bake_dir.string() + ": the bake has no ground layer");
+        no_ground = building_errors(building_estimate(transfer, S, building_sources, site, mesh), building_ref, horizontal);
+        uniform_ground = building_errors(uniform_ground_ref, building_ref, horizontal);
+        ground_transfer = skylit::bake_format::read_npy(bake_dir / manifest.ground->file, &transfer_shape);
+        std::vector<skylit::blend::SunLight> lights;
+        for (const SourceLight& source : building_sources) lights.push_back({source.direction, source.energy});
+        const skylit::blend::GroundLayers layers(manifest.plan.frequency, manifest.plan.basis, manifest.ground->horizontal_unoccluded);
+        ground.transfer = ground_transfer;
+        ground.coefficients = layers.coefficients(S, lights);
+        ground.albedo = Eigen::Vector3d::Constant(ground_albedo);
+      }
+      const std::vector<Eigen::Vector3d> building_E = building_estimate(transfer, S, building_sources, site, mesh, ground);
       const Errors building = building_errors(building_E, building_ref, horizontal);
       // Points no ray of the reference leaves lie inside other solids (a plinth's top under its
       // column): nobody sees them, and they are left out.
@@ -421,7 +469,7 @@ int main(int argc, char** argv) {
                     worst, mesh.positions[worst].x(), mesh.positions[worst].y(), mesh.positions[worst].z(), mesh.normals[worst].x(),
                     mesh.normals[worst].y(), mesh.normals[worst].z(), luminance(building_E[worst]), luminance(building_ref[worst]),
                     luminance(horizontal));
-      building_rows.push_back({sky_file.stem().string(), c.name, building, where, Errors{}, inside});
+      building_rows.push_back({sky_file.stem().string(), c.name, building, where, Errors{}, inside, no_ground, uniform_ground});
       if (estimate.sun && oracle.found && !noted) {
         // The detected sun against the equirect's: where, how wide, how much energy.
         noted = true;
@@ -720,6 +768,11 @@ int main(int argc, char** argv) {
                          {"building", {{"rms", building.rms}, {"p99", building.p99}, {"max", building.max},
                                        {"of", "the horizontal irradiance"}, {"vertices", mesh.vertex_count()},
                                        {"reference_seconds", building_reference_seconds}}},
+                         {"building_ground", no_ground ? nlohmann::json{{"albedo", ground_albedo},
+                                                                        {"without_layer_rms", no_ground->rms},
+                                                                        {"without_layer_p99", no_ground->p99},
+                                                                        {"uniform_ground_reference_rms", uniform_ground->rms}}
+                                                       : nlohmann::json()},
                          {"gpu_path", gpu_json},
                          {"bake_seconds", bake_seconds.at(key_of(c))}});
     }
@@ -731,6 +784,16 @@ int main(int argc, char** argv) {
     std::printf("| %s | %s | %.4f | %.4f | %.4f | %.4f / %.4f / %.4f | %.4f / %.4f / %.4f | %s |\n", row.sky.c_str(), row.config.c_str(),
                 row.errors.rms, row.errors.p99, row.errors.max, row.inside.rms, row.inside.p99, row.inside.max, row.planes.rms,
                 row.planes.p99, row.planes.max, row.worst.c_str());
+  }
+  if (ground_albedo > 0.0) {
+    std::printf("\nThe ground's light (albedo %.2f, the reference's ground shadowed by the model): the building's "
+                "RMS / p99 with the ground layer, without it, and the reference's ground lit uniformly (E_h) against "
+                "the shadowed one\n\n| sky | configuration | with the layer | without | uniform ground |\n|---|---|---|---|---|\n",
+                ground_albedo);
+    for (const BuildingRow& row : building_rows) {
+      std::printf("| %s | %s | %.4f / %.4f | %.4f / %.4f | %.4f / %.4f |\n", row.sky.c_str(), row.config.c_str(), row.errors.rms,
+                  row.errors.p99, row.no_ground->rms, row.no_ground->p99, row.uniform_ground->rms, row.uniform_ground->p99);
+    }
   }
   if (!gpu_rows.empty()) {
     std::printf("\nThe live GPU path (every source's shadow map, the GPU blend, half-float T) against the CPU path's "

@@ -86,6 +86,10 @@ void add_bake_options(CLI::App& app, CommandLine& c) {
                                      "face; needs --samples >= 6); overrides the site's dome.basis");
   app.add_option("--samples", c.options.samples, "samples per face: 1 = face centre (the paper), K > 1 = area light")
       ->capture_default_str();
+  app.add_option("--ground-samples", c.options.ground_samples,
+                 "directions per model vertex for the ground's light (the ground layer, docs/method.md); 0: none")
+      ->check(CLI::Range(0, 1 << 20))
+      ->capture_default_str();
   c.options.method = "auto";
   app.add_option("--method", c.options.method,
                  "auto (raster on a GPU, raytrace where OpenGL ES runs in software), raster (OpenGL ES) or raytrace "

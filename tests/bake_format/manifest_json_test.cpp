@@ -108,6 +108,7 @@ TEST(PlanJson, EqualityAndDifferenceCoverEveryField) {
   differs([](Plan& x) { x.method = "raster"; }, "method");
   differs([](Plan& x) { x.shadow_map_resolution = 2048; }, "shadow_map_resolution");
   differs([](Plan& x) { x.preset = "balanced"; }, "preset");
+  differs([](Plan& x) { x.ground_samples = 256; }, "ground_samples: 0 vs 256");
   differs([](Plan& x) { x.vertex_count = 4; }, "vertex_count");
   differs([](Plan& x) { x.triangle_count = 9; }, "triangle_count");
   differs([](Plan& x) { x.planes.pop_back(); }, "planes: 2 ['ground', 'wall'] vs 1 ['ground']");
@@ -190,6 +191,32 @@ TEST(ManifestJson, RoundTripKeepsEveryField) {
   }
   // And the JSON itself is a fixed point.
   EXPECT_EQ(to_json(b), j);
+}
+
+TEST(ManifestJson, TheGroundLayerRoundTripsAndOlderManifestsHaveNone) {
+  Manifest m = sample_manifest();
+  EXPECT_FALSE(manifest_from_json(reparse(to_json(m)), "manifest.json").ground.has_value());
+  m.plan.ground_samples = 256;
+  m.ground = Manifest::Ground{"ground_transfer.npy", std::vector<double>(m.layer_count())};
+  for (std::size_t l = 0; l < m.layer_count(); ++l) m.ground->horizontal_unoccluded[l] = std::exp(-static_cast<double>(l)) / 3.0;
+  const json j = reparse(to_json(m));
+  EXPECT_EQ(j["plan"]["ground_samples"], 256);
+  EXPECT_EQ(j["ground"]["shape"], json::array({2, 40}));
+  const Manifest b = manifest_from_json(j, "manifest.json");
+  ASSERT_TRUE(b.ground.has_value());
+  EXPECT_EQ(b.ground->file, "ground_transfer.npy");
+  EXPECT_EQ(b.ground->horizontal_unoccluded, m.ground->horizontal_unoccluded);
+  EXPECT_EQ(to_json(b), j);
+  // The layer and the plan must agree, and the integrals be one per layer.
+  json without = j;
+  without.erase("ground");
+  EXPECT_THROW(manifest_from_json(without, "manifest.json"), InputError);
+  json short_one = j;
+  short_one["ground"]["horizontal_unoccluded"].erase(0);
+  EXPECT_THROW(manifest_from_json(short_one, "manifest.json"), InputError);
+  json outside = j;
+  outside["ground"]["file"] = "../ground.npy";
+  EXPECT_THROW(manifest_from_json(outside, "manifest.json"), InputError);
 }
 
 TEST(ManifestJson, AnotherSchemaVersionSaysWhichAndWhatToDo) {

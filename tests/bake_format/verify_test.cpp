@@ -53,6 +53,29 @@ TEST_F(Verify, AGoodBakePasses) {
   EXPECT_NEAR(wall.layer(17)[9], test::sample_basis(1, 17, 9), 1e-3 * test::sample_basis(1, 17, 9));
 }
 
+TEST_F(Verify, TheGroundLayerIsCheckedLikeTheTransfer) {
+  Manifest m = read_manifest(dir_.path());
+  const std::size_t vertices = m.plan.vertex_count, layers = m.layer_count();
+  m.plan.ground_samples = 64;
+  m.ground = Manifest::Ground{"ground_transfer.npy", std::vector<double>(layers, 0.05)};
+  const std::size_t good[] = {vertices, layers};
+  write_npy(dir_ / "ground_transfer.npy", std::vector<float>(vertices * layers, 0.5f), good);
+  m.files.push_back({"ground_transfer.npy", 0, ""});
+  write_manifest(dir_.path(), m);
+  VerifyReport r = verify(dir_.path());
+  EXPECT_TRUE(r.ok) << all(r);
+  ASSERT_TRUE(r.manifest.ground.has_value());
+
+  const std::size_t bad[] = {vertices, layers - 1};
+  write_npy(dir_ / "ground_transfer.npy", std::vector<float>(vertices * (layers - 1), 0.5f), bad);
+  m.ground->horizontal_unoccluded[7] = -1.0;
+  write_manifest(dir_.path(), m);
+  r = verify(dir_.path());
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(reported(r, {"ground_transfer.npy", "shape"})) << all(r);
+  EXPECT_TRUE(reported(r, {"ground.horizontal_unoccluded[7]", "Fix: re-bake"})) << all(r);
+}
+
 TEST_F(Verify, AFlippedByteInAnImageIsNamed) {
   const fs::path exr = dir_ / "planes/ground.exr";
   test::flip_byte(exr, fs::file_size(exr) / 2);

@@ -14,6 +14,7 @@
 
 #include "compose_fixture.hpp"
 #include "skylit/base/error.hpp"
+#include "skylit/blend/vertex_irradiance.hpp"
 #include "skylit/geom/dome.hpp"
 #include "skylit/render/sun_shadow_map.hpp"
 #include "skylit/sky/radiometry.hpp"
@@ -455,6 +456,61 @@ TEST_F(CompositorTest, LampsLightTheBuildingPerVertexThroughTheirVisibility) {
   // A visibility of the wrong size is refused, naming the field.
   const std::vector<std::vector<float>> short_one{std::vector<float>(vertices - 1, 1.0f)};
   EXPECT_THROW(draw(std::nullopt, std::span(&lamp, 1), short_one), InputError);
+}
+
+TEST_F(CompositorTest, TheGroundLightsTheBuildingThroughTheBakesGroundLayer) {
+  // With a ground albedo ρ the building gets ρ Σ_l S^g_l t^g_{v,l} (blend::GroundLayers): the same
+  // composite as a bake whose transfer vectors were ρ t^g, lit by S^g. A lamp that no vertex sees
+  // adds nothing directly but lights the ground, through S^g. No virtual plane covers the building
+  // (cover_distance 0).
+  const BakedSite& baked = BakedSite::get();
+  ASSERT_TRUE(baked.manifest.ground.has_value());
+  std::vector<std::size_t> shape;
+  const std::vector<float> ground = bake_format::read_npy(baked.dir / "bake" / baked.manifest.ground->file, &shape);
+  constexpr float kAlbedo = 0.3f;
+  std::vector<float> reflected(ground.size());
+  for (std::size_t k = 0; k < ground.size(); ++k) reflected[k] = kAlbedo * ground[k];
+  render::CompositorOptions with_ground;
+  with_ground.cover_distance = 0.0;
+  with_ground.ground_albedo = Vector3d::Constant(kAlbedo);
+  with_ground.ground_transfer = ground;
+  render::Compositor lit_by_ground(baked.site, baked.mesh, baked.manifest, std::vector<float>(baked.transfer.size(), 0.0f),
+                                   hmd_camera(), with_ground);
+  render::CompositorOptions plain;
+  plain.cover_distance = 0.0;
+  render::Compositor as_transfer(baked.site, baked.mesh, baked.manifest, reflected, hmd_camera(), plain);
+
+  const blend::GroundLayers layers(baked.manifest.plan.frequency, baked.manifest.plan.basis,
+                                   baked.manifest.ground->horizontal_unoccluded);
+  const std::vector<Vector3d> S = uniform_sky(0.2);
+  const blend::SunLight lamp{Vector3d(0.4, -0.6, 0.7).normalized(), Vector3d(3.0, 2.0, 1.0)};
+  const std::vector<std::vector<float>> unseen{std::vector<float>(baked.mesh.vertex_count(), 0.0f)};
+  const cv::Mat camera(240, 320, CV_32FC3, cv::Scalar::all(0.0));
+  const auto draw = [&](render::Compositor& compositor, std::span<const Vector3d> sky, std::span<const blend::SunLight> lamps) {
+    render::CompositeInput input;
+    input.camera = camera;
+    input.pose = hmd_pose(4.0, -8.0, 8.0, 40.0);
+    input.sky = sky;
+    input.lamps = lamps;
+    if (!lamps.empty()) input.lamp_vertex_visibility = unseen;
+    return compositor.composite(input);
+  };
+  const cv::Mat sky_only = draw(lit_by_ground, S, {});
+  double peak = 0;
+  cv::minMaxLoc(sky_only.reshape(1), nullptr, &peak);
+  ASSERT_GT(peak, 0.005) << "the ground lights the building's sides in view";
+  EXPECT_LE(cv::norm(sky_only, draw(as_transfer, S, {}), cv::NORM_INF), 1e-5 * peak);
+  const std::vector<Vector3d> with_lamp = layers.coefficients(S, std::span(&lamp, 1));
+  const cv::Mat lamp_lit = draw(lit_by_ground, S, std::span(&lamp, 1));
+  EXPECT_GT(cv::norm(lamp_lit, sky_only, cv::NORM_INF), 0.1 * peak) << "the lamp lights the ground";
+  EXPECT_LE(cv::norm(lamp_lit, draw(as_transfer, with_lamp, {}), cv::NORM_INF), 1e-5 * cv::norm(lamp_lit, cv::NORM_INF));
+  // Bad settings are refused at construction.
+  render::CompositorOptions bad = with_ground;
+  bad.ground_albedo = Vector3d(0.2, 1.5, 0.2);
+  EXPECT_THROW(render::Compositor(baked.site, baked.mesh, baked.manifest, baked.transfer, hmd_camera(), bad), InputError);
+  bad = with_ground;
+  bad.ground_transfer.pop_back();
+  EXPECT_THROW(render::Compositor(baked.site, baked.mesh, baked.manifest, baked.transfer, hmd_camera(), bad), InputError);
 }
 
 TEST_F(CompositorTest, OpacityBlendsTheCompositeTowardsTheCameraImage) {

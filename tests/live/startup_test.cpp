@@ -7,6 +7,7 @@
 #include <thread>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <opencv2/videoio.hpp>
 
 #include "live_fixture.hpp"
@@ -231,6 +232,46 @@ TEST(ServiceConfig, MaxSourcesIsASettingWithinTheGpuBlendsLimit) {
     EXPECT_NE(message.find("field 'sky.max_sources'"), std::string::npos) << message;
     EXPECT_NE(message.find("32"), std::string::npos) << message;
   }
+}
+
+// The ground's light on the building (render.ground_light, render.ground_albedo): a setting of
+// the config and the presets; a bake without the ground layer is refused at start, naming it.
+TEST(ServiceConfig, TheGroundsLightIsASettingThatNeedsTheBakesGroundLayer) {
+  const Rig rig;
+  const fs::path file = rig.dir() / "ground.yaml";
+  std::ofstream(file) << rig.config_text();
+  live::LiveConfig config = live::load_live_config(file);
+  EXPECT_FALSE(config.render.ground_light);
+  EXPECT_FALSE(config.render.ground_albedo.has_value());
+  std::ofstream(file) << rig.config_text() << "render:\n  ground_light: true\n  ground_albedo: [0.1, 0.2, 0.3]\n";
+  config = live::load_live_config(file);
+  EXPECT_TRUE(config.render.ground_light);
+  ASSERT_TRUE(config.render.ground_albedo.has_value());
+  EXPECT_EQ(*config.render.ground_albedo, Eigen::Vector3d(0.1, 0.2, 0.3));
+  std::ofstream(file) << rig.config_text() << "render:\n  ground_light: true\n  ground_albedo: 0.25\n";
+  EXPECT_EQ(*live::load_live_config(file).render.ground_albedo, Eigen::Vector3d::Constant(0.25));
+  EXPECT_NO_THROW(live::Service(live::load_live_config(file), quiet_options()));
+  for (const char* bad : {"1.5", "[0.2, 0.2]", "bright"}) {
+    std::ofstream(file) << rig.config_text() << "render:\n  ground_albedo: " << bad << "\n";
+    const std::string message = skylit::test::error_of([&] { live::load_live_config(file); });
+    EXPECT_NE(message.find("render.ground_albedo"), std::string::npos) << bad << ": " << message;
+  }
+  // A bake made with --ground-samples 0: its manifest without the layer.
+  const BakedSite& baked = BakedSite::get();
+  const fs::path bare = rig.dir() / "bare_bake";
+  fs::copy(baked.dir / "bake", bare, fs::copy_options::recursive);
+  nlohmann::json manifest = nlohmann::json::parse(read_file(bare / "manifest.json"));
+  ASSERT_TRUE(manifest.contains("ground"));
+  manifest.erase("ground");
+  manifest["plan"].erase("ground_samples");
+  write_file_atomic(bare / "manifest.json", manifest.dump(2));
+  std::string text = rig.config_text();
+  const std::string bake_line = "bake: " + quoted(baked.dir / "bake");
+  text.replace(text.find(bake_line), bake_line.size(), "bake: " + quoted(bare));
+  std::ofstream(file) << text << "render:\n  ground_light: true\n";
+  const std::string message = skylit::test::error_of([&] { live::Service(live::load_live_config(file), quiet_options()); });
+  EXPECT_NE(message.find("render.ground_light"), std::string::npos) << message;
+  EXPECT_NE(message.find("--ground-samples"), std::string::npos) << message;
 }
 
 // Every input a config names lies inside its root (its folder, or `root:`); secrets and outputs

@@ -158,6 +158,10 @@ Plan plan_from(const Source& src, const json& j, const std::string& field) {
   plan.shadow_map_resolution = to_int(src, get("shadow_map_resolution"), name("shadow_map_resolution"), 0, kMaxPlaneTexels);
   // `preset` is optional: bakes made without skylit-bake --preset have none.
   if (j.is_object() && j.contains("preset")) plan.preset = to_string(src, j["preset"], name("preset"));
+  // `ground_samples` is optional: bakes made before the ground layer have none.
+  if (j.is_object() && j.contains("ground_samples")) {
+    plan.ground_samples = to_int(src, j["ground_samples"], name("ground_samples"), 0, kMaxSamples);
+  }
   const json& planes = array_of(src, get("planes"), name("planes"));
   for (std::size_t i = 0; i < planes.size(); ++i) {
     plan.planes.push_back(plane_from(src, planes[i], index(name("planes"), i)));
@@ -217,7 +221,7 @@ bool Plan::operator==(const Plan& other) const {
          model_sha256 == other.model_sha256 && frequency == other.frequency && basis == other.basis &&
          samples == other.samples &&
          method == other.method && shadow_map_resolution == other.shadow_map_resolution && preset == other.preset &&
-         vertex_count == other.vertex_count && triangle_count == other.triangle_count;
+         ground_samples == other.ground_samples && vertex_count == other.vertex_count && triangle_count == other.triangle_count;
 }
 
 std::string Plan::difference(const Plan& other) const {
@@ -238,6 +242,7 @@ std::string Plan::difference(const Plan& other) const {
   text("method", method, other.method);
   number("shadow_map_resolution", shadow_map_resolution, other.shadow_map_resolution);
   text("preset", preset, other.preset);
+  number("ground_samples", ground_samples, other.ground_samples);
   number("vertex_count", vertex_count, other.vertex_count);
   number("triangle_count", triangle_count, other.triangle_count);
   if (planes.size() != other.planes.size()) {
@@ -287,6 +292,7 @@ json to_json(const Plan& plan) {
             {"vertex_count", plan.vertex_count},
             {"triangle_count", plan.triangle_count}};
   if (!plan.preset.empty()) j["preset"] = plan.preset;
+  if (plan.ground_samples > 0) j["ground_samples"] = plan.ground_samples;
   return j;
 }
 
@@ -329,7 +335,7 @@ json to_json(const Manifest& m) {
   json files = json::array();
   for (const FileRecord& f : m.files) files.push_back({{"path", f.path}, {"size", f.size}, {"sha256", f.sha256}});
   const std::uint64_t layer_count = m.layer_count();
-  return {{"format", kFormatName},
+  json out = {{"format", kFormatName},
           {"schema_version", m.schema_version},
           {"generator", m.generator},
           {"created_utc", m.created_utc},
@@ -340,6 +346,12 @@ json to_json(const Manifest& m) {
           {"vertices", {{"file", m.vertices_file}, {"shape", json::array({m.plan.vertex_count, 6})}}},
           {"timings", {{"bake_seconds", m.bake_seconds}, {"finalize_seconds", m.finalize_seconds}}},
           {"files", std::move(files)}};
+  if (m.ground) {
+    out["ground"] = {{"file", m.ground->file},
+                     {"shape", json::array({m.plan.vertex_count, layer_count})},
+                     {"horizontal_unoccluded", m.ground->horizontal_unoccluded}};
+  }
+  return out;
 }
 
 namespace {
@@ -468,6 +480,19 @@ Manifest manifest_from_json(const json& j, const fs::path& source) {
   };
   array_file("transfer", m.layer_count(), m.transfer_file);
   array_file("vertices", 6, m.vertices_file);
+  if (j.contains("ground")) {
+    Manifest::Ground ground;
+    array_file("ground", m.layer_count(), ground.file);
+    const json& horizontal = array_of(src, get(get(j, "", "ground"), "ground", "horizontal_unoccluded"),
+                                      "ground.horizontal_unoccluded", m.layer_count());
+    for (std::size_t k = 0; k < horizontal.size(); ++k) {
+      ground.horizontal_unoccluded.push_back(to_double(src, horizontal[k], index("ground.horizontal_unoccluded", k)));
+    }
+    m.ground = std::move(ground);
+  }
+  if (m.ground.has_value() != (m.plan.ground_samples > 0)) {
+    src.fail("ground", m.ground ? "is there but plan.ground_samples is 0" : "is missing but plan.ground_samples is set");
+  }
 
   const json& timings = get(j, "", "timings");
   m.bake_seconds = to_double(src, get(timings, "timings", "bake_seconds"), "timings.bake_seconds");

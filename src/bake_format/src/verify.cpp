@@ -167,6 +167,7 @@ class Checker {
     }
     require_listed(m.transfer_file, "transfer array");
     require_listed(m.vertices_file, "vertex array");
+    if (m.ground) require_listed(m.ground->file, "ground transfer array");
     return present;
   }
 
@@ -320,6 +321,16 @@ VerifyReport verify(const fs::path& bake_dir) {
                         : "(vertex_count, " + std::to_string(m.plan.layers_per_face()) + " × face_count)",
                     present);
   check.check_array(m.vertices_file, {vertices, 6}, "(vertex_count, 6: position, normal)", present);
+  if (m.ground) {
+    check.check_array(m.ground->file, {vertices, m.layer_count()}, "(vertex_count, layer_count)", present);
+    for (std::size_t l = 0; l < m.ground->horizontal_unoccluded.size(); ++l) {
+      const double a = m.ground->horizontal_unoccluded[l];
+      if (!std::isfinite(a) || a < 0.0) {
+        check.problem("manifest.json: ground.horizontal_unoccluded[" + std::to_string(l) + "] is " + std::to_string(a) +
+                      ", not a finite solid angle ≥ 0. Fix: re-bake");
+      }
+    }
+  }
   report.ok = report.problems.empty();
   return report;
 }

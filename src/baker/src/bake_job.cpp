@@ -17,6 +17,7 @@
 #include "skylit/base/error.hpp"
 #include "skylit/base/files.hpp"
 #include "skylit/base/progress.hpp"
+#include "skylit/baker/ground_transfer.hpp"
 #include "skylit/baker/preview.hpp"
 #include "skylit/baker/visibility.hpp"
 #include "skylit/geom/spherical.hpp"
@@ -125,6 +126,7 @@ bake_format::Plan make_plan(const BakeOptions& o, const scene::Site& site, const
   plan.samples = o.samples;
   plan.method = o.method;
   plan.preset = o.preset;
+  plan.ground_samples = o.ground_samples;
   plan.planes = site.planes;
   if (o.resolution) {
     for (geom::Plane& p : plan.planes) std::tie(p.width, p.height) = *o.resolution;
@@ -389,6 +391,24 @@ std::uint64_t finalize(const fs::path& out_dir, bake_format::Manifest manifest, 
   bake_format::write_npy(out_dir / manifest.vertices_file, vertices, vertices_shape);
   manifest.files.push_back({manifest.transfer_file, 0, ""});
   manifest.files.push_back({manifest.vertices_file, 0, ""});
+  if (plan.ground_samples > 0) {
+    // The ground layer: the ground's irradiance per layer with the model's shadow, on a grid,
+    // and its transfer to every vertex (ground_transfer.hpp), with A_l(z).
+    const auto ground_start = std::chrono::steady_clock::now();
+    const GroundGrid grid = bake_ground_grid(mesh, dome, plan.basis, plan.samples);
+    bake_format::Manifest::Ground ground;
+    const std::vector<float> ground_values = ground_transfer(mesh, plan.planes, grid, plan.ground_samples);
+    ground.horizontal_unoccluded = grid.unoccluded;
+    const std::size_t ground_shape[] = {vertex_count, layers};
+    bake_format::write_npy(out_dir / ground.file, ground_values, ground_shape);
+    manifest.files.push_back({ground.file, 0, ""});
+    if (log != nullptr) {
+      std::fprintf(log, "ground: its light per layer on %d×%d points (%.2f m apart), its transfer to %zu vertices from %d "
+                   "directions each, in %.1f s\n", grid.plane.width, grid.plane.height, grid.plane.u.x() / grid.plane.width,
+                   vertex_count, plan.ground_samples, seconds_since(ground_start));
+    }
+    manifest.ground = std::move(ground);
+  }
 
   manifest.finalize_seconds = seconds_since(start);
   bake_format::write_manifest(out_dir, manifest);

@@ -354,6 +354,62 @@ class RaytraceEngine final : public VisibilityEngine {
     errors_->throw_if_any("weighted_vertex_irradiance");
   }
 
+  // Every direction below the horizon whose ray from a vertex reaches the ground z = 0 before
+  // the model (ground_hits).
+  void ground_hits(std::span<const Vec3> directions, const GroundVisit& visit) {
+    std::vector<Vec3> unit;
+    std::vector<std::size_t> index_of;
+    for (std::size_t k = 0; k < directions.size(); ++k) {
+      const double length = directions[k].norm();
+      if (!std::isfinite(length) || length == 0.0) throw std::invalid_argument("ground_hits: a direction is zero or not finite");
+      const Vec3 w = directions[k] / length;
+      if (w.z() >= 0.0) continue;  // never reaches the ground
+      unit.push_back(w);
+      index_of.push_back(k);
+    }
+    constexpr int kVerticesPerTask = 16;
+    const int vertex_count = static_cast<int>(mesh_.vertex_count());
+    const int tasks = (vertex_count + kVerticesPerTask - 1) / kVerticesPerTask;
+    const float offset = static_cast<float>(offset_);
+    parallel_for(tasks, threads_, [&](int task) {
+      RTCIntersectContext context;
+      rtcInitIntersectContext(&context);
+      const int end = std::min(vertex_count, (task + 1) * kVerticesPerTask);
+      for (int v = task * kVerticesPerTask; v < end; ++v) {
+        const auto index = static_cast<std::size_t>(v);
+        const Eigen::Vector3f& normal = mesh_.normals[index];
+        const Vec3 normal_d = normal.cast<double>();
+        const Eigen::Vector3f origin = mesh_.positions[index] + offset * normal;
+        // A vertex below the ground is buried: it sees none of it (a foundation, a cellar). One
+        // on it facing down (a plinth's underside) faces the ground it covers: none either.
+        if (origin.z() < -offset || (normal.z() < 0.0f && mesh_.positions[index].z() <= offset)) continue;
+        for (std::size_t k = 0; k < unit.size(); ++k) {
+          const double c = normal_d.dot(unit[k]);
+          if (c <= 0.0) continue;
+          // The ground is met at t = z / −ω_z; a vertex on it (z ≤ offset) meets it at once.
+          const double reach = std::max(static_cast<double>(origin.z()), 0.0) / -unit[k].z();
+          RTCRay ray{};
+          ray.org_x = origin.x();
+          ray.org_y = origin.y();
+          ray.org_z = origin.z();
+          ray.dir_x = static_cast<float>(unit[k].x());
+          ray.dir_y = static_cast<float>(unit[k].y());
+          ray.dir_z = static_cast<float>(unit[k].z());
+          ray.tnear = offset;
+          ray.tfar = static_cast<float>(reach);
+          ray.mask = ~0u;
+          if (ray.tfar > ray.tnear) {
+            rtcOccluded1(scene_.get(), &context, &ray);
+            if (ray.tfar < 0.0f) continue;
+          }
+          const Vec3 at = origin.cast<double>() + reach * unit[k];
+          visit(index, index_of[k], c, at.x(), at.y());
+        }
+      }
+    });
+    errors_->throw_if_any("ground_hits");
+  }
+
   void vertex_fractions(std::span<float> out) override {
     const std::size_t vertices = mesh_.vertex_count();
     if (out.size() != static_cast<std::size_t>(layers_) * vertices) {
@@ -504,6 +560,26 @@ void weighted_vertex_irradiance(const scene::Mesh& mesh, std::span<const geom::P
                                 const RaytraceOptions& options) {
   RaytraceEngine engine(mesh, planes, options);
   engine.weighted_vertex_irradiance(directions, weights, out);
+}
+
+void ground_hits(const scene::Mesh& mesh, std::span<const geom::Plane> planes, std::span<const Vec3> directions,
+                 const GroundVisit& visit, const RaytraceOptions& options) {
+  RaytraceEngine engine(mesh, planes, options);
+  engine.ground_hits(directions, visit);
+}
+
+void ground_vertex_irradiance(const scene::Mesh& mesh, std::span<const geom::Plane> planes, std::span<const Vec3> directions,
+                              std::span<const double> weights, const GroundRadiance& ground, std::span<Eigen::Vector3d> out,
+                              const RaytraceOptions& options) {
+  if (directions.size() != weights.size() || out.size() != mesh.vertex_count()) {
+    throw std::invalid_argument("ground_vertex_irradiance: one weight per direction, one output per vertex");
+  }
+  std::fill(out.begin(), out.end(), Eigen::Vector3d::Zero());
+  ground_hits(mesh, planes, directions,
+              [&](std::size_t vertex, std::size_t k, double cosine, double x, double y) {
+                out[vertex] += (weights[k] * cosine) * ground(x, y);
+              },
+              options);
 }
 
 void area_light_vertex_visibility(const scene::Mesh& mesh, std::span<const geom::Plane> planes, std::span<const Vec3> directions,

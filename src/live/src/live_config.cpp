@@ -20,7 +20,7 @@ constexpr const char* kDocs = "see docs/live.md (Configuration)";
 constexpr std::array<std::string_view, 16> kTopKeys{"site",     "bake",  "preset",      "sky",    "camera", "pose",   "imu",
                                                     "fusion",   "tracking", "blend", "render", "photometric", "output", "status", "display",
                                                     "root"};
-constexpr std::array<std::string_view, 1> kRenderKeys{"scale"};
+constexpr std::array<std::string_view, 3> kRenderKeys{"scale", "ground_light", "ground_albedo"};
 constexpr std::array<std::string_view, 8> kSkyKeys{"calibration", "source", "response", "rate",
                                                    "sun", "smoothing", "stale_after", "max_sources"};
 constexpr std::array<std::string_view, 2> kCameraKeys{"calibration", "source"};
@@ -48,8 +48,8 @@ constexpr std::array<std::string_view, 2> kDisplayModes{"mono", "stereo"};
 }  // namespace
 
 LivePreset load_live_preset(const PresetsFile& presets, const std::string& name) {
-  constexpr std::array<std::string_view, 7> keys{"basis",     "storage", "skip_threshold", "change_threshold",
-                                                 "smoothing", "sun",     "render_scale"};
+  constexpr std::array<std::string_view, 8> keys{"basis",     "storage", "skip_threshold", "change_threshold",
+                                                 "smoothing", "sun",     "render_scale",   "ground_light"};
   constexpr std::array<std::string_view, 2> sun_modes{"auto", "off"};
   const PresetSection s = presets.section(name, "live");
   const YamlReader& r = s.reader;
@@ -72,6 +72,7 @@ LivePreset load_live_preset(const PresetsFile& presets, const std::string& name)
     p.render_scale = r.positive(n, s.field_of("render_scale"), "the building's render scale in (0, 1], e.g. 0.75");
     if (p.render_scale > 1.0) r.fail(n, s.field_of("render_scale"), "is over 1", "a scale in (0, 1], e.g. 0.75");
   }
+  if (auto n = YamlReader::optional(s.node, "ground_light")) p.ground_light = r.boolean(n, s.field_of("ground_light"), "true or false");
   if (p.basis == blend::BasisForm::Pca) {
     // The PCA form is the bake's to store: its section must ask for one.
     const PresetSection bake = presets.section(name, "bake");
@@ -122,6 +123,7 @@ void apply_preset(const YamlReader& r, const YAML::Node& root, const std::filesy
     c.blend.basis = preset.basis;
     c.blend.storage = preset.storage;
     c.render.scale = preset.render_scale;
+    c.render.ground_light = preset.ground_light;
     c.blend.skip_threshold = preset.skip_threshold;
     c.blend.change_threshold = preset.change_threshold;
   }
@@ -309,6 +311,18 @@ void parse_render(const YamlReader& r, const YAML::Node& root, LiveConfig& c) {
     if (auto n = YamlReader::optional(render, "scale")) {
       c.render.scale = r.positive(n, "render.scale", "the building's render scale in (0, 1], e.g. 0.75");
       if (c.render.scale > 1.0) r.fail(n, "render.scale", "is over 1", "a scale in (0, 1], e.g. 0.75 (1: the frame's resolution)");
+    }
+    if (auto n = YamlReader::optional(render, "ground_light")) {
+      c.render.ground_light = r.boolean(n, "render.ground_light", "true (the bake's ground layer lights the building) or false");
+    }
+    if (auto n = YamlReader::optional(render, "ground_albedo")) {
+      const std::string fix = "the ground's reflectance in [0, 1]: a number, e.g. 0.2, or [r, g, b]";
+      const std::vector<double> v = n.IsSequence() ? r.numbers(n, 3, "render.ground_albedo", fix)
+                                                   : std::vector<double>(3, r.number(n, "render.ground_albedo", fix));
+      for (double a : v) {
+        if (!(a >= 0.0 && a <= 1.0)) r.fail(n, "render.ground_albedo", "must lie in [0, 1]", fix);
+      }
+      c.render.ground_albedo = Eigen::Vector3d(v[0], v[1], v[2]);
     }
   }
 }

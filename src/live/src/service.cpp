@@ -135,6 +135,15 @@ Service::Service(const LiveConfig& config, const ServiceOptions& options) : stat
   s.manifest = bake_format::read_manifest(config.bake);
   std::vector<std::size_t> shape;
   s.transfer = bake_format::read_npy(config.bake / s.manifest.transfer_file, &shape);
+  if (config.render.ground_light) {
+    if (!s.manifest.ground) {
+      throw InputError(input_message(config.file, -1, -1, "render.ground_light",
+                                     "true, and the bake " + config.bake.string() + " has no ground layer",
+                                     "re-bake with skylit-bake --ground-samples 256 (the default), or set "
+                                     "'render: {ground_light: false}'"));
+    }
+    s.ground_transfer = bake_format::read_npy(config.bake / s.manifest.ground->file, &shape);
+  }
   for (std::size_t j = 0; j < s.manifest.planes.size(); ++j) {
     if (config.blend.basis == blend::BasisForm::Pca && !s.manifest.planes[j].pca) {
       throw InputError(input_message(config.file, -1, -1, "blend.basis",

@@ -141,6 +141,7 @@ struct Service::State {
   scene::Mesh mesh;
   bake_format::Manifest manifest;
   std::vector<float> transfer;
+  std::vector<float> ground_transfer;  // the bake's ground layer, with render.ground_light
   std::vector<blend::BasisImages> bases;
   camera::CameraCalibration sky_calibration, hmd_calibration;
   std::unique_ptr<geom::Dome> dome;

@@ -18,6 +18,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "skylit/base/error.hpp"
+#include "skylit/blend/vertex_irradiance.hpp"
 #include "skylit/gpu/shader.hpp"
 #include "skylit/camera/lens.hpp"
 
@@ -243,6 +244,11 @@ struct Compositor::State {
   std::vector<float> vertex_irradiance;          // rgb per vertex: the sky sum and the lamps
   std::vector<Eigen::Vector3f> vertex_normals;   // the mesh's, for the lamps' cosines
   bool lamps_added = false;                      // vertex_irradiance holds lamps' light
+  // The ground layer when options.ground_albedo is set (manifest.ground): t^g layer after layer
+  // as transfer_by_layer, and S^g for the frame it was summed for.
+  std::optional<blend::GroundLayers> ground_layers;
+  std::vector<float> ground_by_layer;
+  std::vector<Eigen::Vector3d> irradiance_ground;
 
   // Building geometry, grouped by material for one draw each.
   struct MaterialDraw {
@@ -536,7 +542,13 @@ void Compositor::State::update_irradiance(const std::vector<Eigen::Vector3d>& sk
                                      "read it from the shadow map drawn for this model"));
     }
   }
-  const bool sky_changed = irradiance_sky.empty() || irradiance_sky != sky_values;
+  std::vector<Eigen::Vector3d> ground_values;
+  if (ground_layers) {
+    std::vector<blend::SunLight> lights(input.lamps.begin(), input.lamps.end());
+    if (input.sun) lights.push_back(*input.sun);
+    ground_values = ground_layers->coefficients(sky_values, lights);
+  }
+  const bool sky_changed = irradiance_sky.empty() || irradiance_sky != sky_values || irradiance_ground != ground_values;
   if (sky_changed) {
     // E_v = Σ_i S_i t_{v,i} in float, layer after layer (the order and precision the vertex
     // shader summed in before), every vertex of a layer at once.
@@ -553,12 +565,24 @@ void Compositor::State::update_irradiance(const std::vector<Eigen::Vector3d>& sk
         blue[v] += t[v] * b;
       }
     }
+    // The ground: ρ ⊙ Σ_l S^g_l t^g_{v,l} (blend::GroundLayers).
+    for (std::size_t l = 0; l < ground_values.size(); ++l) {
+      const Eigen::Vector3f c = options.ground_albedo.cwiseProduct(ground_values[l]).cast<float>();
+      if (c.isZero(0)) continue;
+      const float* t = ground_by_layer.data() + l * count;
+      for (std::size_t v = 0; v < count; ++v) {
+        red[v] += t[v] * c[0];
+        green[v] += t[v] * c[1];
+        blue[v] += t[v] * c[2];
+      }
+    }
     for (std::size_t v = 0; v < count; ++v) {
       sky_sum[3 * v] = red[v];
       sky_sum[3 * v + 1] = green[v];
       sky_sum[3 * v + 2] = blue[v];
     }
     irradiance_sky = sky_values;
+    irradiance_ground = std::move(ground_values);
   }
   // The lamps change with every sky frame and their visibility with every map: added each frame
   // they light (vertices × lamps multiply-adds).
@@ -793,6 +817,34 @@ Compositor::Compositor(const scene::Site& site, const scene::Mesh& mesh, const b
                                    "correct the compositor's settings in the config"));
   }
   s.check_inputs(site, mesh, manifest, transfer);
+  if (!o.ground_albedo.isZero(0)) {
+    if (!o.ground_albedo.allFinite() || o.ground_albedo.minCoeff() < 0.0 || o.ground_albedo.maxCoeff() > 1.0) {
+      throw InputError(input_message({}, -1, -1, "ground albedo", "each channel must lie in [0, 1]",
+                                     "set render.ground_albedo to the ground's reflectance, e.g. 0.2"));
+    }
+    const std::size_t expected = mesh.vertex_count() * manifest.layer_count();
+    if (!manifest.ground || o.ground_transfer.size() != expected) {
+      throw InputError(input_message({}, -1, -1, "ground",
+                                     manifest.ground ? "the ground's transfer holds " + std::to_string(o.ground_transfer.size()) +
+                                                           " values, not vertices × layers = " + std::to_string(expected)
+                                                     : "the bake has no ground layer (its plan's ground_samples is 0)",
+                                     "re-bake with skylit-bake --ground-samples 256, or turn the ground's light off "
+                                     "(render.ground_light: false)"));
+    }
+    try {
+      s.ground_layers.emplace(manifest.plan.frequency, manifest.plan.basis, manifest.ground->horizontal_unoccluded);
+    } catch (const std::invalid_argument& e) {
+      throw InputError(input_message({}, -1, -1, "ground.horizontal_unoccluded", e.what(), "re-bake"));
+    }
+    const std::size_t layers = manifest.layer_count(), count = mesh.vertex_count();
+    s.ground_by_layer.assign(layers * count, 0.0f);
+    for (std::size_t v = 0; v < count; ++v) {
+      for (std::size_t l = 0; l < layers; ++l) {
+        const float t = o.ground_transfer[v * layers + l];
+        s.ground_by_layer[l * count + v] = std::isfinite(t) ? std::max(t, 0.0f) : 0.0f;
+      }
+    }
+  }
   s.shader_dir = gpu::find_shader_dir(s.options.shader_dir);
   s.filtered_lookups = has_gl_extension("GL_OES_texture_float_linear");
   if (s.filtered_lookups) s.bilinear = bilinear_clamped_sampler();

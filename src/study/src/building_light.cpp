@@ -4,7 +4,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <numbers>
+#include <stdexcept>
+#include <string>
 
+#include "skylit/baker/ground_transfer.hpp"
 #include "skylit/baker/visibility.hpp"
 #include "skylit/blend/vertex_irradiance.hpp"
 #include "skylit/sky/radiometry.hpp"
@@ -25,7 +29,7 @@ std::vector<Eigen::Vector3d> building_reference(const EquirectLights& lights, co
 
 std::vector<Eigen::Vector3d> building_estimate(std::span<const float> transfer, std::span<const Eigen::Vector3d> S,
                                                std::span<const SourceLight> sources, const scene::Site& site,
-                                               const scene::Mesh& mesh) {
+                                               const scene::Mesh& mesh, const blend::GroundLight& ground) {
   std::vector<blend::SunLight> lights;
   std::vector<std::vector<float>> visibility;
   for (const SourceLight& source : sources) {
@@ -35,7 +39,7 @@ std::vector<Eigen::Vector3d> building_estimate(std::span<const float> transfer, 
       baker::area_light_vertex_visibility(mesh, site.planes, source.disc_directions, source.disc_weights, visibility.back());
     }
   }
-  return blend::vertex_irradiance(transfer, S, mesh.normals, lights, visibility);
+  return blend::vertex_irradiance(transfer, S, mesh.normals, lights, visibility, ground);
 }
 
 TrianglePoints triangle_points(const scene::Mesh& mesh) {
@@ -76,6 +80,44 @@ std::vector<Eigen::Vector3d> building_reference_at(const EquirectLights& lights,
   with_points.texcoords.clear();
   std::vector<Eigen::Vector3d> all(with_points.vertex_count());
   baker::weighted_vertex_irradiance(with_points, site.planes, lights.directions, lights.weights, all);
+  return {all.begin() + static_cast<std::ptrdiff_t>(mesh.vertex_count()), all.end()};
+}
+
+std::vector<Eigen::Vector3d> ground_reference(const EquirectLights& lights, const scene::Site& site, const scene::Mesh& mesh,
+                                              const GroundReferenceOptions& options) {
+  const Eigen::Vector3d horizontal = horizontal_irradiance(lights);
+  const Eigen::Vector3d scale = options.albedo / std::numbers::pi;
+  const geom::Plane* plane = options.shadow_plane;
+  if (plane != nullptr && options.shadow_ratio.size() != static_cast<std::size_t>(plane->width) * static_cast<std::size_t>(plane->height)) {
+    throw std::invalid_argument("ground_reference: the shadow ratio has " + std::to_string(options.shadow_ratio.size()) +
+                                " texels, not the plane's " + std::to_string(plane->width) + "×" + std::to_string(plane->height));
+  }
+  const auto radiance = [&](double x, double y) -> Eigen::Vector3d {
+    Eigen::Vector3d ratio = Eigen::Vector3d::Ones();
+    if (plane != nullptr) {
+      const Vec3 d = Vec3(x, y, plane->origin.z()) - plane->origin;
+      const double s = d.dot(plane->u) / plane->u.squaredNorm(), t = d.dot(plane->v) / plane->v.squaredNorm();
+      if (s >= 0.0 && s < 1.0 && t >= 0.0 && t < 1.0) {
+        const auto col = static_cast<std::size_t>(s * plane->width), row = static_cast<std::size_t>(t * plane->height);
+        ratio = options.shadow_ratio[row * static_cast<std::size_t>(plane->width) + col];
+      }
+    }
+    return scale.cwiseProduct(ratio).cwiseProduct(horizontal);
+  };
+  const std::vector<Vec3> directions = baker::ground_directions(options.directions);
+  const std::vector<double> weights(directions.size(), 2.0 * std::numbers::pi / options.directions);
+  std::vector<Eigen::Vector3d> out(mesh.vertex_count());
+  baker::ground_vertex_irradiance(mesh, site.planes, directions, weights, radiance, out);
+  return out;
+}
+
+std::vector<Eigen::Vector3d> ground_reference_at(const EquirectLights& lights, const scene::Site& site, const scene::Mesh& mesh,
+                                                 const TrianglePoints& points, const GroundReferenceOptions& options) {
+  scene::Mesh with_points = mesh;
+  with_points.positions.insert(with_points.positions.end(), points.positions.begin(), points.positions.end());
+  with_points.normals.insert(with_points.normals.end(), points.normals.begin(), points.normals.end());
+  with_points.texcoords.clear();
+  const std::vector<Eigen::Vector3d> all = ground_reference(lights, site, with_points, options);
   return {all.begin() + static_cast<std::ptrdiff_t>(mesh.vertex_count()), all.end()};
 }
 

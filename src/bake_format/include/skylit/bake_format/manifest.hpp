@@ -75,6 +75,9 @@ struct Plan {
   // live service runs such a bake only with the same `preset:`, whose dome differs from the site's.
   std::string preset;
   std::vector<geom::Plane> planes;        // after any --resolution override
+  // Directions per vertex of the ground's transfer (ground_transfer.npy; skylit-bake
+  // --ground-samples); 0: the bake has no ground layer. Plans without the field have 0.
+  int ground_samples = 0;
   std::uint64_t vertex_count = 0;
   std::uint64_t triangle_count = 0;
 
@@ -99,6 +102,10 @@ struct Plan {
 //   BAKE_DIR/planes/<name>.pca.exr, .pca.npy  optional: the plane's basis compressed by
 //                                 principal components (pca.hpp), K + 1 layers and P_{l,k}
 //   BAKE_DIR/transfer.npy         float32 [vertex_count, layer_count]: t_{v,l}, steradians
+//   BAKE_DIR/ground_transfer.npy  optional, float32 [vertex_count, layer_count]: t^g_{v,l}, the
+//                                 ground's light per layer at the vertices (steradians), with
+//                                 the layers' unoccluded integrals for the horizontal, A_l(z),
+//                                 in the manifest
 //   BAKE_DIR/vertices.npy         float32 [vertex_count, 6]: position xyz, normal xyz (site frame)
 //   BAKE_DIR/preview/*.png        contact sheets (not part of the verified data)
 //
@@ -114,6 +121,13 @@ struct Manifest {
   std::vector<PlaneRecord> planes;
   std::string transfer_file = "transfer.npy";
   std::string vertices_file = "vertices.npy";
+  // The ground layer (plan.ground_samples > 0): the file of t^g_{v,l}, and A_l(z) per layer, with
+  // which a separated source's light on the ground joins the layers (blend::ground_coefficients).
+  struct Ground {
+    std::string file = "ground_transfer.npy";
+    std::vector<double> horizontal_unoccluded;
+  };
+  std::optional<Ground> ground;
   double bake_seconds = 0.0;              // wall time of the face work (all shards)
   double finalize_seconds = 0.0;
   std::vector<FileRecord> files;          // every data file, hashed

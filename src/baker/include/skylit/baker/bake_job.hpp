@@ -38,6 +38,8 @@ struct BakeOptions {
   // Also store each plane's basis compressed by principal components (bake/pca.hpp).
   std::optional<bake_format::PcaOptions> pca;
   std::string preset;                      // the preset the settings came from (recorded in the plan)
+  // Directions per vertex for the ground's transfer (ground_transfer.hpp); 0: no ground layer.
+  int ground_samples = 256;
 };
 
 struct BakeSummary {

@@ -6,6 +6,7 @@
 #include <array>
 #include <cstddef>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -103,6 +104,24 @@ void area_light_visibility(const scene::Mesh& mesh, const geom::Plane& plane, st
 void weighted_vertex_irradiance(const scene::Mesh& mesh, std::span<const geom::Plane> planes, std::span<const Vec3> directions,
                                 std::span<const Eigen::Vector3d> weights, std::span<Eigen::Vector3d> out,
                                 const RaytraceOptions& options = {});
+
+// The ground's light at the model's vertices: the ground is the plane z = 0 of the site frame, a
+// lambertian reflector of radiance G(x, y) (RGB). For every vertex v (nudged as above),
+//     out[v] = Σ_k weights[k] · max(0, n_v·ω_k) · G(g_k) · V_ground(v, ω_k)
+// over the directions below the horizon (ω_z < 0; the others are skipped), where g_k is where the
+// ray meets z = 0 and V_ground = 1 when the model does not stop it first. A vertex below the
+// ground sees none of it, nor one on the ground facing down (it covers the ground it faces).
+// weights: solid angles (≥ 0).
+using GroundRadiance = std::function<Eigen::Vector3d(double x, double y)>;
+// The rays behind it: visit(vertex, k, max(0, n_v·ω_k), x, y) for each direction k below the
+// horizon whose ray from the vertex reaches the ground, at (x, y), before the model; called from
+// worker threads, every visit of one vertex from the same thread.
+using GroundVisit = std::function<void(std::size_t vertex, std::size_t direction, double cosine, double x, double y)>;
+void ground_hits(const scene::Mesh& mesh, std::span<const geom::Plane> planes, std::span<const Vec3> directions,
+                 const GroundVisit& visit, const RaytraceOptions& options = {});
+void ground_vertex_irradiance(const scene::Mesh& mesh, std::span<const geom::Plane> planes, std::span<const Vec3> directions,
+                              std::span<const double> weights, const GroundRadiance& ground, std::span<Eigen::Vector3d> out,
+                              const RaytraceOptions& options = {});
 
 // Visibility of an area light for every mesh vertex, as area_light_visibility for texels.
 void area_light_vertex_visibility(const scene::Mesh& mesh, std::span<const geom::Plane> planes, std::span<const Vec3> directions,

@@ -103,6 +103,11 @@ struct RenderSettings {
   // The pinhole render's resolution against the frame's (render::LensRemapOptions::render_scale):
   // the building's fill cost goes as its square (docs/live.md, "Rendering and compositing").
   double scale = 1.0;
+  // The ground's light on the building (render::CompositorOptions::ground_albedo; docs/method.md,
+  // "Light from the ground"): on with render.ground_light, the bake's ground layer needed; the
+  // ground's albedo, RGB (default: photometric.estimate.albedo, the reference region's, else 0.2).
+  bool ground_light = false;
+  std::optional<Eigen::Vector3d> ground_albedo;
 };
 
 // The HMD display (docs/hmd.md): a profile, the monitor to fill, one render or one per eye.
@@ -202,6 +207,7 @@ struct LivePreset {
   double smoothing = 0.0;                                   // sky.smoothing, seconds
   bool sun = true;                                          // sky.sun: auto (true) | off
   double render_scale = 1.0;                                // render.scale, (0, 1]
+  bool ground_light = false;                                // render.ground_light
 };
 
 // The live section of preset `name`, checked against its bake section (the PCA form needs

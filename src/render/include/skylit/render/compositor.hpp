@@ -43,6 +43,12 @@ struct CompositorOptions {
   // Measure each stage's time (CompositeTimings) with a glFinish after each: this serialises
   // the GPU with the CPU, so it is for benchmarks and profiling, not for a display.
   bool time_stages = false;
+  // The ground's light on the building (docs/method.md, "Light from the ground"): a lambertian
+  // ground of this albedo (RGB, each in [0, 1]; zero: none) lit by the frame's sky and sources,
+  // through the bake's ground layer: ground_transfer is its ground_transfer.npy (vertices ×
+  // layers, as transfer). InputError when the albedo is set and the bake has no ground layer.
+  Eigen::Vector3d ground_albedo = Eigen::Vector3d::Zero();
+  std::vector<float> ground_transfer;
 };
 
 // Where the camera is: the HMD camera frame (OpenCV's) in the site frame.

@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include "skylit/blend/vertex_irradiance.hpp"
 #include "skylit/scene/mesh.hpp"
 #include "skylit/scene/site.hpp"
 #include "skylit/study/study.hpp"
@@ -39,9 +40,10 @@ struct SourceLight {
 // with t the bake's transfer vectors (vertex-major, S.size() per vertex) and V_k the source's
 // disc ray-cast from the vertex: a perfect shadow map, so that this measures the transfer and the
 // sky stage, not the shadow map's resolution. std::invalid_argument when the sizes do not fit.
+// With ground.transfer set, plus L_g t_{v,g} (the ground layer).
 std::vector<Eigen::Vector3d> building_estimate(std::span<const float> transfer, std::span<const Eigen::Vector3d> S,
                                                std::span<const SourceLight> sources, const scene::Site& site,
-                                               const scene::Mesh& mesh);
+                                               const scene::Mesh& mesh, const blend::GroundLight& ground = {});
 
 // Points inside the model's triangles, where the compositor shows E interpolated from the
 // vertices: per triangle its centroid and the three points halfway from it to each corner
@@ -62,6 +64,25 @@ std::vector<Eigen::Vector3d> interpolated_at(const TrianglePoints& points, std::
 // occlusion ray-traced (the points ride along as vertices no triangle uses).
 std::vector<Eigen::Vector3d> building_reference_at(const EquirectLights& lights, const scene::Site& site,
                                                    const scene::Mesh& mesh, const TrianglePoints& points);
+
+// The ground in the reference (docs/method.md, "Light from the ground"): a lambertian ground, the
+// plane z = 0, of albedo ρ (RGB) lit by the same lights, seen from every vertex past the model:
+//     E_g(v) = Σ_k Ω_k max(0, n_v·ω_k) ρ/π E(g_k) V_ground(v, ω_k)
+// over `directions` equal-area directions below the horizon (baker::ground_directions), g_k where
+// the ray meets the ground, and E(g) the ground's irradiance: T(g) E_h where a horizontal plane
+// of the site with its dense reference T covers g (the model's shadow on the ground), E_h (the
+// unoccluded horizontal irradiance, what the live path assumes) elsewhere or without one.
+struct GroundReferenceOptions {
+  Eigen::Vector3d albedo = Eigen::Vector3d::Constant(0.2);
+  int directions = 4096;
+  const geom::Plane* shadow_plane = nullptr;       // null: E_h everywhere
+  std::span<const Eigen::Vector3d> shadow_ratio;   // its T per texel (row-major), RGB
+};
+std::vector<Eigen::Vector3d> ground_reference(const EquirectLights& lights, const scene::Site& site, const scene::Mesh& mesh,
+                                              const GroundReferenceOptions& options);
+// The same at points inside the triangles (triangle_points).
+std::vector<Eigen::Vector3d> ground_reference_at(const EquirectLights& lights, const scene::Site& site, const scene::Mesh& mesh,
+                                                 const TrianglePoints& points, const GroundReferenceOptions& options);
 
 // |E(v) − E_ref(v)| / E_h over every vertex and channel. A vertex that sees nothing of the sky in
 // either counts with its (zero) error: the model's hidden faces are part of what it shows.
