@@ -312,16 +312,10 @@ int main(int argc, char** argv) {
     // ground (the model's shadow on it), and uniformly (E_h) for what that assumption costs.
     std::vector<Eigen::Vector3d> uniform_ground_ref;
     if (ground_albedo > 0.0) {
-      GroundReferenceOptions ground;
-      ground.albedo = Eigen::Vector3d::Constant(ground_albedo);
-      const std::vector<Eigen::Vector3d> uniform = ground_reference(sky_lights, site, mesh, ground);
-      for (std::size_t j = 0; j < site.planes.size(); ++j) {
-        const skylit::geom::Plane& p = site.planes[j];
-        if (p.normal().z() > 0.999 && std::abs(p.origin.z()) < 0.05 && ground.shadow_plane == nullptr) {
-          ground.shadow_plane = &p;
-          ground.shadow_ratio = dense.planes[j];
-        }
-      }
+      const GroundReferenceOptions ground = site_ground(site, dense, Eigen::Vector3d::Constant(ground_albedo));
+      GroundReferenceOptions uniformly = ground;
+      uniformly.shadow_plane = nullptr;
+      const std::vector<Eigen::Vector3d> uniform = ground_reference(sky_lights, site, mesh, uniformly);
       const std::vector<Eigen::Vector3d> shadowed = ground_reference(sky_lights, site, mesh, ground);
       const std::vector<Eigen::Vector3d> shadowed_inside = ground_reference_at(sky_lights, site, mesh, inside_points, ground);
       uniform_ground_ref = building_ref;

@@ -47,6 +47,11 @@ int main(int argc, char** argv) {
                     "separated sources at most with the sun on (sky.max_sources): 1, the sun alone; N, the sun and lamps")
       ->delimiter(',')
       ->capture_default_str();
+  trade->add_option("--ground-albedo", o.ground_albedo,
+                    "the building's reference has a lambertian ground of this albedo; its error is given with the bake's "
+                    "ground layer (render.ground_light) and without (0: no ground)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   trade->add_option("--skip-thresholds", o.skip_thresholds, "S threshold (blend.skip_threshold), T units")
       ->delimiter(',')
       ->capture_default_str();

@@ -1,6 +1,8 @@
 // EquirectLights, the building's reference and estimate, and their errors.
 #include "skylit/study/building_light.hpp"
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -109,6 +111,20 @@ std::vector<Eigen::Vector3d> ground_reference(const EquirectLights& lights, cons
   std::vector<Eigen::Vector3d> out(mesh.vertex_count());
   baker::ground_vertex_irradiance(mesh, site.planes, directions, weights, radiance, out);
   return out;
+}
+
+GroundReferenceOptions site_ground(const scene::Site& site, const DenseReference& dense, const Eigen::Vector3d& albedo) {
+  GroundReferenceOptions options;
+  options.albedo = albedo;
+  for (std::size_t j = 0; j < site.planes.size() && j < dense.planes.size(); ++j) {
+    const geom::Plane& p = site.planes[j];
+    if (p.normal().z() > 0.999 && std::abs(p.origin.z()) < 0.05) {
+      options.shadow_plane = &p;
+      options.shadow_ratio = dense.planes[j];
+      break;
+    }
+  }
+  return options;
 }
 
 std::vector<Eigen::Vector3d> ground_reference_at(const EquirectLights& lights, const scene::Site& site, const scene::Mesh& mesh,

@@ -29,12 +29,14 @@
 #include "skylit/blend/workers.hpp"
 #include "skylit/render/compositor.hpp"
 #include "skylit/blend/cpu_blend.hpp"
+#include "skylit/blend/vertex_irradiance.hpp"
 #include "skylit/blend/gpu_blend.hpp"
 #include "skylit/render/sun_shadow_map.hpp"
 #include "skylit/sky/simulate.hpp"
 #include "skylit/sky/sky_estimate.hpp"
 #include "skylit/sky/sky_smoothing.hpp"
 #include "skylit/sky/solar.hpp"
+#include "skylit/study/building_light.hpp"
 #include "skylit/study/study.hpp"
 #include "skylit/study/trade.hpp"
 #include "trade_rows.hpp"
@@ -322,20 +324,36 @@ std::vector<SkyData> render_skies(const TradeOptions& o, const camera::Lens& len
   return skies;
 }
 
-// By (plane resolution divisor, sky): T per plane and texel.
-using References = std::map<std::pair<int, std::size_t>, std::vector<std::vector<Eigen::Vector3d>>>;
+// By (plane resolution divisor, sky): T per plane and texel; the building's E per vertex (with
+// the ground of --ground-albedo) and E_h.
+struct Reference {
+  std::vector<std::vector<Eigen::Vector3d>> planes;
+  std::vector<Eigen::Vector3d> building;
+  Eigen::Vector3d horizontal;
+};
+using References = std::map<std::pair<int, std::size_t>, Reference>;
 
 // The dense reference per resolution and sky.
 References make_references(const TradeOptions& o, const std::vector<SkyData>& skies, const std::set<int>& scales,
                            const Sites& sites) {
   References references;
   for (int s : scales) {
+    const SiteData& site = sites.at(s);
     for (std::size_t i = 0; i < skies.size(); ++i) {
-      const study::DenseReference ref =
-          study::dense_reference(skies[i].equirect, sites.at(s).site, sites.at(s).mesh, o.reference_supersample);
-      std::printf("reference 1/%d %s: %.1f s\n", s, skies[i].name.c_str(), ref.seconds);
+      const auto t = Clock::now();
+      const study::EquirectLights lights = study::equirect_lights(skies[i].equirect, o.reference_supersample);
+      study::DenseReference dense = study::dense_reference(lights, site.site, site.mesh);
+      Reference& ref = references[{s, i}];
+      ref.building = study::building_reference(lights, site.site, site.mesh);
+      if (o.ground_albedo > 0.0) {
+        const std::vector<Eigen::Vector3d> ground = study::ground_reference(
+            lights, site.site, site.mesh, study::site_ground(site.site, dense, Eigen::Vector3d::Constant(o.ground_albedo)));
+        for (std::size_t v = 0; v < ground.size(); ++v) ref.building[v] += ground[v];
+      }
+      ref.horizontal = study::horizontal_irradiance(lights);
+      ref.planes = std::move(dense.planes);
+      std::printf("reference 1/%d %s: %.1f s\n", s, skies[i].name.c_str(), seconds_since(t));
       std::fflush(stdout);
-      references[{s, i}] = ref.planes;
     }
   }
   return references;
@@ -538,6 +556,7 @@ struct Bench {
 struct SettingBake {
   bake_format::Manifest manifest;
   std::vector<blend::BasisImages> basis;
+  std::vector<float> transfer, ground_transfer;  // the latter empty without a ground layer
 };
 
 // Also the bake's cost in `r`: its time, size on disk and stored layers.
@@ -545,7 +564,10 @@ SettingBake load_setting_bake(const Bakes& made, Result& r) {
   const Setting& s = r.setting;
   const bool pca = s.form.form == blend::BasisForm::Pca;
   const fs::path bake_dir = pca ? made.pca_dirs.at({s.bake, s.form.components, s.form.tile}) : made.dirs.at(s.bake);
-  SettingBake bake{bake_format::read_manifest(bake_dir), {}};
+  SettingBake bake{bake_format::read_manifest(bake_dir), {}, {}, {}};
+  std::vector<std::size_t> shape;
+  bake.transfer = bake_format::read_npy(bake_dir / bake.manifest.transfer_file, &shape);
+  if (bake.manifest.ground) bake.ground_transfer = bake_format::read_npy(bake_dir / bake.manifest.ground->file, &shape);
   r.bake_seconds = made.seconds.at(s.bake) + (pca ? made.pca_seconds.at({s.bake, s.form.components, s.form.tile}) : 0.0);
   r.bake_bytes = directory_bytes(bake_dir);
   std::vector<blend::BasisImages>& basis = bake.basis;
@@ -601,15 +623,24 @@ void time_blend(const Bench& bench, std::size_t j, const blend::BasisImages& bas
   r.blend_cpu_ms += median(cpu);
 }
 
+// |E(v) − E_ref(v)| / E_h per vertex and channel (study::building_errors).
+void append_building_diffs(const std::vector<Eigen::Vector3d>& estimate, const Reference& reference, std::vector<double>& diffs) {
+  for (std::size_t v = 0; v < estimate.size(); ++v) {
+    for (int c = 0; c < 3; ++c) {
+      if (reference.horizontal[c] > 0) diffs.push_back(std::abs(estimate[v][c] - reference.building[v][c]) / reference.horizontal[c]);
+    }
+  }
+}
+
 // T for every sky against the reference (the errors, and on sunny skies the shadow edge's
-// displacement); the blend's time on the first sky.
+// displacement), the building's errors; the blend's time on the first sky.
 void evaluate_skies(const Bench& bench, const SettingBake& bake, const sky::SkyEstimator& estimator, Result& r) {
   const Setting& s = r.setting;
   const std::vector<SkyData>& skies = bench.skies;
   const bake_format::Manifest& manifest = bake.manifest;
   const std::vector<blend::BasisImages>& basis = bake.basis;
   const SiteData& site = bench.sites.at(s.bake.texel_scale);
-  std::vector<double> diffs;
+  std::vector<double> diffs, building_diffs, building_no_ground_diffs;
   double edge_sum = 0;
   int edge_count = 0;
   for (std::size_t i = 0; i < skies.size(); ++i) {
@@ -620,7 +651,25 @@ void evaluate_skies(const Bench& bench, const SettingBake& bake, const sky::SkyE
     if (separated.empty() && estimate.sun) separated.push_back(*estimate.sun);
     std::vector<blend::SunLight> lights;
     for (const sky::Sun& source : separated) lights.push_back({source.direction, source.energy});
-    const auto& reference = bench.references.at({s.bake.texel_scale, i});
+    const Reference& sky_reference = bench.references.at({s.bake.texel_scale, i});
+    const auto& reference = sky_reference.planes;
+    // The building: its transfer vectors and each source's disc ray-cast from the vertices, with
+    // and without the ground layer.
+    std::vector<study::SourceLight> sources;
+    for (const sky::Sun& source : separated) {
+      sources.push_back({source.direction, source.energy, source.disc_directions, source.disc_weights});
+    }
+    const std::vector<Eigen::Vector3d> building = study::building_estimate(bake.transfer, S, sources, site.site, site.mesh);
+    append_building_diffs(building, sky_reference, building_no_ground_diffs);
+    if (!bake.ground_transfer.empty() && bench.run.o.ground_albedo > 0.0) {
+      const blend::GroundLayers layers(manifest.plan.frequency, manifest.plan.basis, manifest.ground->horizontal_unoccluded);
+      const blend::GroundLight ground{bake.ground_transfer, layers.coefficients(S, lights),
+                                      Eigen::Vector3d::Constant(bench.run.o.ground_albedo)};
+      append_building_diffs(study::building_estimate(bake.transfer, S, sources, site.site, site.mesh, ground), sky_reference,
+                            building_diffs);
+    } else {
+      append_building_diffs(building, sky_reference, building_diffs);
+    }
     std::vector<double> sky_diffs;
     for (std::size_t j = 0; j < basis.size(); ++j) {
       std::vector<float> visibility;  // V of each source, one after another
@@ -649,6 +698,8 @@ void evaluate_skies(const Bench& bench, const SettingBake& bake, const sky::SkyE
     diffs.insert(diffs.end(), sky_diffs.begin(), sky_diffs.end());
   }
   r.error = study::errors_of(std::move(diffs));
+  r.building = study::errors_of(std::move(building_diffs));
+  r.building_no_ground = study::errors_of(std::move(building_no_ground_diffs));
   if (edge_count > 0) {
     r.edge_m = edge_sum / edge_count;
     r.edge_deg = std::atan2(*r.edge_m, study::kVisitorDistance) * 180.0 / std::numbers::pi;
@@ -745,8 +796,9 @@ Result evaluate_setting(const Bench& bench, const Setting& s, int index, std::si
                       o.frame_width, o.frame_height, o.live_seconds, o.sky_interval, o.sequence_lat, o.sequence_lon,
                       fs::path(o.out_dir) / "live");
   }
-  std::printf("[%d/%zu] %-44s RMS %.4f p99 %.4f max %.4f | blend %.2f ms frame %.2f ms (%.1f s)\n", index, count,
-              s.label().c_str(), r.error.rms, r.error.p99, r.error.max, r.blend_ms, r.frame_ms, seconds_since(t_setting));
+  std::printf("[%d/%zu] %-44s RMS %.4f p99 %.4f max %.4f | building %.4f (%.4f without the ground) | blend %.2f ms frame %.2f ms (%.1f s)\n",
+              index, count, s.label().c_str(), r.error.rms, r.error.p99, r.error.max, r.building.rms, r.building_no_ground.rms,
+              r.blend_ms, r.frame_ms, seconds_since(t_setting));
   if (r.live) {
     std::printf("    service: %.1f frames/s, frame p50 %.1f ms p99 %.1f ms, %lld of %lld camera frames dropped (blend on the %s)\n",
                 r.live->frames_per_second, r.live->frame_p50_ms, r.live->frame_p99_ms, static_cast<long long>(r.live->dropped),

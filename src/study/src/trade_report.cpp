@@ -203,6 +203,9 @@ nlohmann::json to_json(const Result& r) {
           {"p99", r.error.p99},
           {"max", r.error.max},
           {"rms_per_sky", per_sky},
+          {"building", {{"rms", r.building.rms}, {"p99", r.building.p99}, {"max", r.building.max},
+                        {"without_ground_layer", {{"rms", r.building_no_ground.rms}, {"p99", r.building_no_ground.p99}}},
+                        {"of", "the horizontal irradiance"}}},
           {"edge_displacement_m", r.edge_m ? nlohmann::json(*r.edge_m) : nlohmann::json(nullptr)},
           {"edge_displacement_deg", r.edge_deg ? nlohmann::json(*r.edge_deg) : nlohmann::json(nullptr)},
           {"bake_seconds", r.bake_seconds},
@@ -224,9 +227,10 @@ nlohmann::json to_json(const Result& r) {
 
 std::string markdown_table(const std::vector<Result>& results) {
   std::string md =
-      "| # | ν | basis | K | texel scale | form | bits | sun | S thr. | ΔS thr. | smoothing s | render scale | RMS | p99 | max | edge (m / °) | bake s | "
+      "| # | ν | basis | K | texel scale | form | bits | sun | S thr. | ΔS thr. | smoothing s | render scale | RMS | p99 | max | edge (m / °) | "
+      "building RMS / p99 (without the ground layer) | bake s | "
       "bake MB | GPU MB | blend ms wall / CPU | frame ms wall / CPU | cost ms (frames/s) | service frames/s (p50 ms, dropped) | Pareto |\n"
-      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   int k = 0;
   for (const Result& r : results) {
     const Setting& s = r.setting;
@@ -239,13 +243,16 @@ std::string markdown_table(const std::vector<Result>& results) {
                     r.live->camera_frames > 0 ? 100.0 * static_cast<double>(r.live->dropped) / static_cast<double>(r.live->camera_frames)
                                               : 0.0);
     }
-    char row[640];
+    char building[96];
+    std::snprintf(building, sizeof building, "%.4f / %.4f (%.4f / %.4f)", r.building.rms, r.building.p99, r.building_no_ground.rms,
+                  r.building_no_ground.p99);
+    char row[768];
     std::snprintf(row, sizeof row,
-                  "| %d | %d | %s | %d | 1/%d | %s | %d | %s | %g | %g | %g | %g | %.4f | %.4f | %.4f | %s | %.1f | %.2f | %.1f | %.1f / %.1f | "
+                  "| %d | %d | %s | %d | 1/%d | %s | %d | %s | %g | %g | %g | %g | %.4f | %.4f | %.4f | %s | %s | %.1f | %.2f | %.1f | %.1f / %.1f | "
                   "%.1f / %.1f | %.1f (%.0f) | %s | %s |\n",
                   k++, s.bake.frequency, std::string(geom::basis_name(s.bake.basis)).c_str(), s.bake.samples,
                   s.bake.texel_scale, s.form.name().c_str(), s.bits, sun.c_str(), s.skip_threshold, s.change_threshold, s.smoothing, s.render_scale, r.error.rms,
-                  r.error.p99, r.error.max, edge, r.bake_seconds, static_cast<double>(r.bake_bytes) / 1e6,
+                  r.error.p99, r.error.max, edge, building, r.bake_seconds, static_cast<double>(r.bake_bytes) / 1e6,
                   static_cast<double>(r.gpu_bytes) / 1e6, r.blend_ms, r.blend_cpu_ms, r.frame_ms, r.frame_cpu_ms, r.cost_ms,
                   1000.0 / r.cost_ms, service,
                   r.pareto ? "**yes**" : "");

@@ -114,6 +114,9 @@ struct Result {
   study::Errors error;
   std::map<std::string, double> rms_per_sky;
   std::optional<double> edge_m, edge_deg;  // sunny skies only
+  // The building's irradiance per vertex against its reference, a share of E_h (every sky): with
+  // the bake's ground layer (render.ground_light) and without it.
+  study::Errors building, building_no_ground;
   double bake_seconds = 0;
   std::uint64_t bake_bytes = 0;
   std::uint64_t gpu_bytes = 0;

@@ -80,6 +80,9 @@ struct GroundReferenceOptions {
 };
 std::vector<Eigen::Vector3d> ground_reference(const EquirectLights& lights, const scene::Site& site, const scene::Mesh& mesh,
                                               const GroundReferenceOptions& options);
+// The options for a site's own ground: lit as `dense` lights the site's first plane that faces up
+// within 5 cm of z = 0 (uniformly, E_h, without one).
+GroundReferenceOptions site_ground(const scene::Site& site, const DenseReference& dense, const Eigen::Vector3d& albedo);
 // The same at points inside the triangles (triangle_points).
 std::vector<Eigen::Vector3d> ground_reference_at(const EquirectLights& lights, const scene::Site& site, const scene::Mesh& mesh,
                                                  const TrianglePoints& points, const GroundReferenceOptions& options);

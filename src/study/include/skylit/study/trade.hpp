@@ -25,6 +25,9 @@ struct TradeOptions {
   // lamps, each its own term (a ray-cast visibility per source in the blend, a shadow map per
   // source and the lamps per vertex in the frame).
   std::vector<int> sources{1};
+  // The building's error (study/building_light.hpp) against a reference with a lambertian ground
+  // of this albedo (0: none), with the bake's ground layer lighting the estimate and without it.
+  double ground_albedo = 0.2;
   std::vector<double> skip_thresholds{0.0, 0.005};
   std::vector<double> change_thresholds{0.002};
   std::vector<double> smoothings{0.0};
