@@ -50,7 +50,7 @@ struct Scene {
   scene::Site site;
   scene::Mesh mesh;
   bake_format::Manifest manifest;
-  std::vector<float> transfer;
+  std::vector<float> transfer, ground_transfer;
   std::vector<Eigen::Vector3d> sky;
   blend::SunLight sun;
   std::vector<gpu::Texture> ratios;
@@ -84,6 +84,7 @@ struct Scene {
     mesh = scene::load_site_model(site);
     std::vector<std::size_t> shape;
     transfer = bake_format::read_npy(dir / manifest.transfer_file, &shape);
+    ground_transfer = bake_format::read_npy(dir / manifest.ground->file, &shape);
     sky.assign(transfer.size() / mesh.vertex_count(), Eigen::Vector3d(0.3, 0.4, 0.6));  // one value per basis layer
     const double az = 140 * std::numbers::pi / 180, el = 35 * std::numbers::pi / 180;
     sun = {Eigen::Vector3d(std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)), Eigen::Vector3d::Constant(3.0)};
@@ -213,12 +214,17 @@ void BM_CompositeStages(benchmark::State& state) {
 }
 
 // A frame that takes a new sky (every frame here; the service takes one a second): the building's
-// per-vertex sky irradiance is summed again on the CPU. args: width, height, render scale in percent.
+// per-vertex sky irradiance is summed again on the CPU. args: width, height, render scale in
+// percent, the ground's light (render.ground_light: its layer summed too).
 void BM_CompositeDrawNewSky(benchmark::State& state) {
   Scene& scene = Scene::get();
   const camera::CameraCalibration calibration = camera(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
   render::CompositorOptions options;
   options.lens.render_scale = static_cast<double>(state.range(2)) / 100.0;
+  if (state.range(3) != 0) {
+    options.ground_albedo = Eigen::Vector3d::Constant(0.2);
+    options.ground_transfer = scene.ground_transfer;
+  }
   render::Compositor compositor(scene.site, scene.mesh, scene.manifest, scene.transfer, calibration, options);
   cv::Mat image;
   render::CompositeInput input = frame_input(scene, calibration, image);
@@ -238,7 +244,7 @@ void BM_CompositeDraw(benchmark::State& state) { frame(state, false); }
 void BM_CompositeWithReadBack(benchmark::State& state) { frame(state, true); }
 
 BENCHMARK(BM_CompositeDraw)->Args({640, 480, 100})->Args({640, 480, 60})->Args({1280, 720, 100})->Args({1920, 1080, 100})->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK(BM_CompositeDrawNewSky)->Args({640, 480, 60})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_CompositeDrawNewSky)->ArgNames({"width", "height", "scale", "ground"})->Args({640, 480, 60, 0})->Args({640, 480, 60, 1})->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_CompositeWithReadBack)->Args({640, 480, 100})->Args({1280, 720, 100})->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_CompositeStages)
     ->ArgNames({"w", "h", "scale%", "sun_map"})

@@ -32,6 +32,7 @@ in vec3 site_position;
 in vec3 site_normal;
 in vec2 uv;
 in vec3 sky_irradiance;
+in vec3 ground_irradiance;      // its ground share (render.ground_light)
 in float camera_depth;
 
 uniform vec3 base_colour;                 // linear glTF baseColorFactor
@@ -144,7 +145,8 @@ void main() {
   facing *= sun_visibility_if(site_position, covering < 0 && facing > 0.0 && any(greaterThan(sun_energy, vec3(0.0))));
 #endif
   if (covering >= 0) {
-    irradiance = plane_ratio(covering, covering_st) * plane_irradiance[covering];
+    // The plane's T holds the sky and the sources; the ground's light comes from the vertices.
+    irradiance = plane_ratio(covering, covering_st) * plane_irradiance[covering] + ground_irradiance;
   } else {
     irradiance = sky_irradiance + sun_energy * facing;
   }

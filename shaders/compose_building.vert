@@ -11,6 +11,7 @@ layout(location = 0) in vec3 position;   // site frame, metres
 layout(location = 1) in vec3 normal;
 layout(location = 2) in vec2 texcoord;
 layout(location = 3) in vec3 irradiance; // E_v
+layout(location = 4) in vec3 ground;     // the ground's share of E_v (render.ground_light; else 0)
 
 uniform mat4 clip_from_site;
 uniform mat4 camera_from_site;
@@ -19,6 +20,7 @@ out vec3 site_position;
 out vec3 site_normal;
 out vec2 uv;
 out vec3 sky_irradiance;
+out vec3 ground_irradiance;
 out float camera_depth;
 
 // As compose_depth.vert, whose depth the colour pass tests against.
@@ -26,6 +28,7 @@ invariant gl_Position;
 
 void main() {
   sky_irradiance = irradiance;
+  ground_irradiance = ground;
   site_position = position;
   site_normal = normal;
   uv = texcoord;

@@ -59,6 +59,7 @@ struct Options {
   int step = 1;
   double min_coverage = 0.05;
   int threads = 0;
+  double ground_albedo = 0.0;     // > 0: the building also lit by the ground (the bake's ground layer)
 };
 
 // The frames as one linear radiance image: a single frame linearised, a bracket merged.
@@ -206,7 +207,18 @@ nlohmann::json shade_building(const Options& o, const skylit::bake_format::Manif
     }
     skylit::baker::area_light_vertex_visibility(mesh, planes, directions, weights, visibility.back(), {o.threads});
   }
-  const std::vector<Eigen::Vector3d> E = skylit::blend::vertex_irradiance(transfer, S, mesh.normals, lights, visibility);
+  std::vector<float> ground_transfer;
+  skylit::blend::GroundLight ground;
+  if (o.ground_albedo > 0.0) {
+    if (!manifest.ground) {
+      throw InputError("option --ground-albedo: the bake " + o.bake_dir + " has no ground layer. Fix: bake it again with "
+                       "skylit-bake --ground-samples 256 (the default), or leave --ground-albedo out");
+    }
+    ground_transfer = skylit::bake_format::read_npy(fs::path(o.bake_dir) / manifest.ground->file, &shape);
+    const skylit::blend::GroundLayers layers(manifest.plan.frequency, manifest.plan.basis, manifest.ground->horizontal_unoccluded);
+    ground = {ground_transfer, layers.coefficients(S, lights), Eigen::Vector3d::Constant(o.ground_albedo)};
+  }
+  const std::vector<Eigen::Vector3d> E = skylit::blend::vertex_irradiance(transfer, S, mesh.normals, lights, visibility, ground);
 
   // White: the 99th percentile of the vertices' brightest channel, so that a few sunlit
   // vertices do not darken the rest.
@@ -242,6 +254,7 @@ nlohmann::json shade_building(const Options& o, const skylit::bake_format::Manif
                           {"picture", "building.png"},
                           {"mean_irradiance", vec(sum / n)},
                           {"white", white}};
+  if (o.ground_albedo > 0.0) building["ground_albedo"] = o.ground_albedo;
   if (estimate.sun) {
     double lit = 0;
     for (float v : visibility.front()) lit += v;
@@ -502,6 +515,9 @@ int main(int argc, char** argv) {
   app.add_option("--step", o.step, "sky table: sample every N-th pixel")->capture_default_str();
   app.add_option("--min-coverage", o.min_coverage, "faces seen less than this are filled from neighbours")
       ->capture_default_str();
+  app.add_option("--ground-albedo", o.ground_albedo,
+                 "the building also lit by a ground of this albedo (the bake's ground layer; render.ground_light)")
+      ->check(CLI::Range(0.0, 1.0));
   app.add_option("--threads", o.threads, "threads for the blend and ray casting (0 = all)")->capture_default_str();
   bool quiet = false;
   app.add_flag("-q,--quiet", quiet, "only warnings and errors");

@@ -86,6 +86,24 @@ TEST_F(SkylitShade, ShadesEveryPlaneAndDescribesTheSky) {
   EXPECT_EQ(overlay.cols, 1024);
 }
 
+TEST_F(SkylitShade, TheGroundLightsTheBuildingWithAnAlbedo) {
+  // --ground-albedo adds the bake's ground layer: the building's walls get brighter, its roofs
+  // (facing up, away from the ground) keep their light.
+  const fs::path plain = *dir_ / "plain", lit = *dir_ / "ground";
+  ASSERT_EQ(run(kBin / "skylit-shade", common(plain) + " --sky " + (*dir_ / "park.exr").string() + " -q").status, 0);
+  const Result r = run(kBin / "skylit-shade", common(lit) + " --ground-albedo 0.3 --sky " + (*dir_ / "park.exr").string() + " -q");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const nlohmann::json a = nlohmann::json::parse(std::ifstream(plain / "sky.json"));
+  const nlohmann::json b = nlohmann::json::parse(std::ifstream(lit / "sky.json"));
+  EXPECT_EQ(b["building"]["ground_albedo"], 0.3);
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_GT(b["building"]["mean_irradiance"][c].get<double>(), 1.02 * a["building"]["mean_irradiance"][c].get<double>()) << c;
+  }
+  const Result bad = run(kBin / "skylit-shade", common(lit) + " --ground-albedo 2 --sky " + (*dir_ / "park.exr").string());
+  EXPECT_EQ(bad.status, 2) << bad.output;
+  EXPECT_NE(bad.output.find("--ground-albedo"), std::string::npos) << bad.output;
+}
+
 TEST_F(SkylitShade, SunOffKeepsTheSunInTheDome) {
   const fs::path out = *dir_ / "off";
   const Result r = run(kBin / "skylit-shade", common(out) + " --sun off --sky " + (*dir_ / "park.exr").string() + " -q");

@@ -504,6 +504,17 @@ TEST_F(CompositorTest, TheGroundLightsTheBuildingThroughTheBakesGroundLayer) {
   const cv::Mat lamp_lit = draw(lit_by_ground, S, std::span(&lamp, 1));
   EXPECT_GT(cv::norm(lamp_lit, sky_only, cv::NORM_INF), 0.1 * peak) << "the lamp lights the ground";
   EXPECT_LE(cv::norm(lamp_lit, draw(as_transfer, with_lamp, {}), cv::NORM_INF), 1e-5 * cv::norm(lamp_lit, cv::NORM_INF));
+  // Where a virtual plane covers the building (the default cover distance: its wall and roof),
+  // T_j D_j holds the sky and the ground's light is added from the vertices as elsewhere: the
+  // ground adds the same light with or without the planes.
+  render::CompositorOptions covered_plain;
+  render::CompositorOptions covered_ground = covered_plain;
+  covered_ground.ground_albedo = with_ground.ground_albedo;
+  covered_ground.ground_transfer = ground;
+  render::Compositor covered_off(baked.site, baked.mesh, baked.manifest, baked.transfer, hmd_camera(), covered_plain);
+  render::Compositor covered_on(baked.site, baked.mesh, baked.manifest, baked.transfer, hmd_camera(), covered_ground);
+  const cv::Mat added = draw(covered_on, S, {}) - draw(covered_off, S, {});
+  EXPECT_LE(cv::norm(added, sky_only, cv::NORM_INF), 1e-4 * peak + 1e-6);
   // Bad settings are refused at construction.
   render::CompositorOptions bad = with_ground;
   bad.ground_albedo = Vector3d(0.2, 1.5, 0.2);

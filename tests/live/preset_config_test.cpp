@@ -27,6 +27,8 @@ TEST(ServiceConfig, PresetSetsTheLiveSettings) {
     EXPECT_EQ(config.blend.change_threshold, p.change_threshold);
     EXPECT_EQ(config.blend.storage, p.storage);
     EXPECT_EQ(config.render.scale, p.render_scale);
+    EXPECT_EQ(config.render.ground_light, p.ground_light);
+    EXPECT_TRUE(p.ground_light) << "every preset lights the building with the ground";
     EXPECT_EQ(config.sky.smoothing, p.smoothing);
     EXPECT_EQ(config.blend.basis, p.basis);
     EXPECT_GT(p.render_scale, 0.0);

@@ -259,7 +259,7 @@ struct Compositor::State {
   };
   std::vector<MaterialDraw> draws;
   gpu::VertexArray building_vertices;
-  gpu::Buffer positions, normals, texcoords, irradiance_values, indices;
+  gpu::Buffer positions, normals, texcoords, irradiance_values, ground_irradiance_values, indices;
   std::vector<gpu::Texture> albedo_textures;
   gpu::Texture white;                            // 1×1 sRGB white: the albedo of untextured materials
   gpu::Texture ones;                             // 1×1 RGBA32F (1,1,1,1): T of a plane without a texture
@@ -406,6 +406,7 @@ void Compositor::State::upload_building(const scene::Mesh& mesh, std::span<const
   uv.resize(vertex_count, Eigen::Vector2f::Zero());
   attribute(texcoords, 2, 2, uv.front().data(), vertex_count);
   attribute(irradiance_values, 3, 3, vertex_irradiance.data(), vertex_count);
+  attribute(ground_irradiance_values, 4, 3, vertex_irradiance.data(), vertex_count);  // zero until a sky lights the ground
 
   std::vector<std::uint32_t> grouped;
   grouped.reserve(mesh.indices.size());
@@ -565,16 +566,32 @@ void Compositor::State::update_irradiance(const std::vector<Eigen::Vector3d>& sk
         blue[v] += t[v] * b;
       }
     }
-    // The ground: ρ ⊙ Σ_l S^g_l t^g_{v,l} (blend::GroundLayers).
-    for (std::size_t l = 0; l < ground_values.size(); ++l) {
-      const Eigen::Vector3f c = options.ground_albedo.cwiseProduct(ground_values[l]).cast<float>();
-      if (c.isZero(0)) continue;
-      const float* t = ground_by_layer.data() + l * count;
-      for (std::size_t v = 0; v < count; ++v) {
-        red[v] += t[v] * c[0];
-        green[v] += t[v] * c[1];
-        blue[v] += t[v] * c[2];
+    // The ground: ρ ⊙ Σ_l S^g_l t^g_{v,l} (blend::GroundLayers), in the sum and on its own for the
+    // fragments a virtual plane covers (T_j D_j holds the sky, not the ground).
+    if (ground_layers) {
+      std::vector<float> ground_red(count, 0.0f), ground_green(count, 0.0f), ground_blue(count, 0.0f);
+      for (std::size_t l = 0; l < ground_values.size(); ++l) {
+        const Eigen::Vector3f c = options.ground_albedo.cwiseProduct(ground_values[l]).cast<float>();
+        if (c.isZero(0)) continue;
+        const float* t = ground_by_layer.data() + l * count;
+        for (std::size_t v = 0; v < count; ++v) {
+          ground_red[v] += t[v] * c[0];
+          ground_green[v] += t[v] * c[1];
+          ground_blue[v] += t[v] * c[2];
+        }
       }
+      std::vector<float> ground_rgb(3 * count);
+      for (std::size_t v = 0; v < count; ++v) {
+        red[v] += ground_red[v];
+        green[v] += ground_green[v];
+        blue[v] += ground_blue[v];
+        ground_rgb[3 * v] = ground_red[v];
+        ground_rgb[3 * v + 1] = ground_green[v];
+        ground_rgb[3 * v + 2] = ground_blue[v];
+      }
+      glBindBuffer(GL_ARRAY_BUFFER, ground_irradiance_values.get());
+      glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(ground_rgb.size() * sizeof(float)), ground_rgb.data());
+      glBindBuffer(GL_ARRAY_BUFFER, 0);
     }
     for (std::size_t v = 0; v < count; ++v) {
       sky_sum[3 * v] = red[v];
