@@ -136,6 +136,42 @@ TEST_F(SourceShadows, VertexVisibilityAgreesWithTheRayTracer) {
   }
 }
 
+// The extreme of a model vertex inside a wall (a small box buried 0.2 m deep in a thick wall):
+// every source's map leaves it dark, as the ray tracer does, whichever side the source is on.
+TEST_F(SourceShadows, AVertexInsideAWallIsDarkInEveryMap) {
+  scene::Mesh mesh = lamp_site();
+  const scene::Mesh walls = mesh_of({Box{{-5, -4, 0}, {-3, 4, 3}}, Box{{-4.8, -0.2, 1}, {-3.2, 0.2, 1.4}}});
+  const auto first = static_cast<std::uint32_t>(mesh.positions.size());
+  mesh.positions.insert(mesh.positions.end(), walls.positions.begin(), walls.positions.end());
+  mesh.normals.insert(mesh.normals.end(), walls.normals.begin(), walls.normals.end());
+  for (std::uint32_t index : walls.indices) mesh.indices.push_back(first + index);
+  mesh.triangle_material.insert(mesh.triangle_material.end(), walls.triangle_material.begin(), walls.triangle_material.end());
+  const std::vector<geom::Plane> planes{ground_plane()};
+  const std::vector<ShadowSource> sources = three_sources();
+  SunShadowMap map(mesh, planes, options_for(3));
+  map.update(sources);
+  const std::size_t buried_first = first + 24;  // the second box's 24 vertices
+  for (std::size_t k = 0; k < sources.size(); ++k) {
+    const std::vector<float> gpu = map.read_vertex_visibility(static_cast<int>(k));
+    std::vector<Vec3> directions;
+    std::vector<double> weights;
+    disc_samples(sources[k].direction, sources[k].angular_radius, 64, directions, weights);
+    std::vector<float> reference(mesh.vertex_count());
+    baker::area_light_vertex_visibility(mesh, planes, directions, weights, reference);
+    int facing = 0;
+    for (std::size_t v = buried_first; v < mesh.vertex_count(); ++v) {
+      const bool faces_it = mesh.normals[v].cast<double>().dot(sources[k].direction) > 0.05;
+      facing += faces_it ? 1 : 0;
+      // (A vertex facing away carries no weight: its visibility is 1 by convention.)
+      if (faces_it) {
+        EXPECT_EQ(reference[v], 0.0f) << "source " << k << ", vertex " << v;
+      }
+      EXPECT_LE(gpu[v], 0.02f) << "source " << k << ", vertex " << v << " at " << mesh.positions[v].transpose();
+    }
+    EXPECT_GT(facing, 0) << "some buried faces face source " << k;
+  }
+}
+
 TEST_F(SourceShadows, BlendSumsEverySourceAsTheCpu) {
   const scene::Mesh mesh = lamp_site();
   const geom::Plane plane = ground_plane();
