@@ -447,9 +447,20 @@ int main(int argc, char** argv) {
       const Errors building = building_errors(building_E, building_ref, horizontal);
       // Points no ray of the reference leaves lie inside other solids (a plinth's top under its
       // column): nobody sees them, and they are left out.
+      // The compositor takes the sun per pixel (its shadow map at the fragment), the rest from the
+      // vertices: the sun's term at the points themselves, the other terms interpolated.
       std::vector<Eigen::Vector3d> inside_E, inside_seen_ref;
       {
-        const std::vector<Eigen::Vector3d> all = interpolated_at(inside_points, building_E);
+        const bool sun_first = !building_sources.empty() && estimate.sun.has_value();
+        std::vector<Eigen::Vector3d> all;
+        if (sun_first) {
+          const std::vector<SourceLight> lamps(building_sources.begin() + 1, building_sources.end());
+          all = interpolated_at(inside_points, building_estimate(transfer, S, lamps, site, mesh, ground));
+          const std::vector<Eigen::Vector3d> sun_term = source_term_at(inside_points, building_sources.front(), site, mesh);
+          for (std::size_t k = 0; k < all.size(); ++k) all[k] += sun_term[k];
+        } else {
+          all = interpolated_at(inside_points, building_E);
+        }
         for (std::size_t k = 0; k < all.size(); ++k) {
           if (inside_ref[k].isZero(0)) continue;
           inside_E.push_back(all[k]);
@@ -635,7 +646,7 @@ int main(int argc, char** argv) {
           lights.push_back(*sun);
           radii.push_back(std::max(estimate.sun->angular_radius, 0.0047));
         }
-        const GpuPathResult g = gpu_path(bake_dir, manifest, mesh, transfer, S, lights, radii, gpu_maps);
+        const GpuPathResult g = gpu_path(bake_dir, manifest, mesh, transfer, S, lights, radii, gpu_maps, {}, ground);
         std::vector<double> gpu_diffs;
         double vs_cpu = 0;
         for (std::size_t j = 0; j < g.ratios.size(); ++j) {

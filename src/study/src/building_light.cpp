@@ -74,6 +74,25 @@ std::vector<Eigen::Vector3d> interpolated_at(const TrianglePoints& points, std::
   return out;
 }
 
+std::vector<Eigen::Vector3d> source_term_at(const TrianglePoints& points, const SourceLight& source, const scene::Site& site,
+                                            const scene::Mesh& mesh) {
+  scene::Mesh with_points = mesh;  // the same triangles; the points as vertices none of them uses
+  with_points.positions.insert(with_points.positions.end(), points.positions.begin(), points.positions.end());
+  with_points.normals.insert(with_points.normals.end(), points.normals.begin(), points.normals.end());
+  with_points.texcoords.clear();
+  std::vector<float> visibility(with_points.vertex_count(), 1.0f);
+  if (!source.disc_directions.empty()) {
+    baker::area_light_vertex_visibility(with_points, site.planes, source.disc_directions, source.disc_weights, visibility);
+  }
+  const Vec3 w = source.direction.normalized();
+  std::vector<Eigen::Vector3d> out(points.positions.size());
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    const double facing = std::max(0.0, points.normals[k].cast<double>().dot(w));
+    out[k] = facing * static_cast<double>(visibility[mesh.vertex_count() + k]) * source.energy;
+  }
+  return out;
+}
+
 std::vector<Eigen::Vector3d> building_reference_at(const EquirectLights& lights, const scene::Site& site,
                                                    const scene::Mesh& mesh, const TrianglePoints& points) {
   scene::Mesh with_points = mesh;  // the same triangles; the points as vertices none of them uses

@@ -23,7 +23,7 @@ double milliseconds_since(std::chrono::steady_clock::time_point start) {
 GpuPathResult gpu_path(const std::filesystem::path& bake_dir, const bake_format::Manifest& manifest,
                        const scene::Mesh& mesh, std::span<const float> transfer, std::span<const Eigen::Vector3d> S,
                        std::span<const blend::SunLight> sources, std::span<const double> radii,
-                       render::SunShadowOptions map, const blend::GpuBlendOptions& blend) {
+                       render::SunShadowOptions map, const blend::GpuBlendOptions& blend, const blend::GroundLight& ground) {
   if (radii.size() != sources.size()) throw std::invalid_argument("gpu_path: one angular radius per source");
   std::vector<geom::Plane> planes;
   for (const bake_format::PlaneRecord& record : manifest.planes) planes.push_back(record.plane);
@@ -64,7 +64,7 @@ GpuPathResult gpu_path(const std::filesystem::path& bake_dir, const bake_format:
   }
 
   for (std::size_t k = 0; k < sources.size(); ++k) out.vertex_visibility.push_back(maps->read_vertex_visibility(static_cast<int>(k)));
-  out.building = blend::vertex_irradiance(transfer, S, mesh.normals, sources, out.vertex_visibility);
+  out.building = blend::vertex_irradiance(transfer, S, mesh.normals, sources, out.vertex_visibility, ground);
   return out;
 }
 

@@ -60,6 +60,12 @@ TrianglePoints triangle_points(const scene::Mesh& mesh);
 // E at the points as the compositor interpolates it from the vertices' E.
 std::vector<Eigen::Vector3d> interpolated_at(const TrianglePoints& points, std::span<const Eigen::Vector3d> vertex_E);
 
+// The sun's term at the points as the compositor takes it, per pixel: E max(0, n·ω) V with V its
+// disc ray-cast from the point itself (a perfect shadow map). Add it to what interpolated_at gives
+// from the vertices' E without the sun for what the building shows inside its triangles.
+std::vector<Eigen::Vector3d> source_term_at(const TrianglePoints& points, const SourceLight& source, const scene::Site& site,
+                                            const scene::Mesh& mesh);
+
 // E_ref at the points: building_reference's integral with the point's normal, the model's
 // occlusion ray-traced (the points ride along as vertices no triangle uses).
 std::vector<Eigen::Vector3d> building_reference_at(const EquirectLights& lights, const scene::Site& site,

@@ -11,6 +11,7 @@
 #include "skylit/bake_format/manifest.hpp"
 #include "skylit/blend/cpu_blend.hpp"
 #include "skylit/blend/gpu_blend.hpp"
+#include "skylit/blend/vertex_irradiance.hpp"
 #include "skylit/render/sun_shadow_map.hpp"
 #include "skylit/scene/mesh.hpp"
 
@@ -29,9 +30,11 @@ struct GpuPathResult {
 // them for sky S and the separated sources (the sun first when there is one; `radii` their
 // discs' angular radii). A GL ES 3.1 context must be current. `map` and `blend` as the live
 // service's (sky.max_sources sets map.max_sources; it is raised to the sources' count here).
+// `ground`: the ground's light on the building, as the live service adds it (render.ground_light).
 GpuPathResult gpu_path(const std::filesystem::path& bake_dir, const bake_format::Manifest& manifest,
                        const scene::Mesh& mesh, std::span<const float> transfer, std::span<const Eigen::Vector3d> S,
                        std::span<const blend::SunLight> sources, std::span<const double> radii,
-                       render::SunShadowOptions map = {}, const blend::GpuBlendOptions& blend = {});
+                       render::SunShadowOptions map = {}, const blend::GpuBlendOptions& blend = {},
+                       const blend::GroundLight& ground = {});
 
 }  // namespace skylit::study
