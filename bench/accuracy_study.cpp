@@ -353,6 +353,8 @@ int main(int argc, char** argv) {
       sky_options.sun_mode = c.sun && !use_oracle ? skylit::sky::SunMode::Auto : skylit::sky::SunMode::Off;
       sky_options.table.basis = c.basis;
       sky_options.sun = sun_options;
+      // The reference is the same capture: its sun is taken as it is, whatever its colour.
+      sky_options.correct_sun_colour = false;
       if (c.mix == Config::Mix::Sources) {
         sky_options.max_sources = source_count;  // the product path: the sun test, then lamps
         sky_options.lamp = skylit::sky::lamp_options(sun_options);

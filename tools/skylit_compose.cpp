@@ -129,6 +129,7 @@ int run(const Options& o) {
   if (sun) {
     std::printf(" at azimuth %.1f°, elevation %.1f°", std::atan2(sun->direction.x(), sun->direction.y()) * 180 / 3.14159265,
                 std::asin(sun->direction.z()) * 180 / 3.14159265);
+    if (estimate.sun->colour_corrected) std::printf(", its colour impossible for daylight and taken as a clear sky's sun's");
   }
   std::printf("\n");
 

@@ -60,6 +60,7 @@ struct Options {
   double min_coverage = 0.05;
   int threads = 0;
   double ground_albedo = 0.0;     // > 0: the building also lit by the ground (the bake's ground layer)
+  std::string sun_colour = "daylight";  // daylight: an impossible sun colour corrected; measured: kept
 };
 
 // The frames as one linear radiance image: a single frame linearised, a bracket merged.
@@ -353,7 +354,7 @@ nlohmann::json faces_json(const skylit::geom::Dome& dome, const skylit::sky::Sky
 nlohmann::json source_json(const skylit::sky::Sun& s) {
   const double elevation = std::asin(std::clamp(s.direction.z(), -1.0, 1.0)) * 180.0 / 3.141592653589793;
   const double azimuth = std::fmod(std::atan2(s.direction.x(), s.direction.y()) * 180.0 / 3.141592653589793 + 360.0, 360.0);
-  return nlohmann::json{{"direction", vec(s.direction)},
+  nlohmann::json out{{"direction", vec(s.direction)},
                         {"azimuth_deg", azimuth},
                         {"elevation_deg", elevation},
                         {"angular_radius_deg", s.angular_radius * 180.0 / 3.141592653589793},
@@ -361,7 +362,10 @@ nlohmann::json source_json(const skylit::sky::Sun& s) {
                         {"background", vec(s.background)},
                         {"contrast", s.contrast},
                         {"pixels", s.pixel_count},
-                        {"clipped", s.clipped}};
+                        {"clipped", s.clipped},
+                        {"colour_corrected", s.colour_corrected}};
+  if (s.colour_corrected) out["measured_energy"] = vec(s.measured_energy);
+  return out;
 }
 
 // What the sky stage counted that a user should know about.
@@ -402,6 +406,7 @@ int run(const Options& o) {
   sky_options.luminance.min_coverage = o.min_coverage;
   sky_options.sun_mode = o.sun == "auto" ? skylit::sky::SunMode::Auto : skylit::sky::SunMode::Off;
   sky_options.max_sources = o.sources;
+  sky_options.correct_sun_colour = o.sun_colour == "daylight";
   const skylit::sky::SkyEstimator estimator(calibration, dome, sky_options);
   const double table_ms = ms_since(t);
   const skylit::sky::SkyEstimate estimate = estimator.estimate(frame);
@@ -480,6 +485,13 @@ int run(const Options& o) {
 
   report_pixels_and_faces(l);
   spdlog::info("sun: {}", estimate.sun_reason);
+  if (estimate.sun && estimate.sun->colour_corrected) {
+    const Eigen::Vector3d& m = estimate.sun->measured_energy;
+    const Eigen::Vector3d& e = estimate.sun->energy;
+    spdlog::warn("the sun's colour, RGB {:.3g} {:.3g} {:.3g}, is impossible for daylight (a lossy capture keeps one "
+                 "channel): taken as a clear sky's sun at its elevation, {:.3g} {:.3g} {:.3g} (--sun-colour measured "
+                 "keeps it)", m.x(), m.y(), m.z(), e.x(), e.y(), e.z());
+  }
   if (o.sources > 1) {
     spdlog::info("{} separated source(s) (at most {}): {}", estimate.sources.size(), o.sources, estimate.sources_reason);
   }
@@ -514,6 +526,11 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   app.add_option("--step", o.step, "sky table: sample every N-th pixel")->capture_default_str();
   app.add_option("--min-coverage", o.min_coverage, "faces seen less than this are filled from neighbours")
+      ->capture_default_str();
+  app.add_option("--sun-colour", o.sun_colour,
+                 "daylight: a sun whose colour is impossible for daylight (one channel kept by a lossy capture) gets a "
+                 "clear sky's sun colour at its elevation, flagged in sky.json; measured: as the pixels say")
+      ->check(CLI::IsMember({"daylight", "measured"}))
       ->capture_default_str();
   app.add_option("--ground-albedo", o.ground_albedo,
                  "the building also lit by a ground of this albedo (the bake's ground layer; render.ground_light)")

@@ -234,6 +234,23 @@ TEST(ServiceConfig, MaxSourcesIsASettingWithinTheGpuBlendsLimit) {
   }
 }
 
+// sky.sun_colour: daylight (the default) corrects a sun whose colour is impossible; measured keeps it.
+TEST(ServiceConfig, TheSunsColourIsASetting) {
+  const Rig rig;
+  const fs::path file = rig.dir() / "sun_colour.yaml";
+  std::ofstream(file) << rig.config_text();
+  EXPECT_TRUE(live::load_live_config(file).sky.correct_sun_colour);
+  std::string text = rig.config_text();
+  text.insert(text.find("  stale_after:"), "  sun_colour: measured\n");
+  std::ofstream(file) << text;
+  EXPECT_FALSE(live::load_live_config(file).sky.correct_sun_colour);
+  text.replace(text.find("sun_colour: measured"), 20, "sun_colour: sepia");
+  std::ofstream(file) << text;
+  const std::string message = skylit::test::error_of([&] { live::load_live_config(file); });
+  EXPECT_NE(message.find("sky.sun_colour"), std::string::npos) << message;
+  EXPECT_NE(message.find("daylight"), std::string::npos) << message;
+}
+
 // The ground's light on the building (render.ground_light, render.ground_albedo): a setting of
 // the config and the presets; a bake without the ground layer is refused at start, naming it.
 TEST(ServiceConfig, TheGroundsLightIsASettingThatNeedsTheBakesGroundLayer) {

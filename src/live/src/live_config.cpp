@@ -21,8 +21,8 @@ constexpr std::array<std::string_view, 16> kTopKeys{"site",     "bake",  "preset
                                                     "fusion",   "tracking", "blend", "render", "photometric", "output", "status", "display",
                                                     "root"};
 constexpr std::array<std::string_view, 3> kRenderKeys{"scale", "ground_light", "ground_albedo"};
-constexpr std::array<std::string_view, 8> kSkyKeys{"calibration", "source", "response", "rate",
-                                                   "sun", "smoothing", "stale_after", "max_sources"};
+constexpr std::array<std::string_view, 9> kSkyKeys{"calibration", "source", "response", "rate",      "sun",
+                                                   "smoothing",   "stale_after", "max_sources", "sun_colour"};
 constexpr std::array<std::string_view, 2> kCameraKeys{"calibration", "source"};
 constexpr std::array<std::string_view, 9> kLinkKeys{"broker",   "topic",         "node", "username",   "password",
                                                     "password_file", "tls", "keepalive_s", "kind"};
@@ -222,6 +222,10 @@ void parse_sky(const YamlReader& r, const YAML::Node& root, const std::filesyste
   }
   if (auto n = YamlReader::optional(sky, "smoothing")) c.sky.smoothing = r.non_negative(n, "sky.smoothing", "seconds, 0 for none");
   if (auto n = YamlReader::optional(sky, "stale_after")) c.sky.stale_after = r.positive(n, "sky.stale_after", "seconds, e.g. 30");
+  if (auto n = YamlReader::optional(sky, "sun_colour")) {
+    constexpr std::array<std::string_view, 2> modes{"daylight", "measured"};
+    c.sky.correct_sun_colour = r.choice(n, "sky.sun_colour", modes) == "daylight";
+  }
   parse_max_sources(r, sky, c.sky);
 }
 

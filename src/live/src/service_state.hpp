@@ -57,6 +57,7 @@ struct SkyState {
   std::vector<Eigen::Vector3d> S;  // one RGB per bake layer
   std::optional<blend::SunLight> sun;
   double sun_angular_radius = 0;
+  bool sun_colour_corrected = false;  // sky::Sun::colour_corrected (sky.sun_colour: daylight)
   // Separated sources besides the sun (sky.max_sources > 1: lamps), brightest first, and the
   // radius of the disc each one's shadow map draws (sky::Sun::shadow_radius). The shadow maps
   // hold the sun (when there is one) and then these.

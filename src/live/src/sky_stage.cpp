@@ -12,6 +12,7 @@ sky::SkyEstimateOptions estimate_options(geom::DomeBasis basis, const SkySetting
   options.sun_mode = settings.sun ? sky::SunMode::Auto : sky::SunMode::Off;
   options.table.basis = basis;
   options.max_sources = settings.max_sources;
+  options.correct_sun_colour = settings.correct_sun_colour;
   return options;
 }
 

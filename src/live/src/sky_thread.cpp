@@ -203,6 +203,7 @@ EstimatedSky Service::State::SkyThread::estimate(const capture::Frame& frame) {
     state.sun = blend::SunLight{estimate.sun->direction, estimate.sun->energy};
     state.sun_angular_radius = estimate.sun->angular_radius;
     state.sun_clipped = estimate.sun->clipped;
+    state.sun_colour_corrected = estimate.sun->colour_corrected;
   }
   // sources[0] is the sun when there is one; the rest are lamps (sky.max_sources).
   for (std::size_t k = estimate.sun ? 1 : 0; k < estimate.sources.size(); ++k) {

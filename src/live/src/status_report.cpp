@@ -152,6 +152,8 @@ nlohmann::json Service::State::status_report() const {
       sky_json["sun"]["angular_radius_deg"] = latest->sun_angular_radius * 180 / M_PI;
       sky_json["sun"]["clipped"] = latest->sun_clipped;
       if (latest->sun_clipped) flags.push_back("sun_clipped");
+      sky_json["sun"]["colour_corrected"] = latest->sun_colour_corrected;
+      if (latest->sun_colour_corrected) flags.push_back("sun_colour_corrected");
     } else {
       sky_json["sun"] = nullptr;
     }

@@ -57,6 +57,7 @@ SkyEstimate SkyEstimator::estimate(const RadianceFrame& frame) const {
   if (sun_detector_) {
     const auto start = std::chrono::steady_clock::now();
     SunDetection detection = sun_detector_->detect(frame.radiance, frame.clipped);
+    if (detection.sun && options_.correct_sun_colour) correct_sun_colour(*detection.sun);
     result.sun = detection.sun;
     result.sun_reason = detection.reason;
     exclude = detection.mask;

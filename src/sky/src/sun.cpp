@@ -1,6 +1,7 @@
 #include "skylit/sky/sun.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -320,6 +321,42 @@ SunDetection SunDetector::detect(const cv::Mat& radiance, const cv::Mat& clipped
                               : "compact sun";
   result.sun = sun;
   return result;
+}
+
+Eigen::Vector3d daylight_sun_colour(double elevation) {
+  const double degrees = std::clamp(elevation * 180.0 / std::numbers::pi, 0.0, 90.0);
+  // Kasten and Young's air mass; at the horizon about 38.
+  const double air_mass = 1.0 / (std::sin(degrees * std::numbers::pi / 180.0) + 0.50572 * std::pow(degrees + 6.07995, -1.6364));
+  const std::array<double, 3> wavelength_um{0.610, 0.550, 0.465};
+  Eigen::Vector3d colour;
+  for (int c = 0; c < 3; ++c) {
+    const double l = wavelength_um[static_cast<std::size_t>(c)];
+    const double planck = std::pow(l, -5.0) / std::expm1(14388.0 / (l * 5800.0));
+    const double rayleigh = 0.008735 * std::pow(l, -4.08), aerosol = 0.1 * std::pow(l, -1.3);
+    colour[c] = planck * std::exp(-air_mass * (rayleigh + aerosol));
+  }
+  return colour / colour.maxCoeff();
+}
+
+bool plausible_sun_colour(const Eigen::Vector3d& energy) {
+  if (!energy.allFinite() || !(energy.maxCoeff() > 0.0) || energy.minCoeff() < 0.0) return false;
+  const double r = energy.x(), g = energy.y(), b = energy.z();
+  return g >= 0.2 * r && r >= 0.7 * g && b <= 1.3 * g;
+}
+
+bool correct_sun_colour(Sun& sun) {
+  if (plausible_sun_colour(sun.energy)) return false;
+  Eigen::Vector3d measured = sun.energy;
+  for (int c = 0; c < 3; ++c) {
+    if (!std::isfinite(measured[c]) || measured[c] < 0.0) measured[c] = 0.0;
+  }
+  const double brightest = measured.maxCoeff();
+  if (!(brightest > 0.0)) return false;  // no light: nothing to colour
+  const Eigen::Vector3d colour = daylight_sun_colour(std::asin(std::clamp(sun.direction.normalized().z(), -1.0, 1.0)));
+  sun.measured_energy = sun.energy;
+  sun.energy = colour * brightest;
+  sun.colour_corrected = true;
+  return true;
 }
 
 }  // namespace skylit::sky

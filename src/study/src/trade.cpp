@@ -374,6 +374,8 @@ struct Estimators {
       sky_options.sun_mode = s.sun ? sky::SunMode::Auto : sky::SunMode::Off;
       sky_options.table.basis = s.bake.basis;
       sky_options.max_sources = s.sources;
+      // The reference is the same capture: its sun is taken as it is, whatever its colour.
+      sky_options.correct_sun_colour = false;
       estimator = std::make_unique<sky::SkyEstimator>(calibration, *dome, sky_options);
     }
     return *estimator;

@@ -42,6 +42,9 @@ struct SkySettings {
   std::string response = "srgb";      // srgb | linear | a response file (skylit-sky response)
   double rate = 1.0;                  // estimates per second at most; 0: every frame
   bool sun = true;                    // sun separation (auto)
+  // sky.sun_colour: daylight (a sun whose colour is impossible for daylight gets a clear sky's,
+  // sky::SkyEstimateOptions::correct_sun_colour) or measured.
+  bool correct_sun_colour = true;
   double smoothing = 0.0;             // seconds
   double stale_after = 30.0;          // seconds
   // Separated sources at most (sky::SkyEstimateOptions::max_sources): 1, the sun alone; more,

@@ -34,6 +34,10 @@ struct SkyEstimateOptions {
   // (bench/RESULTS.md, "Separated sources (issue 3)").
   int max_sources = 1;
   SunOptions lamp = lamp_options();
+  // A sun (not a lamp) whose colour is impossible for daylight gets a clear sky's sun colour at
+  // its elevation (correct_sun_colour, flagged Sun::colour_corrected). Off where the frame's sun
+  // must be taken as it is (a study against a reference made from the same capture).
+  bool correct_sun_colour = true;
 };
 
 struct SkyEstimate {

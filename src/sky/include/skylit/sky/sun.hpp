@@ -40,7 +40,28 @@ struct Sun {
   // and casts a penumbra; a hazy or blurred one, a wider one.
   std::vector<Vec3> disc_directions;
   std::vector<double> disc_weights;
+  // The energy's colour was impossible for daylight (a lossy capture that kept one channel of the
+  // disc) and was replaced by daylight_sun_colour at its elevation (correct_sun_colour):
+  // measured_energy is what the pixels said.
+  bool colour_corrected = false;
+  Eigen::Vector3d measured_energy = Eigen::Vector3d::Zero();
 };
+
+// The sun's colour through a clear atmosphere, in linear sRGB with the largest channel 1: a
+// 5800 K sun at 610, 550 and 465 nm, dimmed by Rayleigh and aerosol extinction (Ångström β 0.1,
+// α 1.3) along the air mass at `elevation` (radians; Kasten–Young): about (1, 1, 0.87) overhead,
+// (1, 0.75, 0.32) 10° up.
+Eigen::Vector3d daylight_sun_colour(double elevation);
+
+// Whether an energy's colour could be daylight's, from a setting sun (1, 0.2, 0) to a sun bluer
+// than any (about 10 000 K): green at least 0.2 of red, red at least 0.7 of green and blue at most
+// 1.3 × green. Zero or non-finite: not.
+bool plausible_sun_colour(const Eigen::Vector3d& energy);
+
+// A sun whose colour is not plausible gets daylight_sun_colour at its elevation, its brightest
+// channel at the brightest measured one (the channel the capture kept), and colour_corrected;
+// any other is left as it is. Returns whether it changed.
+bool correct_sun_colour(Sun& sun);
 
 inline constexpr int kMaxDiscSamples = 256;
 
