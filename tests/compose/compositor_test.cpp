@@ -181,7 +181,10 @@ TEST_F(CompositorTest, RecordedFramesMatchTheCpuReference) {
   EXPECT_LT(all.mean, 0.005 * scale);
   EXPECT_LT(all.fraction_off, 0.02);
   EXPECT_LT(on_ground.fraction_off, 0.001);
-  EXPECT_LT(on_ground.mean, 1e-4 * scale);
+  // The ground's mean difference is its few penumbra pixels (the map's disc against the
+  // reference's one ray): 3.6e-5 of a mean value of 0.27 under park's sun in its daylight colour,
+  // whose edges lie in every channel (before the colour was corrected, in blue alone: 1e-5).
+  EXPECT_LT(on_ground.mean, 2e-4 * scale);
   EXPECT_LT(on_building.mean, 0.01 * cv::mean(reference.linear, interior)[1]);
   EXPECT_LT(on_building.fraction_off, 0.05);
 

@@ -122,6 +122,26 @@ TEST(SkyMessage, LampsKeepTheirPlaceAndAnOlderSkyNodesSourceIsTheSun) {
   EXPECT_NE(refused.detail.find("sources.sun"), std::string::npos) << refused.detail;
 }
 
+TEST(SkyMessage, TheSunsColourFlagCrossesTheLinkAndOlderMessagesHaveNone) {
+  SkyMessage sent = sample_message();
+  sent.sources[0].sun = true;
+  sent.sources[0].colour_corrected = true;
+  const DecodedSky got = decode_sky_message(encode_sky_message(sent), gate_identity(), std::nullopt);
+  ASSERT_TRUE(got.message) << got.detail;
+  EXPECT_TRUE(got.message->sources[0].colour_corrected);
+  nlohmann::json older = nlohmann::json::from_cbor(encode_sky_message(sent));
+  older["sources"][0].erase("colour_corrected");
+  const DecodedSky old = decode_sky_message(nlohmann::json::to_cbor(older), gate_identity(), std::nullopt);
+  ASSERT_TRUE(old.message) << old.detail;
+  EXPECT_FALSE(old.message->sources[0].colour_corrected);
+  nlohmann::json bad = nlohmann::json::from_cbor(encode_sky_message(sent));
+  bad["sources"][0]["colour_corrected"] = "yes";
+  const DecodedSky refused = decode_sky_message(nlohmann::json::to_cbor(bad), gate_identity(), std::nullopt);
+  EXPECT_FALSE(refused.message);
+  EXPECT_EQ(refused.dropped, DropReason::Malformed);
+  EXPECT_NE(refused.detail.find("sources.colour_corrected"), std::string::npos) << refused.detail;
+}
+
 TEST(SkyMessage, EveryTruncationIsDroppedAsMalformed) {
   const std::vector<std::uint8_t> bytes = encode_sky_message(sample_message());
   for (std::size_t n = 0; n < bytes.size(); ++n) {

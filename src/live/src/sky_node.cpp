@@ -52,10 +52,11 @@ sky_link::SkyMessage message_of(const sky_link::SkyIdentity& identity, std::uint
     // The sun as smoothed (its energy), the lamps as found.
     const sky::Sun& published = sun ? *estimate.sun : source;
     m.sources.push_back({published.direction, published.energy, published.angular_radius, published.clipped, sun,
-                         published.shadow_radius});
+                         published.shadow_radius, published.colour_corrected});
   }
   if (estimate.sources.empty() && estimate.sun) {
-    m.sources.push_back({estimate.sun->direction, estimate.sun->energy, estimate.sun->angular_radius, estimate.sun->clipped, true});
+    m.sources.push_back({estimate.sun->direction, estimate.sun->energy, estimate.sun->angular_radius, estimate.sun->clipped, true,
+                         0.0, estimate.sun->colour_corrected});
   }
   m.sun_reason = estimate.sun_reason;
   m.unseen_faces = estimate.luminance.unseen_faces;
@@ -313,6 +314,8 @@ nlohmann::json SkyNode::State::status_report() const {
       j["sky"]["sun"]["angular_radius_deg"] = sun.angular_radius * 180 / M_PI;
       j["sky"]["sun"]["clipped"] = sun.clipped;
       if (sun.clipped) flags.push_back("sun_clipped");
+      j["sky"]["sun"]["colour_corrected"] = sun.colour_corrected;
+      if (sun.colour_corrected) flags.push_back("sun_colour_corrected");
     } else {
       j["sky"]["sun"] = nullptr;
     }

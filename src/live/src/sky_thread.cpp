@@ -236,6 +236,7 @@ SkyState sky_from_message(const sky_link::SkyMessage& message, int max_sources) 
     state.sun = blend::SunLight{sun.direction, sun.energy};
     state.sun_angular_radius = sun.angular_radius;
     state.sun_clipped = sun.clipped;
+    state.sun_colour_corrected = sun.colour_corrected;
   }
   for (std::size_t k = state.sun ? 1 : 0; k < message.sources.size(); ++k) {
     if (static_cast<int>(k) >= max_sources) break;

@@ -99,6 +99,10 @@ SkyMessage parse(const json& root) {
       p.shadow_radius = finite_number(s["shadow_radius"], "sources.shadow_radius");
       if (p.shadow_radius < 0) throw BadField("'sources.shadow_radius' is negative");
     }
+    if (s.is_object() && s.contains("colour_corrected")) {  // came with the sun's colour; absent in older messages
+      if (!s["colour_corrected"].is_boolean()) throw BadField("'sources.colour_corrected' is not true or false");
+      p.colour_corrected = s["colour_corrected"].get<bool>();
+    }
     m.sources.push_back(p);
   }
   m.sun_reason = text(field(root, "sun_reason"), "sun_reason");
@@ -143,7 +147,8 @@ std::vector<std::uint8_t> encode_sky_message(const SkyMessage& m) {
                        {"angular_radius", p.angular_radius},
                        {"clipped", p.clipped},
                        {"sun", p.sun},
-                       {"shadow_radius", p.shadow_radius}});
+                       {"shadow_radius", p.shadow_radius},
+                       {"colour_corrected", p.colour_corrected}});
   }
   const json root = {
       {"version", kSkyMessageVersion},

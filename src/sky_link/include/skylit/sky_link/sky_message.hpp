@@ -27,6 +27,7 @@ struct PublishedSource {
   bool clipped = false;                                  // E is a lower bound
   bool sun = false;                                      // the sun (first when there is one); else a lamp
   double shadow_radius = 0;                              // radians: the disc its shadow map draws (sky::Sun::shadow_radius); 0: angular_radius
+  bool colour_corrected = false;                         // sky::Sun::colour_corrected; absent in older messages: false
 };
 
 // What the sky was computed for: a node whose bake differs refuses it.
