@@ -367,44 +367,34 @@ class RaytraceEngine final : public VisibilityEngine {
       unit.push_back(w);
       index_of.push_back(k);
     }
-    constexpr int kVerticesPerTask = 16;
-    const int vertex_count = static_cast<int>(mesh_.vertex_count());
-    const int tasks = (vertex_count + kVerticesPerTask - 1) / kVerticesPerTask;
     const float offset = static_cast<float>(offset_);
-    parallel_for(tasks, threads_, [&](int task) {
-      RTCIntersectContext context;
-      rtcInitIntersectContext(&context);
-      const int end = std::min(vertex_count, (task + 1) * kVerticesPerTask);
-      for (int v = task * kVerticesPerTask; v < end; ++v) {
-        const auto index = static_cast<std::size_t>(v);
-        const Eigen::Vector3f& normal = mesh_.normals[index];
-        const Vec3 normal_d = normal.cast<double>();
-        const Eigen::Vector3f origin = mesh_.positions[index] + offset * normal;
-        // A vertex below the ground is buried: it sees none of it (a foundation, a cellar). One
-        // on it facing down (a plinth's underside) faces the ground it covers: none either.
-        if (origin.z() < -offset || (normal.z() < 0.0f && mesh_.positions[index].z() <= offset)) continue;
-        for (std::size_t k = 0; k < unit.size(); ++k) {
-          const double c = normal_d.dot(unit[k]);
-          if (c <= 0.0) continue;
-          // The ground is met at t = z / −ω_z; a vertex on it (z ≤ offset) meets it at once.
-          const double reach = std::max(static_cast<double>(origin.z()), 0.0) / -unit[k].z();
-          RTCRay ray{};
-          ray.org_x = origin.x();
-          ray.org_y = origin.y();
-          ray.org_z = origin.z();
-          ray.dir_x = static_cast<float>(unit[k].x());
-          ray.dir_y = static_cast<float>(unit[k].y());
-          ray.dir_z = static_cast<float>(unit[k].z());
-          ray.tnear = offset;
-          ray.tfar = static_cast<float>(reach);
-          ray.mask = ~0u;
-          if (ray.tfar > ray.tnear) {
-            rtcOccluded1(scene_.get(), &context, &ray);
-            if (ray.tfar < 0.0f) continue;
-          }
-          const Vec3 at = origin.cast<double>() + reach * unit[k];
-          visit(index, index_of[k], c, at.x(), at.y());
+    for_each_vertex(16, [&](RTCIntersectContext& context, std::size_t index, const Eigen::Vector3f& normal,
+                            const Eigen::Vector3f& origin) {
+      const Vec3 normal_d = normal.cast<double>();
+      // A vertex below the ground is buried: it sees none of it (a foundation, a cellar). One on
+      // it facing down (a plinth's underside) faces the ground it covers: none either.
+      if (origin.z() < -offset || (normal.z() < 0.0f && mesh_.positions[index].z() <= offset)) return;
+      for (std::size_t k = 0; k < unit.size(); ++k) {
+        const double c = normal_d.dot(unit[k]);
+        if (c <= 0.0) continue;
+        // The ground is met at t = z / −ω_z; a vertex on it (z ≤ offset) meets it at once.
+        const double reach = std::max(static_cast<double>(origin.z()), 0.0) / -unit[k].z();
+        RTCRay ray{};
+        ray.org_x = origin.x();
+        ray.org_y = origin.y();
+        ray.org_z = origin.z();
+        ray.dir_x = static_cast<float>(unit[k].x());
+        ray.dir_y = static_cast<float>(unit[k].y());
+        ray.dir_z = static_cast<float>(unit[k].z());
+        ray.tnear = offset;
+        ray.tfar = static_cast<float>(reach);
+        ray.mask = ~0u;
+        if (ray.tfar > ray.tnear) {
+          rtcOccluded1(scene_.get(), &context, &ray);
+          if (ray.tfar < 0.0f) continue;
         }
+        const Vec3 at = origin.cast<double>() + reach * unit[k];
+        visit(index, index_of[k], c, at.x(), at.y());
       }
     });
     errors_->throw_if_any("ground_hits");
@@ -416,50 +406,58 @@ class RaytraceEngine final : public VisibilityEngine {
       throw std::invalid_argument("raytrace engine: output must hold layers × one value per mesh vertex");
     }
     require_directions();
-    constexpr int kVerticesPerTask = 256;
-    const int vertex_count = static_cast<int>(mesh_.vertex_count());
-    const int tasks = (vertex_count + kVerticesPerTask - 1) / kVerticesPerTask;
     const float offset = static_cast<float>(offset_);
-
-    parallel_for(tasks, threads_, [&](int task) {
-      RTCIntersectContext context;
-      rtcInitIntersectContext(&context);
-      const int end = std::min(vertex_count, (task + 1) * kVerticesPerTask);
-      for (int v = task * kVerticesPerTask; v < end; ++v) {
-        const auto index = static_cast<std::size_t>(v);
-        const Eigen::Vector3f& normal = mesh_.normals[index];
-        const Eigen::Vector3f origin = mesh_.positions[index] + offset * normal;
-        const Weighing weighing = weigh(directions_, weights_, layers_, normal.cast<double>());
-        std::array<double, 3> visible_weight{0.0, 0.0, 0.0};
-        double visible_count = 0.0;
-        for (const WeightedDirection& w : weighing.rays) {
-          RTCRay ray{};
-          ray.org_x = origin.x();
-          ray.org_y = origin.y();
-          ray.org_z = origin.z();
-          ray.dir_x = w.x;
-          ray.dir_y = w.y;
-          ray.dir_z = w.z;
-          // Nudged off its own surface, and past any other the vertex lies on (a column's foot
-          // on its plinth: a hit at t = 0 would shade every ray above the plinth).
-          ray.tnear = offset;
-          ray.tfar = kInfinity;
-          ray.mask = ~0u;
-          rtcOccluded1(scene_.get(), &context, &ray);
-          if (ray.tfar < 0.0f) continue;
-          for (std::size_t k = 0; k < 3; ++k) visible_weight[k] += w.weight[k];
-          visible_count += 1.0;
-        }
-        for (int k = 0; k < layers_; ++k) {
-          out[static_cast<std::size_t>(k) * vertices + index] =
-              weighing.fraction(k, visible_weight[static_cast<std::size_t>(k)], visible_count);
-        }
+    for_each_vertex(256, [&](RTCIntersectContext& context, std::size_t index, const Eigen::Vector3f& normal,
+                             const Eigen::Vector3f& origin) {
+      const Weighing weighing = weigh(directions_, weights_, layers_, normal.cast<double>());
+      std::array<double, 3> visible_weight{0.0, 0.0, 0.0};
+      double visible_count = 0.0;
+      for (const WeightedDirection& w : weighing.rays) {
+        RTCRay ray{};
+        ray.org_x = origin.x();
+        ray.org_y = origin.y();
+        ray.org_z = origin.z();
+        ray.dir_x = w.x;
+        ray.dir_y = w.y;
+        ray.dir_z = w.z;
+        // Nudged off its own surface, and past any other the vertex lies on (a column's foot
+        // on its plinth: a hit at t = 0 would shade every ray above the plinth).
+        ray.tnear = offset;
+        ray.tfar = kInfinity;
+        ray.mask = ~0u;
+        rtcOccluded1(scene_.get(), &context, &ray);
+        if (ray.tfar < 0.0f) continue;
+        for (std::size_t k = 0; k < 3; ++k) visible_weight[k] += w.weight[k];
+        visible_count += 1.0;
+      }
+      for (int k = 0; k < layers_; ++k) {
+        out[static_cast<std::size_t>(k) * vertices + index] =
+            weighing.fraction(k, visible_weight[static_cast<std::size_t>(k)], visible_count);
       }
     });
     errors_->throw_if_any("vertex_fractions");
   }
 
  private:
+  // visit(context, vertex, normal, origin) for every mesh vertex, `per_task` vertices to a task
+  // across the engine's threads; origin is the vertex nudged off its surface along its normal.
+  template <class Visit>
+  void for_each_vertex(int per_task, Visit&& visit) {
+    const int vertex_count = static_cast<int>(mesh_.vertex_count());
+    const int tasks = (vertex_count + per_task - 1) / per_task;
+    const float offset = static_cast<float>(offset_);
+    parallel_for(tasks, threads_, [&](int task) {
+      RTCIntersectContext context;
+      rtcInitIntersectContext(&context);
+      const int end = std::min(vertex_count, (task + 1) * per_task);
+      for (int v = task * per_task; v < end; ++v) {
+        const auto index = static_cast<std::size_t>(v);
+        const Eigen::Vector3f& normal = mesh_.normals[index];
+        visit(context, index, normal, Eigen::Vector3f(mesh_.positions[index] + offset * normal));
+      }
+    });
+  }
+
   void require_directions() const {
     if (directions_.empty()) {
       throw std::logic_error("raytrace engine: set_directions must be called before tracing");

@@ -44,6 +44,19 @@ std::vector<Eigen::Vector3d> building_estimate(std::span<const float> transfer, 
   return blend::vertex_irradiance(transfer, S, mesh.normals, lights, visibility, ground);
 }
 
+namespace {
+
+// The same triangles, and the points as vertices none of them uses: traced as vertices are.
+scene::Mesh mesh_with_points(const scene::Mesh& mesh, const TrianglePoints& points) {
+  scene::Mesh with_points = mesh;
+  with_points.positions.insert(with_points.positions.end(), points.positions.begin(), points.positions.end());
+  with_points.normals.insert(with_points.normals.end(), points.normals.begin(), points.normals.end());
+  with_points.texcoords.clear();
+  return with_points;
+}
+
+}  // namespace
+
 TrianglePoints triangle_points(const scene::Mesh& mesh) {
   TrianglePoints points;
   const std::array<Eigen::Vector3d, 4> barycentric{Eigen::Vector3d(1.0, 1.0, 1.0) / 3.0, Eigen::Vector3d(4.0, 1.0, 1.0) / 6.0,
@@ -76,10 +89,7 @@ std::vector<Eigen::Vector3d> interpolated_at(const TrianglePoints& points, std::
 
 std::vector<Eigen::Vector3d> source_term_at(const TrianglePoints& points, const SourceLight& source, const scene::Site& site,
                                             const scene::Mesh& mesh) {
-  scene::Mesh with_points = mesh;  // the same triangles; the points as vertices none of them uses
-  with_points.positions.insert(with_points.positions.end(), points.positions.begin(), points.positions.end());
-  with_points.normals.insert(with_points.normals.end(), points.normals.begin(), points.normals.end());
-  with_points.texcoords.clear();
+  const scene::Mesh with_points = mesh_with_points(mesh, points);
   std::vector<float> visibility(with_points.vertex_count(), 1.0f);
   if (!source.disc_directions.empty()) {
     baker::area_light_vertex_visibility(with_points, site.planes, source.disc_directions, source.disc_weights, visibility);
@@ -95,10 +105,7 @@ std::vector<Eigen::Vector3d> source_term_at(const TrianglePoints& points, const 
 
 std::vector<Eigen::Vector3d> building_reference_at(const EquirectLights& lights, const scene::Site& site,
                                                    const scene::Mesh& mesh, const TrianglePoints& points) {
-  scene::Mesh with_points = mesh;  // the same triangles; the points as vertices none of them uses
-  with_points.positions.insert(with_points.positions.end(), points.positions.begin(), points.positions.end());
-  with_points.normals.insert(with_points.normals.end(), points.normals.begin(), points.normals.end());
-  with_points.texcoords.clear();
+  const scene::Mesh with_points = mesh_with_points(mesh, points);
   std::vector<Eigen::Vector3d> all(with_points.vertex_count());
   baker::weighted_vertex_irradiance(with_points, site.planes, lights.directions, lights.weights, all);
   return {all.begin() + static_cast<std::ptrdiff_t>(mesh.vertex_count()), all.end()};
@@ -148,10 +155,7 @@ GroundReferenceOptions site_ground(const scene::Site& site, const DenseReference
 
 std::vector<Eigen::Vector3d> ground_reference_at(const EquirectLights& lights, const scene::Site& site, const scene::Mesh& mesh,
                                                  const TrianglePoints& points, const GroundReferenceOptions& options) {
-  scene::Mesh with_points = mesh;
-  with_points.positions.insert(with_points.positions.end(), points.positions.begin(), points.positions.end());
-  with_points.normals.insert(with_points.normals.end(), points.normals.begin(), points.normals.end());
-  with_points.texcoords.clear();
+  const scene::Mesh with_points = mesh_with_points(mesh, points);
   const std::vector<Eigen::Vector3d> all = ground_reference(lights, site, with_points, options);
   return {all.begin() + static_cast<std::ptrdiff_t>(mesh.vertex_count()), all.end()};
 }
