@@ -81,6 +81,10 @@ TEST_F(SkylitShade, ShadesEveryPlaneAndDescribesTheSky) {
   ASSERT_FALSE(sky["sun"].is_null()) << sky["sun_reason"];
   EXPECT_GT(sky["sun"]["elevation_deg"].get<double>(), 0.0);
   EXPECT_GT(sky["sun"]["energy"][2].get<double>(), 0.0);
+  // Its capture kept the sun's blue alone: the colour is taken as a clear sky's sun's, and said.
+  EXPECT_TRUE(sky["sun"]["colour_corrected"].get<bool>());
+  EXPECT_EQ(sky["sun"]["measured_energy"][0].get<double>(), 0.0);
+  EXPECT_GT(sky["sun"]["energy"][0].get<double>(), 0.5 * sky["sun"]["energy"][2].get<double>());
   EXPECT_EQ(sky["planes"].size(), 3u);
   const cv::Mat overlay = cv::imread((out / "sky_overlay.png").string());
   EXPECT_EQ(overlay.cols, 1024);
@@ -112,6 +116,12 @@ TEST_F(SkylitShade, SunOffKeepsTheSunInTheDome) {
   const nlohmann::json sky = nlohmann::json::parse(std::ifstream(out / "sky.json"));
   EXPECT_TRUE(sky["sun"].is_null());
   EXPECT_EQ(sky["sun_reason"], "sun separation off");
+  // --sun-colour measured keeps the pixels' colour.
+  const fs::path measured = *dir_ / "measured";
+  ASSERT_EQ(run(kBin / "skylit-shade", common(measured) + " --sun-colour measured --sky " + (*dir_ / "park.exr").string() + " -q").status, 0);
+  const nlohmann::json kept = nlohmann::json::parse(std::ifstream(measured / "sky.json"));
+  EXPECT_FALSE(kept["sun"]["colour_corrected"].get<bool>());
+  EXPECT_EQ(kept["sun"]["energy"][0].get<double>(), 0.0);
 }
 
 TEST_F(SkylitShade, SourcesListsEverySeparatedSourceTheSunFirst) {

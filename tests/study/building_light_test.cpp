@@ -113,6 +113,14 @@ TEST_F(BuildingLight, TheTransferVectorsGiveTheSameLightAndEachSourceItsCosine) 
   sun.disc_directions = {sun.direction, Vector3d(std::cos(kPi / 6), 0.005, std::sin(kPi / 6)).normalized()};
   sun.disc_weights = {0.5, 0.5};
   const std::vector<Vector3d> with_sun = study::building_estimate(t, S, std::vector{sun}, s, mesh);
+  // The same at points inside the triangles, per point as the compositor takes the sun.
+  const study::TrianglePoints points = study::triangle_points(mesh);
+  const std::vector<Vector3d> at_points = study::source_term_at(points, sun, s, mesh);
+  ASSERT_EQ(at_points.size(), points.positions.size());
+  for (std::size_t k = 0; k < at_points.size(); ++k) {
+    const double facing = std::max(0.0, points.normals[k].cast<double>().dot(sun.direction));
+    EXPECT_LT((at_points[k] - facing * sun.energy).norm(), 1e-9) << "point " << k;
+  }
   for (std::size_t v = 0; v < mesh.vertex_count(); ++v) {
     const double facing = std::max(0.0, mesh.normals[v].cast<double>().dot(sun.direction));
     EXPECT_LT((with_sun[v] - sky_only[v] - facing * sun.energy).norm(), 1e-5) << "vertex " << v;

@@ -452,6 +452,29 @@ std::vector<geom::Vec3> face_sample_directions(const geom::Dome& dome, int face,
   return geom::stratified_samples(dome.triangle(face), samples, static_cast<std::uint64_t>(face));
 }
 
+void trace_face(VisibilityEngine& engine, const geom::Dome& dome, const geom::CornerWeights& corner_weights,
+                geom::DomeBasis basis, int face, int samples, const std::function<void(std::size_t first, std::size_t count)>& traced) {
+  const std::vector<geom::Vec3> directions = face_sample_directions(dome, face, samples);
+  // Corners and quadratics: each sample weighs the face's functions at its barycentric
+  // coordinates in the face.
+  std::vector<geom::LayerValues> values;
+  if (basis != geom::DomeBasis::Faces) {
+    for (const geom::Vec3& d : directions) values.push_back(geom::layer_values(basis, corner_weights(face, d)));
+  }
+  const auto per_face = static_cast<std::size_t>(geom::layers_per_face(basis));
+  for (std::size_t first = 0; first < per_face; first += kEngineLayers) {
+    const std::size_t count = std::min(kEngineLayers, per_face - first);
+    std::vector<SampleWeights> weights;
+    for (const geom::LayerValues& v : values) {
+      SampleWeights w{0.0f, 0.0f, 0.0f};
+      for (std::size_t k = 0; k < count; ++k) w[k] = static_cast<float>(v[first + k]);
+      weights.push_back(w);
+    }
+    engine.set_weighted_directions(directions, weights, static_cast<int>(count));
+    traced(first, count);
+  }
+}
+
 std::vector<geom::FaceQuadrature> face_quadratures(const geom::Dome& dome, geom::DomeBasis basis) {
   std::vector<geom::FaceQuadrature> quadratures;
   if (basis == geom::DomeBasis::Faces) return quadratures;
@@ -580,17 +603,7 @@ BakeSummary run_bake(const BakeOptions& given, std::FILE* log) {
     Progress progress("bake", static_cast<std::int64_t>(todo.size()), log);
     const geom::CornerWeights corner_weights(dome);
     const auto per_face = static_cast<std::size_t>(plan.layers_per_face());
-    // The engines weigh up to three layers at once (kEngineLayers); a basis with more functions
-    // per face is baked in groups of three, each seeing the same directions.
-    const std::size_t groups = (per_face + kEngineLayers - 1) / kEngineLayers;
     for (int i : todo) {
-      const std::vector<geom::Vec3> directions = face_sample_directions(dome, i, plan.samples);
-      // Corners and quadratics: each sample weighs the face's functions at its barycentric
-      // coordinates in the face.
-      std::vector<geom::LayerValues> values;
-      if (plan.basis != geom::DomeBasis::Faces) {
-        for (const geom::Vec3& d : directions) values.push_back(geom::layer_values(plan.basis, corner_weights(i, d)));
-      }
       bake_format::FacePart part;
       part.face = i;
       for (std::size_t j = 0; j < plan.planes.size(); ++j) {
@@ -598,16 +611,7 @@ BakeSummary run_bake(const BakeOptions& given, std::FILE* log) {
                                           static_cast<std::size_t>(plan.planes[j].height));
       }
       part.vertex_fractions.resize(per_face * loaded.mesh.vertex_count());
-      for (std::size_t g = 0; g < groups; ++g) {
-        const std::size_t first = g * kEngineLayers;
-        const std::size_t count = std::min(kEngineLayers, per_face - first);
-        std::vector<SampleWeights> weights;
-        for (const geom::LayerValues& v : values) {
-          SampleWeights w{0.0f, 0.0f, 0.0f};
-          for (std::size_t k = 0; k < count; ++k) w[k] = static_cast<float>(v[first + k]);
-          weights.push_back(w);
-        }
-        engine->set_weighted_directions(directions, weights, static_cast<int>(count));
+      trace_face(*engine, dome, corner_weights, plan.basis, i, plan.samples, [&](std::size_t first, std::size_t count) {
         for (std::size_t j = 0; j < plan.planes.size(); ++j) {
           const std::size_t texels =
               static_cast<std::size_t>(plan.planes[j].width) * static_cast<std::size_t>(plan.planes[j].height);
@@ -617,7 +621,7 @@ BakeSummary run_bake(const BakeOptions& given, std::FILE* log) {
         const std::size_t vertices = loaded.mesh.vertex_count();
         std::span<float> out(part.vertex_fractions);
         engine->vertex_fractions(out.subspan(first * vertices, count * vertices));
-      }
+      });
       parts.write(part);
       ++summary.faces_baked;
       progress.advance();

@@ -101,29 +101,15 @@ GroundGrid bake_ground_grid(const scene::Mesh& mesh, const geom::Dome& dome, geo
   const geom::CornerWeights corner_weights(dome);
   std::vector<float> fractions(kEngineLayers * texels);
   for (int i = 0; i < dome.face_count(); ++i) {
-    const std::vector<Vec3> directions = face_sample_directions(dome, i, samples);
-    std::vector<geom::LayerValues> values;
-    if (basis != geom::DomeBasis::Faces) {
-      for (const Vec3& d : directions) values.push_back(geom::layer_values(basis, corner_weights(i, d)));
-    }
-    for (int first = 0; first < per_face; first += static_cast<int>(kEngineLayers)) {
-      const int count = std::min(static_cast<int>(kEngineLayers), per_face - first);
-      std::vector<SampleWeights> weights;
-      for (const geom::LayerValues& v : values) {
-        SampleWeights w{0.0f, 0.0f, 0.0f};
-        for (int k = 0; k < count; ++k) w[static_cast<std::size_t>(k)] = static_cast<float>(v[static_cast<std::size_t>(first + k)]);
-        weights.push_back(w);
-      }
-      engine->set_weighted_directions(directions, weights, count);
-      std::span<float> out(fractions.data(), static_cast<std::size_t>(count) * texels);
-      engine->plane_fractions(0, out);
-      for (int k = 0; k < count; ++k) {
-        const std::size_t l = static_cast<std::size_t>(i * per_face + first + k);
+    trace_face(*engine, dome, corner_weights, basis, i, samples, [&](std::size_t first, std::size_t count) {
+      engine->plane_fractions(0, std::span<float>(fractions.data(), count * texels));
+      for (std::size_t k = 0; k < count; ++k) {
+        const std::size_t l = static_cast<std::size_t>(i * per_face) + first + k;
         for (std::size_t t = 0; t < texels; ++t) {
-          grid.irradiance[t * layers + l] = static_cast<float>(grid.unoccluded[l] * out[static_cast<std::size_t>(k) * texels + t]);
+          grid.irradiance[t * layers + l] = static_cast<float>(grid.unoccluded[l] * fractions[k * texels + t]);
         }
       }
-    }
+    });
   }
   grid.covered.assign(texels, 0);
   for (std::size_t t = 0; t < texels; ++t) {

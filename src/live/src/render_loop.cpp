@@ -268,8 +268,7 @@ void Service::State::RenderLoop::make_compositor_and_display() {
   compositor_options.photometric.scale = s.config.photometric.scale;
   compositor_options.lens.render_scale = s.config.render.scale;
   if (s.config.render.ground_light) {
-    compositor_options.ground_albedo = s.config.render.ground_albedo.value_or(
-        s.config.photometric.plane ? s.config.photometric.albedo : Eigen::Vector3d::Constant(0.2));
+    compositor_options.ground_albedo = s.config.render.ground_albedo.value_or(s.config.photometric.albedo);
     compositor_options.ground_transfer = s.ground_transfer;
   }
   compositor.emplace(s.site, s.mesh, s.manifest, s.transfer, s.hmd_calibration, compositor_options);

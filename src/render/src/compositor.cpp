@@ -193,6 +193,19 @@ std::string plane_list(const scene::Site& site) {
   return names.empty() ? std::string("none") : names;
 }
 
+// Vertex-major values (a bake's transfer arrays: `layers` per vertex) layer after layer, as
+// update_irradiance sums them for every vertex at once; not finite or negative: 0.
+std::vector<float> layer_major(std::span<const float> values, std::size_t vertex_count, std::size_t layers) {
+  std::vector<float> out(layers * vertex_count, 0.0f);
+  for (std::size_t v = 0; v < vertex_count; ++v) {
+    for (std::size_t l = 0; l < layers; ++l) {
+      const float t = values[v * layers + l];
+      out[l * vertex_count + v] = std::isfinite(t) ? std::max(t, 0.0f) : 0.0f;
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 Eigen::Vector3d plane_irradiance(const bake_format::PlaneRecord& plane, std::span<const Eigen::Vector3d> sky,
@@ -376,13 +389,7 @@ void Compositor::State::upload_building(const scene::Mesh& mesh, std::span<const
   const std::size_t vertex_count = mesh.vertex_count();
   vertices = static_cast<int>(vertex_count);
   const auto layers = static_cast<std::size_t>(layer_count);
-  transfer_by_layer.assign(layers * vertex_count, 0.0f);
-  for (std::size_t v = 0; v < vertex_count; ++v) {
-    for (std::size_t i = 0; i < layers; ++i) {
-      const float t = transfer_values[v * layers + i];
-      transfer_by_layer[i * vertex_count + v] = std::isfinite(t) ? std::max(t, 0.0f) : 0.0f;
-    }
-  }
+  transfer_by_layer = layer_major(transfer_values, vertex_count, layers);
   vertex_irradiance.assign(3 * vertex_count, 0.0f);
   sky_sum.assign(3 * vertex_count, 0.0f);
   irradiance_sky.clear();
@@ -853,14 +860,8 @@ Compositor::Compositor(const scene::Site& site, const scene::Mesh& mesh, const b
     } catch (const std::invalid_argument& e) {
       throw InputError(input_message({}, -1, -1, "ground.horizontal_unoccluded", e.what(), "re-bake"));
     }
-    const std::size_t layers = manifest.layer_count(), count = mesh.vertex_count();
-    s.ground_by_layer.assign(layers * count, 0.0f);
-    for (std::size_t v = 0; v < count; ++v) {
-      for (std::size_t l = 0; l < layers; ++l) {
-        const float t = o.ground_transfer[v * layers + l];
-        s.ground_by_layer[l * count + v] = std::isfinite(t) ? std::max(t, 0.0f) : 0.0f;
-      }
-    }
+    s.ground_by_layer = layer_major(o.ground_transfer, mesh.vertex_count(), manifest.layer_count());
+    s.options.ground_transfer = {};  // held layer after layer from here on
   }
   s.shader_dir = gpu::find_shader_dir(s.options.shader_dir);
   s.filtered_lookups = has_gl_extension("GL_OES_texture_float_linear");

@@ -122,7 +122,7 @@ struct Manifest {
   std::string transfer_file = "transfer.npy";
   std::string vertices_file = "vertices.npy";
   // The ground layer (plan.ground_samples > 0): the file of t^g_{v,l}, and A_l(z) per layer, with
-  // which a separated source's light on the ground joins the layers (blend::ground_coefficients).
+  // which a separated source's light on the ground joins the layers (blend::GroundLayers).
   struct Ground {
     std::string file = "ground_transfer.npy";
     std::vector<double> horizontal_unoccluded;

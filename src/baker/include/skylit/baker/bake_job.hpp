@@ -3,12 +3,14 @@
 // the per-face work, and the final assembly (see docs/bake-format.md and docs/baker.md).
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "skylit/bake_format/manifest.hpp"
 #include "skylit/bake_format/pca.hpp"
+#include "skylit/baker/visibility.hpp"
 #include "skylit/geom/dome.hpp"
 #include "skylit/geom/dome_basis.hpp"
 
@@ -79,6 +81,13 @@ void compress_bake(const std::filesystem::path& bake_dir, const bake_format::Pca
 
 // The sample directions of dome face `face`: its centre for samples == 1, else stratified.
 std::vector<geom::Vec3> face_sample_directions(const geom::Dome& dome, int face, int samples);
+
+// Sets the engine to face `face`'s samples weighted by each of its layers' basis functions, up to
+// kEngineLayers layers at a time (a basis with more functions per face is traced in groups, each
+// over the same directions), and calls traced(first, count) after each group: the engine then
+// gives layers first … first + count − 1 of the face.
+void trace_face(VisibilityEngine& engine, const geom::Dome& dome, const geom::CornerWeights& corner_weights,
+                geom::DomeBasis basis, int face, int samples, const std::function<void(std::size_t first, std::size_t count)>& traced);
 
 // The fewest samples per face a basis can resolve: one per layer function (1, 3 or 6). One
 // direction (the centre) weighs a face's functions alike and cannot tell their visibility apart.

@@ -108,7 +108,7 @@ struct RenderSettings {
   double scale = 1.0;
   // The ground's light on the building (render::CompositorOptions::ground_albedo; docs/method.md,
   // "Light from the ground"): on with render.ground_light, the bake's ground layer needed; the
-  // ground's albedo, RGB (default: photometric.estimate.albedo, the reference region's, else 0.2).
+  // ground's albedo, RGB (default: photometric.estimate.albedo, 0.2 unless the config gives it).
   bool ground_light = false;
   std::optional<Eigen::Vector3d> ground_albedo;
 };
