@@ -44,6 +44,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "skylit/bake_format/model.hpp"
 #include "skylit/bake_format/pca.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/baker/visibility.hpp"
@@ -180,6 +181,23 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.0, 1.0));
   double max_edge = -1;
   app.add_option("--max-edge", max_edge, "the site's scene.max_edge for this study, metres (default: the site's own)");
+  double eight_bit = 0.0;
+  app.add_option("--eight-bit", eight_bit,
+                 "each sky as one auto-exposed 8-bit sRGB frame, its sky's median at this share of full scale (0.18: "
+                 "middle grey; 0: the HDR frame)")
+      ->check(CLI::Range(0.0, 1.0));
+  bool expected_sun = false;
+  app.add_flag("--expected-sun", expected_sun,
+               "the sun's direction as a site's location and a frame's time would give it (the equirect's own sun): a "
+               "clipped blob there is the sun");
+  std::string clipped_energy = "measured";
+  app.add_option("--clipped-sun-energy", clipped_energy, "a clipped sun's energy: clear_sky or measured")
+      ->capture_default_str();
+  skylit::baker::RefineOptions refine;
+  app.add_option("--refine", refine.tolerance, "every bake splits the model where its light changes (skylit-bake --refine)");
+  app.add_option("--refine-rounds", refine.rounds, "--refine: rounds of splits at most")->capture_default_str();
+  app.add_option("--refine-min-edge", refine.min_edge, "--refine: metres, no edge shorter than twice this is split")
+      ->capture_default_str();
   bool gpu_path_too = false;
   app.add_flag("--gpu", gpu_path_too, "also the live GPU path: shadow maps per source, GPU blend (OpenGL ES, EGL)");
   std::string gpu_radius = "shadow";
@@ -207,9 +225,17 @@ int main(int argc, char** argv) {
     skylit::write_file_atomic(site_path, skylit::scene::site_to_yaml(split));
   }
   const skylit::scene::Site site = skylit::scene::load_site(site_path);
-  const skylit::scene::Mesh mesh = skylit::scene::load_site_model(site);
+  skylit::scene::Mesh mesh = skylit::scene::load_site_model(site);
   const skylit::camera::CameraCalibration calibration = skylit::camera::load_calibration(calib_file);
   const skylit::camera::Lens lens(calibration);
+  // The pixels that see the sky, which an auto-exposing camera meters (--eight-bit).
+  cv::Mat sky_pixels(calibration.image_height, calibration.image_width, CV_8UC1, cv::Scalar(0));
+  for (int y = 0; y < sky_pixels.rows; ++y) {
+    for (int x = 0; x < sky_pixels.cols; ++x) {
+      const auto d = lens.pixel_to_site(Eigen::Vector2d(x, y));
+      if (d && d->z() >= 0.0) sky_pixels.at<std::uint8_t>(y, x) = 255;
+    }
+  }
 
   // One bake per (ν, K, basis), ray-traced: the CPU reference engine.
   std::map<BakeKey, fs::path> bakes;
@@ -229,10 +255,18 @@ int main(int argc, char** argv) {
     options.method = "raytrace";
     options.force = true;
     options.previews = false;
+    options.refine = refine;
     const auto t = Clock::now();
     skylit::baker::run_bake(options, stderr);
     bake_seconds[key] = seconds_since(t);
     bakes[key] = dir;
+  }
+  // Refined bakes share one model: the refinement depends on the model alone, not the dome.
+  if (refine.tolerance > 0.0 && !bakes.empty()) {
+    const fs::path& first = bakes.begin()->second;
+    mesh = skylit::bake_format::load_baked_model(site, first, skylit::bake_format::read_manifest(first));
+    std::fprintf(stderr, "accuracy_study: the refined model has %zu vertices, %zu triangles\n", mesh.vertex_count(),
+                 mesh.triangle_count());
   }
   // The PCA forms: a copy of each bake per K, compressed as skylit-bake compress does it (with
   // --pca-tile, clustered).
@@ -269,6 +303,7 @@ int main(int argc, char** argv) {
     std::string worst;  // where the largest error is
     Errors planes;      // the building's planes' texels
     Errors inside;      // points inside the triangles, E interpolated from the vertices
+    Errors inside_by_area;  // the same, each point weighted by the surface it stands for
     // With --ground-albedo: the estimate without the ground layer, and the reference's ground
     // taken as uniformly lit (E_h) against the shadowed one, both against the reference.
     std::optional<Errors> no_ground, uniform_ground;
@@ -329,7 +364,15 @@ int main(int argc, char** argv) {
     }
     const double building_reference_seconds = seconds_since(building_start);
 
-    const skylit::sky::RadianceFrame frame{skylit::sky::render_fisheye(lens, equirect, {.supersample = supersample}), cv::Mat()};
+    skylit::sky::RadianceFrame frame{skylit::sky::render_fisheye(lens, equirect, {.supersample = supersample}), cv::Mat()};
+    if (eight_bit > 0.0) {
+      // One frame of an 8-bit camera that meters its sky: what most sites buy.
+      const double scale = skylit::sky::auto_exposure_scale(frame.radiance, sky_pixels, eight_bit);
+      frame = skylit::sky::linearise(skylit::sky::to_8bit(frame.radiance, scale), skylit::sky::ResponseCurve::srgb(8),
+                                     skylit::sky::Exposure{scale, 1.0});
+      std::fprintf(stderr, "%s: 8-bit at %.0f%% of full scale: %d pixels clipped\n", sky_file.stem().c_str(), 100.0 * eight_bit,
+                   cv::countNonZero(frame.clipped));
+    }
     // The oracle's frame: the sun's pixels replaced by the background around them.
     const EquirectSun oracle = equirect_sun(equirect);
     skylit::sky::RadianceFrame oracle_frame;
@@ -355,12 +398,15 @@ int main(int argc, char** argv) {
       sky_options.sun = sun_options;
       // The reference is the same capture: its sun is taken as it is, whatever its colour.
       sky_options.correct_sun_colour = false;
+      sky_options.clipped_sun_energy = skylit::sky::parse_clipped_sun_energy(clipped_energy, "--clipped-sun-energy");
       if (c.mix == Config::Mix::Sources) {
         sky_options.max_sources = source_count;  // the product path: the sun test, then lamps
         sky_options.lamp = skylit::sky::lamp_options(sun_options);
       }
       const skylit::sky::SkyEstimator estimator(calibration, dome, sky_options);
-      skylit::sky::SkyEstimate estimate = estimator.estimate(use_oracle ? oracle_frame : frame);
+      const std::optional<Vec3> expected =
+          expected_sun && oracle.found ? std::optional<Vec3>(oracle.centroid) : std::nullopt;
+      skylit::sky::SkyEstimate estimate = estimator.estimate(use_oracle ? oracle_frame : frame, expected);
       const bool mixed = c.mix != Config::Mix::None && oracle.found && estimate.sun;
       if (mixed && c.mix == Config::Mix::OracleDome) {
         estimate.luminance = skylit::sky::compute_luminance(estimator.table(), dome, oracle_frame.radiance,
@@ -452,6 +498,7 @@ int main(int argc, char** argv) {
       // The compositor takes the sun per pixel (its shadow map at the fragment), the rest from the
       // vertices: the sun's term at the points themselves, the other terms interpolated.
       std::vector<Eigen::Vector3d> inside_E, inside_seen_ref;
+      std::vector<double> inside_areas;
       {
         const bool sun_first = !building_sources.empty() && estimate.sun.has_value();
         std::vector<Eigen::Vector3d> all;
@@ -467,16 +514,18 @@ int main(int argc, char** argv) {
           if (inside_ref[k].isZero(0)) continue;
           inside_E.push_back(all[k]);
           inside_seen_ref.push_back(inside_ref[k]);
+          inside_areas.push_back(inside_points.areas[k]);
         }
       }
       const Errors inside = building_errors(inside_E, inside_seen_ref, horizontal);
+      const Errors inside_by_area = building_errors(inside_E, inside_seen_ref, horizontal, inside_areas);
       const std::size_t worst = worst_vertex(building_E, building_ref, horizontal);
       char where[320];
       std::snprintf(where, sizeof where, "vertex %zu at (%.2f, %.2f, %.2f) m, normal (%.2f, %.2f, %.2f): E %.4g, E_ref %.4g (luminance), E_h %.4g",
                     worst, mesh.positions[worst].x(), mesh.positions[worst].y(), mesh.positions[worst].z(), mesh.normals[worst].x(),
                     mesh.normals[worst].y(), mesh.normals[worst].z(), luminance(building_E[worst]), luminance(building_ref[worst]),
                     luminance(horizontal));
-      building_rows.push_back({sky_file.stem().string(), c.name, building, where, Errors{}, inside, no_ground, uniform_ground});
+      building_rows.push_back({sky_file.stem().string(), c.name, building, where, Errors{}, inside, inside_by_area, no_ground, uniform_ground});
       if (estimate.sun && oracle.found && !noted) {
         // The detected sun against the equirect's: where, how wide, how much energy.
         noted = true;
@@ -489,13 +538,14 @@ int main(int argc, char** argv) {
                       "centroid; its cells' centroid %.2f° from the oracle's), core radius %.2f°, %d pixels in %zu "
                       "cells; energy (luminance) detected %.4g, "
                       "equirect above background within 1°/2°/4°/6° of the peak %.4g/%.4g/%.4g/%.4g; equirect "
-                      "pixel %.2f°",
+                      "pixel %.2f°; located by %s, energy %s (confidence %.2f), oracle's energy %.4g",
                       sky_file.stem().c_str(), degrees_between(d.direction, oracle.peak),
                       degrees_between(d.direction, oracle.centroid), degrees_between(cells.normalized(), oracle.centroid),
                       d.angular_radius * 180.0 / M_PI, d.pixel_count,
                       d.disc_directions.size(), luminance(d.energy), oracle.energy_within(1.0, equirect),
                       oracle.energy_within(2.0, equirect), oracle.energy_within(4.0, equirect),
-                      oracle.energy_within(6.0, equirect), 360.0 / equirect.cols);
+                      oracle.energy_within(6.0, equirect), 360.0 / equirect.cols, d.located_by.c_str(),
+                      d.energy_estimator.c_str(), d.energy_confidence, luminance(oracle.energy));
         sun_notes.emplace_back(line);
         // Energy by distance from the oracle's centroid, detected against oracle: where they differ.
         const std::vector<double> edges{0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 180.0};
@@ -771,6 +821,7 @@ int main(int argc, char** argv) {
                          {"building_planes", {{"rms", building_planes.rms}, {"p99", building_planes.p99}, {"max", building_planes.max}}},
                          {"building_inside_triangles", {{"rms", inside.rms}, {"p99", inside.p99}, {"max", inside.max},
                                                         {"points", inside_points.positions.size()},
+                                                        {"by_area", {{"rms", inside_by_area.rms}, {"p99", inside_by_area.p99}, {"max", inside_by_area.max}}},
                                                         {"seen", inside_E.size()}}},
                          {"building", {{"rms", building.rms}, {"p99", building.p99}, {"max", building.max},
                                        {"of", "the horizontal irradiance"}, {"vertices", mesh.vertex_count()},
@@ -785,11 +836,12 @@ int main(int argc, char** argv) {
     }
   }
   std::printf("\nThe building: |E − E_ref| per vertex and channel, as a share of the sky's horizontal irradiance\n\n"
-              "| sky | configuration | vertices: RMS | p99 | max | inside the triangles: RMS / p99 / max | virtual planes' texels: RMS / p99 / max | the vertices' max at |\n"
-              "|---|---|---|---|---|---|---|---|\n");
+              "| sky | configuration | vertices | vertices: RMS | p99 | max | inside the triangles: RMS / p99 / max | by area: RMS / p99 | virtual planes' texels: RMS / p99 / max | the vertices' max at |\n"
+              "|---|---|---|---|---|---|---|---|---|---|\n");
   for (const BuildingRow& row : building_rows) {
-    std::printf("| %s | %s | %.4f | %.4f | %.4f | %.4f / %.4f / %.4f | %.4f / %.4f / %.4f | %s |\n", row.sky.c_str(), row.config.c_str(),
-                row.errors.rms, row.errors.p99, row.errors.max, row.inside.rms, row.inside.p99, row.inside.max, row.planes.rms,
+    std::printf("| %s | %s | %zu | %.4f | %.4f | %.4f | %.4f / %.4f / %.4f | %.4f / %.4f | %.4f / %.4f / %.4f | %s |\n", row.sky.c_str(), row.config.c_str(),
+                mesh.vertex_count(), row.errors.rms, row.errors.p99, row.errors.max, row.inside.rms, row.inside.p99, row.inside.max,
+                row.inside_by_area.rms, row.inside_by_area.p99, row.planes.rms,
                 row.planes.p99, row.planes.max, row.worst.c_str());
   }
   if (ground_albedo > 0.0) {

@@ -27,6 +27,7 @@
 
 #include "skylit/bake_format/manifest.hpp"
 #include "skylit/bake_format/arrays.hpp"
+#include "skylit/bake_format/model.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/gpu/egl_context.hpp"
 #include "skylit/render/compositor.hpp"
@@ -76,12 +77,15 @@ struct Scene {
       options.basis = geom::parse_basis(basis);
       options.samples = samples;
     }
+    if (const char* refine = std::getenv("SKYLIT_COMPOSE_BENCH_REFINE"); refine != nullptr && *refine != '\0') {
+      options.refine.tolerance = std::atof(refine);
+    }
     std::FILE* quiet = std::fopen("/dev/null", "w");
     baker::run_bake(options, quiet);
     std::fclose(quiet);
     manifest = bake_format::read_manifest(dir);
     site = scene::load_site(options.site_file);
-    mesh = scene::load_site_model(site);
+    mesh = bake_format::load_baked_model(site, dir, manifest);
     std::vector<std::size_t> shape;
     transfer = bake_format::read_npy(dir / manifest.transfer_file, &shape);
     ground_transfer = bake_format::read_npy(dir / manifest.ground->file, &shape);

@@ -90,6 +90,16 @@ void add_bake_options(CLI::App& app, CommandLine& c) {
                  "directions per model vertex for the ground's light (the ground layer, docs/method.md); 0: none")
       ->check(CLI::Range(0, 1 << 20))
       ->capture_default_str();
+  app.add_option("--refine", c.options.refine.tolerance,
+                 "split the model where its light changes across a triangle by more than this share of a uniform "
+                 "sky's light (e.g. 0.05; docs/baker.md); 0: the model as it is")
+      ->capture_default_str();
+  app.add_option("--refine-rounds", c.options.refine.rounds, "rounds of splits at most, with --refine")
+      ->check(CLI::Range(1, 12))
+      ->capture_default_str();
+  app.add_option("--refine-min-edge", c.options.refine.min_edge,
+                 "metres: an edge shorter than twice this is not split, with --refine")
+      ->capture_default_str();
   c.options.method = "auto";
   app.add_option("--method", c.options.method,
                  "auto (raster on a GPU, raytrace where OpenGL ES runs in software), raster (OpenGL ES) or raytrace "

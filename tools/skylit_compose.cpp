@@ -21,6 +21,7 @@
 
 #include "skylit/bake_format/manifest.hpp"
 #include "skylit/bake_format/arrays.hpp"
+#include "skylit/bake_format/model.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/geom/dome.hpp"
 #include "skylit/gpu/egl_context.hpp"
@@ -103,8 +104,8 @@ cv::Mat film_equirect(const std::string& file, const skylit::camera::Lens& lens,
 
 int run(const Options& o) {
   const skylit::scene::Site site = skylit::scene::load_site(o.site);
-  const skylit::scene::Mesh mesh = skylit::scene::load_site_model(site);
   const skylit::bake_format::Manifest manifest = skylit::bake_format::read_manifest(o.bake_dir);
+  const skylit::scene::Mesh mesh = skylit::bake_format::load_baked_model(site, o.bake_dir, manifest);
   std::vector<std::size_t> shape;
   const std::vector<float> transfer = skylit::bake_format::read_npy(fs::path(o.bake_dir) / manifest.transfer_file, &shape);
 

@@ -17,6 +17,7 @@
 #include <spdlog/spdlog.h>
 
 #include "skylit/bake_format/arrays.hpp"
+#include "skylit/bake_format/model.hpp"
 #include "skylit/bake_format/manifest.hpp"
 #include "skylit/baker/preview.hpp"
 #include "skylit/baker/visibility.hpp"
@@ -128,12 +129,12 @@ skylit::scene::Mesh site_mesh(const Options& o, const skylit::bake_format::Manif
                                           "need its model. Fix: pass --site SITE.yaml, or --sun off");
   }
   const skylit::scene::Site site = skylit::scene::load_site(site_file);
-  const skylit::scene::Mesh mesh = skylit::scene::load_site_model(site);
-  if (skylit::sha256_file(site.model) != manifest.plan.model_sha256) {
-    spdlog::warn("the model {} changed since the bake was made: the sun's shadows follow the new model",
-                 site.model.string());
+  if (skylit::sha256_file(site.model) == manifest.plan.model_sha256) {
+    return skylit::bake_format::load_baked_model(site, o.bake_dir, manifest);
   }
-  return mesh;
+  spdlog::warn("the model {} changed since the bake was made: the sun's shadows follow the new model",
+               site.model.string());
+  return skylit::scene::load_site_model(site);
 }
 
 // Visibility of a separated source (the sun, a lamp) for every texel of every plane: its disc as

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "../support/quiet_bake.hpp"
 #include "live_fixture.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/base/files.hpp"
@@ -251,6 +252,25 @@ TEST(ServiceConfig, TheSunsColourIsASetting) {
   EXPECT_NE(message.find("daylight"), std::string::npos) << message;
 }
 
+// How a clipped sun's energy is found (sky.clipped_sun_energy): measured unless the config says
+// clear_sky; anything else is refused, naming the key and the choices.
+TEST(ServiceConfig, AClippedSunsEnergyIsASetting) {
+  const Rig rig;
+  const fs::path file = rig.dir() / "clipped_sun.yaml";
+  std::ofstream(file) << rig.config_text();
+  EXPECT_FALSE(live::load_live_config(file).sky.clear_sky_sun_energy);
+  std::string text = rig.config_text();
+  text.insert(text.find("  stale_after:"), "  clipped_sun_energy: clear_sky\n");
+  std::ofstream(file) << text;
+  EXPECT_TRUE(live::load_live_config(file).sky.clear_sky_sun_energy);
+  EXPECT_NO_THROW(live::Service(live::load_live_config(file), quiet_options()));
+  text.replace(text.find("clipped_sun_energy: clear_sky"), 29, "clipped_sun_energy: guess");
+  std::ofstream(file) << text;
+  const std::string message = skylit::test::error_of([&] { live::load_live_config(file); });
+  EXPECT_NE(message.find("sky.clipped_sun_energy"), std::string::npos) << message;
+  EXPECT_NE(message.find("clear_sky"), std::string::npos) << message;
+}
+
 // The ground's light on the building (render.ground_light, render.ground_albedo): a setting of
 // the config and the presets; a bake without the ground layer is refused at start, naming it.
 TEST(ServiceConfig, TheGroundsLightIsASettingThatNeedsTheBakesGroundLayer) {
@@ -289,6 +309,27 @@ TEST(ServiceConfig, TheGroundsLightIsASettingThatNeedsTheBakesGroundLayer) {
   const std::string message = skylit::test::error_of([&] { live::Service(live::load_live_config(file), quiet_options()); });
   EXPECT_NE(message.find("render.ground_light"), std::string::npos) << message;
   EXPECT_NE(message.find("--ground-samples"), std::string::npos) << message;
+}
+
+// A bake that refined the model (skylit-bake --refine): the service draws and lights the refined
+// model, whose vertices the bake's arrays follow.
+TEST(ServiceConfig, ABakeOfARefinedModelRunsOnTheRefinedModel) {
+  const Rig rig;
+  const BakedSite& baked = BakedSite::get();
+  const fs::path refined = rig.dir() / "refined_bake";
+  skylit::test::quiet_bake(baked.dir / "site.yaml", refined, 4, [](skylit::baker::BakeOptions& o) {
+    o.refine.tolerance = 0.05;
+    o.ground_samples = 16;
+  });
+  const skylit::bake_format::Manifest manifest = skylit::bake_format::read_manifest(refined);
+  ASSERT_TRUE(manifest.refinement.has_value());
+  ASSERT_GT(manifest.plan.vertex_count, baked.mesh.vertex_count()) << "the tower's faces split where the annex shades them";
+  std::string text = rig.config_text();
+  const std::string bake_line = "bake: " + quoted(baked.dir / "bake");
+  text.replace(text.find(bake_line), bake_line.size(), "bake: " + quoted(refined));
+  const fs::path file = rig.dir() / "refined.yaml";
+  std::ofstream(file) << text << "render:\n  ground_light: true\n";
+  EXPECT_NO_THROW(live::Service(live::load_live_config(file), quiet_options()));
 }
 
 // Every input a config names lies inside its root (its folder, or `root:`); secrets and outputs

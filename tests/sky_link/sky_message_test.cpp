@@ -142,6 +142,37 @@ TEST(SkyMessage, TheSunsColourFlagCrossesTheLinkAndOlderMessagesHaveNone) {
   EXPECT_NE(refused.detail.find("sources.colour_corrected"), std::string::npos) << refused.detail;
 }
 
+// How a clipped sun was placed and weighed crosses the link; an older message says what older
+// nodes did (the peak, measured, fully sure); values outside the vocabulary are malformed.
+TEST(SkyMessage, AClippedSunsPlaceAndEstimatorCrossTheLink) {
+  SkyMessage sent = sample_message();
+  sent.sources[0].sun = true;
+  sent.sources[0].clipped = true;
+  sent.sources[0].located_by = "expected";
+  sent.sources[0].energy_estimator = "clear_sky";
+  sent.sources[0].energy_confidence = 0.75;
+  const DecodedSky got = decode_sky_message(encode_sky_message(sent), gate_identity(), std::nullopt);
+  ASSERT_TRUE(got.message) << got.detail;
+  EXPECT_EQ(got.message->sources[0].located_by, "expected");
+  EXPECT_EQ(got.message->sources[0].energy_estimator, "clear_sky");
+  EXPECT_DOUBLE_EQ(got.message->sources[0].energy_confidence, 0.75);
+  nlohmann::json older = nlohmann::json::from_cbor(encode_sky_message(sent));
+  for (const char* key : {"located_by", "energy_estimator", "energy_confidence"}) older["sources"][0].erase(key);
+  const DecodedSky old = decode_sky_message(nlohmann::json::to_cbor(older), gate_identity(), std::nullopt);
+  ASSERT_TRUE(old.message) << old.detail;
+  EXPECT_EQ(old.message->sources[0].located_by, "peak");
+  EXPECT_EQ(old.message->sources[0].energy_estimator, "measured");
+  EXPECT_DOUBLE_EQ(old.message->sources[0].energy_confidence, 1.0);
+  for (const auto& [key, value] : std::vector<std::pair<std::string, nlohmann::json>>{
+           {"located_by", "guessed"}, {"energy_estimator", "oracle"}, {"energy_confidence", 1.5}}) {
+    nlohmann::json bad = nlohmann::json::from_cbor(encode_sky_message(sent));
+    bad["sources"][0][key] = value;
+    const DecodedSky refused = decode_sky_message(nlohmann::json::to_cbor(bad), gate_identity(), std::nullopt);
+    EXPECT_FALSE(refused.message) << key;
+    EXPECT_NE(refused.detail.find("sources." + key), std::string::npos) << refused.detail;
+  }
+}
+
 TEST(SkyMessage, EveryTruncationIsDroppedAsMalformed) {
   const std::vector<std::uint8_t> bytes = encode_sky_message(sample_message());
   for (std::size_t n = 0; n < bytes.size(); ++n) {

@@ -162,6 +162,17 @@ Plan plan_from(const Source& src, const json& j, const std::string& field) {
   if (j.is_object() && j.contains("ground_samples")) {
     plan.ground_samples = to_int(src, j["ground_samples"], name("ground_samples"), 0, kMaxSamples);
   }
+  // `refine` is optional: bakes without a refinement of the model have none.
+  if (j.is_object() && j.contains("refine")) {
+    const std::string rfield = name("refine");
+    const json& r = j["refine"];
+    plan.refine.tolerance = to_double(src, member(src, r, rfield, "tolerance"), join(rfield, "tolerance"));
+    plan.refine.rounds = to_int(src, member(src, r, rfield, "rounds"), join(rfield, "rounds"), 1, 12);
+    plan.refine.min_edge = to_double(src, member(src, r, rfield, "min_edge"), join(rfield, "min_edge"));
+    if (!(plan.refine.tolerance > 0.0) || !(plan.refine.min_edge > 0.0)) {
+      src.fail(rfield, "needs tolerance > 0 and min_edge > 0");
+    }
+  }
   const json& planes = array_of(src, get("planes"), name("planes"));
   for (std::size_t i = 0; i < planes.size(); ++i) {
     plan.planes.push_back(plane_from(src, planes[i], index(name("planes"), i)));
@@ -212,6 +223,12 @@ constexpr const char* kManifestFix = "re-bake, or restore manifest.json from the
 
 // ---- Plan ----
 
+std::uint64_t Manifest::Refinement::edge_count() const {
+  std::uint64_t n = 0;
+  for (std::uint64_t r : round_sizes) n += r;
+  return n;
+}
+
 bool Plan::operator==(const Plan& other) const {
   if (planes.size() != other.planes.size()) return false;
   for (std::size_t i = 0; i < planes.size(); ++i) {
@@ -221,7 +238,7 @@ bool Plan::operator==(const Plan& other) const {
          model_sha256 == other.model_sha256 && frequency == other.frequency && basis == other.basis &&
          samples == other.samples &&
          method == other.method && shadow_map_resolution == other.shadow_map_resolution && preset == other.preset &&
-         ground_samples == other.ground_samples && vertex_count == other.vertex_count && triangle_count == other.triangle_count;
+         ground_samples == other.ground_samples && refine == other.refine && vertex_count == other.vertex_count && triangle_count == other.triangle_count;
 }
 
 std::string Plan::difference(const Plan& other) const {
@@ -243,6 +260,13 @@ std::string Plan::difference(const Plan& other) const {
   number("shadow_map_resolution", shadow_map_resolution, other.shadow_map_resolution);
   text("preset", preset, other.preset);
   number("ground_samples", ground_samples, other.ground_samples);
+  if (!(refine == other.refine)) {
+    const auto words = [](const Refine& r) {
+      return r.tolerance > 0.0 ? "tolerance " + exact(r.tolerance) + ", " + std::to_string(r.rounds) + " rounds, min_edge " + exact(r.min_edge)
+                               : std::string("none");
+    };
+    items.push_back("refine: " + words(refine) + " vs " + words(other.refine));
+  }
   number("vertex_count", vertex_count, other.vertex_count);
   number("triangle_count", triangle_count, other.triangle_count);
   if (planes.size() != other.planes.size()) {
@@ -293,6 +317,9 @@ json to_json(const Plan& plan) {
             {"triangle_count", plan.triangle_count}};
   if (!plan.preset.empty()) j["preset"] = plan.preset;
   if (plan.ground_samples > 0) j["ground_samples"] = plan.ground_samples;
+  if (plan.refine.tolerance > 0.0) {
+    j["refine"] = {{"tolerance", plan.refine.tolerance}, {"rounds", plan.refine.rounds}, {"min_edge", plan.refine.min_edge}};
+  }
   return j;
 }
 
@@ -350,6 +377,11 @@ json to_json(const Manifest& m) {
     out["ground"] = {{"file", m.ground->file},
                      {"shape", json::array({m.plan.vertex_count, layer_count})},
                      {"horizontal_unoccluded", m.ground->horizontal_unoccluded}};
+  }
+  if (m.refinement) {
+    out["refinement"] = {{"file", m.refinement->file},
+                         {"shape", json::array({m.refinement->edge_count(), 2})},
+                         {"rounds", m.refinement->round_sizes}};
   }
   return out;
 }
@@ -489,6 +521,22 @@ Manifest manifest_from_json(const json& j, const fs::path& source) {
       ground.horizontal_unoccluded.push_back(to_double(src, horizontal[k], index("ground.horizontal_unoccluded", k)));
     }
     m.ground = std::move(ground);
+  }
+  if (j.contains("refinement")) {
+    Manifest::Refinement refinement;
+    const json& section = get(j, "", "refinement");
+    refinement.file = to_string(src, get(section, "refinement", "file"), "refinement.file");
+    contained("refinement.file", refinement.file);
+    const json& rounds = array_of(src, get(section, "refinement", "rounds"), "refinement.rounds");
+    for (std::size_t k = 0; k < rounds.size(); ++k) refinement.round_sizes.push_back(to_count(src, rounds[k], index("refinement.rounds", k)));
+    const json& shape = array_of(src, get(section, "refinement", "shape"), "refinement.shape", 2);
+    if (to_count(src, shape[0], "refinement.shape[0]") != refinement.edge_count() || to_count(src, shape[1], "refinement.shape[1]") != 2) {
+      src.fail("refinement.shape", "must be [" + std::to_string(refinement.edge_count()) + ", 2], the rounds' edges");
+    }
+    m.refinement = std::move(refinement);
+  }
+  if (m.refinement.has_value() != (m.plan.refine.tolerance > 0.0)) {
+    src.fail("refinement", m.refinement ? "is there but plan.refine is not" : "is missing but plan.refine is set");
   }
   if (m.ground.has_value() != (m.plan.ground_samples > 0)) {
     src.fail("ground", m.ground ? "is there but plan.ground_samples is 0" : "is missing but plan.ground_samples is set");

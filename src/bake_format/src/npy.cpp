@@ -1,4 +1,5 @@
-// NumPy .npy files (format version 1.0 written; 1.0, 2.0 and 3.0 read), float32 little-endian.
+// NumPy .npy files (format version 1.0 written; 1.0, 2.0 and 3.0 read), float32 or uint32
+// little-endian.
 #include <bit>
 #include <cstring>
 #include <limits>
@@ -92,14 +93,14 @@ std::vector<std::size_t> parse_shape(const fs::path& file, const std::string& tu
   return shape;
 }
 
-}  // namespace
-
-void write_npy(const fs::path& file, std::span<const float> data, std::span<const std::size_t> shape) {
-  if (element_count(shape) != data.size()) {
+// Four-byte elements of type `descr` ('<f4', '<u4').
+void write_npy_bytes(const fs::path& file, const std::string& descr, std::span<const std::byte> data,
+                     std::span<const std::size_t> shape) {
+  if (element_count(shape) * 4 != data.size()) {
     throw std::invalid_argument("write_npy: shape " + shape_text(shape) + " does not hold " +
-                                std::to_string(data.size()) + " values");
+                                std::to_string(data.size() / 4) + " values");
   }
-  std::string header = "{'descr': '<f4', 'fortran_order': False, 'shape': " + shape_text(shape) + ", }";
+  std::string header = "{'descr': '" + descr + "', 'fortran_order': False, 'shape': " + shape_text(shape) + ", }";
   // Magic (6) + version (2) + length (2) + header + '\n' padded with spaces to a multiple of 64.
   const std::size_t unpadded = kMagicSize + 4 + header.size() + 1;
   header.append((kAlignment - unpadded % kAlignment) % kAlignment, ' ');
@@ -116,6 +117,30 @@ void write_npy(const fs::path& file, std::span<const float> data, std::span<cons
   bytes.resize(offset + data.size_bytes());
   if (!data.empty()) std::memcpy(bytes.data() + offset, data.data(), data.size_bytes());
   write_file_atomic(file, std::as_bytes(std::span<const char>(bytes)));
+}
+
+// The elements of a file of type `descr`, as raw bytes.
+std::string read_npy_bytes(const fs::path& file, const std::string& descr, NpyInfo& info) {
+  info = read_npy_info(file);
+  if (info.descr != descr) {
+    bad(file, "descr", "is '" + info.descr + "', expected '" + descr + "'");
+  }
+  const std::uint64_t count = element_count(info.shape);
+  // As large as the header says, and no larger (read_npy_info checked the size against it).
+  std::string bytes = read_file(file, info.data_offset + count * 4);
+  // The file may have changed since read_npy_info; check again against what was read.
+  if (bytes.size() != info.data_offset + count * 4) bad(file, "data", "the file changed while it was read");
+  return bytes;
+}
+
+}  // namespace
+
+void write_npy(const fs::path& file, std::span<const float> data, std::span<const std::size_t> shape) {
+  write_npy_bytes(file, "<f4", std::as_bytes(data), shape);
+}
+
+void write_npy_u32(const fs::path& file, std::span<const std::uint32_t> data, std::span<const std::size_t> shape) {
+  write_npy_bytes(file, "<u4", std::as_bytes(data), shape);
 }
 
 NpyInfo read_npy_info(const fs::path& file) {
@@ -151,10 +176,13 @@ NpyInfo read_npy_info(const fs::path& file) {
   if (static_cast<std::uint64_t>(in.gcount()) != header_size) bad(file, "header", "the file is truncated");
 
   const std::string descr = dict_value(file, header, "descr");
-  if (descr != "<f4") bad(file, "descr", "is '" + descr + "', expected '<f4' (little-endian float32)");
+  if (descr != "<f4" && descr != "<u4") {
+    bad(file, "descr", "is '" + descr + "', expected '<f4' (little-endian float32) or '<u4' (uint32)");
+  }
   const std::string fortran = dict_value(file, header, "fortran_order");
   if (fortran != "False") bad(file, "fortran_order", "is " + fortran + ", expected False (C order)");
   NpyInfo info;
+  info.descr = descr;
   info.shape = parse_shape(file, dict_value(file, header, "shape"));
   info.data_offset = offset + header_size;
   if (!checked_element_count(info.shape)) {
@@ -172,16 +200,20 @@ NpyInfo read_npy_info(const fs::path& file) {
 }
 
 std::vector<float> read_npy(const fs::path& file, std::vector<std::size_t>* shape) {
-  const NpyInfo info = read_npy_info(file);
+  NpyInfo info;
+  const std::string bytes = read_npy_bytes(file, "<f4", info);
   const std::uint64_t count = element_count(info.shape);
-  // As large as the header says, and no larger (read_npy_info checked the size against it).
-  const std::string bytes = read_file(file, info.data_offset + count * sizeof(float));
-  // The file may have changed since read_npy_info; check again against what was read.
-  if (bytes.size() != info.data_offset + count * sizeof(float)) {
-    bad(file, "data", "the file changed while it was read");
-  }
   std::vector<float> data(count);
   if (count) std::memcpy(data.data(), bytes.data() + info.data_offset, count * sizeof(float));
+  if (shape) *shape = info.shape;
+  return data;
+}
+
+std::vector<std::uint32_t> read_npy_u32(const fs::path& file, std::vector<std::size_t>* shape) {
+  NpyInfo info;
+  const std::string bytes = read_npy_bytes(file, "<u4", info);
+  std::vector<std::uint32_t> data(element_count(info.shape));
+  if (!data.empty()) std::memcpy(data.data(), bytes.data() + info.data_offset, data.size() * 4);
   if (shape) *shape = info.shape;
   return data;
 }

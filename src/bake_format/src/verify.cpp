@@ -244,11 +244,13 @@ class Checker {
   }
 
   void check_array(const std::string& path, const std::vector<std::size_t>& expected, const std::string& meaning,
-                   const std::set<std::string>& present) {
+                   const std::set<std::string>& present, const std::string& descr = "<f4") {
     if (!present.count(path)) return;
     try {
       const NpyInfo info = read_npy_info(dir_ / path);
-      if (info.shape != expected) {
+      if (info.descr != descr) {
+        problem(path + ": elements of type '" + info.descr + "', expected '" + descr + "'. " + kRestore);
+      } else if (info.shape != expected) {
         problem(path + ": shape " + shape_words(info.shape) + ", expected " + shape_words(expected) + " " + meaning +
                 ". " + kRestore);
       }
@@ -330,6 +332,10 @@ VerifyReport verify(const fs::path& bake_dir) {
                       ", not a finite solid angle ≥ 0. Fix: re-bake");
       }
     }
+  }
+  if (m.refinement) {
+    check.check_array(m.refinement->file, {static_cast<std::size_t>(m.refinement->edge_count()), 2},
+                      "(edges split, 2: their vertices)", present, "<u4");
   }
   report.ok = report.problems.empty();
   return report;

@@ -80,6 +80,7 @@ void validate_options(const BakeOptions& o) {
     throw InputError(cli_error("--shadow-map", "got " + std::to_string(o.shadow_map_resolution),
                                "use 64 to 16384 texels, or leave it out to choose from the planes"));
   }
+  validate_refine_options(o.refine);
   if (o.resume && o.force) {
     throw InputError(cli_error("--resume/--force", "both given",
                                "use --resume to continue an interrupted bake, --force to start over"));
@@ -127,6 +128,7 @@ bake_format::Plan make_plan(const BakeOptions& o, const scene::Site& site, const
   plan.method = o.method;
   plan.preset = o.preset;
   plan.ground_samples = o.ground_samples;
+  if (o.refine.tolerance > 0.0) plan.refine = {o.refine.tolerance, o.refine.rounds, o.refine.min_edge};
   plan.planes = site.planes;
   if (o.resolution) {
     for (geom::Plane& p : plan.planes) std::tie(p.width, p.height) = *o.resolution;
@@ -308,8 +310,8 @@ void write_pca_form(const fs::path& out_dir, const bake_format::Manifest& manife
 
 // Assembles the final files from the parts, writes the manifest last, then removes the parts.
 std::uint64_t finalize(const fs::path& out_dir, bake_format::Manifest manifest, const scene::Mesh& mesh,
-                       const geom::Dome& dome, bool previews, const std::optional<bake_format::PcaOptions>& pca,
-                       std::FILE* log) {
+                       const scene::Refinement& refinement, const geom::Dome& dome, bool previews,
+                       const std::optional<bake_format::PcaOptions>& pca, std::FILE* log) {
   const auto start = std::chrono::steady_clock::now();
   const bake_format::PartStore parts(out_dir / "parts");
   const bake_format::Plan& plan = manifest.plan;
@@ -391,6 +393,18 @@ std::uint64_t finalize(const fs::path& out_dir, bake_format::Manifest manifest, 
   bake_format::write_npy(out_dir / manifest.vertices_file, vertices, vertices_shape);
   manifest.files.push_back({manifest.transfer_file, 0, ""});
   manifest.files.push_back({manifest.vertices_file, 0, ""});
+  if (plan.refine.tolerance > 0.0) {
+    bake_format::Manifest::Refinement record;
+    std::vector<std::uint32_t> edges;
+    for (const std::vector<scene::Edge>& round : refinement.rounds) {
+      record.round_sizes.push_back(round.size());
+      for (const scene::Edge& e : round) edges.insert(edges.end(), {e.first, e.second});
+    }
+    const std::size_t shape[] = {edges.size() / 2, 2};
+    bake_format::write_npy_u32(out_dir / record.file, edges, shape);
+    manifest.files.push_back({record.file, 0, ""});
+    manifest.refinement = std::move(record);
+  }
   if (plan.ground_samples > 0) {
     // The ground layer: the ground's irradiance per layer with the model's shadow, on a grid,
     // and its transfer to every vertex (ground_transfer.hpp), with A_l(z).
@@ -422,12 +436,37 @@ std::uint64_t finalize(const fs::path& out_dir, bake_format::Manifest manifest, 
 struct LoadedSite {
   scene::Site site;
   scene::Mesh mesh;
+  scene::Refinement refinement;
 };
 
-LoadedSite load(const fs::path& site_file) {
-  LoadedSite loaded{scene::load_site(site_file), {}};
+// The site and its model, refined where the light changes when `refine` asks: deterministic, so
+// every shard and a merge refine alike (their plans' vertex counts must agree).
+LoadedSite load(const fs::path& site_file, const RefineOptions& refine, int threads, std::FILE* log) {
+  LoadedSite loaded{scene::load_site(site_file), {}, {}};
   loaded.mesh = scene::load_site_model(loaded.site);
+  if (refine.tolerance > 0.0) {
+    const auto start = std::chrono::steady_clock::now();
+    RefineOptions options = refine;
+    options.threads = threads;
+    const std::size_t before = loaded.mesh.vertex_count();
+    loaded.refinement = refine_where_light_changes(loaded.mesh, loaded.site.planes, options, log);
+    if (log) {
+      std::fprintf(log, "refine: %zu → %zu vertices (%zu edges split in %zu rounds, tolerance %g, min edge %g m) in %.1f s\n",
+                   before, loaded.mesh.vertex_count(), loaded.refinement.split_count(), loaded.refinement.rounds.size(),
+                   refine.tolerance, refine.min_edge, seconds_since(start));
+    }
+  }
   return loaded;
+}
+
+RefineOptions refine_options_of(const bake_format::Plan& plan) {
+  RefineOptions options;
+  options.tolerance = plan.refine.tolerance;
+  if (plan.refine.tolerance > 0.0) {
+    options.rounds = plan.refine.rounds;
+    options.min_edge = plan.refine.min_edge;
+  }
+  return options;
 }
 
 void log_summary(std::FILE* log, const bake_format::Plan& plan, const BakeSummary& s, const fs::path& dir) {
@@ -574,7 +613,7 @@ BakeSummary run_bake(const BakeOptions& given, std::FILE* log) {
   const auto start = std::chrono::steady_clock::now();
   validate_options(given);
   check_pca_input(given.pca);
-  const LoadedSite loaded = load(given.site_file);
+  const LoadedSite loaded = load(given.site_file, given.refine, given.threads, log);
   BakeOptions options = given;
   options.method = resolve_method(given);
   const bake_format::Plan plan = make_plan(options, loaded.site, loaded.mesh);
@@ -633,7 +672,8 @@ BakeSummary run_bake(const BakeOptions& given, std::FILE* log) {
   if (whole) {
     bake_format::Manifest manifest = manifest_for(plan, dome);
     manifest.bake_seconds = seconds_since(start);
-    summary.bytes_written = finalize(options.out_dir, manifest, loaded.mesh, dome, options.previews, options.pca, log);
+    summary.bytes_written =
+        finalize(options.out_dir, manifest, loaded.mesh, loaded.refinement, dome, options.previews, options.pca, log);
     summary.complete = true;
   }
   summary.seconds = seconds_since(start);
@@ -705,20 +745,17 @@ BakeSummary merge_bakes(const std::vector<fs::path>& shard_dirs, const fs::path&
                      "). Fix: run the missing shards (skylit-bake SITE -o DIR --shard I/N) and merge again");
   }
 
-  const scene::Mesh mesh = [&] {
-    const scene::Site site = scene::load_site(plan->site_file);
-    scene::Mesh m = scene::load_site_model(site);
-    if (sha256_file(site.model) != plan->model_sha256 || m.vertex_count() != plan->vertex_count) {
-      throw InputError("the model '" + site.model.string() +
-                       "' changed since the shards were baked. Fix: re-bake the shards");
-    }
-    return m;
-  }();
+  const LoadedSite loaded = load(plan->site_file, refine_options_of(*plan), 0, log);
+  if (sha256_file(loaded.site.model) != plan->model_sha256 || loaded.mesh.vertex_count() != plan->vertex_count ||
+      loaded.mesh.triangle_count() != plan->triangle_count) {
+    throw InputError("the model '" + loaded.site.model.string() +
+                     "' changed since the shards were baked. Fix: re-bake the shards");
+  }
   bake_format::Manifest manifest = manifest_for(*plan, dome);
   BakeSummary summary;
   summary.faces_total = dome.face_count();
   summary.faces_skipped = dome.face_count();
-  summary.bytes_written = finalize(out_dir, manifest, mesh, dome, previews, pca, log);
+  summary.bytes_written = finalize(out_dir, manifest, loaded.mesh, loaded.refinement, dome, previews, pca, log);
   summary.complete = true;
   summary.seconds = seconds_since(start);
   log_summary(log, *plan, summary, out_dir);

@@ -400,6 +400,48 @@ class RaytraceEngine final : public VisibilityEngine {
     errors_->throw_if_any("ground_hits");
   }
 
+  void vertex_views(std::span<const Vec3> directions, double ground_radiance, std::span<float> out) {
+    const std::size_t count = directions.size();
+    if (out.size() != count * mesh_.vertex_count()) {
+      throw std::invalid_argument("vertex_views: output must hold one value per vertex and direction");
+    }
+    std::vector<Vec3> unit;
+    for (const Vec3& d : directions) {
+      const double length = d.norm();
+      if (!std::isfinite(length) || length == 0.0) throw std::invalid_argument("vertex_views: a direction is zero or not finite");
+      unit.push_back(d / length);
+    }
+    const float offset = static_cast<float>(offset_);
+    for_each_vertex(16, [&](RTCIntersectContext& context, std::size_t index, const Eigen::Vector3f& normal,
+                            const Eigen::Vector3f& origin) {
+      const Vec3 normal_d = normal.cast<double>();
+      const bool sees_ground = !(origin.z() < -offset || (normal.z() < 0.0f && mesh_.positions[index].z() <= offset));
+      float* row = out.data() + index * count;
+      for (std::size_t k = 0; k < count; ++k) {
+        row[k] = 0.0f;
+        const double c = normal_d.dot(unit[k]);
+        const bool below = unit[k].z() < 0.0;
+        if (c <= 0.0 || (below && !sees_ground)) continue;
+        RTCRay ray{};
+        ray.org_x = origin.x();
+        ray.org_y = origin.y();
+        ray.org_z = origin.z();
+        ray.dir_x = static_cast<float>(unit[k].x());
+        ray.dir_y = static_cast<float>(unit[k].y());
+        ray.dir_z = static_cast<float>(unit[k].z());
+        ray.tnear = offset;
+        ray.tfar = below ? static_cast<float>(std::max(static_cast<double>(origin.z()), 0.0) / -unit[k].z()) : kInfinity;
+        ray.mask = ~0u;
+        if (ray.tfar > ray.tnear) {
+          rtcOccluded1(scene_.get(), &context, &ray);
+          if (ray.tfar < 0.0f) continue;
+        }
+        row[k] = static_cast<float>(c * (below ? ground_radiance : 1.0));
+      }
+    });
+    errors_->throw_if_any("vertex_views");
+  }
+
   void vertex_fractions(std::span<float> out) override {
     const std::size_t vertices = mesh_.vertex_count();
     if (out.size() != static_cast<std::size_t>(layers_) * vertices) {
@@ -578,6 +620,12 @@ void ground_vertex_irradiance(const scene::Mesh& mesh, std::span<const geom::Pla
                 out[vertex] += (weights[k] * cosine) * ground(x, y);
               },
               options);
+}
+
+void vertex_views(const scene::Mesh& mesh, std::span<const geom::Plane> planes, std::span<const Vec3> directions,
+                  double ground_radiance, std::span<float> out, const RaytraceOptions& options) {
+  RaytraceEngine engine(mesh, planes, options);
+  engine.vertex_views(directions, ground_radiance, out);
 }
 
 void area_light_vertex_visibility(const scene::Mesh& mesh, std::span<const geom::Plane> planes, std::span<const Vec3> directions,

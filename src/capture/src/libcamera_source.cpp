@@ -271,6 +271,7 @@ struct LibcameraSource::Impl {
       const std::size_t used = metadata.planes().empty() ? 0 : metadata.planes()[0].bytesused;
       frame.image = libcamera_frame_to_bgr(format, size, stride, views, used);
       frame.timestamp = static_cast<double>(metadata.timestamp) * 1e-9;
+      frame.utc = std::chrono::floor<std::chrono::seconds>(std::chrono::system_clock::now());  // a live camera's frame is now
       frame.sequence = metadata.sequence;
       if (const auto exposure = request.metadata().get(lc::controls::ExposureTime)) frame.exposure_time = *exposure * 1e-6;
       if (const auto analogue = request.metadata().get(lc::controls::AnalogueGain)) frame.gain = *analogue;

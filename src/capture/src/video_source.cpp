@@ -175,6 +175,8 @@ FrameResult V4l2Source::read(double timeout_s) {
   // The V4L2 buffer's time (CLOCK_MONOTONIC, as std::chrono::steady_clock on Linux), else now.
   const double msec = capture_->get(cv::CAP_PROP_POS_MSEC);
   frame.timestamp = msec > 0 ? msec / 1000.0 : steady_seconds();
+  // A live camera's frame is now: with the site's location the sky stage knows where the sun is.
+  frame.utc = std::chrono::floor<std::chrono::seconds>(std::chrono::system_clock::now());
   frame.sequence = sequence_++;
   frame.exposure_time = exposure_time_;
   frame.gain = gain_;

@@ -21,8 +21,8 @@ constexpr std::array<std::string_view, 16> kTopKeys{"site",     "bake",  "preset
                                                     "fusion",   "tracking", "blend", "render", "photometric", "output", "status", "display",
                                                     "root"};
 constexpr std::array<std::string_view, 3> kRenderKeys{"scale", "ground_light", "ground_albedo"};
-constexpr std::array<std::string_view, 9> kSkyKeys{"calibration", "source", "response", "rate",      "sun",
-                                                   "smoothing",   "stale_after", "max_sources", "sun_colour"};
+constexpr std::array<std::string_view, 10> kSkyKeys{"calibration", "source", "response", "rate",      "sun",
+                                                   "smoothing",   "stale_after", "max_sources", "sun_colour", "clipped_sun_energy"};
 constexpr std::array<std::string_view, 2> kCameraKeys{"calibration", "source"};
 constexpr std::array<std::string_view, 9> kLinkKeys{"broker",   "topic",         "node", "username",   "password",
                                                     "password_file", "tls", "keepalive_s", "kind"};
@@ -225,6 +225,10 @@ void parse_sky(const YamlReader& r, const YAML::Node& root, const std::filesyste
   if (auto n = YamlReader::optional(sky, "sun_colour")) {
     constexpr std::array<std::string_view, 2> modes{"daylight", "measured"};
     c.sky.correct_sun_colour = r.choice(n, "sky.sun_colour", modes) == "daylight";
+  }
+  if (auto n = YamlReader::optional(sky, "clipped_sun_energy")) {
+    constexpr std::array<std::string_view, 2> modes{"measured", "clear_sky"};
+    c.sky.clear_sky_sun_energy = r.choice(n, "sky.clipped_sun_energy", modes) == "clear_sky";
   }
   parse_max_sources(r, sky, c.sky);
 }

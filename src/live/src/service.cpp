@@ -12,6 +12,7 @@
 
 #include "service_state.hpp"
 #include "skylit/bake_format/arrays.hpp"
+#include "skylit/bake_format/model.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/render/hmd_profile.hpp"
 #include "skylit/track/marker_map.hpp"
@@ -131,8 +132,8 @@ Service::Service(const LiveConfig& config, const ServiceOptions& options) : stat
   s.options = options;
   check_bake_matches_site(config.bake, config.site, config.preset);
   s.site = scene::load_site(config.site);
-  s.mesh = scene::load_site_model(s.site);
   s.manifest = bake_format::read_manifest(config.bake);
+  s.mesh = bake_format::load_baked_model(s.site, config.bake, s.manifest);
   std::vector<std::size_t> shape;
   s.transfer = bake_format::read_npy(config.bake / s.manifest.transfer_file, &shape);
   if (config.render.ground_light) {
@@ -167,7 +168,7 @@ Service::Service(const LiveConfig& config, const ServiceOptions& options) : stat
     s.sky_link = std::make_unique<SkyLinkReceiver>(*config.sky.link, identity, site_name);
   } else {
     s.sky_calibration = camera::load_calibration(config.sky.calibration);
-    s.sky_stage = std::make_unique<SkyStage>(s.sky_calibration, *s.dome, s.manifest.plan.basis, config.sky);
+    s.sky_stage = std::make_unique<SkyStage>(s.sky_calibration, *s.dome, s.manifest.plan.basis, config.sky, s.site.location);
     capture::OpenedSource sky_opened = capture::open_source_with_status(with_reconnect(config.sky.source));
     s.sky_source = std::move(sky_opened.source);
     s.sky_reconnecting = sky_opened.reconnecting;

@@ -58,6 +58,10 @@ struct SkyState {
   std::optional<blend::SunLight> sun;
   double sun_angular_radius = 0;
   bool sun_colour_corrected = false;  // sky::Sun::colour_corrected (sky.sun_colour: daylight)
+  // sky::Sun::located_by, energy_estimator and energy_confidence (a clipped sun).
+  std::string sun_located_by = "peak";
+  std::string sun_energy_estimator = "measured";
+  double sun_energy_confidence = 1.0;
   // Separated sources besides the sun (sky.max_sources > 1: lamps), brightest first, and the
   // radius of the disc each one's shadow map draws (sky::Sun::shadow_radius). The shadow maps
   // hold the sun (when there is one) and then these.

@@ -52,11 +52,13 @@ sky_link::SkyMessage message_of(const sky_link::SkyIdentity& identity, std::uint
     // The sun as smoothed (its energy), the lamps as found.
     const sky::Sun& published = sun ? *estimate.sun : source;
     m.sources.push_back({published.direction, published.energy, published.angular_radius, published.clipped, sun,
-                         published.shadow_radius, published.colour_corrected});
+                         published.shadow_radius, published.colour_corrected, published.located_by,
+                         published.energy_estimator, published.energy_confidence});
   }
   if (estimate.sources.empty() && estimate.sun) {
     m.sources.push_back({estimate.sun->direction, estimate.sun->energy, estimate.sun->angular_radius, estimate.sun->clipped, true,
-                         0.0, estimate.sun->colour_corrected});
+                         0.0, estimate.sun->colour_corrected, estimate.sun->located_by, estimate.sun->energy_estimator,
+                         estimate.sun->energy_confidence});
   }
   m.sun_reason = estimate.sun_reason;
   m.unseen_faces = estimate.luminance.unseen_faces;
@@ -127,7 +129,7 @@ SkyNode::SkyNode(const SkyNodeConfig& config, const SkyNodeOptions& options) : s
   s.run = std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
   s.calibration = camera::load_calibration(config.sky.calibration);
   s.dome = std::make_unique<geom::Dome>(s.manifest.plan.frequency);
-  s.stage = std::make_unique<SkyStage>(s.calibration, *s.dome, s.manifest.plan.basis, config.sky);
+  s.stage = std::make_unique<SkyStage>(s.calibration, *s.dome, s.manifest.plan.basis, config.sky, s.site.location);
   capture::SourceConfig source_config = config.sky.source;
   if (!source_config.reconnect) source_config.reconnect = capture::BackoffSettings{};  // a node that runs all day reopens what fails
   capture::OpenedSource opened = capture::open_source_with_status(source_config);
@@ -316,6 +318,10 @@ nlohmann::json SkyNode::State::status_report() const {
       if (sun.clipped) flags.push_back("sun_clipped");
       j["sky"]["sun"]["colour_corrected"] = sun.colour_corrected;
       if (sun.colour_corrected) flags.push_back("sun_colour_corrected");
+      j["sky"]["sun"]["located_by"] = sun.located_by;
+      j["sky"]["sun"]["energy_estimator"] = sun.energy_estimator;
+      j["sky"]["sun"]["energy_confidence"] = sun.energy_confidence;
+      if (sun.energy_estimator != "measured") flags.push_back("sun_energy_estimated");
     } else {
       j["sky"]["sun"] = nullptr;
     }

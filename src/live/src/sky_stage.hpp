@@ -10,6 +10,7 @@
 #include "skylit/geom/dome.hpp"
 #include "skylit/live/live_config.hpp"
 #include "skylit/sky/radiometry.hpp"
+#include "skylit/scene/site.hpp"
 #include "skylit/sky/sky_estimate.hpp"
 #include "skylit/sky/sky_smoothing.hpp"
 
@@ -24,14 +25,17 @@ class SkyStage {
   };
 
   // InputError for a calibration whose mask cannot be read, or a bad smoothing constant.
+  // `location`: the site's; with a frame's time it says where the sun is, so that a clipped blob
+  // there is taken as the sun however wide (sky::SunDetector).
   SkyStage(const camera::CameraCalibration& calibration, const geom::Dome& dome, geom::DomeBasis basis,
-           const SkySettings& settings);
+           const SkySettings& settings, const std::optional<scene::GeoLocation>& location = std::nullopt);
 
   Result estimate(const capture::Frame& frame);
   const sky::SkyEstimator& estimator() const { return *estimator_; }
 
  private:
   std::string response_;
+  std::optional<scene::GeoLocation> location_;
   std::unique_ptr<sky::SkyEstimator> estimator_;
   sky::SkySmoother smoother_;
 };

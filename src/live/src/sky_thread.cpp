@@ -204,6 +204,9 @@ EstimatedSky Service::State::SkyThread::estimate(const capture::Frame& frame) {
     state.sun_angular_radius = estimate.sun->angular_radius;
     state.sun_clipped = estimate.sun->clipped;
     state.sun_colour_corrected = estimate.sun->colour_corrected;
+    state.sun_located_by = estimate.sun->located_by;
+    state.sun_energy_estimator = estimate.sun->energy_estimator;
+    state.sun_energy_confidence = estimate.sun->energy_confidence;
   }
   // sources[0] is the sun when there is one; the rest are lamps (sky.max_sources).
   for (std::size_t k = estimate.sun ? 1 : 0; k < estimate.sources.size(); ++k) {
@@ -237,6 +240,9 @@ SkyState sky_from_message(const sky_link::SkyMessage& message, int max_sources) 
     state.sun_angular_radius = sun.angular_radius;
     state.sun_clipped = sun.clipped;
     state.sun_colour_corrected = sun.colour_corrected;
+    state.sun_located_by = sun.located_by;
+    state.sun_energy_estimator = sun.energy_estimator;
+    state.sun_energy_confidence = sun.energy_confidence;
   }
   for (std::size_t k = state.sun ? 1 : 0; k < message.sources.size(); ++k) {
     if (static_cast<int>(k) >= max_sources) break;

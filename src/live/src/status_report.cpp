@@ -154,6 +154,10 @@ nlohmann::json Service::State::status_report() const {
       if (latest->sun_clipped) flags.push_back("sun_clipped");
       sky_json["sun"]["colour_corrected"] = latest->sun_colour_corrected;
       if (latest->sun_colour_corrected) flags.push_back("sun_colour_corrected");
+      sky_json["sun"]["located_by"] = latest->sun_located_by;
+      sky_json["sun"]["energy_estimator"] = latest->sun_energy_estimator;
+      sky_json["sun"]["energy_confidence"] = latest->sun_energy_confidence;
+      if (latest->sun_energy_estimator != "measured") flags.push_back("sun_energy_estimated");
     } else {
       sky_json["sun"] = nullptr;
     }

@@ -1,9 +1,14 @@
-// A model split to a longest edge, for the building's per-vertex light (see site.hpp,
-// subdivide and load_site_model).
+// A model split to a longest edge, or where a bake found the light changing, for the building's
+// per-vertex light (see site.hpp: subdivide, split_edges, apply_refinement, load_site_model).
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <map>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -33,7 +38,107 @@ class Midpoints {
   std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> made_;
 };
 
+// The marked edges of triangle t: bit e for its edge from corner e to corner e + 1.
+unsigned marked_sides(const Mesh& mesh, std::size_t t, const std::set<Edge>& marked) {
+  unsigned sides = 0;
+  for (unsigned e = 0; e < 3; ++e) {
+    const Edge key = std::minmax(mesh.indices[3 * t + e], mesh.indices[3 * t + (e + 1) % 3]);
+    if (marked.count(key)) sides |= 1u << e;
+  }
+  return sides;
+}
+
 }  // namespace
+
+std::size_t Refinement::split_count() const {
+  std::size_t n = 0;
+  for (const std::vector<Edge>& round : rounds) n += round.size();
+  return n;
+}
+
+std::vector<Edge> split_edges(Mesh& mesh, std::span<const Edge> marked) {
+  std::set<Edge> edges;
+  for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
+    for (std::size_t e = 0; e < 3; ++e) edges.insert(std::minmax(mesh.indices[3 * t + e], mesh.indices[3 * t + (e + 1) % 3]));
+  }
+  std::set<Edge> split;
+  for (const Edge& edge : marked) {
+    const Edge key = std::minmax(edge.first, edge.second);
+    if (!edges.count(key)) {
+      throw std::invalid_argument("split_edges: (" + std::to_string(edge.first) + ", " + std::to_string(edge.second) +
+                                  ") is not an edge of the mesh");
+    }
+    split.insert(key);
+  }
+  // Edges with the same ends in space (a crease, where each face has its own vertices) split
+  // together, so that no face keeps a vertex of its neighbour's hanging on its side.
+  using Ends = std::pair<std::array<float, 3>, std::array<float, 3>>;
+  const auto ends_of = [&](const Edge& e) {
+    std::array<float, 3> p{mesh.positions[e.first].x(), mesh.positions[e.first].y(), mesh.positions[e.first].z()};
+    std::array<float, 3> q{mesh.positions[e.second].x(), mesh.positions[e.second].y(), mesh.positions[e.second].z()};
+    return p < q ? Ends{p, q} : Ends{q, p};
+  };
+  std::map<Ends, std::vector<Edge>> twins;
+  for (const Edge& e : edges) twins[ends_of(e)].push_back(e);
+  // Closure: a triangle with two of its edges split would keep a vertex hanging on its third.
+  for (bool closed = false; !closed;) {
+    closed = true;
+    for (const Edge& e : std::vector<Edge>(split.begin(), split.end())) {
+      for (const Edge& twin : twins[ends_of(e)]) closed = !split.insert(twin).second && closed;
+    }
+    for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
+      const unsigned sides = marked_sides(mesh, t, split);
+      if (sides == 3u || sides == 5u || sides == 6u) {
+        const unsigned third = 7u & ~sides;
+        const unsigned e = third == 1u ? 0u : third == 2u ? 1u : 2u;
+        split.insert(std::minmax(mesh.indices[3 * t + e], mesh.indices[3 * t + (e + 1) % 3]));
+        closed = false;
+      }
+    }
+  }
+  if (split.empty()) return {};
+  if (mesh.texcoords.size() != mesh.positions.size()) mesh.texcoords.clear();
+  Midpoints midpoints(mesh);
+  for (const Edge& edge : split) midpoints.of(edge.first, edge.second);  // new vertices in edge order
+  std::vector<std::uint32_t> indices;
+  std::vector<std::uint32_t> materials;
+  indices.reserve(mesh.indices.size() + 9 * split.size());
+  for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
+    const std::uint32_t material = t < mesh.triangle_material.size() ? mesh.triangle_material[t] : 0u;
+    const unsigned sides = marked_sides(mesh, t, split);
+    std::uint32_t a = mesh.indices[3 * t], b = mesh.indices[3 * t + 1], c = mesh.indices[3 * t + 2];
+    if (sides == 0u) {
+      indices.insert(indices.end(), {a, b, c});
+      materials.push_back(material);
+    } else if (sides == 7u) {
+      const std::uint32_t ab = midpoints.of(a, b), bc = midpoints.of(b, c), ca = midpoints.of(c, a);
+      indices.insert(indices.end(), {a, ab, ca, ab, b, bc, ca, bc, c, ab, bc, ca});
+      materials.insert(materials.end(), {material, material, material, material});
+    } else {
+      // One marked edge: turned to a→b (winding kept), halved through c.
+      if (sides == 2u) std::tie(a, b, c) = std::make_tuple(b, c, a);
+      if (sides == 4u) std::tie(a, b, c) = std::make_tuple(c, a, b);
+      const std::uint32_t m = midpoints.of(a, b);
+      indices.insert(indices.end(), {a, m, c, m, b, c});
+      materials.insert(materials.end(), {material, material});
+    }
+  }
+  mesh.indices = std::move(indices);
+  if (!mesh.triangle_material.empty()) mesh.triangle_material = std::move(materials);
+  return {split.begin(), split.end()};
+}
+
+void apply_refinement(Mesh& mesh, const Refinement& refinement) {
+  for (std::size_t r = 0; r < refinement.rounds.size(); ++r) {
+    std::vector<Edge> recorded = refinement.rounds[r];
+    for (Edge& e : recorded) e = Edge(std::min(e.first, e.second), std::max(e.first, e.second));
+    std::sort(recorded.begin(), recorded.end());
+    if (split_edges(mesh, recorded) != recorded) {
+      throw std::invalid_argument("refinement round " + std::to_string(r + 1) +
+                                  ": its edges are not closed as a refinement of this model splits them");
+    }
+  }
+}
 
 void subdivide(Mesh& mesh, double max_edge) {
   if (!std::isfinite(max_edge) || max_edge <= 0.0) return;

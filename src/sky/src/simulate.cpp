@@ -286,6 +286,28 @@ cv::Mat render_equirect(const SkyFunction& sky, int width, int height, const Ren
   return out;
 }
 
+double auto_exposure_scale(const cv::Mat& radiance, const cv::Mat& sky, double median_fraction) {
+  if (!(median_fraction > 0.0 && median_fraction <= 1.0)) throw std::invalid_argument("auto_exposure_scale: fraction outside (0, 1]");
+  if (radiance.type() != CV_32FC3 || sky.type() != CV_8UC1 || sky.size() != radiance.size()) {
+    throw std::invalid_argument("auto_exposure_scale: a CV_32FC3 frame and a CV_8U sky mask of its size");
+  }
+  std::vector<double> values;
+  for (int y = 0; y < radiance.rows; ++y) {
+    const auto* in = radiance.ptr<cv::Vec3f>(y);
+    const auto* seen = sky.ptr<std::uint8_t>(y);
+    for (int x = 0; x < radiance.cols; ++x) {
+      if (!seen[x]) continue;
+      const double l = 0.0722 * in[x][0] + 0.7152 * in[x][1] + 0.2126 * in[x][2];
+      if (std::isfinite(l)) values.push_back(l);
+    }
+  }
+  if (values.empty()) throw std::invalid_argument("auto_exposure_scale: no sky pixels");
+  const auto mid = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), mid, values.end());
+  if (!(*mid > 0.0)) throw std::invalid_argument("auto_exposure_scale: the sky's median is not above 0");
+  return median_fraction / *mid;
+}
+
 cv::Mat to_8bit(const cv::Mat& radiance, double exposure_scale) {
   if (radiance.empty() || radiance.type() != CV_32FC3) throw std::invalid_argument("to_8bit: not a CV_32FC3 image");
   if (!std::isfinite(exposure_scale) || exposure_scale <= 0) {

@@ -7,6 +7,7 @@
 #include "skylit/base/error.hpp"
 #include "skylit/camera/lens.hpp"
 #include "skylit/sky/radiometry.hpp"
+#include "skylit/sky/sky_model.hpp"
 
 namespace skylit::sky {
 namespace {
@@ -51,12 +52,36 @@ SkyEstimator::SkyEstimator(const camera::CameraCalibration& calibration, const g
   }
 }
 
-SkyEstimate SkyEstimator::estimate(const RadianceFrame& frame) const {
+ClippedSunEnergy parse_clipped_sun_energy(const std::string& text, const std::string& field) {
+  if (text == "measured") return ClippedSunEnergy::Measured;
+  if (text == "clear_sky") return ClippedSunEnergy::ClearSky;
+  throw InputError(input_message({}, -1, -1, field, "got '" + text + "'",
+                                 "use clear_sky (a clear-sky model fitted to the unclipped sky) or measured (the "
+                                 "clipped pixels: a lower bound)"));
+}
+
+void SkyEstimator::estimate_clipped_sun_energy(Sun& sun, const RadianceFrame& frame, const cv::Mat& disc) const {
+  const std::optional<ClearSkyFit> fit =
+      fit_clear_sky(lens_, sun_detector_->sky(), frame.radiance, frame.clipped, disc, sun.direction, options_.clear_sky);
+  if (!fit) return;
+  const Eigen::Vector3d estimated = fit->confidence * fit->sun_energy;
+
+  if (!(rgb_luminance(estimated) > rgb_luminance(sun.energy))) return;  // the pixels already say more
+  sun.measured_energy = sun.energy;
+  sun.energy = estimated;
+  sun.energy_estimator = "clear_sky";
+  sun.energy_confidence = fit->confidence;
+}
+
+SkyEstimate SkyEstimator::estimate(const RadianceFrame& frame, const std::optional<Vec3>& expected_sun) const {
   SkyEstimate result;
   cv::Mat exclude;
   if (sun_detector_) {
     const auto start = std::chrono::steady_clock::now();
-    SunDetection detection = sun_detector_->detect(frame.radiance, frame.clipped);
+    SunDetection detection = sun_detector_->detect(frame.radiance, frame.clipped, expected_sun);
+    if (detection.sun && detection.sun->clipped && options_.clipped_sun_energy == ClippedSunEnergy::ClearSky) {
+      estimate_clipped_sun_energy(*detection.sun, frame, detection.mask);
+    }
     if (detection.sun && options_.correct_sun_colour) correct_sun_colour(*detection.sun);
     result.sun = detection.sun;
     result.sun_reason = detection.reason;

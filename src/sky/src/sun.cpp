@@ -6,10 +6,14 @@
 #include <limits>
 #include <map>
 #include <numbers>
+#include <optional>
+#include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "skylit/base/error.hpp"
+#include "skylit/sky/sky_model.hpp"
 #include "skylit/sky/sky_table.hpp"
 #include "skylit/camera/lens.hpp"
 #include "skylit/geom/angles.hpp"
@@ -94,6 +98,26 @@ struct Candidate {
 
 bool is_clipped(const cv::Mat& clipped, cv::Point ip) { return !clipped.empty() && clipped.at<std::uint8_t>(ip) != 0; }
 
+// Around the candidate's pixel (peak_at), a window that holds everything out to `radius_deg`.
+std::string place_window(const DetectionInput& in, Candidate& c, double radius_deg) {
+  const cv::Point& peak_at = c.peak_at;
+  const auto at = in.lens.pixel_to_site(Vec2(peak_at.x, peak_at.y));
+  if (!at) return "the lens model cannot place the brightest pixel";
+  const Vec3& peak_dir = c.peak_dir = *at;
+  double pixel_angle = std::numeric_limits<double>::infinity();
+  for (const cv::Point step : {cv::Point(1, 0), cv::Point(0, 1), cv::Point(-1, 0), cv::Point(0, -1)}) {
+    const auto d = in.lens.pixel_to_site(Vec2(peak_at.x + step.x, peak_at.y + step.y));
+    if (d) pixel_angle = std::min(pixel_angle, angle_between(peak_dir, *d));
+  }
+  if (!std::isfinite(pixel_angle) || pixel_angle <= 0.0) {
+    return "the lens model cannot measure angles around the brightest pixel";
+  }
+  const int half = static_cast<int>(std::ceil(radius_deg * kDeg / pixel_angle)) + 2;
+  c.window = cv::Rect(peak_at.x - half, peak_at.y - half, 2 * half + 1, 2 * half + 1) &
+             cv::Rect(0, 0, in.radiance.cols, in.radiance.rows);
+  return "";
+}
+
 // The brightest sky pixel is the candidate; around it, a window that holds the background annulus.
 std::string find_candidate(const DetectionInput& in, Candidate& c) {
   const cv::Mat& radiance = in.radiance;
@@ -113,63 +137,68 @@ std::string find_candidate(const DetectionInput& in, Candidate& c) {
   }
   if (peak_at.x < 0) return "the frame sees no sky (all pixels masked or below the horizon)";
   if (peak <= 0.0f) return "the sky is black";
-  const Vec3& peak_dir = c.peak_dir = *in.lens.pixel_to_site(Vec2(peak_at.x, peak_at.y));
-
-  double pixel_angle = std::numeric_limits<double>::infinity();
-  for (const cv::Point step : {cv::Point(1, 0), cv::Point(0, 1), cv::Point(-1, 0), cv::Point(0, -1)}) {
-    const auto d = in.lens.pixel_to_site(Vec2(peak_at.x + step.x, peak_at.y + step.y));
-    if (d) pixel_angle = std::min(pixel_angle, angle_between(peak_dir, *d));
-  }
-  if (!std::isfinite(pixel_angle) || pixel_angle <= 0.0) {
-    return "the lens model cannot measure angles around the brightest pixel";
-  }
-  const int half = static_cast<int>(std::ceil(in.options.background_outer_deg * kDeg / pixel_angle)) + 2;
-  c.window = cv::Rect(peak_at.x - half, peak_at.y - half, 2 * half + 1, 2 * half + 1) &
-             cv::Rect(0, 0, radiance.cols, radiance.rows);
-  return "";
+  return place_window(in, c, in.options.background_outer_deg);
 }
 
-// Angles from the peak, and the background from the annulus (per-channel medians); the peak's
-// contrast against it.
-std::string measure_background(const DetectionInput& in, Candidate& c) {
-  const cv::Mat& radiance = in.radiance;
-  const cv::Mat& clipped = in.clipped;
-  const SunOptions& options = in.options;
+// Angles from the peak over the window (-1 off the sky).
+void measure_angles(const DetectionInput& in, Candidate& c) {
   const cv::Rect& window = c.window;
   cv::Mat& angle = c.angle = cv::Mat(window.size(), CV_64FC1, cv::Scalar(-1.0));
-  std::vector<double> ring_b, ring_g, ring_r, ring_y;
-  int ring_clipped = 0;
   for (int y = 0; y < window.height; ++y) {
     for (int x = 0; x < window.width; ++x) {
       const int ix = window.x + x, iy = window.y + y;
       if (!in.sky.at<std::uint8_t>(iy, ix)) continue;
       const auto d = in.lens.pixel_to_site(Vec2(ix, iy));
-      if (!d) continue;
-      const double a = angle_between(c.peak_dir, *d);
-      angle.at<double>(y, x) = a;
-      if (a >= options.background_inner_deg * kDeg && a <= options.background_outer_deg * kDeg) {
-        const cv::Vec3f& p = radiance.at<cv::Vec3f>(iy, ix);
-        ring_b.push_back(clean(p[0]));
-        ring_g.push_back(clean(p[1]));
-        ring_r.push_back(clean(p[2]));
-        ring_y.push_back(luminance(p));
-        if (!clipped.empty() && clipped.at<std::uint8_t>(iy, ix)) ++ring_clipped;
-      }
+      if (d) angle.at<double>(y, x) = angle_between(c.peak_dir, *d);
     }
   }
-  if (ring_y.size() < 8) return "too little sky around the brightest pixel to measure its background";
-  const std::size_t ring_count = ring_y.size();
+}
+
+// The background: per-channel medians over the annulus [inner, outer] radians from the peak (its
+// clipped pixels left out when `unclipped_only`). Returns how many annulus pixels there were, and
+// how many of them clipped.
+std::pair<std::size_t, int> ring_background(const DetectionInput& in, Candidate& c, double inner, double outer,
+                                            bool unclipped_only = false) {
+  std::vector<double> ring_b, ring_g, ring_r, ring_y;
+  int ring_clipped = 0;
+  for (int y = 0; y < c.window.height; ++y) {
+    for (int x = 0; x < c.window.width; ++x) {
+      const double a = c.angle.at<double>(y, x);
+      if (a < inner || a > outer) continue;
+      const int ix = c.window.x + x, iy = c.window.y + y;
+      if (unclipped_only && is_clipped(in.clipped, {ix, iy})) {
+        ++ring_clipped;
+        continue;
+      }
+      const cv::Vec3f& p = in.radiance.at<cv::Vec3f>(iy, ix);
+      ring_b.push_back(clean(p[0]));
+      ring_g.push_back(clean(p[1]));
+      ring_r.push_back(clean(p[2]));
+      ring_y.push_back(luminance(p));
+      if (is_clipped(in.clipped, {ix, iy})) ++ring_clipped;
+    }
+  }
+  const std::size_t count = ring_y.size();
   c.background = Eigen::Vector3d(median(std::move(ring_r)), median(std::move(ring_g)), median(std::move(ring_b)));
-  const double background_y = c.background_y = median(std::move(ring_y));
-  const double contrast = c.contrast =
-      background_y > 0.0 ? c.peak / background_y : std::numeric_limits<double>::infinity();
-  const bool peak_clipped = !clipped.empty() && clipped.at<std::uint8_t>(c.peak_at) != 0;
+  c.background_y = median(std::move(ring_y));
+  c.contrast = c.background_y > 0.0 ? c.peak / c.background_y : std::numeric_limits<double>::infinity();
+  return {count, ring_clipped};
+}
+
+// Angles from the peak, and the background from the annulus (per-channel medians); the peak's
+// contrast against it.
+std::string measure_background(const DetectionInput& in, Candidate& c) {
+  measure_angles(in, c);
+  const auto [ring_count, ring_clipped] =
+      ring_background(in, c, in.options.background_inner_deg * kDeg, in.options.background_outer_deg * kDeg);
+  if (ring_count < 8) return "too little sky around the brightest pixel to measure its background";
+  const bool peak_clipped = is_clipped(in.clipped, c.peak_at);
   // A clipped peak hides the sun's true contrast; a compact clipped blob in an unclipped sky
   // still is a sun (with an energy that is a lower bound).
   const bool clipped_sun = peak_clipped && ring_clipped * 4 < static_cast<int>(ring_count);
-  if (contrast < options.min_contrast && !clipped_sun) {
-    return "no compact sun: the brightest pixel is only " + std::to_string(contrast) + "× its surroundings (needs " +
-           std::to_string(options.min_contrast) + "×)";
+  if (c.contrast < in.options.min_contrast && !clipped_sun) {
+    return "no compact sun: the brightest pixel is only " + std::to_string(c.contrast) + "× its surroundings (needs " +
+           std::to_string(in.options.min_contrast) + "×)";
   }
   return "";
 }
@@ -269,6 +298,92 @@ std::string estimate_sun(const DetectionInput& in, const Candidate& c, Sun& sun)
   return "";
 }
 
+// A clipped blob at `seed` as the sun (SunOptions, "a clipped sun"): the blob no wider than
+// max_clipped_radius, round unless expected; its background just outside it; its direction the
+// expected one, or the blob's centre; its disc for shadows the sun's own.
+std::string detect_clipped(const DetectionInput& in, cv::Point seed, const std::optional<Vec3>& expected, Candidate& c,
+                           Sun& sun) {
+  const SunOptions& o = in.options;
+  c.peak_at = seed;
+  c.peak = luminance(in.radiance.at<cv::Vec3f>(seed));
+  // The blob, and the background annulus just outside it.
+  const double window_deg = o.max_clipped_radius_deg + 1.0 + (o.background_outer_deg - o.background_inner_deg);
+  if (std::string reason = place_window(in, c, window_deg); !reason.empty()) return reason;
+  measure_angles(in, c);
+  bool too_wide = false;
+  c.core = grow(c, [&](cv::Point ip) { return is_clipped(in.clipped, ip); }, o.max_clipped_radius_deg * kDeg, too_wide);
+  // Without an expectation a clipped region wider than that is an overexposed sky; with one,
+  // the sun is where it is expected, in whatever the camera clipped around it.
+  if (too_wide && !expected) {
+    return "no sun: the clipped region there is wider than " + std::to_string(o.max_clipped_radius_deg) +
+           "°, an overexposed sky rather than a sun";
+  }
+  Vec3 centre = Vec3::Zero();
+  double area = 0.0, reach = 0.0;
+  for (const cv::Point& p : c.core) {
+    const cv::Point ip = p + c.window.tl();
+    const double w = block_solid_angle(in.lens, ip.x - 0.5, ip.y - 0.5, ip.x + 0.5, ip.y + 0.5);
+    centre += w * *in.lens.pixel_to_site(Vec2(ip.x, ip.y));
+    area += w;
+    reach = std::max(reach, c.angle.at<double>(p));
+  }
+  centre.normalize();
+  double radius = 0.0;
+  for (const cv::Point& p : c.core) {
+    const cv::Point ip = p + c.window.tl();
+    radius = std::max(radius, angle_between(centre, *in.lens.pixel_to_site(Vec2(ip.x, ip.y))));
+  }
+  if (!expected) {
+    const double roundness = area / (2.0 * std::numbers::pi * (1.0 - std::cos(std::max(radius, 1e-6))));
+    if (roundness < o.min_clipped_roundness) {
+      return "no sun: the clipped region there (" + std::to_string(radius / kDeg) + "° across its centre) is not round "
+             "(it fills " + std::to_string(roundness) + " of its disc), a bright cloud rather than a sun";
+    }
+  }
+  const double inner = reach + 1.0 * kDeg;
+  const auto [ring_count, ring_clipped] =
+      ring_background(in, c, inner, inner + (o.background_outer_deg - o.background_inner_deg) * kDeg, expected.has_value());
+  if (ring_count < 8 || (!expected && ring_clipped * 4 >= static_cast<int>(ring_count))) {
+    return "no sun: too little unclipped sky around the clipped region to measure its background";
+  }
+  const double threshold = c.background_y * o.disc_factor;
+  bool beyond = false;
+  c.disc = grow(
+      c, [&](cv::Point ip) { return luminance(in.radiance.at<cv::Vec3f>(ip)) > threshold || is_clipped(in.clipped, ip); },
+      reach + o.halo_radius_deg * kDeg, beyond);
+  if (std::string reason = estimate_sun(in, c, sun); !reason.empty()) return reason;
+  sun.direction = expected ? Vec3(expected->normalized()) : centre;
+  sun.located_by = expected ? "expected" : "clipped shape";
+  sun.clipped = true;
+  sun.energy_confidence = 0.0;  // a lower bound, by how much unknown
+  // The blob is the camera's, not the sun's: shadows take the sun's own disc.
+  sun.angular_radius = sun.shadow_radius = kSunAngularRadius;
+  sun.disc_directions = {sun.direction};
+  sun.disc_weights = {1.0};
+  return "";
+}
+
+// The clipped sky pixel nearest `expected`, when one lies within the tolerance.
+std::optional<cv::Point> clipped_near(const DetectionInput& in, const Vec3& expected) {
+  const Vec3 e = expected.normalized();
+  const double min_cos = std::cos(in.options.expected_tolerance_deg * kDeg);
+  std::optional<cv::Point> best;
+  double best_cos = min_cos;
+  for (int y = 0; y < in.clipped.rows; ++y) {
+    const auto* clipped = in.clipped.ptr<std::uint8_t>(y);
+    const auto* sky = in.sky.ptr<std::uint8_t>(y);
+    for (int x = 0; x < in.clipped.cols; ++x) {
+      if (!clipped[x] || !sky[x]) continue;
+      const auto d = in.lens.pixel_to_site(Vec2(x, y));
+      if (d && d->dot(e) >= best_cos) {
+        best_cos = d->dot(e);
+        best = cv::Point(x, y);
+      }
+    }
+  }
+  return best;
+}
+
 }  // namespace
 
 SunDetector::SunDetector(const camera::Lens& lens, const cv::Mat& mask, SunOptions options)
@@ -292,7 +407,7 @@ SunDetector::SunDetector(const camera::Lens& lens, const cv::Mat& mask, SunOptio
   }
 }
 
-SunDetection SunDetector::detect(const cv::Mat& radiance, const cv::Mat& clipped) const {
+SunDetection SunDetector::detect(const cv::Mat& radiance, const cv::Mat& clipped, const std::optional<Vec3>& expected) const {
   const camera::CameraCalibration& c = lens_->calibration();
   if (radiance.type() != CV_32FC3 || radiance.cols != c.image_width || radiance.rows != c.image_height) {
     throw InputError(input_message(c.file, -1, -1, "",
@@ -303,24 +418,51 @@ SunDetection SunDetector::detect(const cv::Mat& radiance, const cv::Mat& clipped
   if (!clipped.empty() && (clipped.type() != CV_8UC1 || clipped.size() != radiance.size())) {
     throw InputError("clipped mask: expected an 8-bit single-channel image of the frame's size");
   }
+  if (expected && (!expected->allFinite() || !(expected->norm() > 0.0))) {
+    throw std::invalid_argument("SunDetector::detect: the expected sun direction is zero or not finite");
+  }
   SunDetection result;
   const DetectionInput in{radiance, clipped, sky_, *lens_, options_};
+  const auto found = [&](const Candidate& candidate, const Sun& sun, std::string reason) {
+    result.mask = cv::Mat(radiance.size(), CV_8UC1, cv::Scalar(0));
+    for (const cv::Point& p : candidate.disc) result.mask.at<std::uint8_t>(p + candidate.window.tl()) = 255;
+    result.reason = std::move(reason);
+    result.sun = sun;
+    return result;
+  };
+  // A clipped blob where the location and time put the sun is the sun, however wide.
+  if (expected && !clipped.empty() && expected->z() > 0.0) {
+    if (const std::optional<cv::Point> seed = clipped_near(in, *expected)) {
+      Candidate candidate;
+      Sun sun;
+      const std::string reason = detect_clipped(in, *seed, expected, candidate, sun);
+      if (reason.empty()) return found(candidate, sun, "clipped sun where the location and time put it: its energy is estimated");
+      result.reason = reason;
+      return result;
+    }
+  }
   Candidate candidate;
   result.reason = find_candidate(in, candidate);
   if (result.reason.empty()) result.reason = measure_background(in, candidate);
-  if (result.reason.empty()) result.reason = measure_core(in, candidate);
+  if (result.reason.empty()) {
+    result.reason = measure_core(in, candidate);
+    // A clipped peak whose core is too wide: the clipped region's shape may still make it a sun.
+    if (!result.reason.empty() && !expected && is_clipped(clipped, candidate.peak_at)) {
+      Candidate blob;
+      Sun sun;
+      const std::string reason = detect_clipped(in, candidate.peak_at, std::nullopt, blob, sun);
+      if (reason.empty()) return found(blob, sun, "clipped sun, found by the clipped region's shape: its energy is estimated");
+      result.reason = reason;
+    }
+  }
   if (!result.reason.empty()) return result;
   find_disc(in, candidate);
   Sun sun;
   result.reason = estimate_sun(in, candidate, sun);
   if (!result.reason.empty()) return result;
-
-  result.mask = cv::Mat(radiance.size(), CV_8UC1, cv::Scalar(0));
-  for (const cv::Point& p : candidate.disc) result.mask.at<std::uint8_t>(p + candidate.window.tl()) = 255;
-  result.reason = sun.clipped ? "compact sun, clipped: its energy is a lower bound and shadows come out too weak"
-                              : "compact sun";
-  result.sun = sun;
-  return result;
+  if (sun.clipped) sun.energy_confidence = 0.0;
+  return found(candidate, sun,
+               sun.clipped ? "compact sun, clipped: its energy is a lower bound and shadows come out too weak" : "compact sun");
 }
 
 Eigen::Vector3d daylight_sun_colour(double elevation) {

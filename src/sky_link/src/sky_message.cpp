@@ -103,6 +103,22 @@ SkyMessage parse(const json& root) {
       if (!s["colour_corrected"].is_boolean()) throw BadField("'sources.colour_corrected' is not true or false");
       p.colour_corrected = s["colour_corrected"].get<bool>();
     }
+    if (s.is_object() && s.contains("located_by")) {  // came with clipped suns; absent in older messages
+      p.located_by = text(s["located_by"], "sources.located_by");
+      if (p.located_by != "peak" && p.located_by != "expected" && p.located_by != "clipped shape") {
+        throw BadField("'sources.located_by' is not peak, expected or clipped shape");
+      }
+    }
+    if (s.is_object() && s.contains("energy_estimator")) {
+      p.energy_estimator = text(s["energy_estimator"], "sources.energy_estimator");
+      if (p.energy_estimator != "measured" && p.energy_estimator != "clear_sky") {
+        throw BadField("'sources.energy_estimator' is not measured or clear_sky");
+      }
+    }
+    if (s.is_object() && s.contains("energy_confidence")) {
+      p.energy_confidence = finite_number(s["energy_confidence"], "sources.energy_confidence");
+      if (p.energy_confidence < 0 || p.energy_confidence > 1) throw BadField("'sources.energy_confidence' is outside [0, 1]");
+    }
     m.sources.push_back(p);
   }
   m.sun_reason = text(field(root, "sun_reason"), "sun_reason");
@@ -148,7 +164,10 @@ std::vector<std::uint8_t> encode_sky_message(const SkyMessage& m) {
                        {"clipped", p.clipped},
                        {"sun", p.sun},
                        {"shadow_radius", p.shadow_radius},
-                       {"colour_corrected", p.colour_corrected}});
+                       {"colour_corrected", p.colour_corrected},
+                       {"located_by", p.located_by},
+                       {"energy_estimator", p.energy_estimator},
+                       {"energy_confidence", p.energy_confidence}});
   }
   const json root = {
       {"version", kSkyMessageVersion},

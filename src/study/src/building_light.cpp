@@ -63,6 +63,7 @@ TrianglePoints triangle_points(const scene::Mesh& mesh) {
                                                    Eigen::Vector3d(1.0, 4.0, 1.0) / 6.0, Eigen::Vector3d(1.0, 1.0, 4.0) / 6.0};
   for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
     const std::array<std::uint32_t, 3> c{mesh.indices[t], mesh.indices[t + 1], mesh.indices[t + 2]};
+    const double area = 0.5 * static_cast<double>((mesh.positions[c[1]] - mesh.positions[c[0]]).cross(mesh.positions[c[2]] - mesh.positions[c[0]]).norm());
     for (const Eigen::Vector3d& b : barycentric) {
       Eigen::Vector3f p = Eigen::Vector3f::Zero(), n = Eigen::Vector3f::Zero();
       for (int k = 0; k < 3; ++k) {
@@ -74,6 +75,7 @@ TrianglePoints triangle_points(const scene::Mesh& mesh) {
       points.normals.push_back(n.normalized());
       points.corners.push_back(c);
       points.weights.push_back(b);
+      points.areas.push_back(area / 4.0);
     }
   }
   return points;
@@ -171,6 +173,22 @@ Errors building_errors(std::span<const Eigen::Vector3d> estimate, std::span<cons
     }
   }
   return errors_of(std::move(diffs));
+}
+
+Errors building_errors(std::span<const Eigen::Vector3d> estimate, std::span<const Eigen::Vector3d> reference,
+                       const Eigen::Vector3d& horizontal, std::span<const double> areas) {
+  if (estimate.size() != reference.size() || estimate.size() != areas.size()) {
+    throw std::invalid_argument("building_errors: estimate, reference and areas differ in length");
+  }
+  std::vector<double> diffs, weights;
+  for (std::size_t v = 0; v < estimate.size(); ++v) {
+    for (int c = 0; c < 3; ++c) {
+      if (!(horizontal[c] > 0)) continue;
+      diffs.push_back(std::abs(estimate[v][c] - reference[v][c]) / horizontal[c]);
+      weights.push_back(areas[v]);
+    }
+  }
+  return errors_of(diffs, weights);
 }
 
 std::size_t worst_vertex(std::span<const Eigen::Vector3d> estimate, std::span<const Eigen::Vector3d> reference,

@@ -1,6 +1,7 @@
 #include "skylit/study/study.hpp"
 
 #include <algorithm>
+#include <stdexcept>
 #include <cmath>
 #include <numbers>
 #include <cstdint>
@@ -25,6 +26,30 @@ Errors errors_of(std::vector<double> diffs) {
   std::nth_element(diffs.begin(), at, diffs.end());
   e.p99 = *at;
   e.max = *std::max_element(diffs.begin(), diffs.end());
+  return e;
+}
+
+Errors errors_of(std::span<const double> diffs, std::span<const double> weights) {
+  if (diffs.size() != weights.size()) throw std::invalid_argument("errors_of: one weight per diff");
+  std::vector<std::pair<double, double>> sorted;
+  double total = 0, sum = 0;
+  for (std::size_t k = 0; k < diffs.size(); ++k) {
+    if (!(weights[k] > 0)) continue;
+    sorted.emplace_back(diffs[k], weights[k]);
+    total += weights[k];
+    sum += weights[k] * diffs[k] * diffs[k];
+  }
+  Errors e;
+  if (sorted.empty()) return e;
+  std::sort(sorted.begin(), sorted.end());
+  e.rms = std::sqrt(sum / total);
+  e.max = sorted.back().first;
+  double below = 0;
+  for (const auto& [d, w] : sorted) {
+    below += w;
+    e.p99 = d;
+    if (below >= 0.99 * total) break;
+  }
   return e;
 }
 

@@ -42,6 +42,10 @@ ImageStackHalf read_exr_stack_half(const std::filesystem::path& file,
 void write_npy(const std::filesystem::path& file, std::span<const float> data,
                std::span<const std::size_t> shape);
 std::vector<float> read_npy(const std::filesystem::path& file, std::vector<std::size_t>* shape);
+// The same for little-endian uint32 ('<u4'): indices, such as a refinement's edges.
+void write_npy_u32(const std::filesystem::path& file, std::span<const std::uint32_t> data,
+                   std::span<const std::size_t> shape);
+std::vector<std::uint32_t> read_npy_u32(const std::filesystem::path& file, std::vector<std::size_t>* shape);
 
 // Inspection without reading the data (cheap; used by verify). Both throw InputError naming the
 // file for an unreadable or foreign file. read_npy_info also refuses a file size other than the
@@ -55,6 +59,7 @@ struct ExrInfo {
 ExrInfo read_exr_info(const std::filesystem::path& file);
 
 struct NpyInfo {
+  std::string descr;                      // '<f4' or '<u4' (four bytes per element)
   std::vector<std::size_t> shape;
   std::uint64_t data_offset = 0;          // bytes before the float32 data
 };

@@ -78,6 +78,16 @@ struct Plan {
   // Directions per vertex of the ground's transfer (ground_transfer.npy; skylit-bake
   // --ground-samples); 0: the bake has no ground layer. Plans without the field have 0.
   int ground_samples = 0;
+  // The refinement of the model where the light changes (skylit-bake --refine; baker/refine.hpp),
+  // tolerance 0: none. vertex_count and triangle_count are then the refined model's. Plans
+  // without the field have none.
+  struct Refine {
+    double tolerance = 0.0;
+    int rounds = 0;
+    double min_edge = 0.0;
+    bool operator==(const Refine&) const = default;
+  };
+  Refine refine;
   std::uint64_t vertex_count = 0;
   std::uint64_t triangle_count = 0;
 
@@ -107,6 +117,9 @@ struct Plan {
 //                                 the layers' unoccluded integrals for the horizontal, A_l(z),
 //                                 in the manifest
 //   BAKE_DIR/vertices.npy         float32 [vertex_count, 6]: position xyz, normal xyz (site frame)
+//   BAKE_DIR/refinement.npy       optional, uint32 [edges, 2]: the model's edges split, round
+//                                 after round (the manifest gives each round's count), which
+//                                 every program replays on the site's model (model.hpp)
 //   BAKE_DIR/preview/*.png        contact sheets (not part of the verified data)
 //
 // While a bake runs, finished work lives in BAKE_DIR/parts/ (one file per dome face, written
@@ -128,6 +141,13 @@ struct Manifest {
     std::vector<double> horizontal_unoccluded;
   };
   std::optional<Ground> ground;
+  // plan.refine.tolerance > 0: the edges split, in rounds of round_sizes edges each.
+  struct Refinement {
+    std::string file = "refinement.npy";
+    std::vector<std::uint64_t> round_sizes;
+    std::uint64_t edge_count() const;
+  };
+  std::optional<Refinement> refinement;
   double bake_seconds = 0.0;              // wall time of the face work (all shards)
   double finalize_seconds = 0.0;
   std::vector<FileRecord> files;          // every data file, hashed

@@ -10,6 +10,7 @@
 
 #include "skylit/bake_format/manifest.hpp"
 #include "skylit/bake_format/pca.hpp"
+#include "skylit/baker/refine.hpp"
 #include "skylit/baker/visibility.hpp"
 #include "skylit/geom/dome.hpp"
 #include "skylit/geom/dome_basis.hpp"
@@ -42,6 +43,9 @@ struct BakeOptions {
   std::string preset;                      // the preset the settings came from (recorded in the plan)
   // Directions per vertex for the ground's transfer (ground_transfer.hpp); 0: no ground layer.
   int ground_samples = 256;
+  // Splits the model where the light changes before the faces are traced (refine.hpp);
+  // tolerance 0: the model as the site loads it.
+  RefineOptions refine;
 };
 
 struct BakeSummary {

@@ -123,6 +123,15 @@ void ground_vertex_irradiance(const scene::Mesh& mesh, std::span<const geom::Pla
                               std::span<const double> weights, const GroundRadiance& ground, std::span<Eigen::Vector3d> out,
                               const RaytraceOptions& options = {});
 
+// What each vertex sees, direction by direction, of a sky of radiance 1 over a ground of radiance
+// `ground_radiance` (baker/refine.hpp compares these between a point and its neighbours):
+//     out[v · K + k] = max(0, n_v·ω_k) · L_k · V(v, ω_k)
+// with L_k = 1 and V = 1 when nothing of the model lies along ω_k above the horizon (ω_z ≥ 0),
+// and below it L_k = ground_radiance and V = 1 when the ray meets z = 0 before the model (the
+// rules of ground_hits). K = directions.size(), each unit after normalising.
+void vertex_views(const scene::Mesh& mesh, std::span<const geom::Plane> planes, std::span<const Vec3> directions,
+                  double ground_radiance, std::span<float> out, const RaytraceOptions& options = {});
+
 // Visibility of an area light for every mesh vertex, as area_light_visibility for texels.
 void area_light_vertex_visibility(const scene::Mesh& mesh, std::span<const geom::Plane> planes, std::span<const Vec3> directions,
                                   std::span<const double> weights, std::span<float> out,

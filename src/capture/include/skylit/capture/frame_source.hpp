@@ -24,8 +24,9 @@ struct Frame {
   std::int64_t sequence = 0;      // the source's frame index (gaps where frames were lost)
   std::optional<double> exposure_time{};  // seconds, when the source knows it
   std::optional<double> gain{};           // linear analogue gain, when the source knows it
-  // Wall-clock time of the frame when the source knows it (a simulated sky, a recording whose
-  // timestamps are ISO 8601 times); the sun's position needs it.
+  // Wall-clock time of the frame when the source knows it (a live V4L2 or libcamera camera: the
+  // system clock as the frame arrives; a simulated sky; a recording whose timestamps are ISO 8601
+  // times); the sun's position needs it.
   std::optional<std::chrono::sys_seconds> utc{};
   std::string source;             // FrameSource::describe() of the source it came from
 };

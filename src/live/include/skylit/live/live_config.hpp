@@ -45,6 +45,9 @@ struct SkySettings {
   // sky.sun_colour: daylight (a sun whose colour is impossible for daylight gets a clear sky's,
   // sky::SkyEstimateOptions::correct_sun_colour) or measured.
   bool correct_sun_colour = true;
+  // sky.clipped_sun_energy: measured (a clipped sun's pixels: a lower bound) or clear_sky (the sun
+  // of a clear-sky model fitted to the unclipped sky; sky::SkyEstimateOptions).
+  bool clear_sky_sun_energy = false;
   double smoothing = 0.0;             // seconds
   double stale_after = 30.0;          // seconds
   // Separated sources at most (sky::SkyEstimateOptions::max_sources): 1, the sun alone; more,

@@ -4,7 +4,10 @@
 //   dome:   {frequency: 2, basis: faces|corners}
 //   location: {latitude: 34.69, longitude: 135.80}     (optional)
 //   planes: [{name, origin: [x,y,z], u: [..], v: [..], resolution: [W, H], surface}, ...]
+#include <cstdint>
 #include <filesystem>
+#include <span>
+#include <utility>
 #include <optional>
 #include <string>
 #include <vector>
@@ -71,5 +74,30 @@ Mesh load_site_model(const Site& site);
 // edge, its normal and texture coordinates interpolated; vertices already there keep their
 // order, and the new ones follow. max_edge <= 0 or not finite: the mesh unchanged.
 void subdivide(Mesh& mesh, double max_edge);
+
+// An edge of a mesh, by its two vertex indices (smaller first).
+using Edge = std::pair<std::uint32_t, std::uint32_t>;
+
+// One round of conforming refinement where the light changes (the bake decides which edges,
+// baker/refine.hpp): every marked edge gets its midpoint (position, normal and texture
+// coordinates interpolated, shared by the triangles on the edge). A triangle with two marked
+// edges gets its third marked too, so that each is either halved (one marked edge, through the
+// opposite corner) or split in four (three), and edges with the same ends in space (a crease
+// where each face has its own vertices) are split together: no vertex is left hanging on a
+// neighbour's edge.
+// Returns the edges split, closure included, sorted: the new vertices follow the old in that
+// order. Marked pairs that are no edge of the mesh throw std::invalid_argument.
+std::vector<Edge> split_edges(Mesh& mesh, std::span<const Edge> marked);
+
+// The edges split in each round, as a bake records them (bake_format, "refinement").
+struct Refinement {
+  std::vector<std::vector<Edge>> rounds;
+  std::size_t split_count() const;
+};
+
+// Replays a recorded refinement on the model it was made on: split_edges round by round. A round
+// whose edges are not the mesh's, or not closed as split_edges closes them, throws
+// std::invalid_argument (the model is not the one refined).
+void apply_refinement(Mesh& mesh, const Refinement& refinement);
 
 }  // namespace skylit::scene

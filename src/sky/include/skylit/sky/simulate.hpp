@@ -94,6 +94,11 @@ cv::Mat render_equirect(const SkyFunction& sky, int width, int height, const Ren
 // A clipped 8-bit frame, as a camera would write it: code = sRGB(clamp(L × exposure_scale,
 // 0, 1)) rounded; NaN and negatives give 0. CV_8UC3 BGR from CV_32FC3.
 cv::Mat to_8bit(const cv::Mat& radiance, double exposure_scale);
+// The exposure scale of a camera that meters its sky: the median luminance of the pixels where
+// `sky` (CV_8U) is non-zero lands at `median_fraction` of full scale (0.18: middle grey), all
+// brighter than 1 / scale clipping. std::invalid_argument for a fraction outside (0, 1] or a
+// sky whose median is not above 0.
+double auto_exposure_scale(const cv::Mat& radiance, const cv::Mat& sky, double median_fraction);
 
 // Σ_p L_p Ω_p (RGB) over the pixels of a sky-camera image whose centre direction is above the
 // horizon, Ω_p from block_solid_angle of the pixel: the image's estimate of ∫ L dω over the

@@ -11,6 +11,7 @@
 #include "skylit/sky/luminance.hpp"
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/sky_table.hpp"
+#include "skylit/sky/clear_sky_fit.hpp"
 #include "skylit/sky/sun.hpp"
 
 namespace skylit::sky {
@@ -19,6 +20,10 @@ using Vec2 = Eigen::Vector2d;
 using Vec3 = Eigen::Vector3d;
 
 enum class SunMode { Off, Auto };
+
+enum class ClippedSunEnergy { Measured, ClearSky };
+// "measured" | "clear_sky"; InputError naming `field` and the choices otherwise.
+ClippedSunEnergy parse_clipped_sun_energy(const std::string& text, const std::string& field);
 
 struct SkyEstimateOptions {
   SkyTableOptions table;
@@ -38,6 +43,13 @@ struct SkyEstimateOptions {
   // its elevation (correct_sun_colour, flagged Sun::colour_corrected). Off where the frame's sun
   // must be taken as it is (a study against a reference made from the same capture).
   bool correct_sun_colour = true;
+  // A clipped sun's energy (an 8-bit camera clips it in every clear frame): Measured keeps what
+  // its pixels say (a lower bound); ClearSky takes the sun of a clear-sky model fitted to the
+  // unclipped sky (clear_sky_fit.hpp), times the fit's confidence, when that is more. Measured by
+  // default: on the real skies the model's sun overshoots hazy ones (bench/RESULTS.md, "The sun
+  // through an 8-bit camera").
+  ClippedSunEnergy clipped_sun_energy = ClippedSunEnergy::Measured;
+  ClearSkyFitOptions clear_sky;
 };
 
 struct SkyEstimate {
@@ -61,7 +73,9 @@ class SkyEstimator {
   SkyEstimator(const SkyEstimator&) = delete;
   SkyEstimator& operator=(const SkyEstimator&) = delete;
 
-  SkyEstimate estimate(const RadianceFrame& frame) const;
+  // `expected_sun`: where the site's location and the frame's time put the sun (unit, site
+  // frame), or nullopt: a clipped blob there is the sun however wide (SunDetector::detect).
+  SkyEstimate estimate(const RadianceFrame& frame, const std::optional<Vec3>& expected_sun = std::nullopt) const;
 
   const camera::Lens& lens() const { return lens_; }
   const SkyTable& table() const { return table_; }
@@ -69,6 +83,9 @@ class SkyEstimator {
   const SkyEstimateOptions& options() const { return options_; }
 
  private:
+  // A clipped sun's energy from a clear-sky model fitted to the rest of the frame (disc: the
+  // sun's pixels, left out of the fit).
+  void estimate_clipped_sun_energy(Sun& sun, const RadianceFrame& frame, const cv::Mat& disc) const;
   camera::Lens lens_;
   const geom::Dome& dome_;
   SkyEstimateOptions options_;

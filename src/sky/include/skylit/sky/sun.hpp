@@ -45,6 +45,16 @@ struct Sun {
   // measured_energy is what the pixels said.
   bool colour_corrected = false;
   Eigen::Vector3d measured_energy = Eigen::Vector3d::Zero();
+  // Where it was found: "peak" (a compact bright source), "expected" (a clipped blob around where
+  // the site's location and the frame's time put the sun) or "clipped shape" (a round clipped
+  // blob, without a time).
+  std::string located_by = "peak";
+  // How its energy was found: "measured" (its pixels; a lower bound when clipped) or "clear_sky"
+  // (clipped: the sun of a clear-sky model fitted to the unclipped sky, times the fit's
+  // confidence; see clear_sky_fit.hpp), and how sure that is (0 to 1; 1 for a measured sun
+  // that nothing clipped).
+  std::string energy_estimator = "measured";
+  double energy_confidence = 1.0;
 };
 
 // The sun's colour through a clear atmosphere, in linear sRGB with the largest channel 1: a
@@ -76,6 +86,14 @@ struct SunOptions {
   // 10×; no other sky changed), and the dome carries a glow a few degrees wide well.
   double disc_factor = 10.0;
   double halo_radius_deg = 5.0;
+  // A clipped sun: an 8-bit camera clips the sun and the sky around it into a blob several
+  // degrees wide (5–8° at 18% exposure), no compact core. Such a blob is the sun when it lies
+  // within expected_tolerance_deg of where the sun is expected (location and time), or, without
+  // an expectation, when it is round (its solid angle at least min_clipped_roundness of the disc
+  // that holds it); either way no wider than max_clipped_radius_deg (beyond: an overexposed sky).
+  double max_clipped_radius_deg = 12.0;
+  double expected_tolerance_deg = 4.0;
+  double min_clipped_roundness = 0.5;
 };
 
 // The detector's mode for further compact sources (lamps under a ceiling, a second light): the
@@ -102,7 +120,12 @@ class SunDetector {
 
   // `radiance`: CV_32FC3 BGR linear (non-finite and negative values count as 0); `clipped`:
   // CV_8U (255 = clipped) or empty. InputError when sizes or types do not match the lens.
-  SunDetection detect(const cv::Mat& radiance, const cv::Mat& clipped) const;
+  // `expected`: where the sun should be (unit, site frame: sun_direction_at for the frame's time
+  // and the site's location), or nullopt when the frame has no time or the site no location.
+  SunDetection detect(const cv::Mat& radiance, const cv::Mat& clipped,
+                      const std::optional<Vec3>& expected = std::nullopt) const;
+  // 255 where a pixel sees the sky (above the horizon, not masked).
+  const cv::Mat& sky() const { return sky_; }
 
   const SunOptions& options() const { return options_; }
 

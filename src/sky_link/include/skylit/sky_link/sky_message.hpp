@@ -28,6 +28,11 @@ struct PublishedSource {
   bool sun = false;                                      // the sun (first when there is one); else a lamp
   double shadow_radius = 0;                              // radians: the disc its shadow map draws (sky::Sun::shadow_radius); 0: angular_radius
   bool colour_corrected = false;                         // sky::Sun::colour_corrected; absent in older messages: false
+  // sky::Sun::located_by, energy_estimator, energy_confidence; absent in older messages: "peak",
+  // "measured", 1 (what those nodes did).
+  std::string located_by = "peak";
+  std::string energy_estimator = "measured";
+  double energy_confidence = 1.0;
 };
 
 // What the sky was computed for: a node whose bake differs refuses it.

@@ -54,6 +54,7 @@ struct TrianglePoints {
   std::vector<Eigen::Vector3f> normals;
   std::vector<std::array<std::uint32_t, 3>> corners;
   std::vector<Eigen::Vector3d> weights;  // barycentric, sum 1
+  std::vector<double> areas;             // m²: the surface each point stands for (a quarter of its triangle)
 };
 TrianglePoints triangle_points(const scene::Mesh& mesh);
 
@@ -97,6 +98,9 @@ std::vector<Eigen::Vector3d> ground_reference_at(const EquirectLights& lights, c
 // either counts with its (zero) error: the model's hidden faces are part of what it shows.
 Errors building_errors(std::span<const Eigen::Vector3d> estimate, std::span<const Eigen::Vector3d> reference,
                        const Eigen::Vector3d& horizontal);
+// The same with each estimate standing for areas[k] of the surface (study::errors_of weighted).
+Errors building_errors(std::span<const Eigen::Vector3d> estimate, std::span<const Eigen::Vector3d> reference,
+                       const Eigen::Vector3d& horizontal, std::span<const double> areas);
 // The vertex with the largest such error (0 when there are none).
 std::size_t worst_vertex(std::span<const Eigen::Vector3d> estimate, std::span<const Eigen::Vector3d> reference,
                          const Eigen::Vector3d& horizontal);

@@ -27,6 +27,9 @@ struct Errors {
 
 // RMS, 99th percentile and maximum of `diffs` (all 0 when empty).
 Errors errors_of(std::vector<double> diffs);
+// The same with each diff standing for weights[k] of the whole (an area): the weighted RMS, the
+// diff below which 99% of the weight lies, and the largest diff of positive weight.
+Errors errors_of(std::span<const double> diffs, std::span<const double> weights);
 
 double seconds_since(Clock::time_point t);
 double median(std::vector<double> values);  // the upper median; 0 when empty
