@@ -65,8 +65,8 @@ TEST(SkyMessage, RoundTripsEveryBitOfEveryField) {
   EXPECT_EQ(m.bad_pixels, 17);
   EXPECT_EQ(m.clipped_pixels, 123456789012LL);
   EXPECT_EQ(m.identity.site, "sample gate");
-  // 40 layers of RGB doubles and the rest: under 1.5 kB.
-  EXPECT_LT(bytes.size(), 1500u);
+  // 40 layers of RGB doubles and the rest (a source with how it was found and weighed): under 1.6 kB.
+  EXPECT_LT(bytes.size(), 1600u);
 }
 
 TEST(SkyMessage, AMessageWithoutTimeOrSourcesRoundTrips) {

@@ -12,6 +12,8 @@
 #include <utility>
 #include <vector>
 
+#include <opencv2/imgproc.hpp>
+
 #include "skylit/base/error.hpp"
 #include "skylit/sky/sky_model.hpp"
 #include "skylit/sky/sky_table.hpp"
@@ -298,6 +300,77 @@ std::string estimate_sun(const DetectionInput& in, const Candidate& c, Sun& sun)
   return "";
 }
 
+// A clipped region's centre (solid-angle weighted), solid angle, reach from the centre (to the
+// far edge of its farthest pixel) and roundness: its solid angle over the disc of that reach.
+struct BlobShape {
+  Vec3 centre = Vec3::UnitZ();
+  double area = 0.0, radius = 0.0, roundness = 0.0;
+};
+
+BlobShape blob_shape(const camera::Lens& lens, const std::vector<cv::Point>& pixels) {
+  BlobShape shape;
+  Vec3 sum = Vec3::Zero();
+  std::vector<Vec3> directions;
+  for (const cv::Point& ip : pixels) {
+    const auto d = lens.pixel_to_site(Vec2(ip.x, ip.y));
+    if (!d) continue;
+    const double w = block_solid_angle(lens, ip.x - 0.5, ip.y - 0.5, ip.x + 0.5, ip.y + 0.5);
+    sum += w * *d;
+    shape.area += w;
+    directions.push_back(*d);
+  }
+  if (directions.empty() || !(sum.norm() > 0.0)) return shape;
+  shape.centre = sum.normalized();
+  for (const Vec3& d : directions) shape.radius = std::max(shape.radius, angle_between(shape.centre, d));
+  shape.radius += 0.5 * std::sqrt(shape.area / static_cast<double>(directions.size()));  // half a pixel
+  shape.roundness = shape.area / (2.0 * std::numbers::pi * (1.0 - std::cos(shape.radius)));
+  return shape;
+}
+
+std::string not_round(const BlobShape& shape) {
+  return "no sun: the clipped region there (reaching " + std::to_string(shape.radius / kDeg) +
+         "° from its centre) is not round (it fills " + std::to_string(shape.roundness) +
+         " of that disc), a bright cloud rather than a sun";
+}
+
+// Without an expectation: the largest clipped region of the sky that is round and no wider than
+// max_clipped_radius (the sun's blob, where a metered 8-bit camera also clips a bright horizon or
+// cloud); the pixel nearest its centre, or why there is none.
+std::optional<cv::Point> round_clipped_region(const DetectionInput& in, std::string& why) {
+  cv::Mat mask;
+  cv::bitwise_and(in.clipped, in.sky, mask);
+  cv::Mat labels, stats, centroids;
+  const int count = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+  std::optional<cv::Point> best;
+  double best_area = 0.0;
+  why = "no sun: no clipped region of the sky is round and narrower than " + std::to_string(in.options.max_clipped_radius_deg) + "°";
+  for (int k = 1; k < count; ++k) {
+    const cv::Rect box(stats.at<int>(k, cv::CC_STAT_LEFT), stats.at<int>(k, cv::CC_STAT_TOP), stats.at<int>(k, cv::CC_STAT_WIDTH),
+                       stats.at<int>(k, cv::CC_STAT_HEIGHT));
+    std::vector<cv::Point> pixels;
+    for (int y = box.y; y < box.y + box.height; ++y) {
+      for (int x = box.x; x < box.x + box.width; ++x) {
+        if (labels.at<int>(y, x) == k) pixels.emplace_back(x, y);
+      }
+    }
+    const BlobShape shape = blob_shape(in.lens, pixels);
+    if (shape.radius > in.options.max_clipped_radius_deg * kDeg || shape.roundness < in.options.min_clipped_roundness ||
+        shape.area <= best_area) {
+      continue;
+    }
+    best_area = shape.area;
+    double nearest = -2.0;
+    for (const cv::Point& ip : pixels) {
+      const double c = in.lens.pixel_to_site(Vec2(ip.x, ip.y))->dot(shape.centre);
+      if (c > nearest) {
+        nearest = c;
+        best = ip;
+      }
+    }
+  }
+  return best;
+}
+
 // A clipped blob at `seed` as the sun (SunOptions, "a clipped sun"): the blob no wider than
 // max_clipped_radius, round unless expected; its background just outside it; its direction the
 // expected one, or the blob's centre; its disc for shadows the sun's own.
@@ -318,28 +391,14 @@ std::string detect_clipped(const DetectionInput& in, cv::Point seed, const std::
     return "no sun: the clipped region there is wider than " + std::to_string(o.max_clipped_radius_deg) +
            "°, an overexposed sky rather than a sun";
   }
-  Vec3 centre = Vec3::Zero();
-  double area = 0.0, reach = 0.0;
+  double reach = 0.0;
+  std::vector<cv::Point> blob;
   for (const cv::Point& p : c.core) {
-    const cv::Point ip = p + c.window.tl();
-    const double w = block_solid_angle(in.lens, ip.x - 0.5, ip.y - 0.5, ip.x + 0.5, ip.y + 0.5);
-    centre += w * *in.lens.pixel_to_site(Vec2(ip.x, ip.y));
-    area += w;
+    blob.push_back(p + c.window.tl());
     reach = std::max(reach, c.angle.at<double>(p));
   }
-  centre.normalize();
-  double radius = 0.0;
-  for (const cv::Point& p : c.core) {
-    const cv::Point ip = p + c.window.tl();
-    radius = std::max(radius, angle_between(centre, *in.lens.pixel_to_site(Vec2(ip.x, ip.y))));
-  }
-  if (!expected) {
-    const double roundness = area / (2.0 * std::numbers::pi * (1.0 - std::cos(std::max(radius, 1e-6))));
-    if (roundness < o.min_clipped_roundness) {
-      return "no sun: the clipped region there (" + std::to_string(radius / kDeg) + "° across its centre) is not round "
-             "(it fills " + std::to_string(roundness) + " of its disc), a bright cloud rather than a sun";
-    }
-  }
+  const BlobShape shape = blob_shape(in.lens, blob);
+  if (!expected && shape.roundness < o.min_clipped_roundness) return not_round(shape);
   const double inner = reach + 1.0 * kDeg;
   const auto [ring_count, ring_clipped] =
       ring_background(in, c, inner, inner + (o.background_outer_deg - o.background_inner_deg) * kDeg, expected.has_value());
@@ -352,7 +411,7 @@ std::string detect_clipped(const DetectionInput& in, cv::Point seed, const std::
       c, [&](cv::Point ip) { return luminance(in.radiance.at<cv::Vec3f>(ip)) > threshold || is_clipped(in.clipped, ip); },
       reach + o.halo_radius_deg * kDeg, beyond);
   if (std::string reason = estimate_sun(in, c, sun); !reason.empty()) return reason;
-  sun.direction = expected ? Vec3(expected->normalized()) : centre;
+  sun.direction = expected ? Vec3(expected->normalized()) : shape.centre;
   sun.located_by = expected ? "expected" : "clipped shape";
   sun.clipped = true;
   sun.energy_confidence = 0.0;  // a lower bound, by how much unknown
@@ -444,15 +503,19 @@ SunDetection SunDetector::detect(const cv::Mat& radiance, const cv::Mat& clipped
   Candidate candidate;
   result.reason = find_candidate(in, candidate);
   if (result.reason.empty()) result.reason = measure_background(in, candidate);
-  if (result.reason.empty()) {
-    result.reason = measure_core(in, candidate);
-    // A clipped peak whose core is too wide: the clipped region's shape may still make it a sun.
-    if (!result.reason.empty() && !expected && is_clipped(clipped, candidate.peak_at)) {
+  if (result.reason.empty()) result.reason = measure_core(in, candidate);
+  // A clipped peak that is no compact sun (a clipped frame's brightest pixel is any clipped
+  // pixel): without a time, the round clipped region is the sun.
+  if (!result.reason.empty() && !expected && candidate.peak_at.x >= 0 && is_clipped(clipped, candidate.peak_at)) {
+    std::string why;
+    if (const std::optional<cv::Point> seed = round_clipped_region(in, why)) {
       Candidate blob;
       Sun sun;
-      const std::string reason = detect_clipped(in, candidate.peak_at, std::nullopt, blob, sun);
+      const std::string reason = detect_clipped(in, *seed, std::nullopt, blob, sun);
       if (reason.empty()) return found(blob, sun, "clipped sun, found by the clipped region's shape: its energy is estimated");
       result.reason = reason;
+    } else {
+      result.reason = why;
     }
   }
   if (!result.reason.empty()) return result;
