@@ -33,6 +33,7 @@
 #include "skylit/sky/overlay.hpp"
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/sky_estimate.hpp"
+#include "skylit/sky/solar.hpp"
 #include "skylit/sky/srgb.hpp"
 #include "command_line.hpp"
 
@@ -62,7 +63,26 @@ struct Options {
   int threads = 0;
   double ground_albedo = 0.0;     // > 0: the building also lit by the ground (the bake's ground layer)
   std::string sun_colour = "daylight";  // daylight: an impossible sun colour corrected; measured: kept
+  std::string utc;                // the frame's time (ISO 8601): with the site's location, where the sun is
+  std::string clipped_sun_energy = "measured";  // measured | clear_sky (docs/sky.md, "A clipped sun")
 };
+
+// Where the site's location and the frame's time (--utc) put the sun; none without --utc.
+std::optional<skylit::sky::Vec3> expected_sun(const Options& o, const skylit::bake_format::Manifest& manifest) {
+  if (o.utc.empty()) return std::nullopt;
+  const std::chrono::sys_seconds utc = skylit::sky::parse_utc(o.utc);
+  const fs::path site_file = o.site.empty() ? fs::path(manifest.plan.site_file) : fs::path(o.site);
+  if (!fs::exists(site_file)) {
+    throw InputError("option --utc: the site " + site_file.string() + " is not here to say where on Earth it is. "
+                     "Fix: pass --site SITE.yaml");
+  }
+  const skylit::scene::Site site = skylit::scene::load_site(site_file);
+  if (!site.location) {
+    throw InputError("option --utc: the site " + site_file.string() + " has no location. Fix: add 'location: "
+                     "{latitude: DEG, longitude: DEG}' to it (docs/site-format.md), or leave --utc out");
+  }
+  return skylit::sky::solar_position(utc, site.location->latitude_deg, site.location->longitude_deg).direction();
+}
 
 // The frames as one linear radiance image: a single frame linearised, a bracket merged.
 skylit::sky::RadianceFrame load_sky(const Options& o, const skylit::camera::CameraCalibration& calibration) {
@@ -364,8 +384,11 @@ nlohmann::json source_json(const skylit::sky::Sun& s) {
                         {"contrast", s.contrast},
                         {"pixels", s.pixel_count},
                         {"clipped", s.clipped},
-                        {"colour_corrected", s.colour_corrected}};
-  if (s.colour_corrected) out["measured_energy"] = vec(s.measured_energy);
+                        {"colour_corrected", s.colour_corrected},
+                        {"located_by", s.located_by},
+                        {"energy_estimator", s.energy_estimator},
+                        {"energy_confidence", s.energy_confidence}};
+  if (s.colour_corrected || s.energy_estimator != "measured") out["measured_energy"] = vec(s.measured_energy);
   return out;
 }
 
@@ -408,9 +431,10 @@ int run(const Options& o) {
   sky_options.sun_mode = o.sun == "auto" ? skylit::sky::SunMode::Auto : skylit::sky::SunMode::Off;
   sky_options.max_sources = o.sources;
   sky_options.correct_sun_colour = o.sun_colour == "daylight";
+  sky_options.clipped_sun_energy = skylit::sky::parse_clipped_sun_energy(o.clipped_sun_energy, "--clipped-sun-energy");
   const skylit::sky::SkyEstimator estimator(calibration, dome, sky_options);
   const double table_ms = ms_since(t);
-  const skylit::sky::SkyEstimate estimate = estimator.estimate(frame);
+  const skylit::sky::SkyEstimate estimate = estimator.estimate(frame, expected_sun(o, manifest));
 
   const std::vector<Eigen::Vector3d> S = skylit::sky::layer_radiances(estimate.luminance);
   // One separated term per source (with --sources 1: the sun, when there is one).
@@ -536,6 +560,14 @@ int main(int argc, char** argv) {
   app.add_option("--ground-albedo", o.ground_albedo,
                  "the building also lit by a ground of this albedo (the bake's ground layer; render.ground_light)")
       ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--utc", o.utc,
+                 "the sky frame's time (ISO 8601, e.g. 2026-06-21T09:30:00+09:00): with the site's location, a clipped "
+                 "blob where the sun should be is the sun");
+  app.add_option("--clipped-sun-energy", o.clipped_sun_energy,
+                 "a clipped sun's energy: measured (its pixels, a lower bound) or clear_sky (a clear-sky model fitted to "
+                 "the unclipped sky)")
+      ->check(CLI::IsMember({"measured", "clear_sky"}))
+      ->capture_default_str();
   app.add_option("--threads", o.threads, "threads for the blend and ray casting (0 = all)")->capture_default_str();
   bool quiet = false;
   app.add_flag("-q,--quiet", quiet, "only warnings and errors");

@@ -189,6 +189,30 @@ TEST_F(SkylitShade, AnEightBitBracketMergesToHdr) {
   EXPECT_TRUE(fs::exists(out / "ground.exr"));
 }
 
+// One 8-bit frame of a clear sky over the site, its sun clipped: with the frame's time (--utc)
+// and the site's location the sun is found where they put it, and sky.json says how it was found
+// and weighed; a time that is not ISO 8601 is refused, naming the option.
+TEST_F(SkylitShade, WithTheFramesTimeAClippedSunIsFoundWhereTheSiteSaysItIs) {
+  const std::string when = "2026-06-21T02:40:00Z";
+  const fs::path frame = *dir_ / "clear8.png";
+  const Result sky = run(kBin / "skylit-sky", "--calib " + calib().string() + " --clear --lat 34.69 --lon 135.8 --start " +
+                                                  when + " --exposure 0.05 --supersample 1 -o " + frame.string() + " -q");
+  ASSERT_EQ(sky.status, 0) << sky.output;
+  const fs::path out = *dir_ / "clear8_out";
+  const Result r = run(kBin / "skylit-shade", common(out) + " --sky " + frame.string() + " --utc " + when);
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::ifstream in(out / "sky.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  ASSERT_FALSE(j["sun"].is_null()) << j["sun_reason"];
+  EXPECT_EQ(j["sun"]["located_by"], "expected") << j["sun_reason"];
+  EXPECT_TRUE(j["sun"]["clipped"].get<bool>());
+  EXPECT_EQ(j["sun"]["energy_estimator"], "measured");
+  EXPECT_DOUBLE_EQ(j["sun"]["energy_confidence"].get<double>(), 0.0) << "a clipped sun's measured energy is a lower bound";
+  const Result bad = run(kBin / "skylit-shade", common(*dir_ / "bad_utc") + " --sky " + frame.string() + " --utc noon");
+  EXPECT_EQ(bad.status, 2) << bad.output;
+  EXPECT_NE(bad.output.find("noon"), std::string::npos) << bad.output;
+}
+
 TEST_F(SkylitShade, BadInputsAreClearErrors) {
   const fs::path sky = *dir_ / "park.exr";
   struct Case {
