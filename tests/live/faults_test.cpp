@@ -311,6 +311,11 @@ TEST(ServiceStatus, StatusAndMetricsOverHttpWhileRunning) {
   EXPECT_EQ(status["sky"]["S"].size(), BakedSite::get().manifest.layer_count());
   EXPECT_FALSE(status["sky"]["sun"].is_null());
   EXPECT_NEAR(status["sky"]["sun"]["elevation_deg"].get<double>(), kSunElevationDeg, 1.0);
+  // An HDR sky's sun: its own peak, measured, nothing clipped or corrected.
+  EXPECT_EQ(status["sky"]["sun"]["located_by"], "peak");
+  EXPECT_EQ(status["sky"]["sun"]["energy_estimator"], "measured");
+  EXPECT_DOUBLE_EQ(status["sky"]["sun"]["energy_confidence"].get<double>(), 1.0);
+  EXPECT_FALSE(status["sky"]["sun"]["colour_corrected"].get<bool>());
   EXPECT_TRUE(status["flags"].empty()) << status.dump(2);
   EXPECT_NE(status["camera"]["source"].get<std::string>().find("images"), std::string::npos);
   EXPECT_EQ(status["camera"]["state"], "running");

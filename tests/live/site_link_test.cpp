@@ -186,6 +186,9 @@ TEST(SiteLink, LampsCrossTheLinkAndEachNodeTakesAsManyAsItDraws) {
     const int published = sky_node.status()["sky"]["lamps"].get<int>();
     ASSERT_GE(published, 1) << "the sky node separated no lamp: " << sky_node.status()["sky"].dump();
     ASSERT_FALSE(status["sky"]["sun"].is_null());
+    // How the sky node found and weighed its sun crosses the link.
+    EXPECT_EQ(status["sky"]["sun"]["located_by"], sky_node.status()["sky"]["sun"]["located_by"]);
+    EXPECT_EQ(status["sky"]["sun"]["energy_estimator"], "measured");
     EXPECT_EQ(status["sky"]["lamps"].size(), static_cast<std::size_t>(std::min(published, max_sources - 1)))
         << status["sky"].dump();
     for (const auto& lamp : status["sky"]["lamps"]) EXPECT_GT(lamp["shadow_radius_deg"].get<double>(), 0.0);
