@@ -40,17 +40,8 @@ Vec3 sun_at(double elevation_deg, double azimuth_deg) {
 
 double degrees(const Vec3& a, const Vec3& b) { return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) / kDeg; }
 
-// Every pixel that sees the sky.
-cv::Mat sky_of(const camera::Lens& lens) {
-  cv::Mat sky(lens.calibration().image_height, lens.calibration().image_width, CV_8UC1, cv::Scalar(0));
-  for (int y = 0; y < sky.rows; ++y) {
-    for (int x = 0; x < sky.cols; ++x) {
-      const auto d = lens.pixel_to_site(Eigen::Vector2d(x, y));
-      if (d && d->z() >= 0.0) sky.at<std::uint8_t>(y, x) = 255;
-    }
-  }
-  return sky;
-}
+// Every pixel that sees the sky, as the detector takes it.
+cv::Mat sky_of(const camera::Lens& lens) { return SunDetector(lens, cv::Mat()).sky().clone(); }
 
 // The sky as one 8-bit frame metered to put its median at `fraction` of full scale, read back.
 RadianceFrame eight_bit(const camera::Lens& lens, const cv::Mat& radiance, double fraction) {

@@ -367,32 +367,15 @@ class RaytraceEngine final : public VisibilityEngine {
       unit.push_back(w);
       index_of.push_back(k);
     }
-    const float offset = static_cast<float>(offset_);
     for_each_vertex(16, [&](RTCIntersectContext& context, std::size_t index, const Eigen::Vector3f& normal,
                             const Eigen::Vector3f& origin) {
       const Vec3 normal_d = normal.cast<double>();
-      // A vertex below the ground is buried: it sees none of it (a foundation, a cellar). One on
-      // it facing down (a plinth's underside) faces the ground it covers: none either.
-      if (origin.z() < -offset || (normal.z() < 0.0f && mesh_.positions[index].z() <= offset)) return;
+      if (!sees_ground(index, normal, origin)) return;
       for (std::size_t k = 0; k < unit.size(); ++k) {
         const double c = normal_d.dot(unit[k]);
         if (c <= 0.0) continue;
-        // The ground is met at t = z / −ω_z; a vertex on it (z ≤ offset) meets it at once.
-        const double reach = std::max(static_cast<double>(origin.z()), 0.0) / -unit[k].z();
-        RTCRay ray{};
-        ray.org_x = origin.x();
-        ray.org_y = origin.y();
-        ray.org_z = origin.z();
-        ray.dir_x = static_cast<float>(unit[k].x());
-        ray.dir_y = static_cast<float>(unit[k].y());
-        ray.dir_z = static_cast<float>(unit[k].z());
-        ray.tnear = offset;
-        ray.tfar = static_cast<float>(reach);
-        ray.mask = ~0u;
-        if (ray.tfar > ray.tnear) {
-          rtcOccluded1(scene_.get(), &context, &ray);
-          if (ray.tfar < 0.0f) continue;
-        }
+        const double reach = ground_reach(origin, unit[k]);
+        if (!unobstructed(context, origin, unit[k], static_cast<float>(reach))) continue;
         const Vec3 at = origin.cast<double>() + reach * unit[k];
         visit(index, index_of[k], c, at.x(), at.y());
       }
@@ -411,31 +394,18 @@ class RaytraceEngine final : public VisibilityEngine {
       if (!std::isfinite(length) || length == 0.0) throw std::invalid_argument("vertex_views: a direction is zero or not finite");
       unit.push_back(d / length);
     }
-    const float offset = static_cast<float>(offset_);
     for_each_vertex(16, [&](RTCIntersectContext& context, std::size_t index, const Eigen::Vector3f& normal,
                             const Eigen::Vector3f& origin) {
       const Vec3 normal_d = normal.cast<double>();
-      const bool sees_ground = !(origin.z() < -offset || (normal.z() < 0.0f && mesh_.positions[index].z() <= offset));
+      const bool ground_seen = sees_ground(index, normal, origin);
       float* row = out.data() + index * count;
       for (std::size_t k = 0; k < count; ++k) {
         row[k] = 0.0f;
         const double c = normal_d.dot(unit[k]);
         const bool below = unit[k].z() < 0.0;
-        if (c <= 0.0 || (below && !sees_ground)) continue;
-        RTCRay ray{};
-        ray.org_x = origin.x();
-        ray.org_y = origin.y();
-        ray.org_z = origin.z();
-        ray.dir_x = static_cast<float>(unit[k].x());
-        ray.dir_y = static_cast<float>(unit[k].y());
-        ray.dir_z = static_cast<float>(unit[k].z());
-        ray.tnear = offset;
-        ray.tfar = below ? static_cast<float>(std::max(static_cast<double>(origin.z()), 0.0) / -unit[k].z()) : kInfinity;
-        ray.mask = ~0u;
-        if (ray.tfar > ray.tnear) {
-          rtcOccluded1(scene_.get(), &context, &ray);
-          if (ray.tfar < 0.0f) continue;
-        }
+        if (c <= 0.0 || (below && !ground_seen)) continue;
+        const float tfar = below ? static_cast<float>(ground_reach(origin, unit[k])) : kInfinity;
+        if (!unobstructed(context, origin, unit[k], tfar)) continue;
         row[k] = static_cast<float>(c * (below ? ground_radiance : 1.0));
       }
     });
@@ -481,6 +451,36 @@ class RaytraceEngine final : public VisibilityEngine {
   }
 
  private:
+  // A vertex below the ground is buried: it sees none of it (a foundation, a cellar). One on it
+  // facing down (a plinth's underside) faces the ground it covers: none either.
+  bool sees_ground(std::size_t index, const Eigen::Vector3f& normal, const Eigen::Vector3f& origin) const {
+    const float offset = static_cast<float>(offset_);
+    return !(origin.z() < -offset || (normal.z() < 0.0f && mesh_.positions[index].z() <= offset));
+  }
+
+  // Where a ray down from `origin` meets z = 0: t = z / −ω_z; a vertex on it (z ≤ offset) meets it at once.
+  static double ground_reach(const Eigen::Vector3f& origin, const Vec3& down) {
+    return std::max(static_cast<double>(origin.z()), 0.0) / -down.z();
+  }
+
+  // Whether nothing of the model lies along the unit direction from `origin` between the nudge
+  // and `tfar` (an empty span counts as unobstructed).
+  bool unobstructed(RTCIntersectContext& context, const Eigen::Vector3f& origin, const Vec3& direction, float tfar) const {
+    RTCRay ray{};
+    ray.org_x = origin.x();
+    ray.org_y = origin.y();
+    ray.org_z = origin.z();
+    ray.dir_x = static_cast<float>(direction.x());
+    ray.dir_y = static_cast<float>(direction.y());
+    ray.dir_z = static_cast<float>(direction.z());
+    ray.tnear = static_cast<float>(offset_);
+    ray.tfar = tfar;
+    ray.mask = ~0u;
+    if (!(ray.tfar > ray.tnear)) return true;
+    rtcOccluded1(scene_.get(), &context, &ray);
+    return ray.tfar >= 0.0f;
+  }
+
   // visit(context, vertex, normal, origin) for every mesh vertex, `per_task` vertices to a task
   // across the engine's threads; origin is the vertex nudged off its surface along its normal.
   template <class Visit>
