@@ -1,10 +1,11 @@
 // skylit-calib: calibration tools for installers. `fisheye` and `camera`: intrinsics from photos
-// of a chessboard or ChArUco board; `sky-orientation`: the sky camera's R_site_from_camera from
-// the sun in timestamped sky frames, or from a level and a compass; `markers`: a marker map from
-// photos of the site's AprilTags; `hid list`: the HID devices present and the IMU profile that
-// matches each. Each writes its YAML atomically (a failed run leaves an existing file as it
-// was), prints its quality figures, writes a diagnostic image beside the YAML (not `hid list`)
-// and says what to do when the data are not good enough. See docs/calibration.md.
+// of a chessboard or ChArUco board; `stereo`: both cameras of a stereo pair and their relative
+// pose; `sky-orientation`: the sky camera's R_site_from_camera from the sun in timestamped sky
+// frames, or from a level and a compass; `markers`: a marker map from photos of the site's
+// AprilTags; `hid list`: the HID devices present and the IMU profile that matches each. Each
+// writes its YAML atomically (a failed run leaves an existing file as it was), prints its quality
+// figures, writes a diagnostic image beside the YAML (not `hid list`) and says what to do when the
+// data are not good enough. See docs/calibration.md.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -15,10 +16,13 @@
 #include <optional>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <CLI/CLI.hpp>
+#include <Eigen/Geometry>
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "skylit/base/data_dir.hpp"
 #include "skylit/base/error.hpp"
@@ -27,8 +31,10 @@
 #include "skylit/calib/intrinsics.hpp"
 #include "skylit/calib/marker_survey.hpp"
 #include "skylit/calib/orientation.hpp"
+#include "skylit/calib/stereo.hpp"
 #include "skylit/calib/sun_frames.hpp"
 #include "skylit/camera/calibration.hpp"
+#include "skylit/camera/stereo_calibration.hpp"
 #include "skylit/sky/image_io.hpp"
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/solar.hpp"
@@ -160,6 +166,77 @@ int run_intrinsics(const std::string& command, const IntrinsicsArgs& a, camera::
   const fs::path coverage = beside(output, ".coverage.png");
   sky::write_image(coverage, calib::draw_coverage(result, found.first_image));
   std::printf("wrote %s and %s\n", output.string().c_str(), coverage.string().c_str());
+  return 0;
+}
+
+// ---------------------------------------------------------------------------------------------
+// stereo
+
+struct StereoArgs {
+  IntrinsicsArgs board;  // the board options and -o; its photos and model unused
+  std::vector<std::string> left, right;
+  std::string model = "pinhole", left_model, right_model, image_out;
+};
+
+camera::LensModel lens_model(const std::string& name) {
+  return name == "fisheye" ? camera::LensModel::Fisheye : camera::LensModel::Pinhole;
+}
+
+std::string model_name(camera::LensModel model) { return model == camera::LensModel::Fisheye ? "fisheye" : "pinhole"; }
+
+void print_stereo_camera(const char* side, const calib::IntrinsicsResult& r) {
+  const camera::CameraCalibration& c = r.calibration;
+  std::printf("  %-6s %s %dx%d, fx %.3f fy %.3f cx %.3f cy %.3f, RMS %.3f px over %zu view(s)\n", side,
+              model_name(c.model).c_str(), c.image_width, c.image_height, c.fx, c.fy, c.cx, c.cy, c.rms.value_or(0.0),
+              r.used.size());
+}
+
+int run_stereo(const StereoArgs& a) {
+  const calib::BoardSpec spec = board_spec(a.board);
+  const fs::path output(a.board.output);
+  skylit::ensure_writable_directory(output.parent_path().empty() ? fs::path(".") : output.parent_path());
+  const calib::BoardDetector detector(spec);
+  const std::vector<fs::path> left(a.left.begin(), a.left.end()), right(a.right.begin(), a.right.end());
+  const calib::StereoPhotos photos = calib::detect_stereo_boards(left, right, detector);
+  std::size_t both = 0, one = 0;
+  for (const calib::PhotoPair& p : photos.pairs) {
+    both += p.left && p.right ? 1 : 0;
+    one += static_cast<bool>(p.left) != static_cast<bool>(p.right) ? 1 : 0;
+  }
+  std::printf("skylit-calib stereo: %zu pair(s); the board found in both photos of %zu, in one only of %zu (%s)\n",
+              photos.pairs.size(), both, one, describe_board(spec).c_str());
+  calib::StereoOptions options;
+  options.left.model = lens_model(a.left_model.empty() ? a.model : a.left_model);
+  options.right.model = lens_model(a.right_model.empty() ? a.model : a.right_model);
+  const calib::StereoResult result = calib::calibrate_stereo(photos, options);
+  const camera::StereoCalibration& s = result.calibration;
+
+  print_stereo_camera("left:", result.left);
+  print_stereo_camera("right:", result.right);
+  const Eigen::Matrix3d& R = s.R_right_from_left;
+  std::printf("  R_right_from_left [%.6f %.6f %.6f; %.6f %.6f %.6f; %.6f %.6f %.6f]  (turned %.3f° from the left camera)\n",
+              R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2), R(2, 0), R(2, 1), R(2, 2),
+              Eigen::AngleAxisd(R).angle() / kDeg);
+  const Eigen::Vector3d& t = s.t_right_from_left;
+  std::printf("  t_right_from_left [%.5f %.5f %.5f] m: baseline %.2f mm\n", t.x(), t.y(), t.z(), 1000 * s.baseline_m());
+  std::printf("  RMS reprojection error %.3f px over both cameras, %zu pair(s)\n", s.rms.value_or(0.0), result.used.size());
+  std::printf("  rectified: the corners' rows differ by %.3f px on average, 95%% of them by under %.3f px\n",
+              result.rectified_row_error_px, result.rectified_row_error_p95_px);
+  std::vector<std::size_t> order(result.used.size());
+  for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
+  std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return result.used[x].rms_px > result.used[y].rms_px; });
+  std::printf("  per-pair errors, worst first:\n");
+  for (std::size_t k : order) std::printf("    %-40s %.3f px\n", result.used[k].name.c_str(), result.used[k].rms_px);
+  for (const calib::RejectedPair& r : result.rejected) std::printf("  not used: %s: %s\n", r.name.c_str(), r.reason.c_str());
+  print_advice(result.advice);
+
+  const std::string summary = "skylit-calib stereo (" + describe_board(spec) + ")";
+  skylit::write_file_atomic(output, calib::stereo_yaml(result, photos, summary));
+  const fs::path picture = a.image_out.empty() ? beside(output, ".rectified.jpg") : fs::path(a.image_out);
+  const calib::PhotoPair& shown = photos.pairs[result.used.front().index];
+  sky::write_image(picture, calib::draw_rectification(result, shown, sky::read_image(shown.left_file, cv::IMREAD_COLOR),
+                                                      sky::read_image(shown.right_file, cv::IMREAD_COLOR)));
+  std::printf("wrote %s and %s\n", output.string().c_str(), picture.string().c_str());
   return 0;
 }
 
@@ -537,6 +614,31 @@ int main(int argc, char** argv) {
   CLI::App* camera = app.add_subcommand("camera", "HMD camera intrinsics (pinhole, or --model fisheye) from board photos");
   add_intrinsics_options(camera, camera_args, true);
 
+  StereoArgs st;
+  CLI::App* stereo =
+      app.add_subcommand("stereo", "a stereo camera: both cameras' lenses and the right camera's pose from pairs of board photos");
+  stereo->add_option("--board", st.board.board, "chessboard: inner corners COLSxROWS (squares − 1), e.g. 9x6");
+  stereo->add_option("--charuco", st.board.charuco, "ChArUco board: squares COLSxROWS, e.g. 5x7 (instead of --board)");
+  stereo->add_option("--square", st.board.square, "side of one square, metres (e.g. 0.025)")->required();
+  stereo->add_option("--marker", st.board.marker, "ChArUco: side of one marker, metres");
+  stereo->add_option("--dict", st.board.dictionary, "ChArUco: the printed board's ArUco dictionary")->capture_default_str();
+  stereo->add_option("--left", st.left, "the left camera's photos of the board, in the order of --right")
+      ->required()
+      ->check(CLI::ExistingFile);
+  stereo->add_option("--right", st.right, "the right camera's photos, each taken at the same moment as its --left photo")
+      ->required()
+      ->check(CLI::ExistingFile);
+  for (auto [option, value, what] : {std::tuple{"--model", &st.model, "both cameras' lens model"},
+                                     std::tuple{"--left-model", &st.left_model, "the left camera's lens model (default --model)"},
+                                     std::tuple{"--right-model", &st.right_model, "the right camera's lens model (default --model)"}}) {
+    CLI::Option* added = stereo->add_option(option, *value, std::string(what) + ": pinhole or fisheye")
+                             ->check(CLI::IsMember({"pinhole", "fisheye"}));
+    if (value == &st.model) added->capture_default_str();
+  }
+  stereo->add_option("-o,--output", st.board.output, "stereo calibration to write (YAML); OUT.rectified.jpg goes beside it")
+      ->required();
+  stereo->add_option("--image-out", st.image_out, "the rectification check picture elsewhere than beside the YAML");
+
   OrientationArgs o;
   CLI::App* orientation = app.add_subcommand(
       "sky-orientation", "the sky camera's R_site_from_camera from the sun in timestamped frames, or a level and compass");
@@ -604,6 +706,7 @@ int main(int argc, char** argv) {
       return run_intrinsics("camera", camera_args,
                             camera_args.model == "fisheye" ? camera::LensModel::Fisheye : camera::LensModel::Pinhole);
     }
+    if (*stereo) return run_stereo(st);
     if (*orientation) return run_orientation(o);
     if (*markers) return run_markers(m);
     if (*hid_list) return run_hid_list(h);

@@ -264,7 +264,9 @@ const fs::path kChessboard = fs::path(SKYLIT_SOURCE_DIR) / "data" / "chessboard"
 std::vector<fs::path> chessboard_photos() {
   std::vector<fs::path> photos;
   for (const auto& entry : fs::directory_iterator(kChessboard)) {
-    if (entry.path().extension() == ".jpg") photos.push_back(entry.path());
+    // The left camera's photos (the right camera's, right*.jpg, are the stereo tests').
+    const std::string name = entry.path().filename().string();
+    if (entry.path().extension() == ".jpg" && name.starts_with("left")) photos.push_back(entry.path());
   }
   std::sort(photos.begin(), photos.end());
   return photos;

@@ -18,9 +18,12 @@
 #include "skylit/base/files.hpp"
 #include "skylit/base/yaml_reader.hpp"
 #include "skylit/base/yaml_writer.hpp"
+#include "calibration_yaml.hpp"
 
 namespace skylit::camera {
 namespace {
+
+using detail::rotation_problem;
 
 namespace fs = std::filesystem;
 
@@ -73,27 +76,6 @@ std::vector<double> normalise_coefficients(LensModel model, const std::vector<do
   return {D[0], D[1], D[2], D[3], 0.0};  // (push_back here trips GCC 12's -Warray-bounds)
 }
 
-// The first problem of R as a rotation, or empty.
-std::string rotation_problem(const Eigen::Matrix3d& R) {
-  if (!R.allFinite()) return "the matrix has a non-finite element";
-  const double orthogonality =
-      (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
-  const double det = R.determinant();
-  if (orthogonality > kRotationTolerance) {
-    std::ostringstream text;
-    text << "the matrix is not a rotation: RᵀR differs from the identity by up to " << orthogonality
-         << " (allowed " << kRotationTolerance << ")";
-    return text.str();
-  }
-  if (std::abs(det - 1.0) > kRotationTolerance) {
-    std::ostringstream text;
-    text << "the matrix is not a rotation: its determinant is " << det
-         << (det < 0 ? " (a reflection: one axis is flipped)" : "") << ", not +1";
-    return text.str();
-  }
-  return {};
-}
-
 const char* const kRotationFix =
     "write the camera's orientation as an orthonormal 3×3 matrix with determinant +1, row-major, "
     "9 numbers with at least 7 significant digits (columns: the camera's x right, y down and z "
@@ -111,11 +93,13 @@ fs::path resolve(const fs::path& file, const std::string& text) {
 
 class CalibrationParser {
  public:
-  CalibrationParser(fs::path file, const std::string& text) : r_(std::move(file)), text_(text) {}
+  // `prefix`: how errors name the map holding the fields ("left." in a stereo file; empty).
+  CalibrationParser(const YamlReader& reader, std::string prefix) : r_(reader), prefix_(std::move(prefix)) {}
 
-  CameraCalibration parse() const {
+  // A whole single-camera file.
+  CameraCalibration parse(const std::string& text) const {
     const YAML::Node root = r_.parse(
-        text_, std::string("correct the YAML syntax at that line (indentation, colons, brackets); ") + kSchemaHint);
+        text, std::string("correct the YAML syntax at that line (indentation, colons, brackets); ") + kSchemaHint);
     if (root.IsNull()) {
       fail(root, "", "the calibration file is empty",
            std::string("write image_width, image_height, model, fx, fy, cx, cy, D and "
@@ -128,6 +112,11 @@ class CalibrationParser {
                        "R_site_from_camera; ") +
                kSchemaHint);
     }
+    return parse_map(root);
+  }
+
+  // The camera's fields in `root`, a map.
+  CameraCalibration parse_map(const YAML::Node& root) const {
     check_keys(root);
 
     CameraCalibration c;
@@ -156,16 +145,16 @@ class CalibrationParser {
         "write the focal length in pixels, a positive number (for an "
         "equidistant fisheye: image-circle radius in pixels / (FOV/2 in "
         "radians))";
-    c.fx = r_.positive(require(root, "fx", focal_fix), "fx", focal_fix);
-    c.fy = r_.positive(require(root, "fy", focal_fix), "fy", focal_fix);
+    c.fx = r_.positive(require(root, "fx", focal_fix), full_name("fx"), focal_fix);
+    c.fy = r_.positive(require(root, "fy", focal_fix), full_name("fy"), focal_fix);
     const std::string centre_fix =
         "write the principal point in pixels (OpenCV: pixel centres at "
         "integers, so the image centre of a 1024-pixel side is 511.5)";
-    c.cx = r_.number(require(root, "cx", centre_fix), "cx", centre_fix);
-    c.cy = r_.number(require(root, "cy", centre_fix), "cy", centre_fix);
+    c.cx = r_.number(require(root, "cx", centre_fix), full_name("cx"), centre_fix);
+    c.cy = r_.number(require(root, "cy", centre_fix), full_name("cy"), centre_fix);
 
     const YAML::Node D = require(root, "D", coefficient_fix(c.model));
-    std::vector<double> coefficients = r_.numbers(D, "D", coefficient_fix(c.model));
+    std::vector<double> coefficients = r_.numbers(D, full_name("D"), coefficient_fix(c.model));
     if (!valid_coefficient_count(c.model, coefficients.size())) {
       fail(D, "D",
            std::to_string(coefficients.size()) + " coefficients do not fit the " +
@@ -184,7 +173,7 @@ class CalibrationParser {
       const std::string fix =
           "write the camera's position in the site frame, 3 numbers in "
           "metres, e.g. [0, 0, 2.5]";
-      const std::vector<double> values = r_.numbers(t, 3, "t_site_from_camera", fix);
+      const std::vector<double> values = r_.numbers(t, 3, full_name("t_site_from_camera"), fix);
       c.t_site_from_camera = Vec3(values[0], values[1], values[2]);
     }
 
@@ -201,11 +190,11 @@ class CalibrationParser {
         "write the reprojection error in pixels, a number ≥ 0 (or "
         "remove the field)";
     if (const YAML::Node rms = YamlReader::optional(root, "rms")) {
-      c.rms = r_.number(rms, "rms", error_fix);
+      c.rms = r_.number(rms, full_name("rms"), error_fix);
       if (*c.rms < 0) fail(rms, "rms", "the error is negative", error_fix);
     }
     if (const YAML::Node errors = YamlReader::optional(root, "per_view_errors")) {
-      c.per_view_errors = r_.numbers(errors, "per_view_errors", error_fix);
+      c.per_view_errors = r_.numbers(errors, full_name("per_view_errors"), error_fix);
       for (std::size_t i = 0; i < c.per_view_errors.size(); ++i) {
         if (c.per_view_errors[i] < 0) {
           fail(errors[i], "per_view_errors", "element " + std::to_string(i) + " is negative",
@@ -219,8 +208,11 @@ class CalibrationParser {
  private:
   [[noreturn]] void fail(const YAML::Node& node, const std::string& field, const std::string& problem,
                          const std::string& fix) const {
-    r_.fail(node, field, problem, fix);
+    r_.fail(node, full_name(field), problem, fix);
   }
+
+  // The field's name as errors give it ("left.fx" in a stereo file).
+  std::string full_name(const std::string& name) const { return prefix_ + name; }
 
   void check_keys(const YAML::Node& map) const {
     // OpenCV's keys in a file without OpenCV's header: say so, rather than "unknown field".
@@ -232,16 +224,16 @@ class CalibrationParser {
                  std::string(kSchemaHint));
       }
     }
-    r_.check_keys(map, "", kKeys);
+    r_.check_keys(map, prefix_, kKeys);
   }
 
   YAML::Node require(const YAML::Node& map, const std::string& key, const std::string& fix) const {
-    return r_.require(map, key, key, fix);
+    return r_.require(map, key, full_name(key), fix);
   }
 
   // From 1 to kMaxImageSize.
   int image_size(const YAML::Node& map, const std::string& key, const std::string& fix) const {
-    return static_cast<int>(r_.integer(require(map, key, fix), key, 1, kMaxImageSize, fix));
+    return static_cast<int>(r_.integer(require(map, key, fix), full_name(key), 1, kMaxImageSize, fix));
   }
 
   // 9 numbers row-major, or 3 rows of 3.
@@ -249,12 +241,12 @@ class CalibrationParser {
     std::vector<double> values;
     if (node.IsSequence() && node.size() == 3 && node[0].IsSequence()) {
       for (std::size_t r = 0; r < 3; ++r) {
-        const std::vector<double> row = r_.numbers(node[r], field, kRotationFix);
+        const std::vector<double> row = r_.numbers(node[r], full_name(field), kRotationFix);
         if (row.size() != 3) fail(node[r], field, "expected 3 rows of 3 numbers", kRotationFix);
         values.insert(values.end(), row.begin(), row.end());
       }
     } else {
-      values = r_.numbers(node, field, kRotationFix);
+      values = r_.numbers(node, full_name(field), kRotationFix);
       if (values.size() != 9) {
         fail(node, field, "expected 9 numbers (row-major), got " + std::to_string(values.size()),
              kRotationFix);
@@ -267,8 +259,8 @@ class CalibrationParser {
     return R;
   }
 
-  YamlReader r_;
-  const std::string& text_;
+  const YamlReader& r_;
+  std::string prefix_;
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -486,6 +478,35 @@ bool is_opencv_storage(const std::string& text) {
 
 }  // namespace
 
+namespace detail {
+
+// The first problem of R as a rotation, or empty.
+std::string rotation_problem(const Eigen::Matrix3d& R) {
+  if (!R.allFinite()) return "the matrix has a non-finite element";
+  const double orthogonality =
+      (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  const double det = R.determinant();
+  if (orthogonality > kRotationTolerance) {
+    std::ostringstream text;
+    text << "the matrix is not a rotation: RᵀR differs from the identity by up to " << orthogonality
+         << " (allowed " << kRotationTolerance << ")";
+    return text.str();
+  }
+  if (std::abs(det - 1.0) > kRotationTolerance) {
+    std::ostringstream text;
+    text << "the matrix is not a rotation: its determinant is " << det
+         << (det < 0 ? " (a reflection: one axis is flipped)" : "") << ", not +1";
+    return text.str();
+  }
+  return {};
+}
+
+CameraCalibration parse_camera_map(const YamlReader& reader, const YAML::Node& map, const std::string& prefix) {
+  return CalibrationParser(reader, prefix).parse_map(map);
+}
+
+}  // namespace detail
+
 CameraCalibration load_calibration(const std::filesystem::path& file) {
   const std::string text = read_file(file);
   CameraCalibration calibration;
@@ -493,7 +514,8 @@ CameraCalibration load_calibration(const std::filesystem::path& file) {
     calibration = OpenCVReader(file, text).parse();
   } else {
     try {
-      calibration = CalibrationParser(file, text).parse();
+      const YamlReader reader(file);
+      calibration = CalibrationParser(reader, "").parse(text);
     } catch (const YAML::Exception& e) {  // a construct the checks above did not foresee
       const int line = e.mark.line >= 0 ? e.mark.line + 1 : -1;
       const int column = e.mark.column >= 0 ? e.mark.column + 1 : -1;
@@ -554,7 +576,7 @@ void validate(const CameraCalibration& c) {
   }
 }
 
-std::string calibration_to_yaml(const CameraCalibration& c) {
+void detail::emit_camera_map(YAML::Emitter& out, const CameraCalibration& c) {
   // The mask is written relative to the YAML's directory when the YAML's place is known, so
   // that load_calibration of the written file resolves it to the same path.
   fs::path mask = c.mask;
@@ -569,9 +591,7 @@ std::string calibration_to_yaml(const CameraCalibration& c) {
   }
   const bool fisheye = c.model == LensModel::Fisheye;
   using YAML::Key, YAML::Value, YAML::Comment;
-  YAML::Emitter out;
-  out << YamlCommentLine{"skylit camera calibration (format: docs/sky.md). Pixel centres at integers (OpenCV)."}
-      << YAML::BeginMap
+  out << YAML::BeginMap
       << Key << "image_width" << Value << c.image_width
       << Key << "image_height" << Value << c.image_height
       << Key << "model" << Value << model_name(c.model)
@@ -593,6 +613,12 @@ std::string calibration_to_yaml(const CameraCalibration& c) {
   if (c.rms) out << Key << "rms" << Value << YamlNumber{*c.rms} << Comment("reprojection error, pixels");
   if (!c.per_view_errors.empty()) out << Key << "per_view_errors" << Value << YamlNumbers{c.per_view_errors};
   out << YAML::EndMap;
+}
+
+std::string calibration_to_yaml(const CameraCalibration& c) {
+  YAML::Emitter out;
+  out << YamlCommentLine{"skylit camera calibration (format: docs/sky.md). Pixel centres at integers (OpenCV)."};
+  detail::emit_camera_map(out, c);
   return yaml_document(out);
 }
 
