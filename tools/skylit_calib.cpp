@@ -1,11 +1,8 @@
-// skylit-calib: calibration tools for installers. `fisheye` and `camera`: intrinsics from photos
-// of a chessboard or ChArUco board; `stereo`: both cameras of a stereo pair and their relative
-// pose; `sky-orientation`: the sky camera's R_site_from_camera from the sun in timestamped sky
-// frames, or from a level and a compass; `markers`: a marker map from photos of the site's
-// AprilTags; `hid list`: the HID devices present and the IMU profile that matches each. Each
-// writes its YAML atomically (a failed run leaves an existing file as it was), prints its quality
-// figures, writes a diagnostic image beside the YAML (not `hid list`) and says what to do when the
-// data are not good enough. See docs/calibration.md.
+// skylit-calib: calibration tools for installers (docs/calibration.md): `fisheye`, `camera` and
+// `stereo` (lenses, and a stereo pair's relative pose, from board photos), `sky-orientation`
+// (R_site_from_camera from the sun, or a level and a compass), `markers` (a marker map of AprilTags),
+// `hid list` (HID devices, IMU profiles). YAML is written atomically (a failed run leaves an existing
+// file as it was) with quality figures, advice and, but for `hid list`, a picture to check by eye.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>

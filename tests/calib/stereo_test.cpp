@@ -182,7 +182,7 @@ TEST(CalibStereo, UnequalCountsAndTooFewPairsAreRefused) {
 
 // ---------------------------------------------------------------------------------------------
 // Synthetic pairs: two different pinhole lenses 65 mm apart, the right one turned 1.5° about y and
-// 0.4° about x, boards at 0.5–0.7 m.
+// 0.4° about x, boards at 0.4–0.55 m.
 
 CameraCalibration synthetic_lens(double fx, double cx, double cy, double k1) {
   CameraCalibration c;

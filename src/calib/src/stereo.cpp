@@ -207,6 +207,7 @@ void refine_jointly(const camera::Lens& left, const camera::Lens& right, const s
   StereoPoseBlock stereo(fit.right_from_left);
   std::vector<StereoPoseBlock> boards;
   for (const StereoRigid& b : fit.left_from_board) boards.emplace_back(b);
+  StereoPoseManifold manifold;  // outlives the problem that refers to it
   ceres::Problem::Options problem_options;
   problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
@@ -223,7 +224,6 @@ void refine_jointly(const camera::Lens& left, const camera::Lens& right, const s
                                nullptr, stereo.data(), boards[k].data());
     }
   }
-  StereoPoseManifold manifold;
   auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
   problem.SetManifold(stereo.data(), &manifold);
   ordering->AddElementToGroup(stereo.data(), 1);
@@ -567,7 +567,12 @@ StereoResult calibrate_stereo(const StereoPhotos& photos, const StereoOptions& o
                             "; retake them with the whole board in view of both cameras, sharp and evenly lit");
   }
   for (const auto& [intrinsics, side] : {std::pair{&result.left, "left"}, std::pair{&result.right, "right"}}) {
-    for (const std::string& line : intrinsics->advice) result.advice.push_back(std::string(side) + " camera: " + line);
+    for (std::string line : intrinsics->advice) {
+      // stereo draws no coverage image: the advice stands without the pointer to one.
+      const std::string pointer = " (see the coverage image)";
+      if (const std::size_t at = line.find(pointer); at != std::string::npos) line.erase(at, pointer.size());
+      result.advice.push_back(std::string(side) + " camera: " + line);
+    }
   }
   return result;
 }
