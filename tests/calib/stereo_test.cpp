@@ -1,6 +1,7 @@
 // Stereo calibration: the real left/right pairs of data/chessboard against OpenCV's own
-// stereoCalibrate; synthetic pairs through two known lenses at a known relative pose; pairs with
-// the board in one photo only listed and not used; the stereo YAML's round trip and its errors.
+// stereoCalibrate (pinhole and fisheye); synthetic pairs through two known lenses at a known
+// relative pose; pairs with the board in one photo only listed and not used; the stereo YAML's
+// round trip and its errors.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -128,6 +129,42 @@ TEST(CalibStereo, RealPairsAgreeWithOpenCVStereoCalibrate) {
               100 * baseline_difference, rotation_difference, fixed.rms, 1000 * unfixed.T.norm(),
               100 * std::abs(s.baseline_m() - unfixed.T.norm()) / unfixed.T.norm(), rotation_difference_deg(s.R_right_from_left, unfixed.R),
               unfixed.rms);
+}
+
+// The same pairs through OpenCV's fisheye model in both cameras, against cv::fisheye::stereoCalibrate.
+TEST(CalibStereo, RealPairsFisheyeAgreeWithOpenCVFisheyeStereoCalibrate) {
+  const BoardDetector detector(sample_board());
+  const std::vector<fs::path> left = sample_photos("left"), right = sample_photos("right");
+  const StereoPhotos photos = skylit::calib::detect_stereo_boards(left, right, detector);
+  StereoOptions options;
+  options.left.model = options.right.model = LensModel::Fisheye;
+  const StereoResult result = skylit::calib::calibrate_stereo(photos, options);
+  const StereoCalibration& s = result.calibration;
+  ASSERT_GE(result.used.size(), 10u);
+  std::vector<std::vector<cv::Point3f>> object;
+  std::vector<std::vector<cv::Point2f>> left_corners, right_corners;
+  for (const skylit::calib::UsedPair& used : result.used) {
+    object.push_back(photos.pairs[used.index].left->object);
+    left_corners.push_back(photos.pairs[used.index].left->image);
+    right_corners.push_back(photos.pairs[used.index].right->image);
+  }
+  cv::Mat K1 = camera_matrix_of(s.left), K2 = camera_matrix_of(s.right), D1(s.left.D, true), D2(s.right.D, true), R, T;
+  cv::fisheye::stereoCalibrate(object, left_corners, right_corners, K1, D1, K2, D2, cv::Size(640, 480), R, T,
+                               cv::fisheye::CALIB_FIX_INTRINSIC,
+                               cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 200, 1e-12));
+  Eigen::Matrix3d R_cv;
+  Eigen::Vector3d T_cv;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) R_cv(i, j) = R.at<double>(i, j);
+    T_cv(i) = T.at<double>(i);
+  }
+  const double baseline_difference = std::abs(s.baseline_m() - T_cv.norm()) / T_cv.norm();
+  const double rotation_difference = rotation_difference_deg(s.R_right_from_left, R_cv);
+  EXPECT_LT(baseline_difference, 0.01);
+  EXPECT_LT(rotation_difference, 0.2);
+  std::printf("real pairs, fisheye: baseline %.3f mm, RMS %.4f px; fisheye::stereoCalibrate: baseline %.3f mm (difference %.2g%%), "
+              "rotation difference %.2g°\n",
+              1000 * s.baseline_m(), *s.rms, 1000 * T_cv.norm(), 100 * baseline_difference, rotation_difference);
 }
 
 // Pairs with one photo replaced by a blank picture of the camera's size (the board out of one
