@@ -57,6 +57,7 @@
 #include "skylit/sky/sky_estimate.hpp"
 #include "skylit/bake_format/arrays.hpp"
 #include "skylit/gpu/egl_context.hpp"
+#include "skylit/render/photometric.hpp"
 #include "skylit/study/building_light.hpp"
 #include "skylit/study/gpu_path.hpp"
 #include "skylit/study/study.hpp"
@@ -120,6 +121,35 @@ const std::vector<Config> kConfigs{
     {"quadratics64", 2, 64, true, skylit::geom::DomeBasis::Quadratics},
     {"quadratics64+sources", 2, 64, true, skylit::geom::DomeBasis::Quadratics, false, Config::Mix::Sources},
 };
+
+// sky.clipped_sun_energy: shadow_contrast, as an HMD node measures it: real ground under the
+// equirect's sky in and out of a post's shadow (the oracle's disc hidden), seen by an 8-bit
+// camera, against the dome's D_sky on the bake's ground plane. Taken when it says more than the
+// clipped pixels, as the live path does.
+void apply_ground_contrast(skylit::sky::SkyEstimate& estimate, const cv::Mat& equirect, const EquirectSun& oracle,
+                           const skylit::bake_format::Manifest& manifest, const std::string& sky_name) {
+  const auto ground = std::find_if(manifest.planes.begin(), manifest.planes.end(),
+                                   [](const auto& record) { return record.plane.normal().z() > 0.999; });
+  if (ground == manifest.planes.end()) {
+    std::fprintf(stderr, "%s: shadow contrast: the bake has no horizontal plane\n", sky_name.c_str());
+    return;
+  }
+  const GroundView view = real_ground_view(equirect, oracle.peak, kOracleRadiusDeg);
+  const std::vector<Eigen::Vector3d> S = skylit::sky::layer_radiances(estimate.luminance);
+  const Eigen::Vector3d sky_irradiance = skylit::render::plane_irradiance(*ground, S, std::nullopt);
+  skylit::sky::Sun& sun = *estimate.sun;
+  const skylit::render::ShadowContrast contrast = skylit::render::estimate_sun_from_shadow_contrast(
+      view.linear, view.lit, view.shadowed, sky_irradiance, sun.direction.normalized().z());
+  std::fprintf(stderr, "%s: shadow contrast: %s, sun %.4g (measured %.4g, oracle %.4g, luminance), confidence %.2f\n",
+               sky_name.c_str(), contrast.ok ? "ok" : contrast.problem.c_str(), luminance(contrast.sun_energy),
+               luminance(sun.energy), luminance(oracle.energy), contrast.confidence);
+  if (!contrast.ok || !(luminance(contrast.sun_energy) > luminance(sun.energy))) return;
+  sun.measured_energy = sun.energy;
+  sun.energy = contrast.sun_energy;
+  sun.energy_estimator = "shadow_contrast";
+  sun.energy_confidence = contrast.confidence;
+  if (!estimate.sources.empty()) estimate.sources.front() = sun;  // sources[0] is the sun
+}
 
 // One bake per (ν, K, basis).
 using BakeKey = std::tuple<int, int, skylit::geom::DomeBasis>;
@@ -191,7 +221,9 @@ int main(int argc, char** argv) {
                "the sun's direction as a site's location and a frame's time would give it (the equirect's own sun): a "
                "clipped blob there is the sun");
   std::string clipped_energy = "measured";
-  app.add_option("--clipped-sun-energy", clipped_energy, "a clipped sun's energy: clear_sky or measured")
+  app.add_option("--clipped-sun-energy", clipped_energy,
+                 "a clipped sun's energy: clear_sky, shadow_contrast (an HMD camera's 8-bit view of real ground in "
+                 "and out of a post's shadow under the equirect's sky) or measured")
       ->capture_default_str();
   skylit::baker::RefineOptions refine;
   app.add_option("--refine", refine.tolerance, "every bake splits the model where its light changes (skylit-bake --refine)");
@@ -407,6 +439,10 @@ int main(int argc, char** argv) {
       const std::optional<Vec3> expected =
           expected_sun && oracle.found ? std::optional<Vec3>(oracle.centroid) : std::nullopt;
       skylit::sky::SkyEstimate estimate = estimator.estimate(use_oracle ? oracle_frame : frame, expected);
+      if (sky_options.clipped_sun_energy == skylit::sky::ClippedSunEnergy::ShadowContrast && estimate.sun &&
+          estimate.sun->clipped && oracle.found) {
+        apply_ground_contrast(estimate, equirect, oracle, manifest, sky_file.stem().string());
+      }
       const bool mixed = c.mix != Config::Mix::None && oracle.found && estimate.sun;
       if (mixed && c.mix == Config::Mix::OracleDome) {
         estimate.luminance = skylit::sky::compute_luminance(estimator.table(), dome, oracle_frame.radiance,

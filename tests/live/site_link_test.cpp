@@ -242,6 +242,17 @@ TEST(SiteLink, ConfigErrorsNameTheField) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("sky.source"), std::string::npos) << e.what();
   }
+  // The ground's shadow contrast is an HMD node's: its camera sees the ground.
+  std::string contrast = sky_node_config(rig, 1883);
+  contrast.insert(contrast.find("link:"), "  clipped_sun_energy: shadow_contrast\n");
+  std::ofstream(rig.dir() / "sky_contrast.yaml") << contrast;
+  try {
+    live::load_sky_node_config(rig.dir() / "sky_contrast.yaml");
+    FAIL() << "a sky node with shadow_contrast was taken";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("sky.clipped_sun_energy"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("HMD nodes"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

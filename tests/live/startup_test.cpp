@@ -258,17 +258,34 @@ TEST(ServiceConfig, AClippedSunsEnergyIsASetting) {
   const Rig rig;
   const fs::path file = rig.dir() / "clipped_sun.yaml";
   std::ofstream(file) << rig.config_text();
-  EXPECT_FALSE(live::load_live_config(file).sky.clear_sky_sun_energy);
+  EXPECT_EQ(live::load_live_config(file).sky.clipped_sun_energy, sky::ClippedSunEnergy::Measured);
   std::string text = rig.config_text();
   text.insert(text.find("  stale_after:"), "  clipped_sun_energy: clear_sky\n");
   std::ofstream(file) << text;
-  EXPECT_TRUE(live::load_live_config(file).sky.clear_sky_sun_energy);
+  EXPECT_EQ(live::load_live_config(file).sky.clipped_sun_energy, sky::ClippedSunEnergy::ClearSky);
   EXPECT_NO_THROW(live::Service(live::load_live_config(file), quiet_options()));
   text.replace(text.find("clipped_sun_energy: clear_sky"), 29, "clipped_sun_energy: guess");
   std::ofstream(file) << text;
   const std::string message = skylit::test::error_of([&] { live::load_live_config(file); });
   EXPECT_NE(message.find("sky.clipped_sun_energy"), std::string::npos) << message;
   EXPECT_NE(message.find("clear_sky"), std::string::npos) << message;
+  // shadow_contrast needs ground in a real shadow on the photometric region's plane.
+  text.replace(text.find("clipped_sun_energy: guess"), 25, "clipped_sun_energy: shadow_contrast");
+  std::ofstream(file) << text;
+  const std::string without = skylit::test::error_of([&] { live::load_live_config(file); });
+  EXPECT_NE(without.find("sky.clipped_sun_energy"), std::string::npos) << without;
+  EXPECT_NE(without.find("photometric.estimate.shadowed_region"), std::string::npos) << without;
+  std::ofstream(file) << text << "photometric:\n  estimate:\n    plane: ground\n    region: [0, 0.25, 0, 0.25]\n"
+                      << "    shadowed_region: [0.3, 0.5, 0, 0.25]\n    shadowed_sky_visibility: 0.9\n";
+  const live::LiveConfig config = live::load_live_config(file);
+  EXPECT_EQ(config.sky.clipped_sun_energy, sky::ClippedSunEnergy::ShadowContrast);
+  ASSERT_TRUE(config.photometric.shadowed_region);
+  EXPECT_DOUBLE_EQ((*config.photometric.shadowed_region)[1], 0.5);
+  EXPECT_DOUBLE_EQ(config.photometric.shadowed_sky_visibility, 0.9);
+  std::ofstream(file) << text << "photometric:\n  estimate:\n    plane: ground\n"
+                      << "    shadowed_region: [0.3, 0.5, 0, 0.25]\n    shadowed_sky_visibility: 1.5\n";
+  const std::string above = skylit::test::error_of([&] { live::load_live_config(file); });
+  EXPECT_NE(above.find("photometric.estimate.shadowed_sky_visibility"), std::string::npos) << above;
 }
 
 // The ground's light on the building (render.ground_light, render.ground_albedo): a setting of

@@ -39,7 +39,17 @@ BlendDevice parse_blend_device(const YamlReader& r, const YAML::Node& node, cons
   return device == "cpu" ? BlendDevice::Cpu : device == "gpu" ? BlendDevice::Gpu : BlendDevice::Auto;
 }
 constexpr std::array<std::string_view, 2> kPhotometricKeys{"scale", "estimate"};
-constexpr std::array<std::string_view, 4> kEstimateKeys{"plane", "region", "albedo", "every"};
+constexpr std::array<std::string_view, 6> kEstimateKeys{"plane",  "region", "albedo",
+                                                        "every", "shadowed_region", "shadowed_sky_visibility"};
+
+// [s0, s1, t0, t1], a rectangle inside the plane.
+std::array<double, 4> parse_region(const YamlReader& r, const YAML::Node& n, const std::string& field) {
+  const auto v = r.numbers(n, 4, field, "[s0, s1, t0, t1] in 0..1 along the plane's u and v");
+  if (!(0 <= v[0] && v[0] < v[1] && v[1] <= 1 && 0 <= v[2] && v[2] < v[3] && v[3] <= 1)) {
+    r.fail(n, field, "not a rectangle inside the plane", "0 ≤ s0 < s1 ≤ 1 and 0 ≤ t0 < t1 ≤ 1");
+  }
+  return {v[0], v[1], v[2], v[3]};
+}
 constexpr std::array<std::string_view, 2> kOutputKeys{"record", "window"};
 constexpr std::array<std::string_view, 3> kStatusKeys{"listen", "token_file", "allow_unauthenticated"};
 constexpr std::array<std::string_view, 3> kDisplayKeys{"profile", "monitor", "mode"};
@@ -227,8 +237,9 @@ void parse_sky(const YamlReader& r, const YAML::Node& root, const std::filesyste
     c.sky.correct_sun_colour = r.choice(n, "sky.sun_colour", modes) == "daylight";
   }
   if (auto n = YamlReader::optional(sky, "clipped_sun_energy")) {
-    constexpr std::array<std::string_view, 2> modes{"measured", "clear_sky"};
-    c.sky.clear_sky_sun_energy = r.choice(n, "sky.clipped_sun_energy", modes) == "clear_sky";
+    constexpr std::array<std::string_view, 3> modes{"measured", "clear_sky", "shadow_contrast"};
+    c.sky.clipped_sun_energy =
+        sky::parse_clipped_sun_energy(std::string(r.choice(n, "sky.clipped_sun_energy", modes)), "sky.clipped_sun_energy");
   }
   parse_max_sources(r, sky, c.sky);
 }
@@ -354,12 +365,18 @@ void parse_photometric(const YamlReader& r, const YAML::Node& root, LiveConfig& 
       r.check_keys(estimate, "photometric.estimate.", kEstimateKeys);
       c.photometric.plane = r.text(r.require(estimate, "plane", "photometric.estimate.plane", "a real plane of the site, e.g. ground"),
                                    "photometric.estimate.plane", "a plane name");
-      if (auto n = YamlReader::optional(estimate, "region")) {
-        const auto v = r.numbers(n, 4, "photometric.estimate.region", "[s0, s1, t0, t1] in 0..1 along the plane's u and v");
-        if (!(0 <= v[0] && v[0] < v[1] && v[1] <= 1 && 0 <= v[2] && v[2] < v[3] && v[3] <= 1)) {
-          r.fail(n, "photometric.estimate.region", "not a rectangle inside the plane", "0 ≤ s0 < s1 ≤ 1 and 0 ≤ t0 < t1 ≤ 1");
+      if (auto n = YamlReader::optional(estimate, "region")) c.photometric.region = parse_region(r, n, "photometric.estimate.region");
+      if (auto n = YamlReader::optional(estimate, "shadowed_region")) {
+        c.photometric.shadowed_region = parse_region(r, n, "photometric.estimate.shadowed_region");
+      }
+      if (auto n = YamlReader::optional(estimate, "shadowed_sky_visibility")) {
+        const double v = r.positive(n, "photometric.estimate.shadowed_sky_visibility",
+                                    "in (0, 1]: the shadowed region over the lit one under an overcast sky");
+        if (v > 1.0) {
+          r.fail(n, "photometric.estimate.shadowed_sky_visibility", "is above 1",
+                 "the shadowed region's brightness over the lit region's under an overcast sky, at most 1");
         }
-        c.photometric.region = {v[0], v[1], v[2], v[3]};
+        c.photometric.shadowed_sky_visibility = v;
       }
       if (auto n = YamlReader::optional(estimate, "albedo")) {
         const auto v = r.numbers(n, 3, "photometric.estimate.albedo", "[r, g, b] in (0, 1]");
@@ -441,6 +458,11 @@ SkyNodeConfig load_sky_node_config(const std::filesystem::path& file) {
   c.bake = r.path(r.require(root, "bake", "bake", "the bake folder whose dome the skies are for"), "bake", kSiteDocs);
   apply_preset(r, root, file, c);
   parse_sky(r, root, file, c);
+  if (c.sky.clipped_sun_energy == sky::ClippedSunEnergy::ShadowContrast) {
+    r.fail(root["sky"]["clipped_sun_energy"], "sky.clipped_sun_energy",
+           "shadow_contrast is measured by the HMD nodes, whose cameras see the ground",
+           "use measured or clear_sky here, and set shadow_contrast in the HMD nodes' skylit-live configs");
+  }
   if (c.sky.link) {
     r.fail(root["sky"]["source"], "sky.source", "a sky node estimates the sky and cannot take it from MQTT",
            "give the sky camera's source (e.g. {kind: sky-sim, ...}); the broker goes under link:");
@@ -479,6 +501,11 @@ LiveConfig load_live_config(const std::filesystem::path& file) {
   parse_blend(r, root, c);
   parse_render(r, root, c);
   parse_photometric(r, root, c);
+  if (c.sky.clipped_sun_energy == sky::ClippedSunEnergy::ShadowContrast && !c.photometric.shadowed_region) {
+    r.fail(root["sky"]["clipped_sun_energy"], "sky.clipped_sun_energy",
+           "shadow_contrast needs a real shadow on the photometric region's plane",
+           "give photometric.estimate.shadowed_region: [s0, s1, t0, t1], ground in a real shadow beside the region");
+  }
   parse_output(r, root, c);
   parse_status(r, root, c);
   parse_display(r, root, c);

@@ -471,6 +471,24 @@ void Service::State::RenderLoop::estimate_photometric(const capture::Frame& fram
     std::lock_guard lock(s.stats_mutex);
     s.photometric = found.match;
   }
+  if (s.config.photometric.shadowed_region && sky->sun) {
+    const std::array<double, 4>& r = *s.config.photometric.shadowed_region;
+    const cv::Mat shadowed = compositor->region_mask(*reference_plane, r[0], r[1], r[2], r[3], *last_pose);
+    const bake_format::PlaneRecord& plane = s.manifest.planes[static_cast<std::size_t>(*reference_plane)];
+    render::ShadowContrastOptions options;
+    options.sky_visibility = s.config.photometric.shadowed_sky_visibility;
+    const Eigen::Vector3d sky_irradiance = render::plane_irradiance(plane, sky->S, std::nullopt);
+    State::GroundContrast measured;
+    measured.measured_at = now_seconds();
+    if (sky_irradiance.allFinite() && sky_irradiance.minCoeff() > 0.0) {
+      measured.contrast = render::estimate_sun_from_shadow_contrast(
+          linear.radiance, region, shadowed, sky_irradiance, plane.plane.normal().dot(sky->sun->direction.normalized()), options);
+    } else {
+      measured.contrast.problem = "the sky does not light the plane";
+    }
+    std::lock_guard lock(s.stats_mutex);
+    s.ground_contrast = std::move(measured);
+  }
 }
 
 // The composite, shown in the window (when there is one); returns it when someone takes it.

@@ -202,6 +202,13 @@ struct Service::State {
   double record_fps = 0;
   Recorder::Health recording;  // the render loop's copy, for the status
   std::optional<render::PhotometricMatch> photometric;
+  // The ground's shadow contrast (sky.clipped_sun_energy: shadow_contrast): measured by the render
+  // thread beside the photometric match, taken by the sky thread for the next clipped sun.
+  struct GroundContrast {
+    render::ShadowContrast contrast;
+    double measured_at = 0;  // steady seconds
+  };
+  std::optional<GroundContrast> ground_contrast;
   std::int64_t blend_skipped_layers = 0;
 
   std::unique_ptr<BakeInfo> bake_info;  // the console's bake view

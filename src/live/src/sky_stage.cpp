@@ -15,7 +15,7 @@ sky::SkyEstimateOptions estimate_options(geom::DomeBasis basis, const SkySetting
   options.table.basis = basis;
   options.max_sources = settings.max_sources;
   options.correct_sun_colour = settings.correct_sun_colour;
-  options.clipped_sun_energy = settings.clear_sky_sun_energy ? sky::ClippedSunEnergy::ClearSky : sky::ClippedSunEnergy::Measured;
+  options.clipped_sun_energy = settings.clipped_sun_energy;
   return options;
 }
 

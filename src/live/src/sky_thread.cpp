@@ -21,6 +21,7 @@
 #include "skylit/blend/workers.hpp"
 #include "skylit/sky/overlay.hpp"
 #include "skylit/sky/radiometry.hpp"
+#include "skylit/sky/sky_model.hpp"
 #include "skylit/sky/sky_smoothing.hpp"
 
 namespace skylit::live {
@@ -35,6 +36,9 @@ bool sun_moved(const Eigen::Vector3d& drawn_for, const Eigen::Vector3d& sun, dou
   return drawn_for.dot(sun) < std::cos(std::max(1e-4, 0.1 * angular_radius));
 }
 double shadow_angular_radius(double estimated) { return std::max(estimated, 0.0047); }  // the real sun's at least
+
+// A ground contrast older than this is not used (the HMD looked away, the shadow moved off).
+constexpr double kGroundContrastMaxAge = 10.0;  // seconds
 
 std::vector<geom::Plane> bake_planes(const bake_format::Manifest& manifest) {
   std::vector<geom::Plane> planes;
@@ -69,6 +73,7 @@ class Service::State::SkyThread {
   EstimatedSky estimate(const capture::Frame& frame);
   void run_from_link();
   void publish_node_status();
+  void apply_ground_contrast(SkyState& state) const;
   bool draw_sun_map(SkyState& state);
   void blend_planes(SkyState& state);
   void publish(EstimatedSky& sky);
@@ -120,6 +125,7 @@ void Service::State::SkyThread::run(std::promise<void>& ready) {
     try {
       // 2. S and the sun from it, smoothed over time.
       EstimatedSky sky = estimate(*frame);
+      apply_ground_contrast(sky.state);
       // 3. The sun's shadow map for a sun that moved, complete before the sky is handed over.
       if (!draw_sun_map(sky.state)) break;  // closed: the service is stopping
       // 4. With the blend on the CPU: T of every plane in view, so that the render thread only uploads it.
@@ -274,6 +280,7 @@ void Service::State::SkyThread::run_from_link() {
       ++s.counters.sky_frames;
       s.sky_activity.frame();
       EstimatedSky sky{sky_from_message(*message, s.config.sky.max_sources), {}, {}};
+      apply_ground_contrast(sky.state);
       if (!draw_sun_map(sky.state)) break;
       if (cpu) blend_planes(sky.state);
       publish(sky);
@@ -298,6 +305,22 @@ void Service::State::SkyThread::publish_node_status() {
   node_status["frames"] = report["frames"];
   node_status["time"] = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
   s.sky_link->publish_status(node_status);
+}
+
+// sky.clipped_sun_energy: shadow_contrast. A clipped sun takes the energy the ground's shadow
+// contrast measured, when that is recent and more than its pixels say (they are a lower bound).
+void Service::State::SkyThread::apply_ground_contrast(SkyState& state) const {
+  if (s.config.sky.clipped_sun_energy != sky::ClippedSunEnergy::ShadowContrast || !state.sun || !state.sun_clipped) return;
+  std::optional<GroundContrast> ground;
+  {
+    std::lock_guard lock(s.stats_mutex);
+    ground = s.ground_contrast;
+  }
+  if (!ground || !ground->contrast.ok || state.received - ground->measured_at > kGroundContrastMaxAge) return;
+  if (!(sky::rgb_luminance(ground->contrast.sun_energy) > sky::rgb_luminance(state.sun->energy))) return;
+  state.sun->energy = ground->contrast.sun_energy;
+  state.sun_energy_estimator = "shadow_contrast";
+  state.sun_energy_confidence = ground->contrast.confidence;
 }
 
 // False when the maps are closed (the service is stopping).

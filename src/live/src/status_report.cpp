@@ -88,6 +88,18 @@ nlohmann::json Service::State::status_report() const {
                          {"composite", 1e3 * composite_times.percentile(0.5)},
                          {"record", 1e3 * record_times.percentile(0.5)}};
     if (photometric) j["photometric_scale"] = {photometric->scale.x(), photometric->scale.y(), photometric->scale.z()};
+    if (ground_contrast) {
+      // What an installer reads to set shadowed_sky_visibility: under an overcast sky, shadowed
+      // over lit is V.
+      const render::ShadowContrast& c = ground_contrast->contrast;
+      j["shadow_contrast"] = {{"ok", c.ok},
+                              {"problem", c.problem.empty() ? nlohmann::json(nullptr) : nlohmann::json(c.problem)},
+                              {"lit", {c.lit.x(), c.lit.y(), c.lit.z()}},
+                              {"shadowed", {c.shadowed.x(), c.shadowed.y(), c.shadowed.z()}},
+                              {"sun_energy", {c.sun_energy.x(), c.sun_energy.y(), c.sun_energy.z()}},
+                              {"confidence", c.confidence},
+                              {"age_s", now - ground_contrast->measured_at}};
+    }
     if (record_fps > 0) j["record_fps"] = record_fps;
     if (!config.output.record.empty()) {
       j["recording"] = {{"path", config.output.record.string()}, {"written", recording.written},

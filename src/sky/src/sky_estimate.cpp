@@ -55,9 +55,11 @@ SkyEstimator::SkyEstimator(const camera::CameraCalibration& calibration, const g
 ClippedSunEnergy parse_clipped_sun_energy(const std::string& text, const std::string& field) {
   if (text == "measured") return ClippedSunEnergy::Measured;
   if (text == "clear_sky") return ClippedSunEnergy::ClearSky;
+  if (text == "shadow_contrast") return ClippedSunEnergy::ShadowContrast;
   throw InputError(input_message({}, -1, -1, field, "got '" + text + "'",
-                                 "use clear_sky (a clear-sky model fitted to the unclipped sky) or measured (the "
-                                 "clipped pixels: a lower bound)"));
+                                 "use clear_sky (a clear-sky model fitted to the unclipped sky), shadow_contrast (the "
+                                 "HMD camera's ground in and out of a real shadow) or measured (the clipped pixels: a "
+                                 "lower bound)"));
 }
 
 void SkyEstimator::estimate_clipped_sun_energy(Sun& sun, const RadianceFrame& frame, const cv::Mat& disc) const {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <numbers>
 #include <cstdint>
+#include <random>
 
 #include "skylit/baker/visibility.hpp"
 #include "skylit/base/files.hpp"
@@ -132,6 +133,41 @@ EquirectSun equirect_sun(const cv::Mat& equirect) {
   for (double& w : sun.weights) w /= total;
   sun.centroid = centroid.normalized();
   return sun;
+}
+
+GroundView real_ground_view(const cv::Mat& equirect, const Vec3& sun, double occluder_deg) {
+  GroundView view;
+  const Vec3 towards = sun.normalized();
+  for (int row = 0; row < equirect.rows; ++row) {
+    const double omega = sky::equirect_pixel_solid_angle(equirect.cols, equirect.rows, row);
+    for (int col = 0; col < equirect.cols; ++col) {
+      const Vec3 d = sky::equirect_direction(equirect.cols, equirect.rows, col, row);
+      if (d.z() <= 0.0) continue;
+      const cv::Vec3f& l = equirect.at<cv::Vec3f>(row, col);
+      const Eigen::Vector3d e = Eigen::Vector3d(l[2], l[1], l[0]).cwiseMax(0.0) * omega * d.z();
+      view.lit_irradiance += e;
+      if (degrees_between(d, towards) > occluder_deg) view.shadowed_irradiance += e;
+    }
+  }
+  constexpr int kWidth = 160, kHeight = 100;
+  constexpr double kAlbedo = 0.2;
+  const double exposure = 0.5 / (kAlbedo / std::numbers::pi * luminance(view.lit_irradiance));
+  cv::Mat radiance(kHeight, kWidth, CV_32FC3);
+  std::mt19937 random(11);
+  std::uniform_real_distribution<double> texture(0.85, 1.15);
+  for (int y = 0; y < kHeight; ++y) {
+    for (int x = 0; x < kWidth; ++x) {
+      const Eigen::Vector3d& e = x < kWidth / 2 ? view.lit_irradiance : view.shadowed_irradiance;
+      const Eigen::Vector3d l = texture(random) * kAlbedo / std::numbers::pi * e;
+      radiance.at<cv::Vec3f>(y, x) = cv::Vec3f(static_cast<float>(l.z()), static_cast<float>(l.y()), static_cast<float>(l.x()));
+    }
+  }
+  view.linear = sky::linearise(sky::to_8bit(radiance, exposure), sky::ResponseCurve::srgb(8), {}).radiance;
+  view.lit = cv::Mat(kHeight, kWidth, CV_8U, cv::Scalar(0));
+  view.shadowed = view.lit.clone();
+  view.lit(cv::Rect(0, 0, kWidth / 2, kHeight)).setTo(255);
+  view.shadowed(cv::Rect(kWidth / 2, 0, kWidth / 2, kHeight)).setTo(255);
+  return view;
 }
 
 fs::path coarse_site(const fs::path& site_file, int scale, const fs::path& dir) {

@@ -10,6 +10,7 @@
 #include "skylit/base/presets.hpp"
 #include "skylit/blend/forms.hpp"
 #include "skylit/capture/config.hpp"
+#include "skylit/sky/sky_estimate.hpp"
 #include "skylit/sky_link/mqtt_client.hpp"
 #include "skylit/track/fusion.hpp"
 #include "skylit/track/imu.hpp"
@@ -45,9 +46,10 @@ struct SkySettings {
   // sky.sun_colour: daylight (a sun whose colour is impossible for daylight gets a clear sky's,
   // sky::SkyEstimateOptions::correct_sun_colour) or measured.
   bool correct_sun_colour = true;
-  // sky.clipped_sun_energy: measured (a clipped sun's pixels: a lower bound) or clear_sky (the sun
-  // of a clear-sky model fitted to the unclipped sky; sky::SkyEstimateOptions).
-  bool clear_sky_sun_energy = false;
+  // sky.clipped_sun_energy: measured (a clipped sun's pixels: a lower bound), clear_sky (the sun
+  // of a clear-sky model fitted to the unclipped sky; sky::SkyEstimateOptions) or shadow_contrast
+  // (an HMD node's: the ground in and out of a real shadow, photometric.estimate.shadowed_region).
+  sky::ClippedSunEnergy clipped_sun_energy = sky::ClippedSunEnergy::Measured;
   double smoothing = 0.0;             // seconds
   double stale_after = 30.0;          // seconds
   // Separated sources at most (sky::SkyEstimateOptions::max_sources): 1, the sun alone; more,
@@ -96,6 +98,11 @@ struct PhotometricSettings {
   std::array<double, 4> region{0, 1, 0, 1};       // s0, s1, t0, t1 on the plane
   Eigen::Vector3d albedo = Eigen::Vector3d::Constant(0.2);
   int every = 30;                                 // frames between estimates
+  // Ground of the same plane and material in a real shadow (sky.clipped_sun_energy:
+  // shadow_contrast), and the sky it still sees: its brightness over the region's under an
+  // overcast sky (render::ShadowContrastOptions::sky_visibility).
+  std::optional<std::array<double, 4>> shadowed_region;
+  double shadowed_sky_visibility = 1.0;
 };
 
 struct OutputSettings {
@@ -166,7 +173,8 @@ struct DisplaySettings {
 //     scale: 0.75                       # the building's render resolution against the frame's
 //   photometric:
 //     scale: [1, 1, 1]                  # camera linear value per unit radiance; or
-//     estimate: {plane: ground, region: [s0, s1, t0, t1], albedo: [0.2, 0.2, 0.2], every: 30}
+//     estimate: {plane: ground, region: [s0, s1, t0, t1], albedo: [0.2, 0.2, 0.2], every: 30,
+//                shadowed_region: [s0, s1, t0, t1], shadowed_sky_visibility: 1}  # shadow_contrast
 //   output:
 //     record: out.mp4                   # .mp4/.avi: a video; otherwise a folder of PNG frames; or
 //     record: {path: out.mp4, fps: 15}  # a video's rate (default: the HMD camera's frame rate)

@@ -1,7 +1,7 @@
 #pragma once
 // Photometric match: the scale (and white balance) from the building's radiance to the camera's
 // linear pixel values, so that the virtual building is as bright and as coloured as the real
-// ground beside it.
+// ground beside it; and the sun's energy from the same ground in and out of a real shadow.
 #include <cstdint>
 #include <string>
 
@@ -45,5 +45,43 @@ PhotometricEstimate estimate_photometric_match(const cv::Mat& camera_linear, con
                                                const Eigen::Vector3d& irradiance,
                                                const Eigen::Vector3d& albedo,
                                                const PhotometricOptions& options = {});
+
+// The sun's share of a real plane's light, from the plane in and out of a real shadow (a post's,
+// a wall's): the HMD camera sees the same ground material lit (the photometric region, radiance
+// ∝ D_sky + E_sun n·ω) and shadowed (∝ V · D_sky, V the sky the occluder leaves it, 1 for a thin
+// post's shadow). Their ratio r gives
+//
+//     E_sun = D_sky ⊙ (V r − 1) / (n·ω)       per channel
+//
+// with D_sky the plane's unoccluded sky irradiance from S (the sky camera's, without its sun).
+// Exposure, white balance and albedo cancel: only the contrast counts, which an 8-bit HMD camera
+// exposed for the ground records well where the sky camera clips the sun.
+struct ShadowContrastOptions {
+  double sky_visibility = 1.0;      // V of the shadowed region: its ratio to the lit one under overcast
+  double min_sun_cos = 0.087;       // n·ω below this (the sun within 5° of the plane): no estimate
+  double min_contrast = 1.05;       // V r (luminance) below this: no shadow to measure
+  int min_pixels = 64;              // per region
+  double max_linear_value = 0.95;   // clipped pixels are left out (as PhotometricOptions)
+};
+
+struct ShadowContrast {
+  bool ok = false;
+  Eigen::Vector3d lit = Eigen::Vector3d::Zero();       // per-channel medians of the camera's linear values
+  Eigen::Vector3d shadowed = Eigen::Vector3d::Zero();
+  Eigen::Vector3d sun_energy = Eigen::Vector3d::Zero();  // E_sun, RGB, the sky's units (normal irradiance)
+  // 1 − the two regions' relative spreads (median |P − median| / median, luminance), at least 0:
+  // a uniform ground gives 1, a textured or partly lit shadow less.
+  double confidence = 0;
+  std::int64_t lit_pixels = 0, shadowed_pixels = 0;
+  std::string problem;  // why not ok
+};
+
+// camera_linear, lit_region, shadowed_region as for estimate_photometric_match; sky_irradiance:
+// D_sky of the plane (plane_irradiance without sources); sun_cos: n·ω of the plane and the sun.
+// InputError for mismatched sizes or types, a non-positive sky irradiance or a visibility
+// outside (0, 1].
+ShadowContrast estimate_sun_from_shadow_contrast(const cv::Mat& camera_linear, const cv::Mat& lit_region,
+                                                 const cv::Mat& shadowed_region, const Eigen::Vector3d& sky_irradiance,
+                                                 double sun_cos, const ShadowContrastOptions& options = {});
 
 }  // namespace skylit::render

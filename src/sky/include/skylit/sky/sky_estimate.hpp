@@ -21,8 +21,10 @@ using Vec3 = Eigen::Vector3d;
 
 enum class SunMode { Off, Auto };
 
-enum class ClippedSunEnergy { Measured, ClearSky };
-// "measured" | "clear_sky"; InputError naming `field` and the choices otherwise.
+// ShadowContrast is the HMD node's: the sky stage keeps the measured energy, and the node replaces
+// it from the real ground in and out of a real shadow (render::estimate_sun_from_shadow_contrast).
+enum class ClippedSunEnergy { Measured, ClearSky, ShadowContrast };
+// "measured" | "clear_sky" | "shadow_contrast"; InputError naming `field` and the choices otherwise.
 ClippedSunEnergy parse_clipped_sun_energy(const std::string& text, const std::string& field);
 
 struct SkyEstimateOptions {

@@ -53,6 +53,18 @@ struct EquirectSun {
 };
 EquirectSun equirect_sun(const cv::Mat& equirect);
 
+// What an HMD camera sees of real ground under an equirect sky (sky.clipped_sun_energy:
+// shadow_contrast): grey ground of albedo 0.2 with a ±15% texture, in the open (left half) and in
+// the shadow of a post that hides every sky pixel within `occluder_deg` of `sun` (right half),
+// as one 8-bit sRGB frame exposed for the lit ground (its median at half scale), read back.
+struct GroundView {
+  cv::Mat linear;               // CV_32FC3 BGR, the frame through the sRGB curve
+  cv::Mat lit, shadowed;        // CV_8U masks
+  Eigen::Vector3d lit_irradiance = Eigen::Vector3d::Zero();       // the truth: E on the open ground
+  Eigen::Vector3d shadowed_irradiance = Eigen::Vector3d::Zero();  // and in the post's shadow
+};
+GroundView real_ground_view(const cv::Mat& equirect, const Vec3& sun, double occluder_deg);
+
 // The site with every plane's resolution divided by `scale` (the reference costs one ray per
 // texel and sky pixel), written to dir/site.yaml; returns its path.
 std::filesystem::path coarse_site(const std::filesystem::path& site_file, int scale, const std::filesystem::path& dir);
