@@ -6,6 +6,8 @@
 #include <numbers>
 #include <vector>
 
+#include <opencv2/imgproc.hpp>
+
 #include "skylit/geom/angles.hpp"
 #include "skylit/sky/sky_model.hpp"
 
@@ -104,6 +106,49 @@ std::optional<ClearSkyFit> fit_clear_sky(const camera::Lens& lens, const cv::Mat
   for (int c = 0; c < 3; ++c) fit.scale[c] = mm[c] > 0 ? ym[c] / mm[c] : 0.0;
   fit.sun_energy = fit.scale.cwiseProduct(model.sun().irradiance);
   return fit;
+}
+
+std::optional<double> circumsolar_glow(const camera::Lens& lens, const cv::Mat& sky, const cv::Mat& radiance,
+                                       const cv::Mat& clipped, const cv::Mat& disc, const Eigen::Vector3d& sun_direction,
+                                       double ring_deg) {
+  if (clipped.empty() || disc.empty()) return std::nullopt;
+  const Vec3 sun = sun_direction.normalized();
+  // The blob's clipped pixels and its reach from the sun.
+  std::vector<double> blob;
+  double reach = 0.0;
+  for (int y = 0; y < disc.rows; ++y) {
+    for (int x = 0; x < disc.cols; ++x) {
+      if (!disc.at<std::uint8_t>(y, x)) continue;
+      const auto d = lens.pixel_to_site(Vec2(x, y));
+      if (d) reach = std::max(reach, std::acos(std::clamp(d->dot(sun), -1.0, 1.0)));
+      if (!clipped.at<std::uint8_t>(y, x)) continue;
+      const cv::Vec3f& p = radiance.at<cv::Vec3f>(y, x);
+      blob.push_back(rgb_luminance(Eigen::Vector3d(p[2], p[1], p[0])));
+    }
+  }
+  if (blob.empty()) return std::nullopt;
+  const double outer = std::cos(reach + ring_deg * kDeg);
+  // Only the blob's neighbourhood can be within the ring (fx: pixels per radian near the axis;
+  // twice that as margin for the lens's stretch towards its rim).
+  const int pad = static_cast<int>(std::ceil(2.0 * ring_deg * kDeg * std::max(lens.calibration().fx, lens.calibration().fy))) + 2;
+  const cv::Rect near = (cv::boundingRect(disc) + cv::Size(2 * pad, 2 * pad) - cv::Point(pad, pad)) & cv::Rect(0, 0, radiance.cols, radiance.rows);
+  std::vector<double> ring;
+  for (int y = near.y; y < near.y + near.height; ++y) {
+    for (int x = near.x; x < near.x + near.width; ++x) {
+      if (!sky.at<std::uint8_t>(y, x) || disc.at<std::uint8_t>(y, x) || clipped.at<std::uint8_t>(y, x)) continue;
+      const auto d = lens.pixel_to_site(Vec2(x, y));
+      if (!d || d->dot(sun) < outer) continue;
+      const cv::Vec3f& p = radiance.at<cv::Vec3f>(y, x);
+      ring.push_back(rgb_luminance(Eigen::Vector3d(p[2], p[1], p[0])));
+    }
+  }
+  if (ring.empty()) return std::nullopt;
+  const auto median = [](std::vector<double>& v) {
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  const double level = median(blob);
+  return level > 0.0 ? std::optional<double>(median(ring) / level) : std::nullopt;
 }
 
 }  // namespace skylit::sky

@@ -1,5 +1,6 @@
 #include "skylit/sky/sky_estimate.hpp"
 
+#include <algorithm>
 #include <chrono>
 
 #include <opencv2/imgcodecs.hpp>
@@ -66,13 +67,20 @@ void SkyEstimator::estimate_clipped_sun_energy(Sun& sun, const RadianceFrame& fr
   const std::optional<ClearSkyFit> fit =
       fit_clear_sky(lens_, sun_detector_->sky(), frame.radiance, frame.clipped, disc, sun.direction, options_.clear_sky);
   if (!fit) return;
-  const Eigen::Vector3d estimated = fit->confidence * fit->sun_energy;
+  // A clear sky far from the sun says nothing of a cloud on it: the sun's own surroundings must
+  // glow as a clear aureole does.
+  const std::optional<double> glow =
+      circumsolar_glow(lens_, sun_detector_->sky(), frame.radiance, frame.clipped, disc, sun.direction);
+  const ClearSkyFitOptions& o = options_.clear_sky;
+  const double clear_around = glow ? std::clamp((*glow - o.cloudy_glow) / (o.clear_glow - o.cloudy_glow), 0.0, 1.0) : 1.0;
+  const double confidence = fit->confidence * clear_around;
+  const Eigen::Vector3d estimated = confidence * fit->sun_energy;
 
   if (!(rgb_luminance(estimated) > rgb_luminance(sun.energy))) return;  // the pixels already say more
   sun.measured_energy = sun.energy;
   sun.energy = estimated;
   sun.energy_estimator = "clear_sky";
-  sun.energy_confidence = fit->confidence;
+  sun.energy_confidence = confidence;
 }
 
 SkyEstimate SkyEstimator::estimate(const RadianceFrame& frame, const std::optional<Vec3>& expected_sun) const {

@@ -151,7 +151,8 @@ GroundView real_ground_view(const cv::Mat& equirect, const Vec3& sun, double occ
   }
   constexpr int kWidth = 160, kHeight = 100;
   constexpr double kAlbedo = 0.2;
-  const double exposure = 0.5 / (kAlbedo / std::numbers::pi * luminance(view.lit_irradiance));
+  // Exposed for its brightest channel (a sun of one colour would clip the others' median).
+  const double exposure = 0.5 / (kAlbedo / std::numbers::pi * view.lit_irradiance.maxCoeff());
   cv::Mat radiance(kHeight, kWidth, CV_32FC3);
   std::mt19937 random(11);
   std::uniform_real_distribution<double> texture(0.85, 1.15);

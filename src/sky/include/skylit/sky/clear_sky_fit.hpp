@@ -17,6 +17,12 @@ struct ClearSkyFitOptions {
   // The fit's relative RMS residual at which the sky no longer looks clear: confidence falls
   // linearly from 1 (a perfect fit) to 0 there.
   double cloudy_residual = 0.35;
+  // The sky around the sun must look clear too (circumsolar_glow): at or below cloudy_glow the
+  // sun is taken as behind a cloud (no confidence), at or above clear_glow as clear; linear
+  // between. A clear sky's aureole gives about 0.64 at 5% exposure, a cumulus over the sun 0.12
+  // to 0.41 (tests/sky/cloud_passing_test.cpp).
+  double cloudy_glow = 0.2;
+  double clear_glow = 0.5;
 };
 
 struct ClearSkyFit {
@@ -35,5 +41,15 @@ struct ClearSkyFit {
 std::optional<ClearSkyFit> fit_clear_sky(const camera::Lens& lens, const cv::Mat& sky, const cv::Mat& radiance,
                                          const cv::Mat& clipped, const cv::Mat& exclude, const Eigen::Vector3d& sun_direction,
                                          const ClearSkyFitOptions& options = {});
+
+// How much the sky just outside a clipped sun's blob glows, as a share of the clipping level: the
+// median luminance of the unclipped sky pixels within `ring_deg` outside the blob (disc: CV_8U,
+// its pixels), over the median luminance of the blob's clipped pixels. A clear sun sits in its
+// aureole, which falls smoothly from the clipping level (a high share); a sun seen through a
+// cloud is a clipped disc in the cloud's grey (a low one). nullopt without clipped pixels in the
+// blob or unclipped ones around it.
+std::optional<double> circumsolar_glow(const camera::Lens& lens, const cv::Mat& sky, const cv::Mat& radiance,
+                                       const cv::Mat& clipped, const cv::Mat& disc, const Eigen::Vector3d& sun_direction,
+                                       double ring_deg = 1.5);
 
 }  // namespace skylit::sky

@@ -56,7 +56,8 @@ EquirectSun equirect_sun(const cv::Mat& equirect);
 // What an HMD camera sees of real ground under an equirect sky (sky.clipped_sun_energy:
 // shadow_contrast): grey ground of albedo 0.2 with a ±15% texture, in the open (left half) and in
 // the shadow of a post that hides every sky pixel within `occluder_deg` of `sun` (right half),
-// as one 8-bit sRGB frame exposed for the lit ground (its median at half scale), read back.
+// as one 8-bit sRGB frame exposed for the lit ground (its brightest channel's median at half
+// scale), read back.
 struct GroundView {
   cv::Mat linear;               // CV_32FC3 BGR, the frame through the sRGB curve
   cv::Mat lit, shadowed;        // CV_8U masks
