@@ -216,6 +216,11 @@ int main(int argc, char** argv) {
                  "each sky as one auto-exposed 8-bit sRGB frame, its sky's median at this share of full scale (0.18: "
                  "middle grey; 0: the HDR frame)")
       ->check(CLI::Range(0.0, 1.0));
+  int bracket_frames = 1;
+  app.add_option("--bracket", bracket_frames,
+                 "--eight-bit: an exposure bracket of this many 8-bit frames, each 1/30 of the one before, merged "
+                 "(sky.bracket); 1: one frame")
+      ->check(CLI::Range(1, 8));
   bool expected_sun = false;
   app.add_flag("--expected-sun", expected_sun,
                "the sun's direction as a site's location and a frame's time would give it (the equirect's own sun): a "
@@ -400,9 +405,18 @@ int main(int argc, char** argv) {
     if (eight_bit > 0.0) {
       // One frame of an 8-bit camera that meters its sky: what most sites buy.
       const double scale = skylit::sky::auto_exposure_scale(frame.radiance, sky_pixels, eight_bit);
-      frame = skylit::sky::linearise(skylit::sky::to_8bit(frame.radiance, scale), skylit::sky::ResponseCurve::srgb(8),
-                                     skylit::sky::Exposure{scale, 1.0});
-      std::fprintf(stderr, "%s: 8-bit at %.0f%% of full scale: %d pixels clipped\n", sky_file.stem().c_str(), 100.0 * eight_bit,
+      std::vector<cv::Mat> bracket;
+      std::vector<skylit::sky::Exposure> exposures;
+      for (int k = 0; k < bracket_frames; ++k) {
+        const double scale_k = scale * std::pow(1.0 / 30.0, k);
+        bracket.push_back(skylit::sky::to_8bit(frame.radiance, scale_k));
+        exposures.push_back(skylit::sky::Exposure{scale_k, 1.0});
+      }
+      frame = bracket_frames == 1
+                  ? skylit::sky::linearise(bracket.front(), skylit::sky::ResponseCurve::srgb(8), exposures.front())
+                  : skylit::sky::merge_bracket(bracket, exposures, skylit::sky::ResponseCurve::srgb(8));
+      std::fprintf(stderr, "%s: 8-bit at %.0f%% of full scale, %d frame(s): %d pixels clipped\n", sky_file.stem().c_str(),
+                   100.0 * eight_bit, bracket_frames,
                    cv::countNonZero(frame.clipped));
     }
     // The oracle's frame: the sun's pixels replaced by the background around them.

@@ -21,8 +21,9 @@ constexpr std::array<std::string_view, 16> kTopKeys{"site",     "bake",  "preset
                                                     "fusion",   "tracking", "blend", "render", "photometric", "output", "status", "display",
                                                     "root"};
 constexpr std::array<std::string_view, 3> kRenderKeys{"scale", "ground_light", "ground_albedo"};
-constexpr std::array<std::string_view, 10> kSkyKeys{"calibration", "source", "response", "rate",      "sun",
-                                                   "smoothing",   "stale_after", "max_sources", "sun_colour", "clipped_sun_energy"};
+constexpr std::array<std::string_view, 11> kSkyKeys{"calibration", "source",      "response",   "rate",
+                                                   "sun",         "smoothing",   "stale_after", "max_sources",
+                                                   "sun_colour",  "clipped_sun_energy", "bracket"};
 constexpr std::array<std::string_view, 2> kCameraKeys{"calibration", "source"};
 constexpr std::array<std::string_view, 9> kLinkKeys{"broker",   "topic",         "node", "username",   "password",
                                                     "password_file", "tls", "keepalive_s", "kind"};
@@ -206,6 +207,20 @@ void parse_max_sources(const YamlReader& r, const YAML::Node& sky, SkySettings& 
   }
 }
 
+// sky.bracket: 2 to 8 distinct positive exposure times, in seconds.
+void parse_bracket(const YamlReader& r, const YAML::Node& n, SkySettings& settings) {
+  constexpr const char* kHint = "2 to 8 exposure times in seconds, e.g. [0.0005, 0.004, 0.032]";
+  if (!n.IsSequence() || n.size() < 2 || n.size() > 8) r.fail(n, "sky.bracket", "needs 2 to 8 exposure times", kHint);
+  const std::vector<double> times = r.numbers(n, n.size(), "sky.bracket", kHint);
+  for (std::size_t k = 0; k < times.size(); ++k) {
+    if (!(times[k] > 0.0 && times[k] < 10.0)) r.fail(n, "sky.bracket", "exposure times must be in (0, 10) s", kHint);
+    for (std::size_t j = 0; j < k; ++j) {
+      if (times[j] == times[k]) r.fail(n, "sky.bracket", "an exposure time repeats", "give each time once");
+    }
+  }
+  settings.bracket = times;
+}
+
 void parse_sky(const YamlReader& r, const YAML::Node& root, const std::filesystem::path& file, LiveConfig& c) {
   const YAML::Node sky = r.require(root, "sky", "sky", "the sky camera: calibration and source");
   r.expect_map(sky, "sky", kDocs);
@@ -241,6 +256,7 @@ void parse_sky(const YamlReader& r, const YAML::Node& root, const std::filesyste
     c.sky.clipped_sun_energy =
         sky::parse_clipped_sun_energy(std::string(r.choice(n, "sky.clipped_sun_energy", modes)), "sky.clipped_sun_energy");
   }
+  if (auto n = YamlReader::optional(sky, "bracket")) parse_bracket(r, n, c.sky);
   parse_max_sources(r, sky, c.sky);
 }
 

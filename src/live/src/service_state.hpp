@@ -209,6 +209,8 @@ struct Service::State {
     double measured_at = 0;  // steady seconds
   };
   std::optional<GroundContrast> ground_contrast;
+  // sky.bracket asked of a source that cannot bracket: single frames instead, flagged.
+  std::atomic<bool> sky_bracket_unsupported{false};
   std::int64_t blend_skipped_layers = 0;
 
   std::unique_ptr<BakeInfo> bake_info;  // the console's bake view

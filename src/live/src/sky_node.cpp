@@ -93,6 +93,7 @@ struct SkyNode::State {
   std::unique_ptr<capture::FrameSource> source;
   const capture::ReconnectingSource* reconnecting = nullptr;
   SourceActivity activity;
+  std::atomic<bool> bracket_unsupported{false};  // sky.bracket asked of a source that cannot
 
   mutable std::mutex mutex;  // guards what the status server reads below
   std::uint64_t sequence = 0;
@@ -202,10 +203,12 @@ std::int64_t SkyNode::run() {
       connections_seen = connections;
       s.publish_latest(true);
     }
-    capture::FrameResult result;
+    SkyFrames result;
     const auto asked = Clock::now();
     try {
-      result = s.source->next(0.2);
+      bool unsupported = s.bracket_unsupported;
+      result = next_sky_frames(*s.source, s.config.sky.bracket, 0.2, unsupported);
+      s.bracket_unsupported = unsupported;
     } catch (const std::exception& e) {
       std::lock_guard lock(s.mutex);
       ++s.errors;
@@ -216,15 +219,15 @@ std::int64_t SkyNode::run() {
       break;  // a finite recording has ended: its last sky stays retained on the broker
     }
     if (result.status != capture::FrameStatus::Ready) {
-      pause_after_quick_not_yet(result, asked);
+      pause_after_quick_not_yet(capture::FrameResult{result.status, {}}, asked);
       continue;
     }
     s.activity.frame();
-    const capture::Frame& frame = result.frame;
+    const capture::Frame& frame = result.frames.front();
     if (s.config.sky.rate > 0 && frame.timestamp - last_estimate < 1.0 / s.config.sky.rate) continue;
     last_estimate = frame.timestamp;
     try {
-      const SkyStage::Result sky = s.stage->estimate(frame);
+      const SkyStage::Result sky = s.stage->estimate(result.frames);
       sky_link::SkyMessage message;
       {
         std::lock_guard lock(s.mutex);
@@ -287,6 +290,10 @@ nlohmann::json SkyNode::State::status_report() const {
   std::vector<std::string> flags;
   if (!client->connected()) flags.push_back("broker_unreachable");
   if (camera_link && !camera_link->connected) flags.push_back("sky_reconnecting");
+  if (!config.sky.bracket.empty()) {
+    j["source"]["bracket"] = {{"exposures_s", config.sky.bracket}, {"unsupported", bracket_unsupported.load()}};
+    if (bracket_unsupported) flags.push_back("sky_bracket_unsupported");
+  }
   std::lock_guard lock(mutex);
   j["state"] = latest ? "running" : "waiting for sky";
   j["skies"] = {{"estimated", estimates}, {"published", published}, {"not_published", publish_failures}, {"errors", errors},

@@ -3,7 +3,9 @@
 // path for skylit-live's sky thread and skylit-sky-node, so that a sky published over the link is
 // the one the service would have estimated in-process.
 #include <memory>
+#include <span>
 #include <string>
+#include <vector>
 
 #include "skylit/camera/calibration.hpp"
 #include "skylit/capture/frame_source.hpp"
@@ -31,6 +33,10 @@ class SkyStage {
            const SkySettings& settings, const std::optional<scene::GeoLocation>& location = std::nullopt);
 
   Result estimate(const capture::Frame& frame);
+  // A bracket (sky.bracket): its 8/16-bit frames merged to one radiance frame by their exposure
+  // times (sky::merge_bracket, the frames' response), then as one frame; its time is the first
+  // frame's. One frame: estimate(frame). InputError for a frame without its exposure time.
+  Result estimate(std::span<const capture::Frame> frames);
   const sky::SkyEstimator& estimator() const { return *estimator_; }
 
  private:
@@ -39,5 +45,14 @@ class SkyStage {
   std::unique_ptr<sky::SkyEstimator> estimator_;
   sky::SkySmoother smoother_;
 };
+
+// The next sky's frames: one frame, or with `bracket` one per exposure time (FrameSource::bracket).
+// A source that cannot bracket gives single frames and sets `bracket_unsupported`.
+struct SkyFrames {
+  capture::FrameStatus status = capture::FrameStatus::NotYet;
+  std::vector<capture::Frame> frames;
+};
+SkyFrames next_sky_frames(capture::FrameSource& source, std::span<const double> bracket, double timeout_s,
+                          bool& bracket_unsupported);
 
 }  // namespace skylit::live

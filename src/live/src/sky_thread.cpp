@@ -69,8 +69,8 @@ class Service::State::SkyThread {
  private:
   static void lower_priority();
   void set_up();
-  std::optional<capture::Frame> next_frame();
-  EstimatedSky estimate(const capture::Frame& frame);
+  std::optional<std::vector<capture::Frame>> next_frames();
+  EstimatedSky estimate(std::span<const capture::Frame> frames);
   void run_from_link();
   void publish_node_status();
   void apply_ground_contrast(SkyState& state) const;
@@ -119,12 +119,12 @@ void Service::State::SkyThread::run(std::promise<void>& ready) {
     return;
   }
   while (s.running) {
-    // 1. The next sky frame, when one is due (sky.rate).
-    const std::optional<capture::Frame> frame = next_frame();
-    if (!frame) continue;
+    // 1. The next sky frame (or bracket), when one is due (sky.rate).
+    const std::optional<std::vector<capture::Frame>> frames = next_frames();
+    if (!frames) continue;
     try {
       // 2. S and the sun from it, smoothed over time.
-      EstimatedSky sky = estimate(*frame);
+      EstimatedSky sky = estimate(*frames);
       apply_ground_contrast(sky.state);
       // 3. The sun's shadow map for a sun that moved, complete before the sky is handed over.
       if (!draw_sun_map(sky.state)) break;  // closed: the service is stopping
@@ -169,11 +169,13 @@ void Service::State::SkyThread::set_up() {
   }
 }
 
-std::optional<capture::Frame> Service::State::SkyThread::next_frame() {
-  capture::FrameResult result;
+std::optional<std::vector<capture::Frame>> Service::State::SkyThread::next_frames() {
+  SkyFrames result;
   const auto asked = Clock::now();
   try {
-    result = s.sky_source->next(0.2);
+    bool unsupported = s.sky_bracket_unsupported;
+    result = next_sky_frames(*s.sky_source, s.config.sky.bracket, 0.2, unsupported);
+    s.sky_bracket_unsupported = unsupported;
   } catch (const std::exception& e) {
     ++s.counters.sky_errors;
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
@@ -185,19 +187,20 @@ std::optional<capture::Frame> Service::State::SkyThread::next_frame() {
     return std::nullopt;
   }
   if (result.status != capture::FrameStatus::Ready) {
-    pause_after_quick_not_yet(result, asked);
+    pause_after_quick_not_yet(capture::FrameResult{result.status, {}}, asked);
     return std::nullopt;
   }
-  ++s.counters.sky_frames;
+  s.counters.sky_frames += static_cast<std::int64_t>(result.frames.size());
   s.sky_activity.frame();
-  const capture::Frame& frame = result.frame;
+  const capture::Frame& frame = result.frames.front();
   if (s.config.sky.rate > 0 && frame.timestamp - last_estimate < 1.0 / s.config.sky.rate) return std::nullopt;
   last_estimate = frame.timestamp;
-  return std::move(result.frame);
+  return std::move(result.frames);
 }
 
-EstimatedSky Service::State::SkyThread::estimate(const capture::Frame& frame) {
-  SkyStage::Result result = s.sky_stage->estimate(frame);
+EstimatedSky Service::State::SkyThread::estimate(std::span<const capture::Frame> frames) {
+  const capture::Frame& frame = frames.front();
+  SkyStage::Result result = s.sky_stage->estimate(frames);
   const sky::SkyEstimate& estimate = result.estimate;
   SkyState state;
   state.sequence = ++sequence;

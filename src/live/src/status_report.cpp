@@ -145,6 +145,10 @@ nlohmann::json Service::State::status_report() const {
   sky_json["errors"] = counters.sky_errors.load();
   if (camera_json["state"] == "reconnecting") flags.push_back("camera_reconnecting");
   if (sky_json["state"] == "reconnecting" && !sky_link) flags.push_back("sky_reconnecting");
+  if (!config.sky.bracket.empty()) {
+    sky_json["bracket"] = {{"exposures_s", config.sky.bracket}, {"unsupported", sky_bracket_unsupported.load()}};
+    if (sky_bracket_unsupported) flags.push_back("sky_bracket_unsupported");
+  }
   if (const auto latest = latest_sky.get()) {
     const double age = now - latest->received;
     sky_json["age_s"] = age;

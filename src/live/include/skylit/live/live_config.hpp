@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -50,6 +51,9 @@ struct SkySettings {
   // of a clear-sky model fitted to the unclipped sky; sky::SkyEstimateOptions) or shadow_contrast
   // (an HMD node's: the ground in and out of a real shadow, photometric.estimate.shadowed_region).
   sky::ClippedSunEnergy clipped_sun_energy = sky::ClippedSunEnergy::Measured;
+  // sky.bracket: exposure times (s) of an exposure bracket taken for every sky (a source that can
+  // bracket: libcamera, sky-sim) and merged to one radiance frame; empty: single frames.
+  std::vector<double> bracket;
   double smoothing = 0.0;             // seconds
   double stale_after = 30.0;          // seconds
   // Separated sources at most (sky::SkyEstimateOptions::max_sources): 1, the sun alone; more,
@@ -148,6 +152,7 @@ struct DisplaySettings {
 //     sun: auto | off
 //     max_sources: 1                    # separated sources (the sun, lamps): 1 … 32, a shadow map each
 //     smoothing: 0                      # seconds, time constant of S's smoothing (0: off)
+//     bracket: [0.0005, 0.004, 0.032]   # exposure times (s) merged per sky (libcamera, sky-sim)
 //     stale_after: 30                   # seconds without a new sky before it is flagged stale
 //   camera:
 //     calibration: hmd_camera.yaml
