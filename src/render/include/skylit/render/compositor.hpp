@@ -147,7 +147,12 @@ gpu::Texture upload_shadow_ratio(std::span<const float> rgb, int width, int heig
 // pyramid (bench/RESULTS.md, "Compositor").
 //
 // Everything runs in the OpenGL ES context current when the Compositor is made (it must stay
-// current for every call, and alive until the Compositor is destroyed).
+// current for every call, and alive until the Compositor is destroyed). A Compositor owns every
+// GL object it draws with or into (programs, the building's buffers and textures, the camera
+// texture, its targets, display_texture) and sets all the GL state it draws with; it only reads
+// the input's shadow-ratio textures and sun shadow map. So several Compositors (one per camera
+// of a stereo HMD, stereo_camera.hpp) share one context and the same inputs; each sums the
+// building's sky irradiance on the CPU itself when the sky changes.
 class Compositor {
  public:
   // transfer: the bake's transfer.npy, vertex_count × layer_count floats (vertex-major). The site

@@ -101,10 +101,13 @@ class HmdDistortion {
   std::unique_ptr<State> state_;
 };
 
-// What each eye sees.
+// What each eye sees with one HMD camera. A stereo camera (a camera per eye) has its own frame:
+// draw_hmd_frame of stereo_camera.hpp.
 enum class StereoMode {
   mono,    // one composite, shown to every eye
-  stereo,  // one composite per eye, each from its own eye's position (one camera image shared)
+  // One composite per eye, each from its own eye's position, over the one camera image both
+  // share: the compromise of a single camera, whose real world has no parallax.
+  stereo,
 };
 
 // The pose of eye `eye` (0 left, 1 right) of a head whose camera is at `camera`: shifted by half
