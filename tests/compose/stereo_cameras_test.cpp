@@ -295,9 +295,22 @@ TEST_F(StereoCameraFrame, EachEyeIsTheSingleCameraCompositeOfItsOwnCamera) {
     cv::absdiff(drawn[0], drawn[1], eyes_differ);
     EXPECT_GT(cv::countNonZero(eyes_differ.reshape(1) > 0.05f), 10000);
   }
+  // A single-layout display (a monitor) shows the left camera's composite.
+  render::HmdProfile monitor = side_by_side_hmd(320, 240, 0.064, false);
+  monitor.layout = render::PanelLayout::single;
+  monitor.panel_width = 320;
+  render::HmdDistortion single(monitor);
+  render::draw_hmd_frame(eyes, single, inputs);
+  render::Compositor alone = make_compositor(stereo.left);
+  render::CompositeInput left_input = inputs[0];
+  left_input.camera = images[0].clone();
+  EXPECT_LE(max_abs_difference(single.read_panel(), alone.composite(left_input)), 1.0);
+
   render::HmdDistortion hmd(side_by_side_hmd(320, 240, 0.064, false));
   EXPECT_THROW(render::draw_hmd_frame(eyes, hmd, std::span<const render::CompositeInput>(inputs.data(), 1)),
                std::invalid_argument);
+  const std::array<render::Compositor*, 2> one_missing{&left, nullptr};
+  EXPECT_THROW(render::draw_hmd_frame(one_missing, hmd, inputs), std::invalid_argument);
 }
 
 // A rectified pair looking down at the tower's shadow (sun in the north, 35° up, so the shadow
