@@ -24,7 +24,7 @@ constexpr std::array<std::string_view, 3> kRenderKeys{"scale", "ground_light", "
 constexpr std::array<std::string_view, 11> kSkyKeys{"calibration", "source",      "response",   "rate",
                                                    "sun",         "smoothing",   "stale_after", "max_sources",
                                                    "sun_colour",  "clipped_sun_energy", "bracket"};
-constexpr std::array<std::string_view, 2> kCameraKeys{"calibration", "source"};
+constexpr std::array<std::string_view, 3> kCameraKeys{"calibration", "stereo", "source"};
 constexpr std::array<std::string_view, 9> kLinkKeys{"broker",   "topic",         "node", "username",   "password",
                                                     "password_file", "tls", "keepalive_s", "kind"};
 constexpr std::array<std::string_view, 3> kTlsKeys{"ca_file", "cert_file", "key_file"};
@@ -264,8 +264,18 @@ void parse_camera(const YamlReader& r, const YAML::Node& root, const std::filesy
   const YAML::Node camera = r.require(root, "camera", "camera", "the HMD camera: calibration and source");
   r.expect_map(camera, "camera", kDocs);
   r.check_keys(camera, "camera.", kCameraKeys);
-  c.camera.calibration = r.path(r.require(camera, "calibration", "camera.calibration", "the HMD camera's calibration YAML"),
-                                "camera.calibration", kDocs);
+  const auto stereo = YamlReader::optional(camera, "stereo");
+  if (stereo && YamlReader::optional(camera, "calibration")) {
+    r.fail(stereo, "camera.stereo", "both calibration and stereo are given",
+           "keep stereo (a camera per eye, from skylit-calib stereo) or calibration (one camera)");
+  }
+  if (stereo) {
+    c.camera.stereo = r.path(stereo, "camera.stereo", kDocs);
+  } else {
+    c.camera.calibration = r.path(r.require(camera, "calibration", "camera.calibration",
+                                            "the HMD camera's calibration YAML (or stereo: a stereo camera's)"),
+                                  "camera.calibration", kDocs);
+  }
   c.camera.source = capture::parse_source_config(r.require(camera, "source", "camera.source", "where camera frames come from"), file, r.root());
 }
 

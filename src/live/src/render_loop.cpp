@@ -2,6 +2,7 @@
 // timed by a StageTimer into the frame statistics: the newest sky and its sun's shadow map, T
 // uploaded or blended, the pose, the composite shown, the frame recorded, its times kept.
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstdio>
 #include <future>
@@ -23,6 +24,7 @@
 #include "skylit/render/hmd_distortion.hpp"
 #include "skylit/render/hmd_profile.hpp"
 #include "skylit/render/plane_view.hpp"
+#include "skylit/render/stereo_camera.hpp"
 #include "skylit/render/textures.hpp"
 #include "skylit/sky/radiometry.hpp"
 #include "skylit/sky/srgb.hpp"
@@ -121,6 +123,8 @@ class Service::State::RenderLoop {
   std::vector<GLuint> ratios;
   render::CompositorOptions compositor_options;
   std::optional<render::Compositor> compositor;
+  // camera.stereo in display.mode stereo: the right camera's compositor (compositor: the left's).
+  std::optional<render::Compositor> compositor_right;
   std::optional<CameraTexture> camera_texture;
   std::optional<render::HmdDistortion> hmd;
   bool stereo = false;
@@ -275,9 +279,13 @@ void Service::State::RenderLoop::make_compositor_and_display() {
   if (window) camera_texture.emplace();
   if (window && hmd_profile) hmd.emplace(*hmd_profile);
   stereo = hmd && s.config.display->stereo;
+  if (stereo && s.stereo_camera) {
+    compositor_right.emplace(s.site, s.mesh, s.manifest, s.transfer, s.stereo_camera->right, compositor_options);
+  }
   if (hmd && !s.options.quiet) {
     std::fprintf(stderr, "skylit-live: HMD display '%s': %s, %d×%d panel%s%s\n", hmd_profile->name.c_str(),
-                 stereo ? "stereo (a render per eye)" : "mono", hmd_profile->panel_width, hmd_profile->panel_height,
+                 !stereo ? "mono" : s.stereo_camera ? "stereo (a render per eye, a camera per eye)" : "stereo (a render per eye)",
+                 hmd_profile->panel_width, hmd_profile->panel_height,
                  s.config.display->monitor.empty() ? ", in a window" : ", full screen on ",
                  s.config.display->monitor.c_str());
   }
@@ -320,6 +328,10 @@ bool Service::State::RenderLoop::plane_seen(std::size_t j, const render::CameraP
   const render::PinholeCamera& view = compositor->lens_remap().pinhole;
   if (render::plane_in_view(plane, pose, view, view_options)) return true;
   if (!stereo) return false;
+  if (compositor_right) {  // a camera per eye: the right camera's view too
+    return render::plane_in_view(plane, render::stereo_camera_poses(pose, *s.stereo_camera)[1],
+                                 compositor_right->lens_remap().pinhole, view_options);
+  }
   return render::plane_in_view(plane, render::eye_pose(pose, ipd, 0), view, view_options) ||
          render::plane_in_view(plane, render::eye_pose(pose, ipd, 1), view, view_options);
 }
@@ -462,7 +474,7 @@ void Service::State::RenderLoop::estimate_photometric(const capture::Frame& fram
   const cv::Mat region = compositor->region_mask(*reference_plane, s.config.photometric.region[0],
                                                  s.config.photometric.region[1], s.config.photometric.region[2],
                                                  s.config.photometric.region[3], *last_pose);
-  const sky::RadianceFrame linear = sky::linearise(frame.image, sky::ResponseCurve::srgb(8), {});
+  const sky::RadianceFrame linear = sky::linearise(s.camera_image(frame, 0), sky::ResponseCurve::srgb(8), {});
   const render::PhotometricEstimate found = render::estimate_photometric_match(
       linear.radiance, region,
       render::plane_irradiance(s.manifest.planes[static_cast<std::size_t>(*reference_plane)], sky->S, sky->sun, sky->lamps),
@@ -499,12 +511,12 @@ cv::Mat Service::State::RenderLoop::composite_and_show(FrameStageTimes& times, c
   // With tracking lost and the building faded out, the frame is the camera image unchanged,
   // which the compositor would give at opacity 0 (tested): shown as it is, without its passes.
   if (!sky || opacity <= 0.0) {
-    composite = frame.image;
+    composite = s.camera_image(frame, 0);
     if (window) present(camera_texture->upload(composite), composite.cols, composite.rows);
     return composite;
   }
   render::CompositeInput input;
-  input.camera = frame.image;
+  input.camera = s.camera_image(frame, 0);
   input.pose = *last_pose;
   input.sky = sky->S;
   input.sun = sky->sun;
@@ -535,7 +547,15 @@ cv::Mat Service::State::RenderLoop::composite_and_show(FrameStageTimes& times, c
   } else if (!stereo) {
     compositor->draw(input);
   }
-  if (stereo) {
+  if (stereo && compositor_right) {
+    // Each eye its own camera's image, from that camera's pose (docs/hmd.md, "Stereo cameras").
+    std::array<render::CompositeInput, 2> eyes{input, input};
+    eyes[1].camera = s.camera_image(frame, 1);
+    eyes[1].pose = render::stereo_camera_poses(input.pose, *s.stereo_camera)[1];
+    const std::array<render::Compositor*, 2> compositors{&*compositor, &*compositor_right};
+    render::draw_hmd_frame(compositors, *hmd, eyes);
+    window->present(hmd->panel_texture(), hmd_profile->panel_width, hmd_profile->panel_height);
+  } else if (stereo) {
     render::draw_hmd_frame(*compositor, *hmd, input, render::StereoMode::stereo);
     window->present(hmd->panel_texture(), hmd_profile->panel_width, hmd_profile->panel_height);
   } else if (window) {

@@ -159,7 +159,12 @@ Service::Service(const LiveConfig& config, const ServiceOptions& options) : stat
   // Every file the config names is read now, whatever the mode: a headless check of a config
   // with a broken HMD profile must fail here, not on the HMD.
   if (config.display) static_cast<void>(render::load_hmd_profile(config.display->profile));
-  s.hmd_calibration = camera::load_calibration(config.camera.calibration);
+  if (!config.camera.stereo.empty()) {
+    s.stereo_camera = camera::load_stereo_calibration(config.camera.stereo);
+    s.hmd_calibration = s.stereo_camera->left;
+  } else {
+    s.hmd_calibration = camera::load_calibration(config.camera.calibration);
+  }
   s.dome = std::make_unique<geom::Dome>(s.manifest.plan.frequency);
   if (config.sky.link) {
     const std::string site_name = site_name_of(config.site);
@@ -176,6 +181,7 @@ Service::Service(const LiveConfig& config, const ServiceOptions& options) : stat
   capture::OpenedSource camera_opened = capture::open_source_with_status(with_reconnect(config.camera.source));
   s.camera_source = std::move(camera_opened.source);
   s.camera_reconnecting = camera_opened.reconnecting;
+  s.camera_pair = camera_opened.paired;
   s.tracking = std::make_unique<LiveTracking>(config, s.hmd_calibration);
   s.fade = std::make_unique<BuildingFade>(config.tracking.fade_s);
   const auto listen = options.status_listen ? options.status_listen : config.status_listen;
@@ -230,7 +236,7 @@ void Service::State::camera_loop() {
         // Tracking), a tenth of a 30 Hz frame's interval, and so the render thread always finds
         // the pose of the very frame it draws (a tracking thread would give it the previous
         // frame's pose, or make it wait). Every frame is tracked, even those the renderer drops.
-        tracking->on_camera_frame(result.frame.image, result.frame.timestamp);
+        tracking->on_camera_frame(camera_image(result.frame, 0), result.frame.timestamp);
         camera_arrivals.put(result.frame.timestamp, now_seconds());
         camera_box.put(std::move(result.frame));
       } else if (result.status == capture::FrameStatus::EndOfStream) {
@@ -239,11 +245,34 @@ void Service::State::camera_loop() {
         camera_box.close();  // a finite recording has ended: the render thread finishes
         return;
       }
-    } catch (const std::exception&) {
+    } catch (const std::exception& e) {
       ++counters.camera_errors;
+      {
+        std::lock_guard lock(stats_mutex);
+        camera_last_error = e.what();
+      }
       std::this_thread::sleep_for(std::chrono::milliseconds(200));
     }
   }
+}
+
+cv::Mat Service::State::camera_image(const capture::Frame& frame, int eye) const {
+  if (!stereo_camera) return frame.image;
+  const camera::CameraCalibration& c = eye == 0 ? stereo_camera->left : stereo_camera->right;
+  if (frame.image.cols != stereo_camera->left.image_width + stereo_camera->right.image_width ||
+      frame.image.rows != c.image_height) {
+    throw InputError(input_message(config.file, -1, -1, "camera.stereo",
+                                   "a camera frame of " + std::to_string(frame.image.cols) + "×" +
+                                       std::to_string(frame.image.rows) + " is not the two cameras side by side (" +
+                                       std::to_string(stereo_camera->left.image_width) + "×" +
+                                       std::to_string(stereo_camera->left.image_height) + " and " +
+                                       std::to_string(stereo_camera->right.image_width) + "×" +
+                                       std::to_string(stereo_camera->right.image_height) + ")",
+                                   "give a pair source (kind: pair) or a side-by-side stereo camera, and the "
+                                   "calibration of its cameras"));
+  }
+  const int x = eye == 0 ? 0 : stereo_camera->left.image_width;
+  return frame.image(cv::Rect(x, 0, c.image_width, c.image_height));
 }
 
 }  // namespace skylit::live

@@ -30,6 +30,8 @@
 #include "skylit/blend/cpu_blend.hpp"
 #include "skylit/blend/cpu_blender.hpp"
 #include "skylit/camera/calibration.hpp"
+#include "skylit/camera/stereo_calibration.hpp"
+#include "skylit/capture/paired_source.hpp"
 #include "skylit/capture/config.hpp"
 #include "skylit/capture/frame_source.hpp"
 #include "skylit/capture/reconnecting_source.hpp"
@@ -149,6 +151,10 @@ struct Service::State {
   std::vector<float> ground_transfer;  // the bake's ground layer, with render.ground_light
   std::vector<blend::BasisImages> bases;
   camera::CameraCalibration sky_calibration, hmd_calibration;
+  // camera.stereo: both cameras (hmd_calibration is its left); frames come side by side.
+  std::optional<camera::StereoCalibration> stereo_camera;
+  const capture::PairedSource* camera_pair = nullptr;  // camera.source kind pair: its counts
+  std::string camera_last_error;                        // guarded by stats_mutex
   std::unique_ptr<geom::Dome> dome;
   // The sky: estimated here from a sky camera (sky_stage and sky_source), or taken from a sky
   // node over the site's link (sky_link; docs/site.md). One of the two.
@@ -226,6 +232,10 @@ struct Service::State {
   void sky_loop(std::promise<void>& ready);
   void camera_loop();
   nlohmann::json status_report() const;
+  // The image of camera `eye` (0 left, 1 right) in a camera frame: the frame itself with one
+  // camera; its half with camera.stereo (a view, no copy). InputError for a frame that is not the
+  // two cameras side by side.
+  cv::Mat camera_image(const capture::Frame& frame, int eye) const;
   nlohmann::json source_report(const capture::FrameSource& source, const capture::ReconnectingSource* reconnecting,
                                const SourceActivity& activity, double now) const;
 };

@@ -114,6 +114,18 @@ nlohmann::json Service::State::status_report() const {
   camera_json["frames"] = counters.camera_frames.load();
   camera_json["malformed"] = camera_source->counts().dropped();
   camera_json["errors"] = counters.camera_errors.load();
+  {
+    std::lock_guard lock(stats_mutex);
+    // The camera thread's last failure with a frame (last_error is the source's own).
+    camera_json["last_frame_error"] = camera_last_error.empty() ? nlohmann::json(nullptr) : nlohmann::json(camera_last_error);
+  }
+  if (camera_pair) {
+    // A pair of cameras (camera.source kind pair): frames paired, and each side's left without a partner.
+    const capture::PairCounts pairs = camera_pair->pair_counts();
+    camera_json["pair"] = {{"paired", pairs.paired}, {"unpaired_left", pairs.unpaired_left},
+                           {"unpaired_right", pairs.unpaired_right}, {"tolerance_ms", 1e3 * camera_pair->tolerance_s()}};
+  }
+  if (stereo_camera) camera_json["stereo"] = {{"calibration", config.camera.stereo.string()}, {"baseline_m", stereo_camera->baseline_m()}};
   const FrameRate rate = camera_rate.rate();
   camera_json["frame_rate_hz"] = rate.hz ? nlohmann::json(*rate.hz) : nlohmann::json(nullptr);
   j["camera"] = camera_json;

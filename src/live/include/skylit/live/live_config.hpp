@@ -64,6 +64,11 @@ struct SkySettings {
 
 struct CameraSettings {
   std::filesystem::path calibration;
+  // A stereo camera instead (camera.stereo: skylit-calib stereo's file): its frames side by side,
+  // the left camera's on the left (a `pair` source makes them from two cameras). The left camera
+  // is the HMD camera for poses, tracking and the photometric match; in display.mode stereo each
+  // eye shows its own camera. Empty: one camera (calibration).
+  std::filesystem::path stereo;
   capture::SourceConfig source;
 };
 
@@ -155,7 +160,7 @@ struct DisplaySettings {
 //     bracket: [0.0005, 0.004, 0.032]   # exposure times (s) merged per sky (libcamera, sky-sim)
 //     stale_after: 30                   # seconds without a new sky before it is flagged stale
 //   camera:
-//     calibration: hmd_camera.yaml
+//     calibration: hmd_camera.yaml      # or stereo: stereo.yaml (a camera per eye, frames side by side)
 //     source: {kind: images, ...}
 //   pose: {kind: fixed | track | markers, ...}  # track::PoseConfig; markers: the tracker is fed
 //                                       # every HMD camera frame (docs/tracking.md)
