@@ -300,7 +300,8 @@ MarkerSolve solve_marker_pose(const MarkerMap& map, const camera::Lens& lens, st
   }
   for (const auto* list : {&inliers, &rejected}) {
     for (const Observation* o : *list) {
-      result.residuals.push_back({o->tag->id, std::sqrt(tag_squared_error(*o, best.pose, lens) / 4.0), o->edge_px});
+      result.residuals.push_back(
+          {o->tag->id, std::sqrt(tag_squared_error(*o, best.pose, lens) / 4.0), o->edge_px, CameraSide::Left});
     }
   }
   result.single_distant_tag = inliers.size() == 1 && inliers.front()->edge_px < options.distant_tag_px;

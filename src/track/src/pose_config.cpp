@@ -20,11 +20,12 @@ namespace fs = std::filesystem;
 
 constexpr std::array<std::string_view, 5> kFixedKeys{"kind", "position", "orientation", "look_at", "up"};
 constexpr std::array<std::string_view, 2> kTrackKeys{"kind", "csv"};
-constexpr std::array<std::string_view, 19> kMarkerKeys{
+constexpr std::array<std::string_view, 20> kMarkerKeys{
     "kind",          "map",          "calibration",      "decimation",            "blur",
     "refine_edges",  "sharpening",   "min_contrast",     "threads",               "max_hamming",
     "min_margin",    "outlier_px",   "max_error_px",     "max_ambiguity",         "distinct_deg",
-    "distant_tag_px", "max_age",     "accept_ambiguous", "accept_single_distant"};
+    "distant_tag_px", "max_age",     "accept_ambiguous", "accept_single_distant",
+    "cameras"};
 constexpr std::array<std::string_view, 3> kPoseKinds{"fixed", "track", "markers"};
 const char* const kPoseDocs = "see docs/live.md (Pose)";
 
@@ -102,6 +103,19 @@ void parse_markers(const Reader& r, const YAML::Node& node, PoseConfig& config) 
   o.max_age = number_or("max_age", o.max_age, 0, 3600, "seconds a pose stays valid without a new solve, e.g. 0.5");
   o.accept_ambiguous = boolean_or("accept_ambiguous", o.accept_ambiguous);
   o.accept_single_distant = boolean_or("accept_single_distant", o.accept_single_distant);
+  if (const YAML::Node cameras = Reader::optional(node, "cameras"); cameras.IsDefined()) {
+    const std::string value = cameras.IsScalar() ? cameras.Scalar() : std::string();
+    if (value == "left") {
+      o.stereo_cameras = StereoCameras::Left;
+    } else if (value == "right") {
+      o.stereo_cameras = StereoCameras::Right;
+    } else if (value == "both") {
+      o.stereo_cameras = StereoCameras::Both;
+    } else {
+      r.fail(cameras, "pose.cameras", "'" + value + "' is not a camera of a stereo camera",
+             "write left, right or both (the default; a stereo camera only, docs/tracking.md)");
+    }
+  }
 }
 
 }  // namespace

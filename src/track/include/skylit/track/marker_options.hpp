@@ -55,6 +55,10 @@ struct MarkerPoseOptions {
   double distant_tag_px = 40.0;
 };
 
+// Which cameras of a stereo camera the marker tracker detects tags in and solves from: one
+// (half the detection time) or both (a better pose: docs/tracking.md, "Stereo cameras").
+enum class StereoCameras { Left, Right, Both };
+
 struct MarkerTrackerOptions {
   TagDetectorOptions detector;
   MarkerPoseOptions pose;
@@ -66,6 +70,12 @@ struct MarkerTrackerOptions {
   // Accept poses from a single small tag (single_distant_tag): a 20 cm tag at 7 m, 28 px across,
   // puts the camera tens of centimetres off.
   bool accept_single_distant = false;
+  // A stereo camera's tracker only (a single camera's ignores it). The pose is the left camera's
+  // whichever cameras are used.
+  StereoCameras stereo_cameras = StereoCameras::Both;
 };
+
+// "left", "right", "both" (the config's values).
+const char* to_string(StereoCameras cameras);
 
 }  // namespace skylit::track

@@ -13,11 +13,15 @@
 
 namespace skylit::track {
 
-// Errors are in pixels of the (distorted) frame.
+// Which camera of a stereo camera saw a tag (a single camera's solve says Left throughout).
+enum class CameraSide { Left, Right };
+
+// Errors are in pixels of the (distorted) frame of the camera that saw the tag.
 struct TagResidual {
   int id = 0;
   double rms_px = 0;   // RMS reprojection error of the tag's four corners under the pose
   double edge_px = 0;  // the tag's mean edge length in the frame
+  CameraSide camera = CameraSide::Left;
 };
 
 struct MarkerSolve {
@@ -31,7 +35,8 @@ struct MarkerSolve {
   std::vector<int> tags_used;        // map tags the pose rests on
   std::vector<int> tags_rejected;    // map tags dropped as outliers
   std::vector<int> tags_unknown;     // detected ids that the map does not hold
-  std::vector<TagResidual> residuals;  // tags_used then tags_rejected, under `pose`
+  // tags_used then tags_rejected, under `pose`; a stereo solve has one per camera that saw the tag.
+  std::vector<TagResidual> residuals;
 
   // Flags: no map tag seen (no pose); one tag only, small in the frame; two solutions fit almost
   // equally; the pose reprojects worse than MarkerPoseOptions::max_error_px.

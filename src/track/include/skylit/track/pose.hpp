@@ -95,6 +95,7 @@ class PoseTrack final : public PoseSource {
 //     map: site_tags.yaml            # the marker map, relative to the config file's folder
 //     calibration: hmd_camera.yaml   # optional: the camera's; default the HMD camera's
 //     decimation: 2                  # optional knobs (MarkerTrackerOptions), e.g. blur, threads
+//     cameras: both                  # a stereo camera's: left, right or both (the default)
 struct PoseConfig {
   enum class Kind { Fixed, Track, Markers };
   Kind kind = Kind::Fixed;
