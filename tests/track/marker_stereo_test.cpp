@@ -8,6 +8,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <opencv2/core.hpp>
 
 #include "../support/temp_dir.hpp"
 #include "marker_scene.hpp"
@@ -324,6 +325,16 @@ TEST(StereoMarkerTracker, BothCamerasEndToEnd) {
     EXPECT_LE(position_error(*now, truth), 0.01);
   }
   EXPECT_NE(tracker.describe().find("the last 4 tags"), std::string::npos) << tracker.describe();
+
+  // The live camera thread hands over the halves of one side-by-side frame: views, not copies.
+  const Pose truth = heads_at_three_metres()[0];
+  const RenderedPair pair = render_pair(s, map, truth, 77);
+  cv::Mat side_by_side;
+  cv::hconcat(pair.left, pair.right, side_by_side);
+  const MarkerSolve solve = tracker.process(side_by_side.colRange(0, 1280), side_by_side.colRange(1280, 2560), 5.0);
+  ASSERT_TRUE(solve.pose);
+  EXPECT_LE(position_error(*solve.pose, truth), 0.01);
+  EXPECT_EQ(solve.residuals.size(), 8u);
 }
 
 TEST(StereoMarkerTracker, TheRightCameraOnlySetting) {
