@@ -58,8 +58,9 @@ TEST(SourceConfig, CamerasReconnectByDefault) {
   TempDir dir;
   SourceConfig config = load_source_config(dir.write("a.yaml",
                                                      "source:\n  kind: v4l2\n  device: /dev/video2\n  width: 1280\n"
-                                                     "  height: 720\n  fps: 30\n  fourcc: MJPG\n"));
+                                                     "  height: 720\n  fps: 30\n  fourcc: MJPG\n  bracket_settle_frames: 6\n"));
   const auto& v4l2 = std::get<V4l2Settings>(config.settings);
+  EXPECT_EQ(v4l2.bracket_settle_frames, 6);
   EXPECT_EQ(v4l2.device, "/dev/video2");
   EXPECT_EQ(v4l2.width, 1280);
   EXPECT_EQ(v4l2.height, 720);

@@ -25,7 +25,7 @@ const char* const kDocs = "see docs/live.md (Frame sources)";
 constexpr std::array<std::string_view, 6> kCommonKeys{"kind", "name", "width", "height", "reconnect", "realtime"};
 constexpr std::array<std::string_view, 4> kImagesKeys{"path", "timestamps", "fps", "loop"};
 constexpr std::array<std::string_view, 2> kVideoKeys{"path", "loop"};
-constexpr std::array<std::string_view, 3> kV4l2Keys{"device", "fps", "fourcc"};
+constexpr std::array<std::string_view, 4> kV4l2Keys{"device", "fps", "fourcc", "bracket_settle_frames"};
 constexpr std::array<std::string_view, 6> kLibcameraKeys{"camera",        "pixel_format", "buffer_count",
                                                          "exposure_time", "gain",         "bracket_settle_frames"};
 constexpr std::array<std::string_view, 14> kSkySimKeys{"calibration", "sky",       "equirect",  "azimuth_offset",
@@ -82,6 +82,9 @@ V4l2Settings parse_v4l2(const Reader& r, const YAML::Node& node, const std::stri
   if (const auto n = Reader::optional(node, "fourcc")) {
     s.fourcc = r.text(n, prefix + "fourcc", "write four characters, e.g. MJPG or YUYV");
     if (s.fourcc.size() != 4) r.fail(n, prefix + "fourcc", "'" + s.fourcc + "' is not four characters", "write e.g. MJPG or YUYV");
+  }
+  if (const auto n = Reader::optional(node, "bracket_settle_frames")) {
+    s.bracket_settle_frames = static_cast<int>(r.integer(n, prefix + "bracket_settle_frames", 0, 64, "give 2 to 10 (4 is the default)"));
   }
   return s;
 }

@@ -108,7 +108,7 @@ std::string describe_devices(const std::vector<V4l2Device>& devices) {
 }
 
 V4l2Source::V4l2Source(const V4l2Settings& settings, FrameChecks checks, const V4l2Paths& paths)
-    : FrameSource(checks), capture_(std::make_unique<cv::VideoCapture>()) {
+    : FrameSource(checks), bracket_settle_frames_(settings.bracket_settle_frames), capture_(std::make_unique<cv::VideoCapture>()) {
   node_ = is_device_number(settings.device) ? paths.dev / ("video" + settings.device) : fs::path(settings.device);
   std::error_code ec;
   if (settings.device.empty() || !fs::exists(node_, ec)) {
@@ -149,6 +149,32 @@ bool V4l2Source::set_exposure_time(double seconds) {
   if (!capture_->set(cv::CAP_PROP_EXPOSURE, seconds * 1e4)) return false;
   exposure_time_ = seconds;
   return true;
+}
+
+std::optional<std::vector<Frame>> V4l2Source::read_bracket(std::span<const double> exposure_times_s, double timeout_s) {
+  const std::optional<double> before = exposure_time_;
+  std::vector<Frame> frames;
+  bool any_set = false;
+  for (const double exposure : exposure_times_s) {
+    if (!set_exposure_time(exposure)) continue;
+    any_set = true;
+    bool ready = true;
+    for (int k = 0; k < bracket_settle_frames_ && ready; ++k) ready = read(timeout_s).status == FrameStatus::Ready;
+    if (!ready) break;
+    FrameResult result = read(timeout_s);
+    if (result.status != FrameStatus::Ready) break;
+    result.frame.exposure_time = exposure;
+    frames.push_back(std::move(result.frame));
+  }
+  if (!any_set) return std::nullopt;
+  if (before) {
+    set_exposure_time(*before);
+  } else {
+    // V4L2_EXPOSURE_APERTURE_PRIORITY (3): the camera's own auto exposure, as before the bracket.
+    capture_->set(cv::CAP_PROP_AUTO_EXPOSURE, 3);
+    exposure_time_.reset();
+  }
+  return frames;
 }
 
 bool V4l2Source::set_gain(double gain) {

@@ -97,6 +97,9 @@ struct V4l2Settings {
   int height = 0;
   double fps = 0;            // requested rate; 0: the driver's default
   std::string fourcc{};      // requested pixel format ("MJPG", "YUYV"); empty: the default
+  // Frames dropped after each new exposure of a bracket: V4L2 frames do not report their
+  // exposure, and the driver's queued buffers and the sensor carry the old one a few frames.
+  int bracket_settle_frames = 4;
 };
 
 // A V4L2 device node and the name the driver gives it.
@@ -131,8 +134,13 @@ class V4l2Source final : public FrameSource {
 
  protected:
   FrameResult read(double timeout_s) override;
+  // Each exposure in turn: set, bracket_settle_frames frames dropped, the next one kept (its
+  // exposure_time the one set); the exposure in force before is restored (auto exposure when
+  // none was set). nullopt when the driver takes no manual exposure.
+  std::optional<std::vector<Frame>> read_bracket(std::span<const double> exposure_times_s, double timeout_s) override;
 
  private:
+  int bracket_settle_frames_ = 4;
   std::filesystem::path node_;
   std::string name_;
   std::unique_ptr<cv::VideoCapture> capture_;
