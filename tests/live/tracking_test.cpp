@@ -16,6 +16,7 @@
 #include "skylit/track/marker_map.hpp"
 #include "skylit/track/marker_render.hpp"
 #include "skylit/camera/lens.hpp"
+#include "skylit/camera/stereo_calibration.hpp"
 
 namespace skylit::live_test {
 namespace {
@@ -117,6 +118,51 @@ TEST(LiveTracking, MarkersGiveTheRecordedPose) {
   EXPECT_NE(metrics.find("skylit_marker_tags_seen 4"), std::string::npos) << metrics;
   EXPECT_NE(metrics.find("skylit_marker_solves_total{result=\"accepted\"}"), std::string::npos);
   EXPECT_NE(metrics.find("skylit_marker_reprojection_error_pixels"), std::string::npos);
+  running.finish();
+  EXPECT_EQ(running.error(), "");
+}
+
+// camera.stereo with the marker tracker: a pair of cameras 64 mm apart, each recording the board
+// from its own pose; the tracker solves the left camera's pose from both cameras' tags.
+TEST(LiveTracking, AStereoCameraIsTrackedWithBothCameras) {
+  Rig rig(tag_rig_options());
+  track::save_marker_map(board(), rig.dir() / "tags.yaml");
+  camera::StereoCalibration stereo;
+  stereo.left = camera::load_calibration(rig.dir() / "hmd.yaml");
+  stereo.right = stereo.left;
+  stereo.t_right_from_left = Vec3(-0.064, 0, 0);
+  camera::save_stereo_calibration(stereo, rig.dir() / "stereo.yaml");
+  Pose right_truth = kTruth;  // x_right = x_left + t: the right camera 64 mm along the left's x
+  right_truth.t_site_from_camera = kTruth.t_site_from_camera - kTruth.R_site_from_camera * stereo.t_right_from_left;
+  const camera::Lens lens(stereo.left);
+  for (const auto& [folder, pose] : {std::pair{"left", kTruth}, std::pair{"right", right_truth}}) {
+    std::vector<cv::Mat> frames;
+    for (std::uint64_t k = 0; k < 3; ++k) {
+      track::MarkerRenderOptions options;
+      options.seed = k + (folder == std::string("left") ? 1 : 11);
+      cv::Mat bgr;
+      cv::cvtColor(track::render_markers(board(), lens, pose, options), bgr, cv::COLOR_GRAY2BGR);
+      frames.push_back(bgr);
+    }
+    write_frames(rig.dir() / folder, frames, 30.0, "png");
+  }
+  std::string text = rig.config_text();
+  const std::size_t from = text.find("camera:\n");
+  text.replace(from, text.find("pose:", from) - from,
+               "camera:\n  stereo: stereo.yaml\n  source:\n    kind: pair\n"
+               "    left: {kind: images, path: left, loop: true, realtime: 1}\n"
+               "    right: {kind: images, path: right, loop: true, realtime: 1}\n");
+  std::ofstream(rig.config_file()) << text;
+  RunningService running(rig.config(), quiet_options());
+  ASSERT_TRUE(running.wait_for(has_pose, 60)) << running.error() << "\n" << running.status().dump(2);
+  const nlohmann::json pose = running.status()["pose"];
+  EXPECT_NE(pose["source"].get<std::string>().find("both cameras"), std::string::npos) << pose.dump(2);
+  EXPECT_EQ(pose["markers"]["errors"], 0) << pose.dump(2);
+  const Pose drawn = pose_from_status(pose["last"]);
+  std::printf("markers from a stereo camera in skylit-live: position error %.2f mm, rotation error %.3f°\n",
+              1e3 * marker_scene::position_error(drawn, kTruth), marker_scene::rotation_error_deg(drawn, kTruth));
+  EXPECT_LT(marker_scene::position_error(drawn, kTruth), kPositionTolerance);
+  EXPECT_LT(marker_scene::rotation_error_deg(drawn, kTruth), kRotationToleranceDeg);
   running.finish();
   EXPECT_EQ(running.error(), "");
 }

@@ -74,12 +74,13 @@ std::string to_string(BuildingFade::State state) {
   return "shown";
 }
 
-LiveTracking::LiveTracking(const LiveConfig& config, const camera::CameraCalibration& hmd) {
+LiveTracking::LiveTracking(const LiveConfig& config, const camera::CameraCalibration& hmd,
+                           const camera::StereoCalibration* stereo) {
   if (config.pose.kind != track::PoseConfig::Kind::Markers) {
     configured_ = track::open_pose_source(config.pose);
     return;
   }
-  tracker_ = track::open_marker_tracker(config.pose, &hmd);
+  tracker_ = stereo ? track::open_stereo_marker_tracker(config.pose, *stereo) : track::open_marker_tracker(config.pose, &hmd);
   if (config.imu || config.fusion) fusion_ = std::make_unique<track::PoseFusion>(config.fusion.value_or(track::FusionSettings{}));
   if (config.imu) imu_ = track::open_imu(*config.imu);
 }
@@ -100,10 +101,12 @@ std::optional<track::ImuState> LiveTracking::imu_state() const {
   return imu_->state();
 }
 
-void LiveTracking::on_camera_frame(const cv::Mat& image, double timestamp) {
+void LiveTracking::on_camera_frame(const cv::Mat& image, double timestamp, const cv::Mat& right) {
   if (!tracker_) return;
   try {
-    const track::MarkerSolve solve = tracker_->process(tracker_image(image), timestamp);
+    const track::MarkerSolve solve = tracker_->stereo()
+                                         ? tracker_->process(tracker_image(image), tracker_image(right), timestamp)
+                                         : tracker_->process(tracker_image(image), timestamp);
     if (!tracker_->accepts(solve)) {
       ++solves_rejected_;
       return;

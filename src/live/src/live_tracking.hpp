@@ -19,6 +19,7 @@
 #include "skylit/live/live_config.hpp"
 #include "skylit/live/status_server.hpp"
 #include "skylit/camera/calibration.hpp"
+#include "skylit/camera/stereo_calibration.hpp"
 #include "skylit/track/fusion.hpp"
 #include "skylit/track/imu.hpp"
 #include "skylit/track/marker_tracker.hpp"
@@ -30,8 +31,10 @@ class LiveTracking {
  public:
   // Opens the pose source the config names; with pose.kind markers the tracker (its map, its
   // calibration or `hmd`), and the IMU when the config has one (InputError when it is absent at
-  // start: a HID device not plugged in, a recording that is not there).
-  LiveTracking(const LiveConfig& config, const camera::CameraCalibration& hmd);
+  // start: a HID device not plugged in, a recording that is not there). With `stereo` (the
+  // config's camera.stereo) the tracker sees both cameras (track::open_stereo_marker_tracker).
+  LiveTracking(const LiveConfig& config, const camera::CameraCalibration& hmd,
+               const camera::StereoCalibration* stereo = nullptr);
   ~LiveTracking();
   LiveTracking(const LiveTracking&) = delete;
   LiveTracking& operator=(const LiveTracking&) = delete;
@@ -42,7 +45,8 @@ class LiveTracking {
   // solves the pose (markers), and gives an accepted pose to the fusion. A frame the tracker
   // refuses (a size the calibration is not for) is counted and reported, never thrown: the frame
   // is still shown.
-  void on_camera_frame(const cv::Mat& image, double timestamp);
+  // With a stereo camera, `image` is the left camera's and `right` the right camera's.
+  void on_camera_frame(const cv::Mat& image, double timestamp, const cv::Mat& right = {});
 
   // Render thread: the pose to draw the frame stamped `frame_timestamp` from, at its capture
   // time (video see-through). `display_delay` (seconds), how long after its capture the frame

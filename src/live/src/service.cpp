@@ -182,7 +182,7 @@ Service::Service(const LiveConfig& config, const ServiceOptions& options) : stat
   s.camera_source = std::move(camera_opened.source);
   s.camera_reconnecting = camera_opened.reconnecting;
   s.camera_pair = camera_opened.paired;
-  s.tracking = std::make_unique<LiveTracking>(config, s.hmd_calibration);
+  s.tracking = std::make_unique<LiveTracking>(config, s.hmd_calibration, s.stereo_camera ? &*s.stereo_camera : nullptr);
   s.fade = std::make_unique<BuildingFade>(config.tracking.fade_s);
   const auto listen = options.status_listen ? options.status_listen : config.status_listen;
   if (listen) {
@@ -236,7 +236,8 @@ void Service::State::camera_loop() {
         // Tracking), a tenth of a 30 Hz frame's interval, and so the render thread always finds
         // the pose of the very frame it draws (a tracking thread would give it the previous
         // frame's pose, or make it wait). Every frame is tracked, even those the renderer drops.
-        tracking->on_camera_frame(camera_image(result.frame, 0), result.frame.timestamp);
+        tracking->on_camera_frame(camera_image(result.frame, 0), result.frame.timestamp,
+                                  stereo_camera ? camera_image(result.frame, 1) : cv::Mat());
         camera_arrivals.put(result.frame.timestamp, now_seconds());
         camera_box.put(std::move(result.frame));
       } else if (result.status == capture::FrameStatus::EndOfStream) {
