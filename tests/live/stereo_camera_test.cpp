@@ -12,6 +12,7 @@
 #include "../support/virtual_display.hpp"
 #include "live_fixture.hpp"
 #include "skylit/camera/stereo_calibration.hpp"
+#include "skylit/sky/srgb.hpp"
 
 namespace skylit::live_test {
 namespace stereo_camera_test {  // named: the test program is one unity build
@@ -116,6 +117,45 @@ TEST(SkylitLive, AStereoCameraOnAStereoHmdUnderXvfb) {
   cv::Mat frame;
   ASSERT_TRUE(capture.read(frame));
   EXPECT_EQ(frame.size(), cv::Size(96, 72));
+}
+
+// In stereo display each eye takes its own camera's photometric match: the right camera's frames
+// at half the left's linear values give half its k.
+TEST(LiveStereoCamera, EachCameraHasItsOwnPhotometricMatch) {
+  const gpu::test::VirtualDisplay xvfb("320x240x24");
+  if (xvfb.display().empty()) GTEST_SKIP() << "Xvfb is not installed (apt install xvfb)";
+  const gpu::test::ScopedEnv display("DISPLAY", xvfb.display().c_str());
+  const gpu::test::ScopedEnv wayland("WAYLAND_DISPLAY", nullptr);
+  RigOptions rig_options;
+  rig_options.extra = "display:\n  profile: small_hmd.yaml\n  mode: stereo\nphotometric:\n  estimate:\n"
+                      "    plane: ground\n    region: [0, 0.25, 0, 0.25]\n    every: 1\n";
+  const Rig rig(rig_options);
+  std::ofstream(rig.dir() / "small_hmd.yaml") << "name: small test HMD\npanel: {width: 320, height: 120}\n"
+                                                 "layout: side-by-side\nipd: 0.064\n";
+  const std::string text = stereo_config(rig, 3);
+  // The right camera's frames: the same view (the checker's phase as the left's), every linear
+  // value halved.
+  std::vector<cv::Mat> right;
+  for (int k = 0; k < 3; ++k) {
+    cv::Mat frame = camera_frame(96, 72, k);
+    frame.forEach<cv::Vec3b>([](cv::Vec3b& p, const int*) {
+      for (int c = 0; c < 3; ++c) p[c] = sky::srgb_encode8(0.5 * sky::srgb_decode(p[c] / 255.0));
+    });
+    right.push_back(frame);
+  }
+  write_frames(rig.dir() / "right", right, 30.0, "png");
+  std::ofstream(rig.config_file()) << text;
+  live::ServiceOptions options = quiet_options();
+  options.headless = false;
+  options.frames = 100000;
+  RunningService running(rig.config(), options);
+  ASSERT_TRUE(running.wait_for([](const nlohmann::json& status) { return status.contains("photometric_scale_right"); }))
+      << running.error() << "\n" << running.status().dump(2);
+  const nlohmann::json status = running.status();
+  for (int c = 0; c < 3; ++c) {
+    const double ratio = status["photometric_scale_right"][c].get<double>() / status["photometric_scale"][c].get<double>();
+    EXPECT_NEAR(ratio, 0.5, 0.03) << "channel " << c;  // 8-bit rounding of the halved codes
+  }
 }
 
 }  // namespace stereo_camera_test

@@ -483,6 +483,20 @@ void Service::State::RenderLoop::estimate_photometric(const capture::Frame& fram
     std::lock_guard lock(s.stats_mutex);
     s.photometric = found.match;
   }
+  if (compositor_right) {
+    // The right camera's own match: two cameras seldom expose alike.
+    const cv::Mat right_region = compositor_right->region_mask(
+        *reference_plane, s.config.photometric.region[0], s.config.photometric.region[1], s.config.photometric.region[2],
+        s.config.photometric.region[3], render::stereo_camera_poses(*last_pose, *s.stereo_camera)[1]);
+    const render::PhotometricEstimate right = render::estimate_photometric_match(
+        sky::linearise(s.camera_image(frame, 1), sky::ResponseCurve::srgb(8), {}).radiance, right_region,
+        render::plane_irradiance(s.manifest.planes[static_cast<std::size_t>(*reference_plane)], sky->S, sky->sun, sky->lamps),
+        s.config.photometric.albedo);
+    if (right.ok) {
+      std::lock_guard lock(s.stats_mutex);
+      s.photometric_right = right.match;
+    }
+  }
   if (s.config.photometric.shadowed_region && sky->sun) {
     const std::array<double, 4>& r = *s.config.photometric.shadowed_region;
     const cv::Mat shadowed = compositor->region_mask(*reference_plane, r[0], r[1], r[2], r[3], *last_pose);
@@ -551,6 +565,10 @@ cv::Mat Service::State::RenderLoop::composite_and_show(FrameStageTimes& times, c
     // Each eye its own camera's image, from that camera's pose (docs/hmd.md, "Stereo cameras").
     std::array<render::CompositeInput, 2> eyes{input, input};
     eyes[1].camera = s.camera_image(frame, 1);
+    {
+      std::lock_guard lock(s.stats_mutex);
+      if (s.photometric_right) eyes[1].photometric = s.photometric_right;
+    }
     eyes[1].pose = render::stereo_camera_poses(input.pose, *s.stereo_camera)[1];
     const std::array<render::Compositor*, 2> compositors{&*compositor, &*compositor_right};
     render::draw_hmd_frame(compositors, *hmd, eyes);

@@ -208,6 +208,7 @@ struct Service::State {
   double record_fps = 0;
   Recorder::Health recording;  // the render loop's copy, for the status
   std::optional<render::PhotometricMatch> photometric;
+  std::optional<render::PhotometricMatch> photometric_right;  // camera.stereo's right camera, in stereo display
   // The ground's shadow contrast (sky.clipped_sun_energy: shadow_contrast): measured by the render
   // thread beside the photometric match, taken by the sky thread for the next clipped sun.
   struct GroundContrast {

@@ -88,6 +88,9 @@ nlohmann::json Service::State::status_report() const {
                          {"composite", 1e3 * composite_times.percentile(0.5)},
                          {"record", 1e3 * record_times.percentile(0.5)}};
     if (photometric) j["photometric_scale"] = {photometric->scale.x(), photometric->scale.y(), photometric->scale.z()};
+    if (photometric_right) {
+      j["photometric_scale_right"] = {photometric_right->scale.x(), photometric_right->scale.y(), photometric_right->scale.z()};
+    }
     if (ground_contrast) {
       // What an installer reads to set shadowed_sky_visibility: under an overcast sky, shadowed
       // over lit is V.
