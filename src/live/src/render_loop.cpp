@@ -39,6 +39,8 @@ namespace fs = std::filesystem;
 std::optional<double> configured_rate(const capture::SourceConfig& config) {
   if (const auto* images = std::get_if<capture::ImagesSettings>(&config.settings); images && images->fps) return images->fps;
   if (const auto* v4l2 = std::get_if<capture::V4l2Settings>(&config.settings); v4l2 && v4l2->fps > 0) return v4l2->fps;
+  // A pair of cameras runs at its left camera's rate.
+  if (const auto* pair = std::get_if<capture::PairSettings>(&config.settings); pair && pair->left) return configured_rate(*pair->left);
   return std::nullopt;
 }
 
