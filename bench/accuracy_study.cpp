@@ -235,6 +235,10 @@ int main(int argc, char** argv) {
   app.add_option("--refine-rounds", refine.rounds, "--refine: rounds of splits at most")->capture_default_str();
   app.add_option("--refine-min-edge", refine.min_edge, "--refine: metres, no edge shorter than twice this is split")
       ->capture_default_str();
+  int vertex_fit = 0;
+  app.add_option("--vertex-fit", vertex_fit,
+                 "every bake fits its vertices to the light at N² points inside each triangle (skylit-bake --vertex-fit)")
+      ->check(CLI::Range(0, 16));
   bool gpu_path_too = false;
   app.add_flag("--gpu", gpu_path_too, "also the live GPU path: shadow maps per source, GPU blend (OpenGL ES, EGL)");
   std::string gpu_radius = "shadow";
@@ -293,6 +297,7 @@ int main(int argc, char** argv) {
     options.force = true;
     options.previews = false;
     options.refine = refine;
+    options.vertex_fit = vertex_fit;
     const auto t = Clock::now();
     skylit::baker::run_bake(options, stderr);
     bake_seconds[key] = seconds_since(t);
@@ -550,16 +555,8 @@ int main(int argc, char** argv) {
       std::vector<Eigen::Vector3d> inside_E, inside_seen_ref;
       std::vector<double> inside_areas;
       {
-        const bool sun_first = !building_sources.empty() && estimate.sun.has_value();
-        std::vector<Eigen::Vector3d> all;
-        if (sun_first) {
-          const std::vector<SourceLight> lamps(building_sources.begin() + 1, building_sources.end());
-          all = interpolated_at(inside_points, building_estimate(transfer, S, lamps, site, mesh, ground));
-          const std::vector<Eigen::Vector3d> sun_term = source_term_at(inside_points, building_sources.front(), site, mesh);
-          for (std::size_t k = 0; k < all.size(); ++k) all[k] += sun_term[k];
-        } else {
-          all = interpolated_at(inside_points, building_E);
-        }
+        const std::vector<Eigen::Vector3d> all = building_estimate_inside(
+            inside_points, transfer, S, building_sources, estimate.sun.has_value(), site, mesh, ground);
         for (std::size_t k = 0; k < all.size(); ++k) {
           if (inside_ref[k].isZero(0)) continue;
           inside_E.push_back(all[k]);

@@ -35,6 +35,18 @@ int main(int argc, char** argv) {
   trade->add_option("--bases", o.bases, "faces, corners, quadratics")->delimiter(',')->capture_default_str();
   trade->add_option("--samples", o.samples, "samples per face")->delimiter(',')->capture_default_str();
   trade->add_option("--texel-scales", o.texel_scales, "plane resolution divisors (1: the site's)")->delimiter(',')->capture_default_str();
+  trade->add_option("--refine", o.refines,
+                    "skylit-bake --refine per bake: split the model where its light changes by more than this share of "
+                    "E_h (0: the model as it is)")
+      ->delimiter(',')
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  trade->add_option("--vertex-fits", o.vertex_fits,
+                    "skylit-bake --vertex-fit per bake: each vertex's transfer fitted to the light at N² points inside its "
+                    "triangles (0: its own light)")
+      ->delimiter(',')
+      ->check(CLI::Range(0, 16))
+      ->capture_default_str();
   trade->add_option("--forms", o.forms, "full, lean, cropped, pcaK, pcaKtN (clustered PCA, tiles of N texels)")->delimiter(',')->capture_default_str();
   trade->add_option("--bits", o.bits, "layer bit depth: 16 (half), 8 (unorm8; not with PCA)")->delimiter(',')->capture_default_str();
   trade->add_option("--sun", o.sun, "sun separation: on, off")->delimiter(',')->capture_default_str();

@@ -63,7 +63,7 @@ TEST(SkylitBenchTrade, TinyGridWritesTheTableThePlotAndTheParetoFront) {
                           "rms_per_sky", "edge_displacement_m", "edge_displacement_deg", "bake_seconds", "bake_bytes",
                           "gpu_bytes", "layers", "skipped_layers", "blend_ms", "blend_cpu_ms", "frame_ms", "frame_cpu_ms",
                           "whole_frame_ms", "whole_frame_cpu_ms", "cost_ms", "frames_per_second", "pareto", "sequence",
-                          "building"}) {
+                          "building", "refine", "vertices"}) {
     for (const auto& s : settings) ASSERT_TRUE(s.contains(key)) << key << " missing in " << s.dump();
   }
   for (const auto& s : settings) {
@@ -84,6 +84,9 @@ TEST(SkylitBenchTrade, TinyGridWritesTheTableThePlotAndTheParetoFront) {
     const nlohmann::json& building = s.at("building");
     EXPECT_GT(building.at("rms").get<double>(), 0.0);
     EXPECT_LT(building.at("rms").get<double>(), 0.85 * building.at("without_ground_layer").at("rms").get<double>());
+    // Inside the triangles, interpolated from few vertices, it is worse than at them.
+    EXPECT_GT(building.at("inside_triangles_by_area").at("rms").get<double>(), building.at("rms").get<double>());
+    EXPECT_EQ(s.at("refine"), 0.0);
   }
   // 8-bit layers take half the GPU memory of half floats; the PCA form less than either.
   const auto find = [&](const std::string& form, int bits) {
@@ -156,6 +159,39 @@ TEST(SkylitBenchTrade, SeparatedSourcesAreASettingOfTheGrid) {
   const std::string md = read_all(out / "trade.md");
   EXPECT_NE(md.find("| on+7 |"), std::string::npos) << md;
   EXPECT_NE(result.output.find("sun+7"), std::string::npos) << result.output;
+}
+
+// A bake of the model refined where its light changes (skylit-bake --refine) is a setting of the
+// grid: more vertices, and the building inside its triangles, by area, far closer to its
+// reference under park's low sun (measured 0.0928 → 0.0507 at 1/32, faces K = 3).
+TEST(SkylitBenchTrade, ARefinedModelIsASettingMeasuredInsideTheTriangles) {
+  const test::TempDir dir;
+  const fs::path out = dir / "trade";
+  const cli_test::Result result = cli_test::run_program(
+      kBin / "skylit-bench",
+      trade_command() + " --sky park --frequencies 2 --bases faces --samples 3 --texel-scales 32 --refine 0,0.2 --forms full"
+          " --bits 16 --sun on --skip-thresholds 0 --frame-width 160 --frame-height 120 --frame-repeats 3 --blend-repeats 2"
+          " --timing-scale 8 --supersample 1 --out " +
+          out.string());
+  ASSERT_EQ(result.status, 0) << result.output;
+  const nlohmann::json doc = nlohmann::json::parse(read_all(out / "trade.json"));
+  const auto& settings = doc.at("settings");
+  ASSERT_EQ(settings.size(), 2u);
+  std::map<double, nlohmann::json> by_refine;
+  for (const auto& s : settings) by_refine[s.at("refine").get<double>()] = s;
+  ASSERT_TRUE(by_refine.count(0.0) && by_refine.count(0.2)) << doc.dump(2);
+  const nlohmann::json &plain = by_refine[0.0], &refined = by_refine[0.2];
+  EXPECT_GT(refined.at("vertices").get<double>(), 1.3 * plain.at("vertices").get<double>());
+  const double plain_inside = plain.at("building").at("inside_triangles_by_area").at("rms").get<double>();
+  const double refined_inside = refined.at("building").at("inside_triangles_by_area").at("rms").get<double>();
+  std::printf("measured: park at 1/32, faces K = 3: the building inside its triangles %.4f (%d vertices), refined at 0.2 "
+              "%.4f (%d vertices)\n",
+              plain_inside, plain.at("vertices").get<int>(), refined_inside, refined.at("vertices").get<int>());
+  EXPECT_LT(refined_inside, 0.75 * plain_inside);
+  // The refined bake's T on the planes is the plain one's: refining moves no surface.
+  EXPECT_NEAR(refined.at("rms").get<double>(), plain.at("rms").get<double>(), 0.1 * plain.at("rms").get<double>());
+  EXPECT_NE(refined.at("label").get<std::string>().find("_r0.2"), std::string::npos);
+  EXPECT_NE(read_all(out / "trade.md").find("inside the triangles, by area"), std::string::npos);
 }
 
 // --live-seconds: each setting's frame rate also from skylit-live itself, run on the setting's bake

@@ -105,6 +105,17 @@ std::vector<Eigen::Vector3d> source_term_at(const TrianglePoints& points, const 
   return out;
 }
 
+std::vector<Eigen::Vector3d> building_estimate_inside(const TrianglePoints& points, std::span<const float> transfer,
+                                                      std::span<const Eigen::Vector3d> S, std::span<const SourceLight> sources,
+                                                      bool sun_first, const scene::Site& site, const scene::Mesh& mesh,
+                                                      const blend::GroundLight& ground) {
+  if (!sun_first || sources.empty()) return interpolated_at(points, building_estimate(transfer, S, sources, site, mesh, ground));
+  std::vector<Eigen::Vector3d> out = interpolated_at(points, building_estimate(transfer, S, sources.subspan(1), site, mesh, ground));
+  const std::vector<Eigen::Vector3d> sun_term = source_term_at(points, sources.front(), site, mesh);
+  for (std::size_t k = 0; k < out.size(); ++k) out[k] += sun_term[k];
+  return out;
+}
+
 std::vector<Eigen::Vector3d> building_reference_at(const EquirectLights& lights, const scene::Site& site,
                                                    const scene::Mesh& mesh, const TrianglePoints& points) {
   const scene::Mesh with_points = mesh_with_points(mesh, points);

@@ -42,6 +42,7 @@
 #include "trade_rows.hpp"
 #include "skylit/camera/lens.hpp"
 #include "skylit/bake_format/arrays.hpp"
+#include "skylit/bake_format/model.hpp"
 
 namespace skylit::study {
 namespace trade {
@@ -134,7 +135,9 @@ Grid make_grid(const TradeOptions& o) {
       for (int k : o.samples) {
         if (k < baker::min_samples_per_face(*basis)) continue;
         for (int scale : o.texel_scales) {
-          const BakeKey key{f, *basis, k, scale};
+        for (double refine : o.refines) {
+        for (int vertex_fit : o.vertex_fits) {
+          const BakeKey key{f, *basis, k, scale, refine, vertex_fit};
           for (const std::string& form_text : o.forms) {
             const Form form = parse_form(form_text);
             for (int bits : o.bits) {
@@ -162,6 +165,8 @@ Grid make_grid(const TradeOptions& o) {
               }
             }
           }
+        }
+        }
         }
       }
     }
@@ -225,6 +230,7 @@ Sites load_sites(const Run& run, const std::set<int>& scales) {
 struct Bakes {
   std::map<BakeKey, fs::path> dirs;
   std::map<BakeKey, double> seconds;
+  std::map<BakeKey, scene::Mesh> meshes;  // the model each was baked on (refined or not)
   std::map<PcaKey, fs::path> pca_dirs;
   std::map<PcaKey, double> pca_seconds;
 };
@@ -259,6 +265,8 @@ void make_bakes(const Run& run, const Grid& grid, const Sites& sites, Bakes& mad
       options.samples = key.samples;
       options.basis = key.basis;
       options.method = "raytrace";
+      options.refine.tolerance = key.refine;
+      options.vertex_fit = key.vertex_fit;
       options.force = true;
       options.previews = false;
       const auto t = Clock::now();
@@ -271,6 +279,8 @@ void make_bakes(const Run& run, const Grid& grid, const Sites& sites, Bakes& mad
     }
     std::fflush(stdout);
     bakes[key] = dir;
+    const SiteData& site = sites.at(key.texel_scale);
+    made.meshes[key] = key.refine > 0 ? bake_format::load_baked_model(site.site, dir, bake_format::read_manifest(dir)) : site.mesh;
   }
 }
 
@@ -324,32 +334,56 @@ std::vector<SkyData> render_skies(const TradeOptions& o, const camera::Lens& len
   return skies;
 }
 
-// By (plane resolution divisor, sky): T per plane and texel; the building's E per vertex (with
-// the ground of --ground-albedo) and E_h.
+// The building's reference on one model (the site's, or a refined one), the ground of
+// --ground-albedo included: E_ref per vertex and at the points inside its triangles (zero at
+// enclosed points, which no ray leaves: they are left out).
+struct BuildingReference {
+  std::vector<Eigen::Vector3d> vertices;
+  study::TrianglePoints points;
+  std::vector<Eigen::Vector3d> inside;
+};
+
+BuildingReference building_reference(const TradeOptions& o, const study::EquirectLights& lights,
+                                     const study::DenseReference& dense, const scene::Site& site, const scene::Mesh& mesh) {
+  BuildingReference ref{study::building_reference(lights, site, mesh), study::triangle_points(mesh), {}};
+  ref.inside = study::building_reference_at(lights, site, mesh, ref.points);
+  if (o.ground_albedo > 0.0) {
+    const study::GroundReferenceOptions ground = study::site_ground(site, dense, Eigen::Vector3d::Constant(o.ground_albedo));
+    const std::vector<Eigen::Vector3d> at_vertices = study::ground_reference(lights, site, mesh, ground);
+    for (std::size_t v = 0; v < at_vertices.size(); ++v) ref.vertices[v] += at_vertices[v];
+    const std::vector<Eigen::Vector3d> inside = study::ground_reference_at(lights, site, mesh, ref.points, ground);
+    for (std::size_t k = 0; k < inside.size(); ++k) {
+      if (!ref.inside[k].isZero(0)) ref.inside[k] += inside[k];
+    }
+  }
+  return ref;
+}
+
+// By (plane resolution divisor, sky): T per plane and texel; the building's reference per
+// refinement; E_h.
 struct Reference {
   std::vector<std::vector<Eigen::Vector3d>> planes;
-  std::vector<Eigen::Vector3d> building;
+  std::map<double, BuildingReference> building;  // by BakeKey::refine
   Eigen::Vector3d horizontal;
 };
 using References = std::map<std::pair<int, std::size_t>, Reference>;
 
-// The dense reference per resolution and sky.
+// The dense reference per resolution and sky, the building's on every model the bakes use.
 References make_references(const TradeOptions& o, const std::vector<SkyData>& skies, const std::set<int>& scales,
-                           const Sites& sites) {
+                           const Sites& sites, const Bakes& bakes) {
   References references;
   for (int s : scales) {
     const SiteData& site = sites.at(s);
+    std::map<double, const scene::Mesh*> models;
+    for (const auto& [key, mesh] : bakes.meshes) {
+      if (key.texel_scale == s) models.emplace(key.refine, &mesh);
+    }
     for (std::size_t i = 0; i < skies.size(); ++i) {
       const auto t = Clock::now();
       const study::EquirectLights lights = study::equirect_lights(skies[i].equirect, o.reference_supersample);
       study::DenseReference dense = study::dense_reference(lights, site.site, site.mesh);
       Reference& ref = references[{s, i}];
-      ref.building = study::building_reference(lights, site.site, site.mesh);
-      if (o.ground_albedo > 0.0) {
-        const std::vector<Eigen::Vector3d> ground = study::ground_reference(
-            lights, site.site, site.mesh, study::site_ground(site.site, dense, Eigen::Vector3d::Constant(o.ground_albedo)));
-        for (std::size_t v = 0; v < ground.size(); ++v) ref.building[v] += ground[v];
-      }
+      for (const auto& [refine, mesh] : models) ref.building[refine] = building_reference(o, lights, dense, site.site, *mesh);
       ref.horizontal = study::horizontal_irradiance(lights);
       ref.planes = std::move(dense.planes);
       std::printf("reference 1/%d %s: %.1f s\n", s, skies[i].name.c_str(), seconds_since(t));
@@ -487,6 +521,7 @@ FrameTimes time_frames(const TradeOptions& o, const Grid& grid, const Sites& sit
     if (rig) continue;
     rig = std::make_unique<FrameRig>();
     const SiteData& site = sites.at(s.bake.texel_scale);
+    const scene::Mesh& mesh = made.meshes.at(s.bake);
     const fs::path dir = bakes.at(s.bake);
     const bake_format::Manifest manifest = bake_format::read_manifest(dir);
     std::vector<std::size_t> shape;
@@ -496,7 +531,7 @@ FrameTimes time_frames(const TradeOptions& o, const Grid& grid, const Sites& sit
     if (s.sun) {
       render::SunShadowOptions map_options;
       map_options.max_sources = s.sources;
-      rig->shadow_map = std::make_unique<render::SunShadowMap>(site.mesh, planes, map_options);
+      rig->shadow_map = std::make_unique<render::SunShadowMap>(mesh, planes, map_options);
       const BenchSources sources = bench_sources(bench_sun.direction, s.sources, Eigen::Vector3d::Constant(0.2));
       rig->lamps = sources.lamps;
       rig->shadow_map->update(sources.discs);
@@ -509,7 +544,7 @@ FrameTimes time_frames(const TradeOptions& o, const Grid& grid, const Sites& sit
     }
     render::CompositorOptions options;
     options.lens.render_scale = s.render_scale;
-    rig->compositor = std::make_unique<render::Compositor>(site.site, site.mesh, manifest, transfer, hmd, options);
+    rig->compositor = std::make_unique<render::Compositor>(site.site, mesh, manifest, transfer, hmd, options);
     rig->image = cv::Mat(hmd.image_height, hmd.image_width, CV_8UC3);
     cv::randu(rig->image, cv::Scalar::all(0), cv::Scalar::all(256));
     rig->sky_radiance.assign(manifest.layer_count(), Eigen::Vector3d(0.3, 0.4, 0.6));
@@ -625,14 +660,24 @@ void time_blend(const Bench& bench, std::size_t j, const blend::BasisImages& bas
   r.blend_cpu_ms += median(cpu);
 }
 
-// |E(v) − E_ref(v)| / E_h per vertex and channel (study::building_errors).
-void append_building_diffs(const std::vector<Eigen::Vector3d>& estimate, const Reference& reference, std::vector<double>& diffs) {
-  for (std::size_t v = 0; v < estimate.size(); ++v) {
-    for (int c = 0; c < 3; ++c) {
-      if (reference.horizontal[c] > 0) diffs.push_back(std::abs(estimate[v][c] - reference.building[v][c]) / reference.horizontal[c]);
+// |E − E_ref| / E_h per point and channel (study::building_errors), each with its weight: 1 at
+// the vertices; inside the triangles (areas given) the point's area, leaving out points whose
+// reference is zero (enclosed: no ray leaves them).
+struct BuildingDiffs {
+  std::vector<double> diffs, weights;
+  void append(std::span<const Eigen::Vector3d> estimate, std::span<const Eigen::Vector3d> reference,
+              const Eigen::Vector3d& horizontal, std::span<const double> areas = {}) {
+    for (std::size_t v = 0; v < estimate.size(); ++v) {
+      if (!areas.empty() && reference[v].isZero(0)) continue;
+      for (int c = 0; c < 3; ++c) {
+        if (!(horizontal[c] > 0)) continue;
+        diffs.push_back(std::abs(estimate[v][c] - reference[v][c]) / horizontal[c]);
+        weights.push_back(areas.empty() ? 1.0 : areas[v]);
+      }
     }
   }
-}
+  study::Errors errors() const { return study::errors_of(diffs, weights); }
+};
 
 // T for every sky against the reference (the errors, and on sunny skies the shadow edge's
 // displacement), the building's errors; the blend's time on the first sky.
@@ -642,7 +687,9 @@ void evaluate_skies(const Bench& bench, const SettingBake& bake, const sky::SkyE
   const bake_format::Manifest& manifest = bake.manifest;
   const std::vector<blend::BasisImages>& basis = bake.basis;
   const SiteData& site = bench.sites.at(s.bake.texel_scale);
-  std::vector<double> diffs, building_diffs, building_no_ground_diffs;
+  const scene::Mesh& mesh = bench.bakes.meshes.at(s.bake);
+  std::vector<double> diffs;
+  BuildingDiffs building_diffs, building_no_ground_diffs, building_inside_diffs;
   double edge_sum = 0;
   int edge_count = 0;
   for (std::size_t i = 0; i < skies.size(); ++i) {
@@ -661,17 +708,20 @@ void evaluate_skies(const Bench& bench, const SettingBake& bake, const sky::SkyE
     for (const sky::Sun& source : separated) {
       sources.push_back({source.direction, source.energy, source.disc_directions, source.disc_weights});
     }
-    const std::vector<Eigen::Vector3d> building = study::building_estimate(bake.transfer, S, sources, site.site, site.mesh);
-    append_building_diffs(building, sky_reference, building_no_ground_diffs);
+    const BuildingReference& building_reference = sky_reference.building.at(s.bake.refine);
+    const Eigen::Vector3d& horizontal = sky_reference.horizontal;
+    building_no_ground_diffs.append(study::building_estimate(bake.transfer, S, sources, site.site, mesh),
+                                    building_reference.vertices, horizontal);
+    blend::GroundLight ground;
     if (!bake.ground_transfer.empty() && bench.run.o.ground_albedo > 0.0) {
       const blend::GroundLayers layers(manifest.plan.frequency, manifest.plan.basis, manifest.ground->horizontal_unoccluded);
-      const blend::GroundLight ground{bake.ground_transfer, layers.coefficients(S, lights),
-                                      Eigen::Vector3d::Constant(bench.run.o.ground_albedo)};
-      append_building_diffs(study::building_estimate(bake.transfer, S, sources, site.site, site.mesh, ground), sky_reference,
-                            building_diffs);
-    } else {
-      append_building_diffs(building, sky_reference, building_diffs);
+      ground = {bake.ground_transfer, layers.coefficients(S, lights), Eigen::Vector3d::Constant(bench.run.o.ground_albedo)};
     }
+    building_diffs.append(study::building_estimate(bake.transfer, S, sources, site.site, mesh, ground), building_reference.vertices,
+                          horizontal);
+    building_inside_diffs.append(study::building_estimate_inside(building_reference.points, bake.transfer, S, sources,
+                                                                 estimate.sun.has_value(), site.site, mesh, ground),
+                                 building_reference.inside, horizontal, building_reference.points.areas);
     std::vector<double> sky_diffs;
     for (std::size_t j = 0; j < basis.size(); ++j) {
       std::vector<float> visibility;  // V of each source, one after another
@@ -700,8 +750,10 @@ void evaluate_skies(const Bench& bench, const SettingBake& bake, const sky::SkyE
     diffs.insert(diffs.end(), sky_diffs.begin(), sky_diffs.end());
   }
   r.error = study::errors_of(std::move(diffs));
-  r.building = study::errors_of(std::move(building_diffs));
-  r.building_no_ground = study::errors_of(std::move(building_no_ground_diffs));
+  r.building = building_diffs.errors();
+  r.building_no_ground = building_no_ground_diffs.errors();
+  r.building_inside = building_inside_diffs.errors();
+  r.vertices = mesh.vertex_count();
   if (edge_count > 0) {
     r.edge_m = edge_sum / edge_count;
     r.edge_deg = std::atan2(*r.edge_m, study::kVisitorDistance) * 180.0 / std::numbers::pi;
@@ -798,9 +850,10 @@ Result evaluate_setting(const Bench& bench, const Setting& s, int index, std::si
                       o.frame_width, o.frame_height, o.live_seconds, o.sky_interval, o.sequence_lat, o.sequence_lon,
                       fs::path(o.out_dir) / "live");
   }
-  std::printf("[%d/%zu] %-44s RMS %.4f p99 %.4f max %.4f | building %.4f (%.4f without the ground) | blend %.2f ms frame %.2f ms (%.1f s)\n",
+  std::printf("[%d/%zu] %-44s RMS %.4f p99 %.4f max %.4f | building %.4f (%.4f without the ground), inside %.4f | blend %.2f ms "
+              "frame %.2f ms (%.1f s)\n",
               index, count, s.label().c_str(), r.error.rms, r.error.p99, r.error.max, r.building.rms, r.building_no_ground.rms,
-              r.blend_ms, r.frame_ms, seconds_since(t_setting));
+              r.building_inside.rms, r.blend_ms, r.frame_ms, seconds_since(t_setting));
   if (r.live) {
     std::printf("    service: %.1f frames/s, frame p50 %.1f ms p99 %.1f ms, %lld of %lld camera frames dropped (blend on the %s)\n",
                 r.live->frames_per_second, r.live->frame_p50_ms, r.live->frame_p99_ms, static_cast<long long>(r.live->dropped),
@@ -898,7 +951,7 @@ int run_trade(TradeOptions o) {
   const camera::CameraCalibration calibration = camera::load_calibration(o.sky_calib);
   const camera::Lens lens(calibration);
   const std::vector<SkyData> skies = render_skies(o, lens, sky_files);
-  const References references = make_references(o, skies, grid.scales, sites);
+  const References references = make_references(o, skies, grid.scales, sites, bakes);
   Estimators estimators(calibration);
   SequenceInputs sequence_inputs;
   if (o.sequence) sequence_inputs = prepare_sequence(run, lens, grid, sites, estimators);

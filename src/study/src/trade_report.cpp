@@ -185,6 +185,9 @@ nlohmann::json to_json(const Result& r) {
           {"basis", std::string(geom::basis_name(r.setting.bake.basis))},
           {"samples", r.setting.bake.samples},
           {"texel_scale", r.setting.bake.texel_scale},
+          {"refine", r.setting.bake.refine},
+          {"vertex_fit", r.setting.bake.vertex_fit},
+          {"vertices", r.vertices},
           {"form", r.setting.form.name()},
           {"bits", r.setting.bits},
           {"live", r.live ? nlohmann::json{{"frames_per_second", r.live->frames_per_second},
@@ -205,6 +208,8 @@ nlohmann::json to_json(const Result& r) {
           {"rms_per_sky", per_sky},
           {"building", {{"rms", r.building.rms}, {"p99", r.building.p99}, {"max", r.building.max},
                         {"without_ground_layer", {{"rms", r.building_no_ground.rms}, {"p99", r.building_no_ground.p99}}},
+                        {"inside_triangles_by_area",
+                         {{"rms", r.building_inside.rms}, {"p99", r.building_inside.p99}, {"max", r.building_inside.max}}},
                         {"of", "the horizontal irradiance"}}},
           {"edge_displacement_m", r.edge_m ? nlohmann::json(*r.edge_m) : nlohmann::json(nullptr)},
           {"edge_displacement_deg", r.edge_deg ? nlohmann::json(*r.edge_deg) : nlohmann::json(nullptr)},
@@ -227,10 +232,10 @@ nlohmann::json to_json(const Result& r) {
 
 std::string markdown_table(const std::vector<Result>& results) {
   std::string md =
-      "| # | ν | basis | K | texel scale | form | bits | sun | S thr. | ΔS thr. | smoothing s | render scale | RMS | p99 | max | edge (m / °) | "
-      "building RMS / p99 (without the ground layer) | bake s | "
+      "| # | ν | basis | K | texel scale | refine (vertices) | vertex fit | form | bits | sun | S thr. | ΔS thr. | smoothing s | render scale | RMS | p99 | max | edge (m / °) | "
+      "building RMS / p99 (without the ground layer) | inside the triangles, by area: RMS / p99 | bake s | "
       "bake MB | GPU MB | blend ms wall / CPU | frame ms wall / CPU | cost ms (frames/s) | service frames/s (p50 ms, dropped) | Pareto |\n"
-      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   int k = 0;
   for (const Result& r : results) {
     const Setting& s = r.setting;
@@ -246,13 +251,22 @@ std::string markdown_table(const std::vector<Result>& results) {
     char building[96];
     std::snprintf(building, sizeof building, "%.4f / %.4f (%.4f / %.4f)", r.building.rms, r.building.p99, r.building_no_ground.rms,
                   r.building_no_ground.p99);
-    char row[768];
+    char refine[48];
+    if (s.bake.refine > 0) {
+      std::snprintf(refine, sizeof refine, "%g (%zu)", s.bake.refine, r.vertices);
+    } else {
+      std::snprintf(refine, sizeof refine, "— (%zu)", r.vertices);
+    }
+    char inside[64];
+    std::snprintf(inside, sizeof inside, "%.4f / %.4f", r.building_inside.rms, r.building_inside.p99);
+    char row[896];
     std::snprintf(row, sizeof row,
-                  "| %d | %d | %s | %d | 1/%d | %s | %d | %s | %g | %g | %g | %g | %.4f | %.4f | %.4f | %s | %s | %.1f | %.2f | %.1f | %.1f / %.1f | "
-                  "%.1f / %.1f | %.1f (%.0f) | %s | %s |\n",
+                  "| %d | %d | %s | %d | 1/%d | %s | %s | %s | %d | %s | %g | %g | %g | %g | %.4f | %.4f | %.4f | %s | %s | %s | %.1f | %.2f | %.1f | "
+                  "%.1f / %.1f | %.1f / %.1f | %.1f (%.0f) | %s | %s |\n",
                   k++, s.bake.frequency, std::string(geom::basis_name(s.bake.basis)).c_str(), s.bake.samples,
-                  s.bake.texel_scale, s.form.name().c_str(), s.bits, sun.c_str(), s.skip_threshold, s.change_threshold, s.smoothing, s.render_scale, r.error.rms,
-                  r.error.p99, r.error.max, edge, building, r.bake_seconds, static_cast<double>(r.bake_bytes) / 1e6,
+                  s.bake.texel_scale, refine, s.bake.vertex_fit > 0 ? (std::to_string(s.bake.vertex_fit) + "²").c_str() : "—",
+                  s.form.name().c_str(), s.bits, sun.c_str(), s.skip_threshold, s.change_threshold, s.smoothing, s.render_scale, r.error.rms,
+                  r.error.p99, r.error.max, edge, building, inside, r.bake_seconds, static_cast<double>(r.bake_bytes) / 1e6,
                   static_cast<double>(r.gpu_bytes) / 1e6, r.blend_ms, r.blend_cpu_ms, r.frame_ms, r.frame_cpu_ms, r.cost_ms,
                   1000.0 / r.cost_ms, service,
                   r.pareto ? "**yes**" : "");

@@ -28,11 +28,20 @@ struct BakeKey {
   geom::DomeBasis basis = geom::DomeBasis::Faces;
   int samples = 16;
   int texel_scale = 8;
-  auto tie() const { return std::tie(frequency, basis, samples, texel_scale); }
+  double refine = 0;  // skylit-bake --refine (0: the model as it is)
+  int vertex_fit = 0;  // skylit-bake --vertex-fit (0: each vertex's own light)
+  auto tie() const { return std::tie(frequency, basis, samples, texel_scale, refine, vertex_fit); }
   bool operator<(const BakeKey& o) const { return tie() < o.tie(); }
   std::string name() const {
-    return "nu" + std::to_string(frequency) + "_" + std::string(geom::basis_name(basis)) + "_k" + std::to_string(samples) +
-           "_s" + std::to_string(texel_scale);
+    std::string text = "nu" + std::to_string(frequency) + "_" + std::string(geom::basis_name(basis)) + "_k" +
+                       std::to_string(samples) + "_s" + std::to_string(texel_scale);
+    if (refine > 0) {
+      char tolerance[32];
+      std::snprintf(tolerance, sizeof tolerance, "_r%g", refine);
+      text += tolerance;
+    }
+    if (vertex_fit > 0) text += "_f" + std::to_string(vertex_fit);
+    return text;
   }
 };
 
@@ -117,6 +126,11 @@ struct Result {
   // The building's irradiance per vertex against its reference, a share of E_h (every sky): with
   // the bake's ground layer (render.ground_light) and without it.
   study::Errors building, building_no_ground;
+  // The same inside the triangles (study::triangle_points), by area, what the compositor shows:
+  // the sun per point as its map gives it, the rest interpolated from the vertices; ground layer
+  // as `building`.
+  study::Errors building_inside;
+  std::size_t vertices = 0;  // the bake's model (more with refine)
   double bake_seconds = 0;
   std::uint64_t bake_bytes = 0;
   std::uint64_t gpu_bytes = 0;

@@ -67,6 +67,14 @@ std::vector<Eigen::Vector3d> interpolated_at(const TrianglePoints& points, std::
 std::vector<Eigen::Vector3d> source_term_at(const TrianglePoints& points, const SourceLight& source, const scene::Site& site,
                                             const scene::Mesh& mesh);
 
+// What the building shows at the points: with sun_first, sources[0] (the sun) per point as the
+// compositor takes it from its map per fragment (source_term_at), every other term, the ground's
+// included, interpolated from the vertices' building_estimate.
+std::vector<Eigen::Vector3d> building_estimate_inside(const TrianglePoints& points, std::span<const float> transfer,
+                                                      std::span<const Eigen::Vector3d> S, std::span<const SourceLight> sources,
+                                                      bool sun_first, const scene::Site& site, const scene::Mesh& mesh,
+                                                      const blend::GroundLight& ground = {});
+
 // E_ref at the points: building_reference's integral with the point's normal, the model's
 // occlusion ray-traced (the points ride along as vertices no triangle uses).
 std::vector<Eigen::Vector3d> building_reference_at(const EquirectLights& lights, const scene::Site& site,

@@ -18,6 +18,10 @@ struct TradeOptions {
   std::vector<std::string> bases{"faces", "corners"};
   std::vector<int> samples{4, 16};
   std::vector<int> texel_scales{8};
+  // skylit-bake --refine per bake: 0, the model as it is; TOL, split where the light changes.
+  std::vector<double> refines{0.0};
+  // skylit-bake --vertex-fit per bake: 0, each vertex's own light; N, fitted to N² points a triangle.
+  std::vector<int> vertex_fits{0};
   std::vector<std::string> forms{"full", "lean", "pca8"};
   std::vector<int> bits{16, 8};
   std::vector<std::string> sun{"on", "off"};
