@@ -100,6 +100,11 @@ void add_bake_options(CLI::App& app, CommandLine& c) {
   app.add_option("--refine-min-edge", c.options.refine.min_edge,
                  "metres: an edge shorter than twice this is not split, with --refine")
       ->capture_default_str();
+  app.add_option("--vertex-fit", c.options.vertex_fit,
+                 "trace the light at N² points inside every triangle too and fit each vertex's transfer to it, so that "
+                 "what is interpolated across a face matches its light (docs/baker.md); 0: each vertex's own light")
+      ->check(CLI::Range(0, 16))
+      ->capture_default_str();
   c.options.method = "auto";
   app.add_option("--method", c.options.method,
                  "auto (raster on a GPU, raytrace where OpenGL ES runs in software), raster (OpenGL ES) or raytrace "
@@ -156,10 +161,14 @@ void apply_preset(const CLI::App& app, CommandLine& c) {
     c.pca.components = preset.pca_components;
     if (!app.count("--pca-tile")) c.pca.tile = preset.pca_tile;
   }
+  if (!app.count("--refine")) c.options.refine.tolerance = preset.refine;
+  if (!app.count("--vertex-fit")) c.options.vertex_fit = preset.vertex_fit;
   c.options.preset = preset.name;
-  spdlog::info("preset {} ({}): frequency {}, basis {}, samples {}, PCA components {}{}", preset.name, c.presets_file,
+  spdlog::info("preset {} ({}): frequency {}, basis {}, samples {}, PCA components {}{}{}{}", preset.name, c.presets_file,
                c.frequency, c.basis, c.options.samples, c.pca.components ? std::to_string(*c.pca.components) : "none",
-               c.pca.tile > 0 ? " in tiles of " + std::to_string(c.pca.tile) + " texels" : "");
+               c.pca.tile > 0 ? " in tiles of " + std::to_string(c.pca.tile) + " texels" : "",
+               c.options.refine.tolerance > 0 ? fmt::format(", refined at {:g}", c.options.refine.tolerance) : "",
+               c.options.vertex_fit > 0 ? fmt::format(", vertices fitted to {}² points per triangle", c.options.vertex_fit) : "");
 }
 
 // A bake of SITE into -o, plain or picked by --error-budget.

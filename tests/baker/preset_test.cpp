@@ -56,6 +56,8 @@ TEST(BakePreset, ABadFieldIsNamed) {
   EXPECT_NE(message.find("smaples"), std::string::npos) << message;
   message = error_for("{frequency: 2, basis: faces, samples: 4, pca_components: 4, pca_tile: 1}");
   EXPECT_NE(message.find("quick.bake.pca_tile"), std::string::npos) << message;
+  message = error_for("{frequency: 2, basis: faces, samples: 4, refine: -0.2}");
+  EXPECT_NE(message.find("quick.bake.refine"), std::string::npos) << message;
 
   std::ofstream(file) << "quick:\n  bake: {frequency: 2, basis: corners, samples: 4, pca_components: 4, pca_tile: 64}\n"
                          "  live: {basis: pca}\n";
@@ -63,6 +65,9 @@ TEST(BakePreset, ABadFieldIsNamed) {
   EXPECT_EQ(p.basis, geom::DomeBasis::Corners);
   EXPECT_EQ(p.pca_components, 4);
   EXPECT_EQ(p.pca_tile, 64);
+  EXPECT_EQ(p.refine, 0.0);  // the model as it is unless the preset says otherwise
+  std::ofstream(file) << "quick:\n  bake: {frequency: 2, basis: corners, samples: 4, refine: 0.2}\n  live: {basis: full}\n";
+  EXPECT_EQ(load_bake_preset(PresetsFile(file), "quick").refine, 0.2);
   fs::remove(file);
 }
 

@@ -40,6 +40,7 @@ std::string index(const std::string& parent, std::size_t i) {
 constexpr int kMaxPlaneTexels = 16384;
 constexpr int kMaxDomeFrequency = 64;
 constexpr int kMaxSamples = 1 << 20;
+constexpr int kMaxVertexFit = 16;  // points per triangle side of the vertex fit
 constexpr int kMaxPcaComponents = 4096;
 
 const json& member(const Source& src, const json& object, const std::string& parent,
@@ -173,6 +174,8 @@ Plan plan_from(const Source& src, const json& j, const std::string& field) {
       src.fail(rfield, "needs tolerance > 0 and min_edge > 0");
     }
   }
+  // `vertex_fit` is optional: bakes whose vertices take their own values have none.
+  if (j.is_object() && j.contains("vertex_fit")) plan.vertex_fit = to_int(src, j["vertex_fit"], name("vertex_fit"), 0, kMaxVertexFit);
   const json& planes = array_of(src, get("planes"), name("planes"));
   for (std::size_t i = 0; i < planes.size(); ++i) {
     plan.planes.push_back(plane_from(src, planes[i], index(name("planes"), i)));
@@ -238,7 +241,7 @@ bool Plan::operator==(const Plan& other) const {
          model_sha256 == other.model_sha256 && frequency == other.frequency && basis == other.basis &&
          samples == other.samples &&
          method == other.method && shadow_map_resolution == other.shadow_map_resolution && preset == other.preset &&
-         ground_samples == other.ground_samples && refine == other.refine && vertex_count == other.vertex_count && triangle_count == other.triangle_count;
+         ground_samples == other.ground_samples && refine == other.refine && vertex_fit == other.vertex_fit && vertex_count == other.vertex_count && triangle_count == other.triangle_count;
 }
 
 std::string Plan::difference(const Plan& other) const {
@@ -267,6 +270,7 @@ std::string Plan::difference(const Plan& other) const {
     };
     items.push_back("refine: " + words(refine) + " vs " + words(other.refine));
   }
+  number("vertex_fit", vertex_fit, other.vertex_fit);
   number("vertex_count", vertex_count, other.vertex_count);
   number("triangle_count", triangle_count, other.triangle_count);
   if (planes.size() != other.planes.size()) {
@@ -317,6 +321,7 @@ json to_json(const Plan& plan) {
             {"triangle_count", plan.triangle_count}};
   if (!plan.preset.empty()) j["preset"] = plan.preset;
   if (plan.ground_samples > 0) j["ground_samples"] = plan.ground_samples;
+  if (plan.vertex_fit > 0) j["vertex_fit"] = plan.vertex_fit;
   if (plan.refine.tolerance > 0.0) {
     j["refine"] = {{"tolerance", plan.refine.tolerance}, {"rounds", plan.refine.rounds}, {"min_edge", plan.refine.min_edge}};
   }

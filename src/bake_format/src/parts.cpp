@@ -150,8 +150,8 @@ std::string mismatch(const PartHeader& h, int face, const Plan& plan) {
              ", the plan's '" + p.name + "' is " + std::to_string(p.width) + "x" + std::to_string(p.height);
     }
   }
-  if (h.vertex_count != plan.vertex_count) {
-    return std::to_string(h.vertex_count) + " vertices, the plan has " + std::to_string(plan.vertex_count);
+  if (h.vertex_count != plan.traced_count()) {
+    return std::to_string(h.vertex_count) + " vertices and points, the plan has " + std::to_string(plan.traced_count());
   }
   return {};
 }
@@ -216,12 +216,12 @@ void PartStore::write(const FacePart& part) const {
   if (!plan) throw std::logic_error("PartStore::write: " + (dir_ / "plan.json").string() + " is not written yet");
   const std::size_t layers = static_cast<std::size_t>(plan->layers_per_face());
   if (part.plane_fractions.size() != plan->planes.size() ||
-      part.vertex_fractions.size() != layers * plan->vertex_count) {
+      part.vertex_fractions.size() != layers * plan->traced_count()) {
     throw std::invalid_argument("PartStore::write: face " + std::to_string(part.face) + " has " +
                                 std::to_string(part.plane_fractions.size()) + " planes and " +
                                 std::to_string(part.vertex_fractions.size()) + " vertex values; the plan has " +
                                 std::to_string(plan->planes.size()) + " planes and " + std::to_string(layers) + " × " +
-                                std::to_string(plan->vertex_count) + " vertex values");
+                                std::to_string(plan->traced_count()) + " vertex values");
   }
   std::string payload;
   for (std::size_t j = 0; j < plan->planes.size(); ++j) {
@@ -246,7 +246,7 @@ void PartStore::write(const FacePart& part) const {
     put(bytes, static_cast<std::uint32_t>(p.width));
     put(bytes, static_cast<std::uint32_t>(p.height));
   }
-  put(bytes, static_cast<std::uint64_t>(plan->vertex_count));
+  put(bytes, static_cast<std::uint64_t>(plan->traced_count()));
   const std::array<unsigned char, kHashSize> digest =
       from_hex(sha256_hex(std::as_bytes(std::span<const char>(payload))));
   bytes.append(reinterpret_cast<const char*>(digest.data()), digest.size());
@@ -295,7 +295,7 @@ FacePart PartStore::read(int face, const Plan& plan) const {
     at += f.size() * sizeof(float);
     part.plane_fractions.push_back(std::move(f));
   }
-  part.vertex_fractions.resize(layers * plan.vertex_count);
+  part.vertex_fractions.resize(layers * plan.traced_count());
   if (!part.vertex_fractions.empty()) {
     std::memcpy(part.vertex_fractions.data(), at, part.vertex_fractions.size() * sizeof(float));
   }

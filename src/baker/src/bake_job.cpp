@@ -18,6 +18,7 @@
 #include "skylit/base/files.hpp"
 #include "skylit/base/progress.hpp"
 #include "skylit/baker/ground_transfer.hpp"
+#include "skylit/baker/vertex_fit.hpp"
 #include "skylit/baker/preview.hpp"
 #include "skylit/baker/visibility.hpp"
 #include "skylit/geom/spherical.hpp"
@@ -81,6 +82,10 @@ void validate_options(const BakeOptions& o) {
                                "use 64 to 16384 texels, or leave it out to choose from the planes"));
   }
   validate_refine_options(o.refine);
+  if (o.vertex_fit < 0 || o.vertex_fit > 16) {
+    throw InputError(cli_error("--vertex-fit", "got " + std::to_string(o.vertex_fit),
+                               "use 0 (each vertex's own light) or 1 to 16 points per triangle side, e.g. 3"));
+  }
   if (o.resume && o.force) {
     throw InputError(cli_error("--resume/--force", "both given",
                                "use --resume to continue an interrupted bake, --force to start over"));
@@ -128,6 +133,7 @@ bake_format::Plan make_plan(const BakeOptions& o, const scene::Site& site, const
   plan.method = o.method;
   plan.preset = o.preset;
   plan.ground_samples = o.ground_samples;
+  plan.vertex_fit = o.vertex_fit;
   if (o.refine.tolerance > 0.0) plan.refine = {o.refine.tolerance, o.refine.rounds, o.refine.min_edge};
   plan.planes = site.planes;
   if (o.resolution) {
@@ -308,10 +314,24 @@ void write_pca_form(const fs::path& out_dir, const bake_format::Manifest& manife
   record.pca = std::move(r);
 }
 
+// The site and its model as baked: refined when asked, and with the vertex fit's points.
+struct LoadedSite {
+  scene::Site site;
+  scene::Mesh mesh;
+  scene::Refinement refinement;
+  FitPoints fit;                          // empty without --vertex-fit
+  std::optional<scene::Mesh> fit_mesh;    // the model with the fit's points as vertices
+  // What the engines trace: the model's vertices, then the fit's points.
+  const scene::Mesh& traced() const { return fit_mesh ? *fit_mesh : mesh; }
+};
+
 // Assembles the final files from the parts, writes the manifest last, then removes the parts.
-std::uint64_t finalize(const fs::path& out_dir, bake_format::Manifest manifest, const scene::Mesh& mesh,
-                       const scene::Refinement& refinement, const geom::Dome& dome, bool previews,
-                       const std::optional<bake_format::PcaOptions>& pca, std::FILE* log) {
+std::uint64_t finalize(const fs::path& out_dir, bake_format::Manifest manifest, const LoadedSite& loaded,
+                       const geom::Dome& dome, bool previews, const std::optional<bake_format::PcaOptions>& pca,
+                       std::FILE* log) {
+  const scene::Mesh& mesh = loaded.mesh;
+  const scene::Mesh& traced = loaded.traced();
+  const scene::Refinement& refinement = loaded.refinement;
   const auto start = std::chrono::steady_clock::now();
   const bake_format::PartStore parts(out_dir / "parts");
   const bake_format::Plan& plan = manifest.plan;
@@ -324,20 +344,20 @@ std::uint64_t finalize(const fs::path& out_dir, bake_format::Manifest manifest, 
   const std::vector<std::string> layer_names = bake_format::layer_names(plan.basis, n);
 
   // Per-vertex transfer t_{v,l} = A_l(n_v) · f_{v,l}, filled while the parts are read; A_l(n_v)
-  // of every vertex first (one row per vertex, as transfer.npy).
-  const std::size_t vertex_count = mesh.vertex_count();
-  std::vector<float> transfer(vertex_count * layers, 0.0f);
+  // of every vertex first (one row per vertex, as transfer.npy), and of the fit's points after them.
+  const std::size_t vertex_count = mesh.vertex_count(), traced_count = traced.vertex_count();
+  std::vector<float> transfer(traced_count * layers, 0.0f);
   const std::vector<geom::FaceQuadrature> quadratures = face_quadratures(dome, plan.basis);
-  std::vector<double> vertex_unoccluded(vertex_count * layers);
-  for (std::size_t v = 0; v < vertex_count; ++v) {
-    const std::vector<double> a = layer_cosine_integrals(dome, plan.basis, quadratures, mesh.normals[v].cast<double>());
+  std::vector<double> vertex_unoccluded(traced_count * layers);
+  for (std::size_t v = 0; v < traced_count; ++v) {
+    const std::vector<double> a = layer_cosine_integrals(dome, plan.basis, quadratures, traced.normals[v].cast<double>());
     std::copy(a.begin(), a.end(), vertex_unoccluded.begin() + static_cast<std::ptrdiff_t>(v * layers));
   }
   const auto add_vertex_fractions = [&](int face, const bake_format::FacePart& part) {
     for (int k = 0; k < per_face; ++k) {
       const std::size_t l = static_cast<std::size_t>(face * per_face + k);
-      const float* f = part.vertex_fractions.data() + static_cast<std::size_t>(k) * vertex_count;
-      for (std::size_t v = 0; v < vertex_count; ++v) {
+      const float* f = part.vertex_fractions.data() + static_cast<std::size_t>(k) * traced_count;
+      for (std::size_t v = 0; v < traced_count; ++v) {
         transfer[v * layers + l] = static_cast<float>(vertex_unoccluded[v * layers + l] * f[v]);
       }
     }
@@ -380,6 +400,17 @@ std::uint64_t finalize(const fs::path& out_dir, bake_format::Manifest manifest, 
     for (int i = 0; i < n; ++i) add_vertex_fractions(i, parts.read(i, plan));
   }
   progress.finish();
+  if (loaded.fit_mesh) {
+    // Each vertex's transfer fitted to the light at the points inside its triangles, within
+    // [0, A_l(n_v)] (vertex_fit.hpp).
+    const auto fit_start = std::chrono::steady_clock::now();
+    const std::vector<float> upper(vertex_unoccluded.begin(), vertex_unoccluded.begin() + static_cast<std::ptrdiff_t>(vertex_count * layers));
+    transfer = fit_vertex_values(mesh, loaded.fit, transfer, layers, upper);
+    if (log != nullptr) {
+      std::fprintf(log, "vertex fit: %zu vertices fitted to the light at %zu points inside their triangles (%d² each) in %.1f s\n",
+                   vertex_count, loaded.fit.positions.size(), plan.vertex_fit, seconds_since(fit_start));
+    }
+  }
 
   const std::size_t transfer_shape[] = {vertex_count, layers};
   bake_format::write_npy(out_dir / manifest.transfer_file, transfer, transfer_shape);
@@ -411,7 +442,8 @@ std::uint64_t finalize(const fs::path& out_dir, bake_format::Manifest manifest, 
     const auto ground_start = std::chrono::steady_clock::now();
     const GroundGrid grid = bake_ground_grid(mesh, dome, plan.basis, plan.samples);
     bake_format::Manifest::Ground ground;
-    const std::vector<float> ground_values = ground_transfer(mesh, plan.planes, grid, plan.ground_samples);
+    std::vector<float> ground_values = ground_transfer(traced, plan.planes, grid, plan.ground_samples);
+    if (loaded.fit_mesh) ground_values = fit_vertex_values(mesh, loaded.fit, ground_values, layers);
     ground.horizontal_unoccluded = grid.unoccluded;
     const std::size_t ground_shape[] = {vertex_count, layers};
     bake_format::write_npy(out_dir / ground.file, ground_values, ground_shape);
@@ -433,16 +465,10 @@ std::uint64_t finalize(const fs::path& out_dir, bake_format::Manifest manifest, 
   return bytes;
 }
 
-struct LoadedSite {
-  scene::Site site;
-  scene::Mesh mesh;
-  scene::Refinement refinement;
-};
-
 // The site and its model, refined where the light changes when `refine` asks: deterministic, so
 // every shard and a merge refine alike (their plans' vertex counts must agree).
-LoadedSite load(const fs::path& site_file, const RefineOptions& refine, int threads, std::FILE* log) {
-  LoadedSite loaded{scene::load_site(site_file), {}, {}};
+LoadedSite load(const fs::path& site_file, const RefineOptions& refine, int vertex_fit, int threads, std::FILE* log) {
+  LoadedSite loaded{scene::load_site(site_file), {}, {}, {}, {}};
   loaded.mesh = scene::load_site_model(loaded.site);
   if (refine.tolerance > 0.0) {
     const auto start = std::chrono::steady_clock::now();
@@ -455,6 +481,10 @@ LoadedSite load(const fs::path& site_file, const RefineOptions& refine, int thre
                    before, loaded.mesh.vertex_count(), loaded.refinement.split_count(), loaded.refinement.rounds.size(),
                    refine.tolerance, refine.min_edge, seconds_since(start));
     }
+  }
+  if (vertex_fit > 0) {
+    loaded.fit = fit_points(loaded.mesh, vertex_fit);
+    loaded.fit_mesh = with_fit_points(loaded.mesh, loaded.fit);
   }
   return loaded;
 }
@@ -613,7 +643,7 @@ BakeSummary run_bake(const BakeOptions& given, std::FILE* log) {
   const auto start = std::chrono::steady_clock::now();
   validate_options(given);
   check_pca_input(given.pca);
-  const LoadedSite loaded = load(given.site_file, given.refine, given.threads, log);
+  const LoadedSite loaded = load(given.site_file, given.refine, given.vertex_fit, given.threads, log);
   BakeOptions options = given;
   options.method = resolve_method(given);
   const bake_format::Plan plan = make_plan(options, loaded.site, loaded.mesh);
@@ -635,7 +665,7 @@ BakeSummary run_bake(const BakeOptions& given, std::FILE* log) {
   }
 
   if (!todo.empty()) {
-    auto engine = make_engine(plan, loaded.mesh, options.shader_dir, options.threads);
+    auto engine = make_engine(plan, loaded.traced(), options.shader_dir, options.threads);
     summary.engine_description = engine->name();
     spdlog::info("engine: {}; {} face(s) to bake{}", engine->name(), todo.size(),
                  options.shard ? fmt::format(" (shard {}/{})", options.shard->index, options.shard->count) : "");
@@ -649,7 +679,7 @@ BakeSummary run_bake(const BakeOptions& given, std::FILE* log) {
         part.plane_fractions.emplace_back(per_face * static_cast<std::size_t>(plan.planes[j].width) *
                                           static_cast<std::size_t>(plan.planes[j].height));
       }
-      part.vertex_fractions.resize(per_face * loaded.mesh.vertex_count());
+      part.vertex_fractions.resize(per_face * loaded.traced().vertex_count());
       trace_face(*engine, dome, corner_weights, plan.basis, i, plan.samples, [&](std::size_t first, std::size_t count) {
         for (std::size_t j = 0; j < plan.planes.size(); ++j) {
           const std::size_t texels =
@@ -657,7 +687,7 @@ BakeSummary run_bake(const BakeOptions& given, std::FILE* log) {
           std::span<float> out(part.plane_fractions[j]);
           engine->plane_fractions(static_cast<int>(j), out.subspan(first * texels, count * texels));
         }
-        const std::size_t vertices = loaded.mesh.vertex_count();
+        const std::size_t vertices = loaded.traced().vertex_count();
         std::span<float> out(part.vertex_fractions);
         engine->vertex_fractions(out.subspan(first * vertices, count * vertices));
       });
@@ -673,7 +703,7 @@ BakeSummary run_bake(const BakeOptions& given, std::FILE* log) {
     bake_format::Manifest manifest = manifest_for(plan, dome);
     manifest.bake_seconds = seconds_since(start);
     summary.bytes_written =
-        finalize(options.out_dir, manifest, loaded.mesh, loaded.refinement, dome, options.previews, options.pca, log);
+        finalize(options.out_dir, manifest, loaded, dome, options.previews, options.pca, log);
     summary.complete = true;
   }
   summary.seconds = seconds_since(start);
@@ -745,7 +775,7 @@ BakeSummary merge_bakes(const std::vector<fs::path>& shard_dirs, const fs::path&
                      "). Fix: run the missing shards (skylit-bake SITE -o DIR --shard I/N) and merge again");
   }
 
-  const LoadedSite loaded = load(plan->site_file, refine_options_of(*plan), 0, log);
+  const LoadedSite loaded = load(plan->site_file, refine_options_of(*plan), plan->vertex_fit, 0, log);
   if (sha256_file(loaded.site.model) != plan->model_sha256 || loaded.mesh.vertex_count() != plan->vertex_count ||
       loaded.mesh.triangle_count() != plan->triangle_count) {
     throw InputError("the model '" + loaded.site.model.string() +
@@ -755,7 +785,7 @@ BakeSummary merge_bakes(const std::vector<fs::path>& shard_dirs, const fs::path&
   BakeSummary summary;
   summary.faces_total = dome.face_count();
   summary.faces_skipped = dome.face_count();
-  summary.bytes_written = finalize(out_dir, manifest, loaded.mesh, loaded.refinement, dome, previews, pca, log);
+  summary.bytes_written = finalize(out_dir, manifest, loaded, dome, previews, pca, log);
   summary.complete = true;
   summary.seconds = seconds_since(start);
   log_summary(log, *plan, summary, out_dir);

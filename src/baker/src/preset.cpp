@@ -6,7 +6,8 @@
 namespace skylit::baker {
 namespace {
 
-constexpr std::array<std::string_view, 5> kKeys{"frequency", "basis", "samples", "pca_components", "pca_tile"};
+constexpr std::array<std::string_view, 7> kKeys{"frequency", "basis", "samples", "pca_components", "pca_tile", "refine",
+                                                "vertex_fit"};
 constexpr std::array<std::string_view, 3> kBases{"faces", "corners", "quadratics"};
 
 }  // namespace
@@ -33,6 +34,13 @@ BakePreset load_bake_preset(const PresetsFile& presets, const std::string& name)
     p.pca_tile = static_cast<int>(r.integer(n, s.field_of("pca_tile"), 0, 1 << 20,
                                             "texels per side of a clustered-PCA tile, 0 for one set per plane"));
     if (p.pca_tile == 1) r.fail(n, s.field_of("pca_tile"), "a tile holds at least 2 × 2 texels", "use 0 or e.g. 64");
+  }
+  if (auto n = YamlReader::optional(s.node, "refine")) {
+    p.refine = r.non_negative(n, s.field_of("refine"), "a share of E_h, e.g. 0.2 (skylit-bake --refine), or 0 for none");
+  }
+  if (auto n = YamlReader::optional(s.node, "vertex_fit")) {
+    p.vertex_fit = static_cast<int>(
+        r.integer(n, s.field_of("vertex_fit"), 0, 16, "points per triangle side of the vertex fit, e.g. 3 (skylit-bake --vertex-fit), or 0"));
   }
   return p;
 }

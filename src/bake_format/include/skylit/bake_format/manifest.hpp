@@ -88,8 +88,16 @@ struct Plan {
     bool operator==(const Refine&) const = default;
   };
   Refine refine;
+  // Least-squares vertex values (skylit-bake --vertex-fit N; baker/vertex_fit.hpp): the light is
+  // traced at N² points inside every triangle too and the vertices' transfer fitted to it; 0: each
+  // vertex's own value. Plans without the field have 0.
+  int vertex_fit = 0;
   std::uint64_t vertex_count = 0;
   std::uint64_t triangle_count = 0;
+  // The values a bake's parts hold per layer: the vertices', then the fit's points'.
+  std::uint64_t traced_count() const {
+    return vertex_count + triangle_count * static_cast<std::uint64_t>(vertex_fit) * static_cast<std::uint64_t>(vertex_fit);
+  }
 
   int layers_per_face() const { return geom::layers_per_face(basis); }
 

@@ -46,6 +46,9 @@ struct BakeOptions {
   // Splits the model where the light changes before the faces are traced (refine.hpp);
   // tolerance 0: the model as the site loads it.
   RefineOptions refine;
+  // Least-squares vertex values (vertex_fit.hpp): the light traced at this many² points inside
+  // every triangle too, and each vertex's transfer fitted to it; 0: each vertex's own light.
+  int vertex_fit = 0;
 };
 
 struct BakeSummary {

@@ -15,6 +15,8 @@ struct BakePreset {
   int samples = 16;                               // visibility samples per face
   int pca_components = 0;                         // 0: no PCA form stored
   int pca_tile = 0;                               // clustered PCA: tiles of this many texels (0: one set per plane)
+  double refine = 0;                              // skylit-bake --refine (0: the model as it is)
+  int vertex_fit = 0;                             // skylit-bake --vertex-fit (0: each vertex's own light)
 };
 
 // The bake section of preset `name`. InputError (file, line, field, fix) for anything wrong.
