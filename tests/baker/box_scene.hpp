@@ -3,6 +3,8 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <filesystem>
+#include <fstream>
 #include <numbers>
 #include <vector>
 
@@ -52,6 +54,20 @@ inline scene::Mesh mesh_of(const std::vector<Box>& boxes) {
   mesh.materials.push_back({});
   for (const Box& box : boxes) add_box(mesh, box);
   return mesh;
+}
+
+// A 2 × 2 × 3 m cube (no bottom) on a 12 m slab of two triangles whose corners see open sky, and
+// a site with a ground plane over the slab, written into `dir`: the site file.
+inline std::filesystem::path write_cube_on_slab_site(const std::filesystem::path& dir) {
+  std::ofstream(dir / "slab.obj") << "v -6 -6 0\nv 6 -6 0\nv 6 6 0\nv -6 6 0\n"
+                                     "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\n"
+                                     "v -1 -1 3\nv 1 -1 3\nv 1 1 3\nv -1 1 3\n"
+                                     "f 1 2 3 4\nf 5 6 10 9\nf 6 7 11 10\nf 7 8 12 11\nf 8 5 9 12\nf 9 10 11 12\n";
+  std::ofstream(dir / "site.yaml") << "scene:\n  model: slab.obj\n  up: z\n  scale: 1\n"
+                                      "dome:\n  frequency: 2\n"
+                                      "planes:\n  - name: ground\n    origin: [-6, -6, 0.01]\n    u: [12, 0, 0]\n"
+                                      "    v: [0, 12, 0]\n    resolution: [8, 8]\n";
+  return dir / "site.yaml";
 }
 
 // Unit direction at elevation/azimuth in degrees; azimuth from north (+y) towards east (+x).

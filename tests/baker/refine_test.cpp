@@ -129,14 +129,7 @@ TEST(RefineWhereLightChanges, OptionsOutOfRangeAreRefusedNamingTheOption) {
 TEST(RefinedBake, RecordsTheRefinementAndEveryProgramLoadsTheRefinedModel) {
   skylit::test::TempDir dir("skylit-refined-bake-");
   // The cube on a 12 m slab: the slab's top is two triangles whose corners see open sky.
-  std::ofstream(dir.path() / "slab.obj") << "v -6 -6 0\nv 6 -6 0\nv 6 6 0\nv -6 6 0\n"
-                                            "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\n"
-                                            "v -1 -1 3\nv 1 -1 3\nv 1 1 3\nv -1 1 3\n"
-                                            "f 1 2 3 4\nf 5 6 10 9\nf 6 7 11 10\nf 7 8 12 11\nf 8 5 9 12\nf 9 10 11 12\n";
-  std::ofstream(dir.path() / "site.yaml") << "scene:\n  model: slab.obj\n  up: z\n  scale: 1\n"
-                                             "dome:\n  frequency: 2\n"
-                                             "planes:\n  - name: ground\n    origin: [-6, -6, 0.01]\n    u: [12, 0, 0]\n"
-                                             "    v: [0, 12, 0]\n    resolution: [8, 8]\n";
+  test::write_cube_on_slab_site(dir.path());
   BakeOptions options;
   options.site_file = dir.path() / "site.yaml";
   options.out_dir = dir.path() / "bake";

@@ -6,7 +6,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <numbers>
 #include <optional>
 #include <stdexcept>
@@ -14,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include "../support/box_site.hpp"
+#include "box_scene.hpp"
 #include "skylit/bake_format/arrays.hpp"
 #include "skylit/bake_format/manifest.hpp"
 #include "skylit/baker/bake_job.hpp"
@@ -134,14 +134,7 @@ TEST(VertexFitBake, TheBuildingBetweenItsVerticesIsLitAsItIsNotAsItsCorners) {
   skylit::test::TempDir dir("skylit-vertex-fit-");
   // A 3 m cube on a 12 m slab: the slab's two triangles have their corners in the open, while the
   // cube darkens the slab around its foot.
-  std::ofstream(dir.path() / "slab.obj") << "v -6 -6 0\nv 6 -6 0\nv 6 6 0\nv -6 6 0\n"
-                                            "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\n"
-                                            "v -1 -1 3\nv 1 -1 3\nv 1 1 3\nv -1 1 3\n"
-                                            "f 1 2 3 4\nf 5 6 10 9\nf 6 7 11 10\nf 7 8 12 11\nf 8 5 9 12\nf 9 10 11 12\n";
-  std::ofstream(dir.path() / "site.yaml") << "scene:\n  model: slab.obj\n  up: z\n  scale: 1\n"
-                                             "dome:\n  frequency: 2\n"
-                                             "planes:\n  - name: ground\n    origin: [-6, -6, 0.01]\n    u: [12, 0, 0]\n"
-                                             "    v: [0, 12, 0]\n    resolution: [8, 8]\n";
+  test::write_cube_on_slab_site(dir.path());
   const auto bake = [&](int vertex_fit, const char* name, std::optional<Shard> shard = std::nullopt) {
     BakeOptions options;
     options.shard = shard;
