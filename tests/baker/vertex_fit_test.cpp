@@ -38,7 +38,7 @@ scene::Mesh square() {
 template <typename F>
 std::vector<float> traced_from(const scene::Mesh& mesh, const FitPoints& points, std::size_t layers, F f) {
   std::vector<float> out;
-  const scene::Mesh traced = with_fit_points(mesh, points);
+  const scene::Mesh traced = with_points(mesh, points.positions, points.normals);
   for (const Eigen::Vector3f& p : traced.positions) {
     for (std::size_t l = 0; l < layers; ++l) out.push_back(static_cast<float>((l + 1) * f(p)));
   }
@@ -122,7 +122,7 @@ std::vector<double> uniform_sky_at(const scene::Mesh& mesh, const FitPoints& poi
     if (d.z() > 0) directions.push_back(d);
   }
   const std::vector<Eigen::Vector3d> weights(directions.size(), Eigen::Vector3d::Constant(4.0 * std::numbers::pi / 4096.0));
-  const scene::Mesh traced = with_fit_points(mesh, points);
+  const scene::Mesh traced = with_points(mesh, points.positions, points.normals);
   std::vector<Eigen::Vector3d> E(traced.vertex_count());
   weighted_vertex_irradiance(traced, {}, directions, weights, E);
   std::vector<double> out;

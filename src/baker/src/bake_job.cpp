@@ -484,7 +484,7 @@ LoadedSite load(const fs::path& site_file, const RefineOptions& refine, int vert
   }
   if (vertex_fit > 0) {
     loaded.fit = fit_points(loaded.mesh, vertex_fit);
-    loaded.fit_mesh = with_fit_points(loaded.mesh, loaded.fit);
+    loaded.fit_mesh = with_points(loaded.mesh, loaded.fit.positions, loaded.fit.normals);
   }
   return loaded;
 }

@@ -47,10 +47,11 @@ FitPoints fit_points(const scene::Mesh& mesh, int n) {
   return points;
 }
 
-scene::Mesh with_fit_points(const scene::Mesh& mesh, const FitPoints& points) {
+scene::Mesh with_points(const scene::Mesh& mesh, std::span<const Eigen::Vector3f> positions,
+                        std::span<const Eigen::Vector3f> normals) {
   scene::Mesh out = mesh;
-  out.positions.insert(out.positions.end(), points.positions.begin(), points.positions.end());
-  out.normals.insert(out.normals.end(), points.normals.begin(), points.normals.end());
+  out.positions.insert(out.positions.end(), positions.begin(), positions.end());
+  out.normals.insert(out.normals.end(), normals.begin(), normals.end());
   out.texcoords.clear();
   return out;
 }

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "skylit/baker/ground_transfer.hpp"
+#include "skylit/baker/vertex_fit.hpp"
 #include "skylit/baker/visibility.hpp"
 #include "skylit/blend/vertex_irradiance.hpp"
 #include "skylit/sky/radiometry.hpp"
@@ -48,11 +49,7 @@ namespace {
 
 // The same triangles, and the points as vertices none of them uses: traced as vertices are.
 scene::Mesh mesh_with_points(const scene::Mesh& mesh, const TrianglePoints& points) {
-  scene::Mesh with_points = mesh;
-  with_points.positions.insert(with_points.positions.end(), points.positions.begin(), points.positions.end());
-  with_points.normals.insert(with_points.normals.end(), points.normals.begin(), points.normals.end());
-  with_points.texcoords.clear();
-  return with_points;
+  return baker::with_points(mesh, points.positions, points.normals);
 }
 
 }  // namespace

@@ -24,9 +24,10 @@ struct FitPoints {
 };
 FitPoints fit_points(const scene::Mesh& mesh, int n);
 
-// The mesh with the points appended as vertices no triangle uses: an engine traces them as it
-// traces vertices (the first mesh.vertex_count() values are the model's own).
-scene::Mesh with_fit_points(const scene::Mesh& mesh, const FitPoints& points);
+// The mesh with points appended as vertices no triangle uses: an engine traces them as it traces
+// vertices (the first mesh.vertex_count() values are the model's own).
+scene::Mesh with_points(const scene::Mesh& mesh, std::span<const Eigen::Vector3f> positions,
+                        std::span<const Eigen::Vector3f> normals);
 
 // Fits `layers` values per vertex (vertex-major) to `traced` (vertex-major, the model's vertices
 // then the points'), every layer alike:
