@@ -349,6 +349,10 @@ int main(int argc, char** argv) {
     // With --ground-albedo: the estimate without the ground layer, and the reference's ground
     // taken as uniformly lit (E_h) against the shadowed one, both against the reference.
     std::optional<Errors> no_ground, uniform_ground;
+    // Inside the triangles by area: the sky's layers interpolated against the same sky traced at
+    // the points; the whole with the sky so traced against the reference; the ground's layer
+    // against the reference's ground; the whole as the compositor shows it (study::building_terms_inside).
+    std::array<Errors, 4> terms;
   };
   std::vector<BuildingRow> building_rows;
   struct GpuRow {
@@ -385,6 +389,8 @@ int main(int argc, char** argv) {
     // And inside the triangles, where the compositor interpolates the vertices' E.
     const TrianglePoints inside_points = triangle_points(mesh);
     std::vector<Eigen::Vector3d> inside_ref = building_reference_at(sky_lights, site, mesh, inside_points);
+    const std::vector<Eigen::Vector3d> sky_vertex_ref = building_ref, sky_inside_ref = inside_ref;  // before the ground's
+    std::vector<Eigen::Vector3d> ground_inside_ref(inside_ref.size(), Eigen::Vector3d::Zero());
     // The ground's light: lit as the dense reference lights the site's horizontal plane at the
     // ground (the model's shadow on it), and uniformly (E_h) for what that assumption costs.
     std::vector<Eigen::Vector3d> uniform_ground_ref;
@@ -402,6 +408,7 @@ int main(int argc, char** argv) {
       }
       for (std::size_t k = 0; k < inside_ref.size(); ++k) {
         if (!inside_ref[k].isZero(0)) inside_ref[k] += shadowed_inside[k];  // enclosed points stay out
+        ground_inside_ref[k] = shadowed_inside[k];
       }
     }
     const double building_reference_seconds = seconds_since(building_start);
@@ -552,27 +559,39 @@ int main(int argc, char** argv) {
       // column): nobody sees them, and they are left out.
       // The compositor takes the sun per pixel (its shadow map at the fragment), the rest from the
       // vertices: the sun's term at the points themselves, the other terms interpolated.
-      std::vector<Eigen::Vector3d> inside_E, inside_seen_ref;
+      // Where a virtual plane covers a point, its T_j D_j replaces the vertices' sky and sources, as
+      // in the compositor: filled in after the planes' blend below.
+      const InsideTerms split = building_terms_inside(inside_points, transfer, S, building_sources, estimate.sun.has_value(),
+                                                      site, mesh, ground);
+      std::vector<std::size_t> inside_seen;
       std::vector<double> inside_areas;
-      {
-        const std::vector<Eigen::Vector3d> all = building_estimate_inside(
-            inside_points, transfer, S, building_sources, estimate.sun.has_value(), site, mesh, ground);
-        for (std::size_t k = 0; k < all.size(); ++k) {
-          if (inside_ref[k].isZero(0)) continue;
-          inside_E.push_back(all[k]);
-          inside_seen_ref.push_back(inside_ref[k]);
-          inside_areas.push_back(inside_points.areas[k]);
-        }
+      for (std::size_t k = 0; k < inside_ref.size(); ++k) {
+        if (inside_ref[k].isZero(0)) continue;
+        inside_seen.push_back(k);
+        inside_areas.push_back(inside_points.areas[k]);
       }
-      const Errors inside = building_errors(inside_E, inside_seen_ref, horizontal);
-      const Errors inside_by_area = building_errors(inside_E, inside_seen_ref, horizontal, inside_areas);
+      // Term by term: the sky's interpolation against the dome's sky traced at the points
+      // themselves, and what is left with the sky so traced (the dome and the separation).
+      std::array<Errors, 4> terms;
+      {
+        const std::vector<Eigen::Vector3d> sky_at_points =
+            building_reference_at(dome_sky_lights(c.frequency, c.basis, S, 4096), site, mesh, inside_points);
+        std::array<std::vector<Eigen::Vector3d>, 3> est, ref;
+        for (const std::size_t k : inside_seen) {
+          est[0].push_back(split.sky[k]), ref[0].push_back(sky_at_points[k]);
+          est[1].push_back(sky_at_points[k] + split.sun[k] + split.ground[k]), ref[1].push_back(inside_ref[k]);
+          est[2].push_back(split.ground[k]), ref[2].push_back(ground_inside_ref[k]);
+        }
+        for (std::size_t t = 0; t < 3; ++t) terms[t] = building_errors(est[t], ref[t], horizontal, inside_areas);
+      }
+      Errors inside, inside_by_area;  // after the planes' blend
       const std::size_t worst = worst_vertex(building_E, building_ref, horizontal);
       char where[320];
       std::snprintf(where, sizeof where, "vertex %zu at (%.2f, %.2f, %.2f) m, normal (%.2f, %.2f, %.2f): E %.4g, E_ref %.4g (luminance), E_h %.4g",
                     worst, mesh.positions[worst].x(), mesh.positions[worst].y(), mesh.positions[worst].z(), mesh.normals[worst].x(),
                     mesh.normals[worst].y(), mesh.normals[worst].z(), luminance(building_E[worst]), luminance(building_ref[worst]),
                     luminance(horizontal));
-      building_rows.push_back({sky_file.stem().string(), c.name, building, where, Errors{}, inside, inside_by_area, no_ground, uniform_ground});
+      building_rows.push_back({sky_file.stem().string(), c.name, building, where, Errors{}, inside, inside_by_area, no_ground, uniform_ground, terms});
       if (estimate.sun && oracle.found && !noted) {
         // The detected sun against the equirect's: where, how wide, how much energy.
         noted = true;
@@ -617,6 +636,8 @@ int main(int argc, char** argv) {
       }
 
       std::vector<double> diffs, building_plane_diffs;
+      std::vector<std::vector<float>> plane_T;  // T of each plane, and D_j
+      std::vector<Eigen::Vector3d> plane_D;
       std::vector<std::vector<float>> cpu_ratios;  // T of each plane, for the GPU path's comparison
       std::vector<std::vector<std::vector<float>>> ray_visibility;  // [plane][source]: the CPU path's V
       nlohmann::json per_plane;
@@ -674,6 +695,8 @@ int main(int argc, char** argv) {
             }
           }
         }
+        plane_T.push_back(T);
+        plane_D.push_back(denominator);
         if (gpu_path_too) {
           cpu_ratios.push_back(T);
           ray_visibility.push_back(sources.empty() ? std::vector<std::vector<float>>{visibility} : source_visibility);
@@ -834,6 +857,22 @@ int main(int argc, char** argv) {
       }
       const Errors building_planes = errors_of(std::move(building_plane_diffs));
       building_rows.back().planes = building_planes;
+      {
+        std::vector<skylit::geom::Plane> bake_planes;
+        for (const auto& record : manifest.planes) bake_planes.push_back(record.plane);
+        const std::vector<Eigen::Vector3d> inside_all = shown_inside(inside_points, split, virtual_shading(site, bake_planes, plane_T, plane_D));
+        std::vector<Eigen::Vector3d> shown, seen_ref;
+        for (const std::size_t k : inside_seen) {
+          shown.push_back(inside_all[k]);
+          seen_ref.push_back(inside_ref[k]);
+        }
+        inside = building_errors(shown, seen_ref, horizontal);
+        inside_by_area = building_errors(shown, seen_ref, horizontal, inside_areas);
+        terms[3] = inside_by_area;
+        building_rows.back().inside = inside;
+        building_rows.back().inside_by_area = inside_by_area;
+        building_rows.back().terms = terms;
+      }
       const std::string found = !c.sun                                         ? "-"
                                 : c.mix == Config::Mix::Sources                ? std::to_string(sources.size()) + " sources"
                                 : use_oracle                                   ? "oracle"
@@ -869,7 +908,7 @@ int main(int argc, char** argv) {
                          {"building_inside_triangles", {{"rms", inside.rms}, {"p99", inside.p99}, {"max", inside.max},
                                                         {"points", inside_points.positions.size()},
                                                         {"by_area", {{"rms", inside_by_area.rms}, {"p99", inside_by_area.p99}, {"max", inside_by_area.max}}},
-                                                        {"seen", inside_E.size()}}},
+                                                        {"seen", inside_seen.size()}}},
                          {"building", {{"rms", building.rms}, {"p99", building.p99}, {"max", building.max},
                                        {"of", "the horizontal irradiance"}, {"vertices", mesh.vertex_count()},
                                        {"reference_seconds", building_reference_seconds}}},
@@ -900,6 +939,16 @@ int main(int argc, char** argv) {
       std::printf("| %s | %s | %.4f / %.4f | %.4f / %.4f | %.4f / %.4f |\n", row.sky.c_str(), row.config.c_str(), row.errors.rms,
                   row.errors.p99, row.no_ground->rms, row.no_ground->p99, row.uniform_ground->rms, row.uniform_ground->p99);
     }
+  }
+  std::printf("\nThe building inside the triangles, by area, RMS / p99: where its error comes from. The sky's layers "
+              "interpolated from the vertices against the same layers traced at the points (the interpolation); the "
+              "building with its sky traced at the points against the reference (the dome and the sources: what no "
+              "vertex value can mend); the ground's layer against the reference's ground; the building as shown\n\n"
+              "| sky | configuration | sky: interpolation | sky at the points: the rest | ground | as shown |\n|---|---|---|---|---|---|\n");
+  for (const BuildingRow& row : building_rows) {
+    const auto& t = row.terms;
+    std::printf("| %s | %s | %.4f / %.4f | %.4f / %.4f | %.4f / %.4f | %.4f / %.4f |\n", row.sky.c_str(), row.config.c_str(), t[0].rms,
+                t[0].p99, t[1].rms, t[1].p99, t[2].rms, t[2].p99, t[3].rms, t[3].p99);
   }
   if (!gpu_rows.empty()) {
     std::printf("\nThe live GPU path (every source's shadow map, the GPU blend, half-float T) against the CPU path's "

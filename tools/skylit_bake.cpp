@@ -11,6 +11,7 @@
 #include "skylit/baker/preset.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/baker/error_budget.hpp"
+#include "skylit/baker/wall_planes.hpp"
 #include "command_line.hpp"
 
 namespace {
@@ -58,6 +59,9 @@ struct CommandLine {
   std::vector<std::string> merge_dirs;
   std::string merge_out;
   bool merge_no_previews = false;
+  CLI::App* walls = nullptr;
+  std::string walls_site, walls_out;
+  skylit::baker::WallPlaneOptions walls_options;
   CLI::App* compress = nullptr;
   std::string compress_dir;
 
@@ -146,8 +150,23 @@ void add_subcommands(CLI::App& app, CommandLine& c) {
   c.compress->add_option("bake_dir", c.compress_dir, "bake directory")->required()->check(CLI::ExistingDirectory);
   add_pca_options(*c.compress, c.pca);
 
+  c.walls = app.add_subcommand("walls", "write the site with virtual planes on the flat faces whose vertices cannot carry "
+                                         "their light (docs/baker.md)");
+  c.walls->add_option("site", c.walls_site, "site YAML")->required()->check(CLI::ExistingFile);
+  c.walls->add_option("-o,--output", c.walls_out, "the site with the planes added (YAML)")->required();
+  c.walls->add_option("--count", c.walls_options.count, "planes at most (the site's virtual planes and these: at most 8)")
+      ->capture_default_str();
+  c.walls->add_option("--texel", c.walls_options.texel, "metres per texel")->capture_default_str();
+  c.walls->add_option("--refine", c.walls_options.refine.tolerance, "the model refined as skylit-bake --refine will refine it");
+  c.walls->add_option("--vertex-fit", c.walls_options.vertex_fit, "its vertices fitted as skylit-bake --vertex-fit will fit them")
+      ->check(CLI::Range(0, 16));
+  c.walls->add_option("--min-area", c.walls_options.min_area, "m²: smaller flat regions keep their vertices")->capture_default_str();
+  c.walls->add_option("--min-error", c.walls_options.min_error,
+                      "a region whose vertices' error over test skies is under this (a share of E_h) gets no plane")
+      ->capture_default_str();
+
   // -q after a subcommand too, as a user types it.
-  for (CLI::App* sub : {c.verify, c.merge, c.compress}) sub->add_flag("-q,--quiet", c.quiet, "only warnings and errors");
+  for (CLI::App* sub : {c.verify, c.merge, c.compress, c.walls}) sub->add_flag("-q,--quiet", c.quiet, "only warnings and errors");
 }
 
 // --preset fills in what the command line does not give.
@@ -176,7 +195,7 @@ int run_bake(const CLI::App& app, CommandLine& c, std::FILE* log) {
   if (c.site.empty() || c.out.empty()) {
     std::fprintf(stderr,
                  "%s\nskylit-bake: error: a bake needs SITE and -o BAKE_DIR (or a subcommand: verify, merge, "
-                 "compress)\n",
+                 "compress, walls)\n",
                  app.help().c_str());
     return 2;
   }
@@ -216,6 +235,10 @@ int run(const CLI::App& app, CommandLine& c, std::FILE* log) {
   if (*c.merge) {
     std::vector<std::filesystem::path> dirs(c.merge_dirs.begin(), c.merge_dirs.end());
     skylit::baker::merge_bakes(dirs, c.merge_out, !c.merge_no_previews, log, c.wanted_pca());
+    return 0;
+  }
+  if (*c.walls) {
+    skylit::baker::add_wall_planes(c.walls_site, c.walls_out, c.walls_options, log);
     return 0;
   }
   if (*c.compress) {

@@ -20,6 +20,7 @@
 #include "skylit/bake_format/manifest.hpp"
 #include "skylit/bake_format/arrays.hpp"
 #include "skylit/geom/dome.hpp"
+#include "skylit/scene/site.hpp"
 #include "../support/fixture_cache.hpp"
 #include "cli_support.hpp"
 
@@ -401,6 +402,28 @@ TEST(SkylitBake, ClusteredPcaStoresComponentsPerTile) {
   EXPECT_EQ(bad.status, 2) << bad.output;
   EXPECT_NE(bad.output.find("pca.tile"), std::string::npos) << bad.output;
   EXPECT_NE(bad.output.find("--pca-tile"), std::string::npos) << bad.output;
+}
+
+// skylit-bake walls on the sample site: planes on the flat faces whose vertices miss their light,
+// listed, and a site written elsewhere that names the same model; -o the site itself is refused.
+TEST(SkylitBake, WallsWritesTheSiteWithPlanesWhereTheVerticesMissTheLight) {
+  TempDir dir;
+  const fs::path site = kSource / "config" / "sample_site.yaml";
+  const Result r = run("walls " + site.string() + " -o " + (dir / "walls.yaml").string() + " --count 2 --texel 0.1");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("wall-auto-1:"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("the vertices' error"), std::string::npos) << r.output;
+  const skylit::scene::Site walls = skylit::scene::load_site(dir / "walls.yaml");
+  const skylit::scene::Site original = skylit::scene::load_site(site);
+  ASSERT_EQ(walls.planes.size(), original.planes.size() + 2);
+  EXPECT_EQ(fs::weakly_canonical(walls.model), fs::weakly_canonical(original.model));
+  for (std::size_t j = original.planes.size(); j < walls.planes.size(); ++j) {
+    EXPECT_EQ(walls.surface_of(j), skylit::scene::PlaneSurface::Virtual);
+    EXPECT_EQ(walls.planes[j].name.rfind("wall-auto-", 0), 0u) << walls.planes[j].name;
+  }
+  const Result same = run("walls " + site.string() + " -o " + site.string());
+  EXPECT_EQ(same.status, 2) << same.output;
+  EXPECT_NE(same.output.find("that is the site itself"), std::string::npos) << same.output;
 }
 
 TEST(SkylitBake, PresetSetsTheBakeAndAnUnknownOneListsTheValidNames) {

@@ -143,6 +143,24 @@ TEST_F(BuildingLight, TheTransferVectorsGiveTheSameLightAndEachSourceItsCosine) 
   EXPECT_THROW(study::building_estimate(std::vector<float>(3), S, {}, s, mesh), std::invalid_argument);
 }
 
+// The dome's own sky traced at a point is the transfer sum there: a sky that differs per layer
+// (each layer its own radiance), at the cube's vertices, within 1% of E_h (4096 directions
+// against the bake's quadrature).
+TEST_F(BuildingLight, TheDomesOwnSkyTracedAtAVertexIsItsTransferSum) {
+  const skylit::scene::Site s = site();
+  const skylit::scene::Mesh mesh = skylit::scene::load_site_model(s);
+  std::size_t layers = 0;
+  const std::vector<float> t = transfer(&layers);
+  std::vector<Vector3d> S(layers);
+  for (std::size_t l = 0; l < layers; ++l) S[l] = kRadiance * (1.0 + 0.1 * static_cast<double>(l));
+  const study::EquirectLights dome = study::dome_sky_lights(s.dome_frequency, s.dome_basis, S, 4096);
+  const std::vector<Vector3d> traced = study::building_reference(dome, s, mesh);
+  const std::vector<Vector3d> summed = study::building_estimate(t, S, {}, s, mesh);
+  const study::Errors e = study::building_errors(traced, summed, study::horizontal_irradiance(dome));
+  EXPECT_LT(e.max, 0.01);
+  EXPECT_THROW(study::dome_sky_lights(s.dome_frequency, s.dome_basis, std::vector<Vector3d>(layers + 1), 64), std::invalid_argument);
+}
+
 // The ground's light (albedo ρ, RGB) on the cube: the bake's ground layer against the reference's
 // ground, which takes the irradiance at each ground point from the dense reference of a fine
 // ground plane (the cube's shadow on it), under the uniform sky and with a sun 35° up in the east.
@@ -278,6 +296,58 @@ TEST(BuildingLightExtremes, ASourceBehindABlockAndVerticesInsideAWall) {
   // As the OBJ loader gives them: a quad's two triangles keep their own corners (6 per face).
   EXPECT_EQ(shaded, 6);
   EXPECT_EQ(buried, 36);
+}
+
+// The compositor's rule for a virtual plane covering a fragment, at the study's points: within
+// 5 cm, the normal within 15°, inside the rectangle, the nearest plane; T read bilinearly.
+TEST(PlaneCover, PointsTakeTheNearestCoveringPlaneAndItsBilinearRatio) {
+  skylit::geom::Plane wall{"wall", Vector3d(0, 0, 0), Vector3d(4, 0, 0), Vector3d(0, 0, 2), 2, 1};  // normal −y
+  skylit::geom::Plane nearer = wall;
+  nearer.origin.y() = -0.04;
+  nearer.u.x() = 1;  // covers x in [0, 1] only
+  study::TrianglePoints points;
+  const auto add = [&](Eigen::Vector3f p, Eigen::Vector3f n) {
+    points.positions.push_back(p);
+    points.normals.push_back(n.normalized());
+  };
+  const Eigen::Vector3f facing(0, -1, 0);
+  add({1.0f, -0.01f, 1.0f}, facing);                     // on the wall
+  add({0.5f, -0.03f, 1.0f}, facing);                     // nearer to the narrow plane
+  add({2.0f, -0.06f, 1.0f}, facing);                     // 6 cm off the wall
+  add({5.0f, 0.0f, 1.0f}, facing);                       // beyond its edge
+  add({1.0f, 0.0f, 1.0f}, Eigen::Vector3f(0, -1, 0.3));  // turned 16.7°
+  add({1.0f, 0.0f, 1.0f}, Eigen::Vector3f(0, -1, 0.25)); // turned 14.0°
+  const std::vector<study::PlaneCover> cover = study::covering_planes(points, std::vector{wall, nearer});
+  ASSERT_EQ(cover.size(), 6u);
+  EXPECT_EQ(cover[0].plane, 0);
+  EXPECT_NEAR(cover[0].s, 0.25, 1e-6);
+  EXPECT_NEAR(cover[0].t, 0.5, 1e-6);
+  EXPECT_EQ(cover[1].plane, 1);
+  EXPECT_EQ(cover[2].plane, -1);
+  EXPECT_EQ(cover[3].plane, -1);
+  EXPECT_EQ(cover[4].plane, -1);
+  EXPECT_EQ(cover[5].plane, 0);
+  // Two texels, 0.2 and 0.6 (and a NaN in blue, read as 1): at their centres, between them, and
+  // clamped beyond.
+  const std::vector<float> T{0.2f, 0.2f, std::nanf(""), 0.6f, 0.6f, 0.6f};
+  EXPECT_NEAR(study::bilinear_ratio(T, 2, 1, 0.25, 0.5).x(), 0.2, 1e-6);
+  EXPECT_NEAR(study::bilinear_ratio(T, 2, 1, 0.5, 0.5).x(), 0.4, 1e-6);
+  EXPECT_NEAR(study::bilinear_ratio(T, 2, 1, 1.0, 0.5).x(), 0.6, 1e-6);
+  EXPECT_NEAR(study::bilinear_ratio(T, 2, 1, 0.0, 0.0).z(), 1.0, 1e-6);
+  EXPECT_THROW(study::bilinear_ratio(T, 2, 2, 0.5, 0.5), std::invalid_argument);
+  // shown_inside: the covered point takes T D plus its ground term, the others their terms' sum.
+  study::InsideTerms terms;
+  for (std::size_t k = 0; k < points.positions.size(); ++k) {
+    terms.sky.push_back(Vector3d::Constant(1.0));
+    terms.sun.push_back(Vector3d::Constant(2.0));
+    terms.ground.push_back(Vector3d::Constant(0.5));
+  }
+  const Vector3d D(10, 20, 30);
+  const std::vector<study::PlaneShading> shading{{wall, T, D}};
+  const std::vector<Vector3d> shown = study::shown_inside(points, terms, shading);
+  const Vector3d covered = study::bilinear_ratio(T, 2, 1, 0.25, 0.5).cwiseProduct(D) + Vector3d::Constant(0.5);
+  EXPECT_LT((shown[0] - covered).norm(), 1e-9);
+  EXPECT_LT((shown[2] - Vector3d::Constant(3.5)).norm(), 1e-12);
 }
 
 }  // namespace

@@ -166,34 +166,45 @@ TEST(SkylitBenchTrade, SeparatedSourcesAreASettingOfTheGrid) {
   EXPECT_NE(result.output.find("sun+7"), std::string::npos) << result.output;
 }
 
-// A bake of the model refined where its light changes (skylit-bake --refine) is a setting of the
-// grid: more vertices, and the building inside its triangles, by area, far closer to its
-// reference under park's low sun (measured 0.2299 → 0.0926 at 1/32, faces K = 3).
-TEST(SkylitBenchTrade, ARefinedModelIsASettingMeasuredInsideTheTriangles) {
+// A bake of the model refined where its light changes (skylit-bake --refine) and one whose vertices
+// are fitted to the light inside their triangles (--vertex-fit) are settings of the grid: the
+// building inside its triangles, by area, far closer to its reference under park's low sun
+// (measured at 1/32, faces K = 3: 0.2299, fitted 0.0659; refined 0.0926, fitted 0.0597).
+TEST(SkylitBenchTrade, ARefinedModelAndFittedVerticesAreSettingsMeasuredInsideTheTriangles) {
   const test::TempDir dir;
   const fs::path out = dir / "trade";
   const cli_test::Result result = run_small_trade(
-      "--sky park --frequencies 2 --bases faces --samples 3 --texel-scales 32 --refine 0,0.2 --forms full --bits 16 --sun on"
-      " --skip-thresholds 0",
+      "--sky park --frequencies 2 --bases faces --samples 3 --texel-scales 32 --refine 0,0.2 --vertex-fits 0,3 --forms full"
+      " --bits 16 --sun on --skip-thresholds 0",
       out);
   ASSERT_EQ(result.status, 0) << result.output;
   const nlohmann::json doc = nlohmann::json::parse(read_all(out / "trade.json"));
   const auto& settings = doc.at("settings");
-  ASSERT_EQ(settings.size(), 2u);
-  std::map<double, nlohmann::json> by_refine;
-  for (const auto& s : settings) by_refine[s.at("refine").get<double>()] = s;
-  ASSERT_TRUE(by_refine.count(0.0) && by_refine.count(0.2)) << doc.dump(2);
-  const nlohmann::json &plain = by_refine[0.0], &refined = by_refine[0.2];
+  ASSERT_EQ(settings.size(), 4u);
+  std::map<std::pair<double, int>, nlohmann::json> by_bake;
+  for (const auto& s : settings) by_bake[{s.at("refine").get<double>(), s.at("vertex_fit").get<int>()}] = s;
+  ASSERT_EQ(by_bake.size(), 4u) << doc.dump(2);
+  const auto inside = [&](double refine, int fit) {
+    return by_bake.at({refine, fit}).at("building").at("inside_triangles_by_area").at("rms").get<double>();
+  };
+  const nlohmann::json &plain = by_bake.at({0.0, 0}), &refined = by_bake.at({0.2, 0});
   EXPECT_GT(refined.at("vertices").get<double>(), 1.3 * plain.at("vertices").get<double>());
-  const double plain_inside = plain.at("building").at("inside_triangles_by_area").at("rms").get<double>();
-  const double refined_inside = refined.at("building").at("inside_triangles_by_area").at("rms").get<double>();
-  std::printf("measured: park at 1/32, faces K = 3: the building inside its triangles %.4f (%d vertices), refined at 0.2 "
-              "%.4f (%d vertices)\n",
-              plain_inside, plain.at("vertices").get<int>(), refined_inside, refined.at("vertices").get<int>());
-  EXPECT_LT(refined_inside, 0.75 * plain_inside);
-  // The refined bake's T on the planes is the plain one's: refining moves no surface.
-  EXPECT_NEAR(refined.at("rms").get<double>(), plain.at("rms").get<double>(), 0.1 * plain.at("rms").get<double>());
+  // The fit changes values, not the model.
+  EXPECT_EQ(by_bake.at({0.0, 3}).at("vertices"), plain.at("vertices"));
+  EXPECT_EQ(by_bake.at({0.2, 3}).at("vertices"), refined.at("vertices"));
+  std::printf("measured: park at 1/32, faces K = 3, the building inside its triangles: %.4f (%d vertices), fitted %.4f; "
+              "refined at 0.2 %.4f (%d vertices), fitted %.4f\n",
+              inside(0.0, 0), plain.at("vertices").get<int>(), inside(0.0, 3), inside(0.2, 0), refined.at("vertices").get<int>(),
+              inside(0.2, 3));
+  EXPECT_LT(inside(0.2, 0), 0.75 * inside(0.0, 0));
+  EXPECT_LT(inside(0.0, 3), 0.75 * inside(0.0, 0));
+  EXPECT_LT(inside(0.2, 3), 0.75 * inside(0.2, 0));
+  // The planes' T is the plain bake's in every row: neither moves a surface.
+  for (const auto& s : settings) {
+    EXPECT_NEAR(s.at("rms").get<double>(), plain.at("rms").get<double>(), 0.1 * plain.at("rms").get<double>()) << s.at("label");
+  }
   EXPECT_NE(refined.at("label").get<std::string>().find("_r0.2"), std::string::npos);
+  EXPECT_NE(by_bake.at({0.0, 3}).at("label").get<std::string>().find("_f3"), std::string::npos);
   EXPECT_NE(read_all(out / "trade.md").find("inside the triangles, by area"), std::string::npos);
 }
 

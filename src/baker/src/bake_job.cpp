@@ -348,17 +348,18 @@ std::uint64_t finalize(const fs::path& out_dir, bake_format::Manifest manifest, 
   const std::size_t vertex_count = mesh.vertex_count(), traced_count = traced.vertex_count();
   std::vector<float> transfer(traced_count * layers, 0.0f);
   const std::vector<geom::FaceQuadrature> quadratures = face_quadratures(dome, plan.basis);
-  std::vector<double> vertex_unoccluded(traced_count * layers);
+  std::vector<float> vertex_unoccluded(traced_count * layers);  // float: the fit's points make it large
   for (std::size_t v = 0; v < traced_count; ++v) {
     const std::vector<double> a = layer_cosine_integrals(dome, plan.basis, quadratures, traced.normals[v].cast<double>());
-    std::copy(a.begin(), a.end(), vertex_unoccluded.begin() + static_cast<std::ptrdiff_t>(v * layers));
+    std::transform(a.begin(), a.end(), vertex_unoccluded.begin() + static_cast<std::ptrdiff_t>(v * layers),
+                   [](double x) { return static_cast<float>(x); });
   }
   const auto add_vertex_fractions = [&](int face, const bake_format::FacePart& part) {
     for (int k = 0; k < per_face; ++k) {
       const std::size_t l = static_cast<std::size_t>(face * per_face + k);
       const float* f = part.vertex_fractions.data() + static_cast<std::size_t>(k) * traced_count;
       for (std::size_t v = 0; v < traced_count; ++v) {
-        transfer[v * layers + l] = static_cast<float>(vertex_unoccluded[v * layers + l] * f[v]);
+        transfer[v * layers + l] = vertex_unoccluded[v * layers + l] * f[v];
       }
     }
   };
@@ -404,8 +405,7 @@ std::uint64_t finalize(const fs::path& out_dir, bake_format::Manifest manifest, 
     // Each vertex's transfer fitted to the light at the points inside its triangles, within
     // [0, A_l(n_v)] (vertex_fit.hpp).
     const auto fit_start = std::chrono::steady_clock::now();
-    const std::vector<float> upper(vertex_unoccluded.begin(), vertex_unoccluded.begin() + static_cast<std::ptrdiff_t>(vertex_count * layers));
-    transfer = fit_vertex_values(mesh, loaded.fit, transfer, layers, upper);
+    transfer = fit_vertex_values(mesh, loaded.fit, transfer, layers, std::span<const float>(vertex_unoccluded).first(vertex_count * layers));
     if (log != nullptr) {
       std::fprintf(log, "vertex fit: %zu vertices fitted to the light at %zu points inside their triangles (%d² each) in %.1f s\n",
                    vertex_count, loaded.fit.positions.size(), plan.vertex_fit, seconds_since(fit_start));

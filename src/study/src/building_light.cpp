@@ -102,14 +102,113 @@ std::vector<Eigen::Vector3d> source_term_at(const TrianglePoints& points, const 
   return out;
 }
 
-std::vector<Eigen::Vector3d> building_estimate_inside(const TrianglePoints& points, std::span<const float> transfer,
-                                                      std::span<const Eigen::Vector3d> S, std::span<const SourceLight> sources,
-                                                      bool sun_first, const scene::Site& site, const scene::Mesh& mesh,
-                                                      const blend::GroundLight& ground) {
-  if (!sun_first || sources.empty()) return interpolated_at(points, building_estimate(transfer, S, sources, site, mesh, ground));
-  std::vector<Eigen::Vector3d> out = interpolated_at(points, building_estimate(transfer, S, sources.subspan(1), site, mesh, ground));
-  const std::vector<Eigen::Vector3d> sun_term = source_term_at(points, sources.front(), site, mesh);
-  for (std::size_t k = 0; k < out.size(); ++k) out[k] += sun_term[k];
+InsideTerms building_terms_inside(const TrianglePoints& points, std::span<const float> transfer, std::span<const Eigen::Vector3d> S,
+                                  std::span<const SourceLight> sources, bool sun_first, const scene::Site& site,
+                                  const scene::Mesh& mesh, const blend::GroundLight& ground) {
+  const bool sun = sun_first && !sources.empty();
+  InsideTerms terms;
+  terms.sky = interpolated_at(points, building_estimate(transfer, S, sun ? sources.subspan(1) : sources, site, mesh));
+  terms.sun = sun ? source_term_at(points, sources.front(), site, mesh)
+                  : std::vector<Eigen::Vector3d>(points.positions.size(), Eigen::Vector3d::Zero());
+  terms.ground = std::vector<Eigen::Vector3d>(points.positions.size(), Eigen::Vector3d::Zero());
+  if (!ground.transfer.empty()) {
+    const std::vector<Eigen::Vector3d> no_sky(S.size(), Eigen::Vector3d::Zero());
+    terms.ground = interpolated_at(points, building_estimate(transfer, no_sky, {}, site, mesh, ground));
+  }
+  return terms;
+}
+
+EquirectLights dome_sky_lights(int frequency, geom::DomeBasis basis, std::span<const Eigen::Vector3d> S, int directions) {
+  const geom::Dome dome(frequency);
+  const geom::CornerWeights corners(dome);
+  const int per_face = geom::layers_per_face(basis);
+  if (S.size() != static_cast<std::size_t>(dome.face_count() * per_face)) {
+    throw std::invalid_argument("dome_sky_lights: " + std::to_string(S.size()) + " sky values for a dome of " +
+                                std::to_string(dome.face_count() * per_face) + " layers");
+  }
+  EquirectLights out;
+  const double solid_angle = 2.0 * std::numbers::pi / directions;
+  for (Vec3 d : baker::ground_directions(directions)) {
+    d.z() = -d.z();
+    const int face = dome.face_of(d);
+    if (face < 0) continue;
+    const geom::LayerValues phi = basis == geom::DomeBasis::Faces ? geom::LayerValues{1.0} : geom::layer_values(basis, corners(face, d));
+    Eigen::Vector3d radiance = Eigen::Vector3d::Zero();
+    for (int k = 0; k < per_face; ++k) radiance += phi[static_cast<std::size_t>(k)] * S[static_cast<std::size_t>(face * per_face + k)];
+    out.directions.push_back(d);
+    out.weights.push_back(solid_angle * radiance);
+  }
+  return out;
+}
+
+std::vector<PlaneCover> covering_planes(const TrianglePoints& points, std::span<const geom::Plane> planes, double distance,
+                                        double max_angle_deg) {
+  const double cos_max = std::cos(max_angle_deg * std::numbers::pi / 180.0);
+  std::vector<PlaneCover> out(points.positions.size());
+  std::vector<double> nearest(out.size(), distance);
+  for (std::size_t j = 0; j < planes.size(); ++j) {
+    const Vec3 n = planes[j].normal();
+    for (std::size_t k = 0; k < out.size(); ++k) {
+      const geom::PlanePoint at = geom::locate_on_plane(planes[j], points.positions[k].cast<double>());
+      const double away = std::abs(at.distance);
+      if (away <= nearest[k] && points.normals[k].cast<double>().dot(n) >= cos_max && at.s >= 0.0 && at.s <= 1.0 && at.t >= 0.0 &&
+          at.t <= 1.0) {
+        out[k] = {static_cast<int>(j), at.s, at.t};
+        nearest[k] = away;
+      }
+    }
+  }
+  return out;
+}
+
+Eigen::Vector3d bilinear_ratio(std::span<const float> T, int width, int height, double s, double t) {
+  if (T.size() != static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * 3) {
+    throw std::invalid_argument("bilinear_ratio: " + std::to_string(T.size()) + " values for " + std::to_string(width) + "×" +
+                                std::to_string(height) + " RGB texels");
+  }
+  const double cx = s * width - 0.5, cy = t * height - 0.5;
+  const double bx = std::floor(cx), by = std::floor(cy), fx = cx - bx, fy = cy - by;
+  const auto texel = [&](double col, double row) {
+    const auto c = static_cast<std::size_t>(std::clamp(static_cast<int>(col), 0, width - 1));
+    const auto r = static_cast<std::size_t>(std::clamp(static_cast<int>(row), 0, height - 1));
+    Eigen::Vector3d value;
+    for (int ch = 0; ch < 3; ++ch) {
+      const float x = T[(r * static_cast<std::size_t>(width) + c) * 3 + static_cast<std::size_t>(ch)];
+      value[ch] = std::isnan(x) ? 1.0 : std::clamp(static_cast<double>(x), 0.0, 1.0);
+    }
+    return value;
+  };
+  return (1 - fy) * ((1 - fx) * texel(bx, by) + fx * texel(bx + 1, by)) + fy * ((1 - fx) * texel(bx, by + 1) + fx * texel(bx + 1, by + 1));
+}
+
+std::vector<Eigen::Vector3d> shown_inside(const TrianglePoints& points, const InsideTerms& terms, std::span<const PlaneShading> planes) {
+  std::vector<Eigen::Vector3d> out(points.positions.size());
+  for (std::size_t k = 0; k < out.size(); ++k) out[k] = terms.sky[k] + terms.sun[k] + terms.ground[k];
+  if (planes.empty()) return out;
+  std::vector<geom::Plane> geometry;
+  for (const PlaneShading& p : planes) geometry.push_back(p.plane);
+  const std::vector<PlaneCover> covers = covering_planes(points, geometry);
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    if (covers[k].plane < 0) continue;
+    const PlaneShading& p = planes[static_cast<std::size_t>(covers[k].plane)];
+    out[k] = bilinear_ratio(p.T, p.plane.width, p.plane.height, covers[k].s, covers[k].t).cwiseProduct(p.D) + terms.ground[k];
+  }
+  return out;
+}
+
+std::vector<PlaneShading> virtual_shading(const scene::Site& site, std::span<const geom::Plane> bake_planes,
+                                          std::span<const std::vector<float>> T, std::span<const Eigen::Vector3d> D) {
+  if (T.size() != bake_planes.size() || D.size() != bake_planes.size()) {
+    throw std::invalid_argument("virtual_shading: T and D need one entry per plane of the bake");
+  }
+  std::vector<PlaneShading> out;
+  for (std::size_t j = 0; j < bake_planes.size(); ++j) {
+    for (std::size_t i = 0; i < site.planes.size(); ++i) {
+      if (site.planes[i].name == bake_planes[j].name && site.surface_of(i) == scene::PlaneSurface::Virtual) {
+        out.push_back({bake_planes[j], T[j], D[j]});
+      }
+    }
+  }
   return out;
 }
 

@@ -719,9 +719,11 @@ void evaluate_skies(const Bench& bench, const SettingBake& bake, const sky::SkyE
     }
     building_diffs.append(study::building_estimate(bake.transfer, S, sources, site.site, mesh, ground), building_reference.vertices,
                           horizontal);
-    building_inside_diffs.append(study::building_estimate_inside(building_reference.points, bake.transfer, S, sources,
-                                                                 estimate.sun.has_value(), site.site, mesh, ground),
-                                 building_reference.inside, horizontal, building_reference.points.areas);
+    // Inside the triangles, the compositor's way: a virtual plane's T_j D_j where one covers a point.
+    const study::InsideTerms inside_terms = study::building_terms_inside(building_reference.points, bake.transfer, S, sources,
+                                                                         estimate.sun.has_value(), site.site, mesh, ground);
+    std::vector<std::vector<float>> plane_T(basis.size());
+    std::vector<Eigen::Vector3d> plane_D(basis.size(), Eigen::Vector3d::Zero());
     std::vector<double> sky_diffs;
     for (std::size_t j = 0; j < basis.size(); ++j) {
       std::vector<float> visibility;  // V of each source, one after another
@@ -736,6 +738,7 @@ void evaluate_skies(const Bench& bench, const SettingBake& bake, const sky::SkyE
       const std::vector<float>& rgba = *ratios.rgba();
       std::vector<float> T(basis[j].texel_count() * 3);
       for (std::size_t x = 0; x < basis[j].texel_count(); ++x) std::copy_n(rgba.data() + 4 * x, 3, T.data() + 3 * x);
+      plane_D[j] = w.denominator;
       for (std::size_t x = 0; x < basis[j].texel_count(); ++x) {
         for (int ch = 0; ch < 3; ++ch) sky_diffs.push_back(std::abs(T[3 * x + static_cast<std::size_t>(ch)] - reference[j][x][ch]));
       }
@@ -745,7 +748,13 @@ void evaluate_skies(const Bench& bench, const SettingBake& bake, const sky::SkyE
         edge_count += count;
       }
       if (i == 0) time_blend(bench, j, basis[j], visibility, w, r);
+      plane_T[j] = std::move(T);
     }
+    std::vector<geom::Plane> bake_planes;
+    for (const auto& record : manifest.planes) bake_planes.push_back(record.plane);
+    building_inside_diffs.append(
+        study::shown_inside(building_reference.points, inside_terms, study::virtual_shading(site.site, bake_planes, plane_T, plane_D)),
+        building_reference.inside, horizontal, building_reference.points.areas);
     r.rms_per_sky[skies[i].name] = study::errors_of(sky_diffs).rms;
     diffs.insert(diffs.end(), sky_diffs.begin(), sky_diffs.end());
   }

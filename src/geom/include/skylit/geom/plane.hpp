@@ -22,4 +22,16 @@ struct Plane {
   }
 };
 
+// Where x lies against a plane: (s, t) in its rectangle's coordinates (x's projection is
+// origin + s·u + t·v; inside for s, t in [0, 1]) and its signed distance along the normal.
+struct PlanePoint {
+  double s = 0, t = 0, distance = 0;
+};
+inline PlanePoint locate_on_plane(const Plane& p, const Vec3& x) {
+  const Vec3 n = p.normal(), offset = x - p.origin;
+  // The dual basis of (u, v) within the plane.
+  const Vec3 s_axis = p.v.cross(n) / p.u.dot(p.v.cross(n)), t_axis = n.cross(p.u) / p.v.dot(n.cross(p.u));
+  return {offset.dot(s_axis), offset.dot(t_axis), offset.dot(n)};
+}
+
 }  // namespace skylit::geom

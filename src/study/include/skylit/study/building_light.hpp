@@ -12,6 +12,8 @@
 #include <opencv2/core.hpp>
 
 #include "skylit/blend/vertex_irradiance.hpp"
+#include "skylit/geom/dome_basis.hpp"
+#include "skylit/geom/plane.hpp"
 #include "skylit/scene/mesh.hpp"
 #include "skylit/scene/site.hpp"
 #include "skylit/study/study.hpp"
@@ -67,13 +69,50 @@ std::vector<Eigen::Vector3d> interpolated_at(const TrianglePoints& points, std::
 std::vector<Eigen::Vector3d> source_term_at(const TrianglePoints& points, const SourceLight& source, const scene::Site& site,
                                             const scene::Mesh& mesh);
 
-// What the building shows at the points: with sun_first, sources[0] (the sun) per point as the
-// compositor takes it from its map per fragment (source_term_at), every other term, the ground's
-// included, interpolated from the vertices' building_estimate.
-std::vector<Eigen::Vector3d> building_estimate_inside(const TrianglePoints& points, std::span<const float> transfer,
-                                                      std::span<const Eigen::Vector3d> S, std::span<const SourceLight> sources,
-                                                      bool sun_first, const scene::Site& site, const scene::Mesh& mesh,
-                                                      const blend::GroundLight& ground = {});
+// What the building shows at the points from its vertices, term by term: the sky's layers and
+// every source but the sun, interpolated from the vertices' building_estimate; with sun_first,
+// sources[0] (the sun) per point, as the compositor takes it from its map per fragment
+// (source_term_at; zero otherwise); the ground's layer, interpolated.
+struct InsideTerms {
+  std::vector<Eigen::Vector3d> sky, sun, ground;
+};
+InsideTerms building_terms_inside(const TrianglePoints& points, std::span<const float> transfer, std::span<const Eigen::Vector3d> S,
+                                  std::span<const SourceLight> sources, bool sun_first, const scene::Site& site,
+                                  const scene::Mesh& mesh, const blend::GroundLight& ground = {});
+
+// The sky the dome holds, L(ω) = Σ_l S_l φ_l(ω), as `directions` lights of equal solid angle over
+// the upper hemisphere: traced at a point, Σ_l S_l t_l with the point's own transfer, no
+// interpolation. std::invalid_argument unless S has one value per layer of the dome.
+EquirectLights dome_sky_lights(int frequency, geom::DomeBasis basis, std::span<const Eigen::Vector3d> S, int directions);
+
+// Which of `planes` (virtual ones) covers each point, as the compositor decides it for a fragment
+// (render::CompositorOptions): within distance of the plane, its normal within max_angle_deg of
+// the plane's, inside its rectangle; the nearest such. plane −1: none; (s, t) in [0, 1].
+struct PlaneCover {
+  int plane = -1;
+  double s = 0, t = 0;
+};
+std::vector<PlaneCover> covering_planes(const TrianglePoints& points, std::span<const geom::Plane> planes, double distance = 0.05,
+                                        double max_angle_deg = 15.0);
+
+// T at plane coordinates (s, t) as the compositor's shader reads it: bilinear between texel
+// centres, clamped to the edge texels; a NaN is 1 and the rest clamped to [0, 1]. T: RGB per
+// texel, rows of `width`.
+Eigen::Vector3d bilinear_ratio(std::span<const float> T, int width, int height, double s, double t);
+
+// A virtual plane as the compositor shades the building with it: its T (RGB per texel) and D_j.
+struct PlaneShading {
+  geom::Plane plane;
+  std::span<const float> T;
+  Eigen::Vector3d D = Eigen::Vector3d::Zero();
+};
+// What the building shows at the points: the terms' sum, and where one of `planes` covers a point
+// (covering_planes), T_j D_j from the plane plus the ground's term instead.
+std::vector<Eigen::Vector3d> shown_inside(const TrianglePoints& points, const InsideTerms& terms, std::span<const PlaneShading> planes);
+
+// The site's virtual planes among a bake's (by name), with their T and D_j in the bake's order.
+std::vector<PlaneShading> virtual_shading(const scene::Site& site, std::span<const geom::Plane> bake_planes,
+                                          std::span<const std::vector<float>> T, std::span<const Eigen::Vector3d> D);
 
 // E_ref at the points: building_reference's integral with the point's normal, the model's
 // occlusion ray-traced (the points ride along as vertices no triangle uses).
