@@ -169,7 +169,7 @@ TEST(SkylitBenchTrade, SeparatedSourcesAreASettingOfTheGrid) {
 // A bake of the model refined where its light changes (skylit-bake --refine) and one whose vertices
 // are fitted to the light inside their triangles (--vertex-fit) are settings of the grid: the
 // building inside its triangles, by area, far closer to its reference under park's low sun
-// (measured at 1/32, faces K = 3: 0.2299, fitted 0.0659; refined 0.0926, fitted 0.0597).
+// (measured at 1/32, faces K = 3: 0.2291, fitted 0.0651; refined 0.0920, fitted 0.0595).
 TEST(SkylitBenchTrade, ARefinedModelAndFittedVerticesAreSettingsMeasuredInsideTheTriangles) {
   const test::TempDir dir;
   const fs::path out = dir / "trade";
