@@ -97,7 +97,8 @@ void validate(const WallPlaneOptions& o) {
 }  // namespace wall_planes_detail
 
 std::vector<WallPlane> find_wall_planes(const scene::Mesh& model, std::span<const geom::Plane> planes,
-                                        std::span<const geom::Plane> virtual_planes, const WallPlaneOptions& options) {
+                                        std::span<const geom::Plane> virtual_planes, const WallPlaneOptions& options,
+                                        std::FILE* log) {
   using namespace wall_planes_detail;
   validate(options);
   scene::Mesh mesh = model;
@@ -186,6 +187,10 @@ std::vector<WallPlane> find_wall_planes(const scene::Mesh& model, std::span<cons
   }
   const std::vector<Vec3> directions = sphere_directions(options.directions);
   const std::size_t count = directions.size();
+  if (log != nullptr) {
+    std::fprintf(log, "walls: %zu flat region(s) of at least %.1f m² on a model of %zu vertices; tracing %zu points along %zu directions\n",
+                 candidates.size(), options.min_area, mesh.vertex_count(), probed.vertex_count(), count);
+  }
   std::vector<float> views(probed.vertex_count() * count);
   RaytraceOptions trace;
   trace.threads = options.threads;
@@ -279,7 +284,7 @@ std::vector<WallPlane> add_wall_planes(const std::filesystem::path& site_file, c
                      " virtual planes, the compositor's most. Fix: remove one to make room");
   }
   options.count = std::min(options.count, room);
-  std::vector<WallPlane> found = find_wall_planes(mesh, site.planes, virtual_planes, options);
+  std::vector<WallPlane> found = find_wall_planes(mesh, site.planes, virtual_planes, options, log);
   site.plane_surfaces.resize(site.planes.size(), scene::PlaneSurface::Virtual);
   int next = 1;
   for (WallPlane& w : found) {

@@ -44,8 +44,10 @@ struct WallPlane {
 // triangle is at least min_error (its measure); the `count` with the largest squared error × area, each with a
 // plane over its rectangle. `planes`: every plane of the site (rays pass through them as the
 // bake's do). InputError for options out of range.
+// A line on `log` (null: none) before the tracing, which takes the time on a large model.
 std::vector<WallPlane> find_wall_planes(const scene::Mesh& mesh, std::span<const geom::Plane> planes,
-                                        std::span<const geom::Plane> virtual_planes, const WallPlaneOptions& options);
+                                        std::span<const geom::Plane> virtual_planes, const WallPlaneOptions& options,
+                                        std::FILE* log = nullptr);
 
 // skylit-bake walls: the site at site_file with find_wall_planes' planes added as virtual planes
 // (as many as the compositor's 8 leave room for), written to out_file (the model's path made
