@@ -58,16 +58,16 @@ struct ServiceBlendResult {
   int compared = 0;                               // recorded frames compared
 };
 
-// Runs the service (20 frames, recorded) with the setup in the rig's config and compares its
-// frames: each one after the sky came against the nearest direct composite (the frame it was made
-// from), within 2 codes. Prints a "measured:" line. Checks what all forms share: the status'
-// planes (name, source layers), blends run, and a sky soon enough to compare frames.
+// Runs the service (until 6 frames with the sky, recorded) with the setup in the rig's config and
+// compares its frames: each one after the sky came against the nearest direct composite (the
+// frame it was made from), within 2 codes. Prints a "measured:" line. Checks what all forms
+// share: the status' planes (name, source layers) and blends run.
 inline void check_service_blend(const Rig& rig, const ServiceBlendSetup& setup, ServiceBlendResult& out) {
-  constexpr int kFrames = 20;
   ASSERT_NO_FATAL_FAILURE(write_config_with_bake(rig, setup.bake_dir, setup.blend, setup.site_file));
   const live::LiveConfig config = rig.config();
   live::ServiceOptions options = quiet_options();
-  options.frames = kFrames;
+  options.frames_with_sky = 6;  // however long the first sky takes on a loaded machine
+  options.frames = 1000;
   options.record = rig.dir() / "recorded";
   {
     RunningService running(config, options);
@@ -85,8 +85,6 @@ inline void check_service_blend(const Rig& rig, const ServiceBlendSetup& setup, 
     EXPECT_EQ(blend["planes"][j]["source_layers"], manifest.layer_count());
   }
   EXPECT_GT(out.status["blends"]["run"].get<std::int64_t>(), 0);
-  const std::int64_t without_sky = out.status["frames_without_sky"].get<std::int64_t>();
-  EXPECT_LT(without_sky, 15) << "the sky came too late to compare frames";
 
   // The same sky without the service.
   const gpu::HeadlessContext context;
@@ -142,7 +140,8 @@ inline void check_service_blend(const Rig& rig, const ServiceBlendSetup& setup, 
 
   out.worst = 0;
   out.compared = 0;
-  for (int k = static_cast<int>(without_sky); k < kFrames; ++k) {
+  const std::int64_t without_sky = out.status["frames_without_sky"].get<std::int64_t>();
+  for (int k = static_cast<int>(without_sky); k < static_cast<int>(without_sky) + 6; ++k) {
     char name[32];
     std::snprintf(name, sizeof name, "frame_%06d.png", k);
     const cv::Mat recorded = cv::imread((rig.dir() / "recorded" / name).string(), cv::IMREAD_UNCHANGED);

@@ -54,7 +54,8 @@ struct Outputs {
     const Rig rig(rig_options);
     const live::LiveConfig config = rig.config();
     live::ServiceOptions options = quiet_options();
-    options.frames = 30;
+    options.frames_with_sky = 10;  // however long the first sky takes on a loaded machine
+    options.frames = 1000;
     options.record = rig.dir() / "recorded";
     {
       RunningService running(config, options);
@@ -178,8 +179,7 @@ class ServiceBlend : public ::testing::TestWithParam<std::string> {};
 TEST_P(ServiceBlend, RecordedFramesMatchTheCompositorDrivenDirectly) {
   const Outputs& out = Outputs::get(GetParam());
   ASSERT_TRUE(out.error.empty()) << out.error;
-  ASSERT_EQ(out.recorded.size(), 30u);
-  ASSERT_LT(out.frames_without_sky, 25) << "the sky came too late to compare frames";
+  ASSERT_EQ(out.recorded.size(), static_cast<std::size_t>(out.frames_without_sky + 10)) << "frames with the sky: 10";
   const std::string device = GetParam().substr(0, 3);
   EXPECT_EQ(out.status["blend"]["device"], device) << out.status["blend"].dump();
   EXPECT_EQ(out.status["blend"]["setting"], device);

@@ -146,7 +146,7 @@ class Service::State::RenderLoop {
 
   std::optional<SkyState> sky;
   std::optional<render::CameraPose> last_pose;
-  std::int64_t frames = 0;
+  std::int64_t frames = 0, frames_with_sky = 0;
   // The photometric scale is first estimated on the first frame with a sky (until then the
   // configured scale would show the building far too bright or dark), then every `every` frames.
   std::optional<std::int64_t> last_photometric_estimate;
@@ -206,7 +206,9 @@ std::int64_t Service::State::RenderLoop::run() {
     record(times, *frame, composite, opacity);
     // 9. The frame's times into the statistics, and the progress line.
     keep_times(times, posed.arrived, sky_changed);
+    if (sky) ++frames_with_sky;
     if (s.options.frames && frames >= *s.options.frames) break;
+    if (s.options.frames_with_sky && frames_with_sky >= *s.options.frames_with_sky) break;
   }
   return finish();
 }

@@ -16,6 +16,9 @@ namespace skylit::live {
 struct ServiceOptions {
   bool headless = true;                       // no window, whatever the config says
   std::optional<std::int64_t> frames;         // stop after this many composited frames
+  // or after this many composited with a sky (the building drawn lit), however long the first
+  // sky takes: what a test that compares lit frames waits for.
+  std::optional<std::int64_t> frames_with_sky;
   std::optional<std::filesystem::path> record; // overrides output.record
   std::optional<std::string> status_listen;   // overrides status.listen
   bool profile = false;                       // wait for the GPU after each stage (true per-stage times)
