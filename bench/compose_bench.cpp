@@ -10,6 +10,8 @@
 // number of layers sets the cost of the building's per-vertex sky irradiance. Separated sources
 // (sky.max_sources): the shadow maps of N sources, the GPU blend of every plane with N terms, and
 // a frame whose building takes N − 1 lamps per vertex, each against N = 1.
+// SKYLIT_COMPOSE_BENCH_SITE=FILE bakes that site instead of the sample site (e.g. one with the
+// planes of skylit-bake walls: what more virtual planes cost the building's pass).
 #include <algorithm>
 #include <array>
 #include <cstdio>
@@ -62,6 +64,10 @@ struct Scene {
     dir = fs::temp_directory_path() / ("skylit-compose-bench-" + std::to_string(::getpid()));
     baker::BakeOptions options;
     options.site_file = fs::path(SKYLIT_SOURCE_DIR) / "config/sample_site.yaml";
+    // Another site, e.g. one that skylit-bake walls wrote with more virtual planes.
+    if (const char* site_file = std::getenv("SKYLIT_COMPOSE_BENCH_SITE"); site_file != nullptr && *site_file != '\0') {
+      options.site_file = site_file;
+    }
     options.out_dir = dir;
     options.method = "raytrace";
     options.previews = false;

@@ -5,10 +5,12 @@
 // interpolated transfer sum plus the sun (its shadow map's visibility) elsewhere.
 //
 // The compositor compiles it for its site: VIRTUAL_PLANES (0 … 8) virtual planes, and
-// SUN_SHADOWS 1 with a sun shadow map bound, 0 without (the sun term then unshadowed). Code
-// for planes that do not exist is not compiled (a SIMD renderer such as llvmpipe would run every
-// branch of a run-time choice). FILTERED_LOOKUPS 1: the shadow ratios are bound with a bilinear
-// sampler (float textures are filterable), one lookup instead of four texel reads.
+// SUN_SHADOWS 1 with a sun shadow map bound, 0 without (the sun term then unshadowed). The
+// virtual planes' T come as one texture array, a layer per plane (render/plane_ratio_array.hpp):
+// a fragment reads the one plane that covers it, where a sampler per plane would have a SIMD
+// renderer such as llvmpipe, which runs every branch of a run-time choice, read them all.
+// FILTERED_LOOKUPS 1: the shadow ratios are bound with a bilinear sampler (float textures are
+// filterable), one lookup instead of four texel reads.
 // library: sun_shadow.glsl
 precision highp float;
 precision highp int;
@@ -46,74 +48,47 @@ uniform vec3 plane_s_axis[kMaxVirtualPlanes];   // s = dot(x − origin, s_axis)
 uniform vec3 plane_t_axis[kMaxVirtualPlanes];
 uniform vec3 plane_normal[kMaxVirtualPlanes];
 uniform vec3 plane_irradiance[kMaxVirtualPlanes];
+uniform vec2 plane_texels[kMaxVirtualPlanes];    // its T's width and height: the first of its layer's texels
 
 layout(binding = 2) uniform highp sampler2D albedo_texture;   // sRGB8_ALPHA8: decoded on fetch
-layout(binding = 4) uniform highp sampler2D plane_ratio_0;
-layout(binding = 5) uniform highp sampler2D plane_ratio_1;
-layout(binding = 6) uniform highp sampler2D plane_ratio_2;
-layout(binding = 7) uniform highp sampler2D plane_ratio_3;
-layout(binding = 8) uniform highp sampler2D plane_ratio_4;
-layout(binding = 9) uniform highp sampler2D plane_ratio_5;
-layout(binding = 10) uniform highp sampler2D plane_ratio_6;
-layout(binding = 11) uniform highp sampler2D plane_ratio_7;
+#if VIRTUAL_PLANES > 0
+layout(binding = 4) uniform highp sampler2DArray plane_ratios;   // layer j: plane j's T, RGBA32F
+#endif
 
 layout(location = 0) out vec4 result;
 layout(location = 1) out float result_depth;
 
-// Bilinear T at plane coordinates (s, t), texel centres at ((col + ½)/W, (row + ½)/H), clamped to
-// the edge texels: through the bound sampler, or with texelFetch so that no texture format needs
-// to be filterable. A NaN becomes 1 (no shadow) and everything else is clamped to [0, 1], as the
-// CPU blend guarantees.
-vec3 bilinear_ratio(highp sampler2D ratio, vec2 st) {
+// Bilinear T of plane j at its coordinates (s, t), texel centres at ((col + ½)/W, (row + ½)/H),
+// clamped to the plane's edge texels (its layer is larger where another plane is): through the
+// bound sampler, or with texelFetch so that no texture format needs to be filterable. A NaN
+// becomes 1 (no shadow) and everything else is clamped to [0, 1], as the CPU blend guarantees.
+vec3 plane_ratio(int j, vec2 st) {
+#if VIRTUAL_PLANES > 0
+  vec2 size = plane_texels[j];
 #if FILTERED_LOOKUPS
-  vec3 t = textureLod(ratio, st, 0.0).rgb;
+  // Between the first and the last texel centre: the edge texel's neighbour takes weight 0.
+  vec2 layer = vec2(textureSize(plane_ratios, 0).xy);
+  vec2 c = clamp(st * size, vec2(0.5), size - 0.5) / layer;
+  vec3 t = textureLod(plane_ratios, vec3(c, float(j)), 0.0).rgb;
 #else
-  ivec2 size = textureSize(ratio, 0);
-  vec2 c = st * vec2(size) - 0.5;
+  ivec2 last = ivec2(size) - 1;
+  vec2 c = st * size - 0.5;
   vec2 base = floor(c);
   vec2 f = c - base;
-  ivec2 i0 = clamp(ivec2(base), ivec2(0), size - 1);
-  ivec2 i1 = clamp(ivec2(base) + 1, ivec2(0), size - 1);
-  vec3 a = texelFetch(ratio, ivec2(i0.x, i0.y), 0).rgb;
-  vec3 b = texelFetch(ratio, ivec2(i1.x, i0.y), 0).rgb;
-  vec3 d = texelFetch(ratio, ivec2(i0.x, i1.y), 0).rgb;
-  vec3 e = texelFetch(ratio, ivec2(i1.x, i1.y), 0).rgb;
+  ivec2 i0 = clamp(ivec2(base), ivec2(0), last);
+  ivec2 i1 = clamp(ivec2(base) + 1, ivec2(0), last);
+  vec3 a = texelFetch(plane_ratios, ivec3(i0.x, i0.y, j), 0).rgb;
+  vec3 b = texelFetch(plane_ratios, ivec3(i1.x, i0.y, j), 0).rgb;
+  vec3 d = texelFetch(plane_ratios, ivec3(i0.x, i1.y, j), 0).rgb;
+  vec3 e = texelFetch(plane_ratios, ivec3(i1.x, i1.y, j), 0).rgb;
   vec3 t = mix(mix(a, b, f.x), mix(d, e, f.x), f.y);
 #endif
   bvec3 bad = isnan(t);
   return vec3(bad.x ? 1.0 : clamp(t.x, 0.0, 1.0), bad.y ? 1.0 : clamp(t.y, 0.0, 1.0),
               bad.z ? 1.0 : clamp(t.z, 0.0, 1.0));
-}
-
-// Samplers may be indexed by constant expressions only (GLSL ES 3.10); only the planes that
-// exist are read.
-vec3 plane_ratio(int j, vec2 st) {
-  vec3 t = vec3(1.0);
-#if VIRTUAL_PLANES > 0
-  if (j == 0) t = bilinear_ratio(plane_ratio_0, st);
+#else
+  return vec3(1.0);
 #endif
-#if VIRTUAL_PLANES > 1
-  if (j == 1) t = bilinear_ratio(plane_ratio_1, st);
-#endif
-#if VIRTUAL_PLANES > 2
-  if (j == 2) t = bilinear_ratio(plane_ratio_2, st);
-#endif
-#if VIRTUAL_PLANES > 3
-  if (j == 3) t = bilinear_ratio(plane_ratio_3, st);
-#endif
-#if VIRTUAL_PLANES > 4
-  if (j == 4) t = bilinear_ratio(plane_ratio_4, st);
-#endif
-#if VIRTUAL_PLANES > 5
-  if (j == 5) t = bilinear_ratio(plane_ratio_5, st);
-#endif
-#if VIRTUAL_PLANES > 6
-  if (j == 6) t = bilinear_ratio(plane_ratio_6, st);
-#endif
-#if VIRTUAL_PLANES > 7
-  if (j == 7) t = bilinear_ratio(plane_ratio_7, st);
-#endif
-  return t;
 }
 
 // Visible fraction of the sun's disc where `needed`, 1 elsewhere (shaders/sun_shadow.glsl,
@@ -146,7 +121,9 @@ void main() {
 #endif
   if (covering >= 0) {
     // The plane's T holds the sky and the sources; the ground's light comes from the vertices.
-    irradiance = plane_ratio(covering, covering_st) * plane_irradiance[covering] + ground_irradiance;
+    // (A SIMD renderer runs this for uncovered fragments too, masked: keep their index in range.)
+    int j = max(covering, 0);
+    irradiance = plane_ratio(j, covering_st) * plane_irradiance[j] + ground_irradiance;
   } else {
     irradiance = sky_irradiance + sun_energy * facing;
   }

@@ -669,6 +669,77 @@ TEST_F(CompositorTest, VirtualPlaneShadesExactlyWithItsRatioInsteadOfTheTransfer
   EXPECT_LT(transfer_vs_plane, 0.1);
 }
 
+TEST_F(CompositorTest, EachVirtualPlaneReadsItsOwnTexelsUpToItsEdges) {
+  // The virtual planes' T share one texture array whose layers take the largest plane's size
+  // (render/plane_ratio_array.hpp): the roof (16 × 16) lies in a 16 × 32 layer beside the wall's
+  // (16 × 32). With the roof's T 0.5, each roof pixel is half what it is with T 1, up to the roof's
+  // north edge, where a lookup that strayed past its last row would read the layer's padding (1);
+  // the wall's T given as one texel (0.25) covers the whole wall. The camera image is black, so
+  // that pixels on the building's silhouette keep the building's ratio.
+  const BakedSite& baked = BakedSite::get();
+  ASSERT_EQ(baked.manifest.planes[1].plane.name, "roof");
+  ASSERT_EQ(baked.manifest.planes[2].plane.name, "wall");
+  const blend::BasisImages& roof = baked.basis[1];
+  const gpu::Texture roof_half = render::upload_shadow_ratio(std::vector<float>(roof.texel_count() * 3, 0.5f), roof.width, roof.height);
+  const gpu::Texture wall_quarter = render::upload_shadow_ratio(std::vector<float>(3, 0.25f), 1, 1);
+  const cv::Mat black(240, 320, CV_32FC3, cv::Scalar::all(0.0));
+  render::Compositor compositor = make();
+  auto run = [&](const render::CameraPose& pose, std::array<GLuint, 3> names) {
+    render::CompositeInput input;
+    input.camera = black;
+    input.pose = pose;
+    input.sky = uniform_sky(1.0);
+    input.shadow_ratios = names;
+    return compositor.composite(input).clone();
+  };
+  const camera::Lens lens(hmd_camera());
+  // Ratios of the pixels whose ray meets `inside` first (a point on the plane through `origin`
+  // with normal `normal`), against the composite with every T 1.
+  auto ratios = [&](const render::CameraPose& pose, const cv::Mat& shaded, const cv::Mat& lit, const Vector3d& origin,
+                    const Vector3d& normal, auto inside, double expected, int* edge_pixels) {
+    double worst = 0;
+    int pixels = 0;
+    for (int y = 0; y < lit.rows; ++y) {
+      for (int x = 0; x < lit.cols; ++x) {
+        const auto ray = lens.unproject(Eigen::Vector2d(x, y));
+        if (!ray) continue;
+        const Vector3d d = pose.R_site_from_camera * ray->normalized();
+        const double t = (origin - pose.t_site_from_camera).dot(normal) / d.dot(normal);
+        if (!(t > 0)) continue;
+        const Vector3d p = pose.t_site_from_camera + t * d;
+        if (!inside(p)) continue;
+        ++pixels;
+        if (edge_pixels != nullptr && p.y() > 0.95) ++*edge_pixels;
+        for (int c = 0; c < 3; ++c) {
+          worst = std::max(worst, std::abs(shaded.at<cv::Vec3f>(y, x)[c] / lit.at<cv::Vec3f>(y, x)[c] - expected));
+        }
+      }
+    }
+    EXPECT_GT(pixels, 500);
+    return worst;
+  };
+
+  // The roof from above and south of the tower.
+  const render::CameraPose above = hmd_pose(-0.3, -3.0, 9.0, 55.0);
+  const cv::Mat roof_lit = run(above, {0, 0, 0});
+  const cv::Mat roof_shaded = run(above, {0, roof_half.get(), 0});
+  int edge_pixels = 0;
+  const double roof_worst = ratios(above, roof_shaded, roof_lit, Vector3d(0, 0, 4), Vector3d::UnitZ(),
+                                   [](const Vector3d& p) { return p.x() > -0.97 && p.x() < 0.9 && p.y() > -0.9 && p.y() < 0.995; },
+                                   0.5, &edge_pixels);
+  // The south face from the default pose.
+  const cv::Mat wall_lit = run(hmd_pose(), {0, 0, 0});
+  const cv::Mat wall_shaded = run(hmd_pose(), {0, 0, wall_quarter.get()});
+  const double wall_worst = ratios(hmd_pose(), wall_shaded, wall_lit, Vector3d(0, -1, 0), Vector3d::UnitY(),
+                                   [](const Vector3d& p) { return std::abs(p.x()) < 0.8 && p.z() > 0.2 && p.z() < 3.8; }, 0.25,
+                                   nullptr);
+  std::printf("measured: roof |ratio − 0.5| ≤ %.2g (%d pixels within 5 cm of its north edge); wall |ratio − 0.25| ≤ %.2g\n",
+              roof_worst, edge_pixels, wall_worst);
+  EXPECT_GT(edge_pixels, 20);
+  EXPECT_LT(roof_worst, 1e-5);
+  EXPECT_LT(wall_worst, 1e-5);
+}
+
 TEST_F(CompositorTest, NoNanFromNanOrBlackInputs) {
   const BakedSite& baked = BakedSite::get();
   const render::CameraPose pose = hmd_pose();

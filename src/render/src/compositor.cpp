@@ -21,6 +21,7 @@
 #include "skylit/blend/vertex_irradiance.hpp"
 #include "skylit/gpu/shader.hpp"
 #include "skylit/camera/lens.hpp"
+#include "plane_ratio_array.hpp"
 
 namespace skylit::render {
 namespace {
@@ -31,7 +32,7 @@ using gpu::check_gl_error;
 // Texture units (match the bindings in the shaders).
 constexpr GLuint kAlbedoUnit = 2;
 constexpr GLuint kSunShadowUnit = 3;
-constexpr GLuint kVirtualRatioUnit = 4;   // 4 .. 11
+constexpr GLuint kVirtualRatioUnit = 4;   // the array of every virtual plane's T
 constexpr GLuint kSunMinmaxUnit = 12;
 constexpr GLuint kCameraUnit = 0;
 constexpr GLuint kRaysUnit = 1;
@@ -222,19 +223,6 @@ Eigen::Vector3d plane_irradiance(const bake_format::PlaneRecord& plane, std::spa
   return sum;
 }
 
-gpu::Texture upload_shadow_ratio(std::span<const float> rgb, int width, int height) {
-  const std::size_t texels = static_cast<std::size_t>(std::max(width, 0)) * static_cast<std::size_t>(std::max(height, 0));
-  if (texels == 0 || rgb.size() != 3 * texels) {
-    throw std::invalid_argument("upload_shadow_ratio: " + std::to_string(rgb.size()) + " floats for " +
-                                std::to_string(width) + "×" + std::to_string(height) + " texels (3 per texel expected)");
-  }
-  std::vector<float> rgba(4 * texels, 1.0f);
-  for (std::size_t k = 0; k < texels; ++k) std::copy_n(rgb.begin() + static_cast<std::ptrdiff_t>(3 * k), 3, rgba.begin() + static_cast<std::ptrdiff_t>(4 * k));
-  gpu::Texture texture = texture_2d(GL_RGBA32F, width, height, GL_RGBA, GL_FLOAT, rgba.data());
-  check_gl_error("upload_shadow_ratio");
-  return texture;
-}
-
 struct Compositor::State {
   State(const camera::CameraCalibration& hmd, CompositorOptions opts)
       : options(std::move(opts)), lens(hmd), remap(make_lens_remap(lens, options.lens)) {}
@@ -245,6 +233,7 @@ struct Compositor::State {
   std::vector<scene::PlaneSurface> surfaces;     // per bake plane
   std::vector<bake_format::PlaneRecord> planes;         // the manifest's
   std::vector<int> virtual_planes;               // bake plane indices, in shader order
+  std::optional<PlaneRatioArray> virtual_ratios; // their T, a layer each, gathered every frame
   std::vector<int> real_planes;
   int layer_count = 0;
   int vertices = 0;
@@ -679,6 +668,10 @@ void Compositor::State::draw_building(const CompositeInput& input, const std::ve
   // The shadow map's program only where the sun shines and has a map.
   const GLuint program = building_program(shadow_map && sun_energy.maxCoeff() > 0.0);
 
+  std::vector<GLuint> virtual_textures;
+  for (int plane : virtual_planes) virtual_textures.push_back(ratio_texture(input, plane));
+  virtual_ratios->gather(virtual_textures);
+
   glBindFramebuffer(GL_FRAMEBUFFER, building_target.get());
   glViewport(0, 0, pinhole.width, pinhole.height);
   const std::array<float, 4> nothing{0.0f, 0.0f, 0.0f, 0.0f};
@@ -723,8 +716,11 @@ void Compositor::State::draw_building(const CompositeInput& input, const std::ve
               static_cast<float>(std::cos(options.cover_max_angle_deg * std::numbers::pi / 180.0)));
 
   std::vector<Eigen::Vector3f> origin, s_axis, t_axis, normal, irradiance;
+  std::vector<float> texels;
   for (int plane : virtual_planes) {
     const bake_format::PlaneRecord& record = planes[static_cast<std::size_t>(plane)];
+    texels.push_back(static_cast<float>(record.plane.width));
+    texels.push_back(static_cast<float>(record.plane.height));
     const PlaneGeometry g = plane_geometry(record.plane);
     origin.push_back(g.origin);
     s_axis.push_back(g.s_axis);
@@ -737,13 +733,11 @@ void Compositor::State::draw_building(const CompositeInput& input, const std::ve
   set_vec3_array(program, "plane_t_axis", t_axis);
   set_vec3_array(program, "plane_normal", normal);
   set_vec3_array(program, "plane_irradiance", irradiance);
+  if (!texels.empty()) glUniform2fv(uniform(program, "plane_texels[0]"), static_cast<GLsizei>(texels.size() / 2), texels.data());
 
-  for (int j = 0; j < static_cast<int>(virtual_planes.size()); ++j) {
-    const GLuint unit = kVirtualRatioUnit + static_cast<GLuint>(j);
-    glActiveTexture(GL_TEXTURE0 + unit);
-    glBindTexture(GL_TEXTURE_2D, ratio_texture(input, virtual_planes[static_cast<std::size_t>(j)]));
-    glBindSampler(unit, filtered_lookups ? bilinear.get() : 0);
-  }
+  glActiveTexture(GL_TEXTURE0 + kVirtualRatioUnit);
+  glBindTexture(GL_TEXTURE_2D_ARRAY, virtual_ratios->texture());
+  glBindSampler(kVirtualRatioUnit, filtered_lookups ? bilinear.get() : 0);
 
   const GLint base_colour = uniform(program, "base_colour");
   for (const MaterialDraw& draw : draws) {
@@ -757,7 +751,7 @@ void Compositor::State::draw_building(const CompositeInput& input, const std::ve
   glBindVertexArray(0);
   glDepthMask(GL_TRUE);
   glDisable(GL_DEPTH_TEST);
-  for (int j = 0; j < static_cast<int>(virtual_planes.size()); ++j) glBindSampler(kVirtualRatioUnit + static_cast<GLuint>(j), 0);
+  glBindSampler(kVirtualRatioUnit, 0);
   check_gl_error("Compositor: drawing the building");
 }
 
@@ -873,6 +867,12 @@ Compositor::Compositor(const scene::Site& site, const scene::Mesh& mesh, const b
                                              define("FILTERED_LOOKUPS", s.filtered_lookups ? 1 : 0));
   s.upload_building(mesh, transfer);
   s.make_targets();
+  std::vector<PlaneRatioArray::Size> virtual_sizes;
+  for (int plane : s.virtual_planes) {
+    const geom::Plane& p = s.planes[static_cast<std::size_t>(plane)].plane;
+    virtual_sizes.push_back({p.width, p.height});
+  }
+  s.virtual_ratios.emplace(virtual_sizes);
 }
 
 Compositor::~Compositor() = default;

@@ -1,6 +1,12 @@
 #include "skylit/render/textures.hpp"
 
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
 #include <opencv2/imgproc.hpp>
+
+#include "skylit/render/compositor.hpp"
 
 namespace skylit::render {
 
@@ -39,6 +45,28 @@ void ShadowRatioTexture::upload(const std::vector<float>& rgba) {
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, width_, height_, GL_RGBA, GL_FLOAT, rgba.data());
   gpu::check_gl_error("uploading a shadow ratio blended on the CPU");
+}
+
+gpu::Texture upload_shadow_ratio(std::span<const float> rgb, int width, int height) {
+  const std::size_t texels = static_cast<std::size_t>(std::max(width, 0)) * static_cast<std::size_t>(std::max(height, 0));
+  if (texels == 0 || rgb.size() != 3 * texels) {
+    throw std::invalid_argument("upload_shadow_ratio: " + std::to_string(rgb.size()) + " floats for " +
+                                std::to_string(width) + "×" + std::to_string(height) + " texels (3 per texel expected)");
+  }
+  std::vector<float> rgba(4 * texels, 1.0f);
+  for (std::size_t k = 0; k < texels; ++k) std::copy_n(rgb.begin() + static_cast<std::ptrdiff_t>(3 * k), 3, rgba.begin() + static_cast<std::ptrdiff_t>(4 * k));
+  gpu::Texture texture = gpu::make_texture();
+  glBindTexture(GL_TEXTURE_2D, texture.get());
+  glTexStorage2D(GL_TEXTURE_2D, 1, GL_RGBA32F, width, height);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, width, height, GL_RGBA, GL_FLOAT, rgba.data());
+  // Read with texelFetch or through a sampler object; complete either way.
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  gpu::check_gl_error("upload_shadow_ratio");
+  return texture;
 }
 
 }  // namespace skylit::render
