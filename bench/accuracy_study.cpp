@@ -358,7 +358,7 @@ int main(int argc, char** argv) {
   struct GpuRow {
     std::string sky, config;
     std::size_t sources = 0;
-    Errors cpu, disc, gpu, building;
+    Errors cpu, disc, gpu, building, inside_by_area;  // the last: as the compositor shows it, the sun per point
     double gpu_vs_cpu = 0;  // max |T_gpu − T_cpu|
     double shadow_ms = 0, blend_ms = 0;
   };
@@ -768,7 +768,7 @@ int main(int argc, char** argv) {
           lights.push_back(*sun);
           radii.push_back(std::max(estimate.sun->angular_radius, 0.0047));
         }
-        const GpuPathResult g = gpu_path(bake_dir, manifest, mesh, transfer, S, lights, radii, gpu_maps, {}, ground);
+        const GpuPathResult g = gpu_path(bake_dir, manifest, mesh, transfer, S, lights, radii, gpu_maps, {}, ground, &inside_points);
         std::vector<double> gpu_diffs;
         double vs_cpu = 0;
         for (std::size_t j = 0; j < g.ratios.size(); ++j) {
@@ -849,10 +849,20 @@ int main(int argc, char** argv) {
         }
         const Errors disc_model = errors_of(std::move(disc_diffs));
         const Errors gb = building_errors(g.building, building_ref, horizontal);
-        gpu_rows.push_back({sky_file.stem().string(), c.name, lights.size(), e, disc_model, ge, gb, vs_cpu, g.shadow_ms, g.blend_ms});
+        // Inside the triangles as the compositor shows it: the sun per point from its map, the
+        // virtual planes' T from the GPU blend.
+        std::vector<skylit::geom::Plane> gpu_planes;
+        for (const auto& record : manifest.planes) gpu_planes.push_back(record.plane);
+        const InsideTerms gpu_split = gpu_terms_inside(inside_points, transfer, S, lights, first_is_sun || sources.empty(), mesh, g, ground);
+        const std::vector<Eigen::Vector3d> gpu_all = shown_inside(inside_points, gpu_split, virtual_shading(site, gpu_planes, g.ratios, plane_D));
+        std::vector<Eigen::Vector3d> gpu_shown, gpu_ref;
+        for (const std::size_t k : inside_seen) gpu_shown.push_back(gpu_all[k]), gpu_ref.push_back(inside_ref[k]);
+        const Errors gi = building_errors(gpu_shown, gpu_ref, horizontal, inside_areas);
+        gpu_rows.push_back({sky_file.stem().string(), c.name, lights.size(), e, disc_model, ge, gb, gi, vs_cpu, g.shadow_ms, g.blend_ms});
         gpu_json = {{"sources", lights.size()}, {"rms", ge.rms}, {"p99", ge.p99}, {"max", ge.max}, {"vs_cpu_max", vs_cpu},
                     {"disc_model", {{"rms", disc_model.rms}, {"p99", disc_model.p99}, {"max", disc_model.max}}},
                     {"building", {{"rms", gb.rms}, {"p99", gb.p99}, {"max", gb.max}}},
+                    {"building_inside_triangles_by_area", {{"rms", gi.rms}, {"p99", gi.p99}}},
                     {"shadow_ms", g.shadow_ms}, {"blend_ms", g.blend_ms}};
       }
       const Errors building_planes = errors_of(std::move(building_plane_diffs));
@@ -952,15 +962,18 @@ int main(int argc, char** argv) {
   }
   if (!gpu_rows.empty()) {
     std::printf("\nThe live GPU path (every source's shadow map, the GPU blend, half-float T) against the CPU path's "
-                "ray-cast visibility; the building through the maps' vertex visibility (llvmpipe times)\n\n"
+                "ray-cast visibility; the building at its vertices through the maps' vertex visibility, and inside the triangles "
+                "as the compositor shows it (the sun per point from its map; llvmpipe times)\n\n"
                 "| sky | configuration | sources | CPU path: RMS / p99 / max | CPU, uniform discs ray-cast: RMS / p99 / max | "
-                "GPU path: RMS / p99 / max | max |T_gpu − T_cpu| | building (GPU): RMS / p99 / max | maps, ms | blend, ms |\n"
-                "|---|---|---|---|---|---|---|---|---|---|\n");
+                "GPU path: RMS / p99 / max | max |T_gpu − T_cpu| | building (GPU), vertices: RMS / p99 / max | "
+                "inside the triangles, by area: RMS / p99 | maps, ms | blend, ms |\n"
+                "|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (const GpuRow& r : gpu_rows) {
-      std::printf("| %s | %s | %zu | %.4f / %.4f / %.4f | %.4f / %.4f / %.4f | %.4f / %.4f / %.4f | %.4f | %.4f / %.4f / %.4f | %.1f | %.1f |\n",
+      std::printf("| %s | %s | %zu | %.4f / %.4f / %.4f | %.4f / %.4f / %.4f | %.4f / %.4f / %.4f | %.4f | %.4f / %.4f / %.4f | "
+                  "%.4f / %.4f | %.1f | %.1f |\n",
                   r.sky.c_str(), r.config.c_str(), r.sources, r.cpu.rms, r.cpu.p99, r.cpu.max, r.disc.rms, r.disc.p99, r.disc.max,
-                  r.gpu.rms, r.gpu.p99, r.gpu.max, r.gpu_vs_cpu, r.building.rms, r.building.p99, r.building.max, r.shadow_ms,
-                  r.blend_ms);
+                  r.gpu.rms, r.gpu.p99, r.gpu.max, r.gpu_vs_cpu, r.building.rms, r.building.p99, r.building.max,
+                  r.inside_by_area.rms, r.inside_by_area.p99, r.shadow_ms, r.blend_ms);
     }
   }
   if (!pca_rows.empty()) {
