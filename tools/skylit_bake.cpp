@@ -153,7 +153,9 @@ void add_subcommands(CLI::App& app, CommandLine& c) {
   c.walls = app.add_subcommand("walls", "write the site with virtual planes on the flat faces whose vertices cannot carry "
                                          "their light (docs/baker.md)");
   c.walls->add_option("site", c.walls_site, "site YAML")->required()->check(CLI::ExistingFile);
-  c.walls->add_option("-o,--output", c.walls_out, "the site with the planes added (YAML)")->required();
+  c.walls->add_option("-o,--output", c.walls_out,
+                      "the site with the planes added (YAML); a picture of the vertices' error by flat region beside it (.png)")
+      ->required();
   c.walls->add_option("--count", c.walls_options.count, "planes at most (the site's virtual planes and these: at most 8)")
       ->capture_default_str();
   c.walls->add_option("--texel", c.walls_options.texel, "metres per texel")->capture_default_str();

@@ -32,8 +32,28 @@ TEST(WallPlanes, AFaceShadowedAcrossItsMiddleGetsAPlaneOverIt) {
   const scene::Mesh mesh = scene::load_site_model(site);
   WallPlaneOptions options;
   options.texel = 0.1;
-  const std::vector<WallPlane> found = find_wall_planes(mesh, site.planes, {}, options);
+  WallErrorMap map;
+  const std::vector<WallPlane> found = find_wall_planes(mesh, site.planes, {}, options, nullptr, &map);
   ASSERT_FALSE(found.empty());
+  // The map: per triangle its region's error and the plane over it, as the planes report them.
+  ASSERT_EQ(map.error.size(), map.mesh.triangle_count());
+  ASSERT_EQ(map.plane.size(), map.mesh.triangle_count());
+  for (std::size_t k = 0; k < found.size(); ++k) {
+    std::size_t triangles = 0;
+    for (std::size_t t = 0; t < map.plane.size(); ++t) {
+      if (map.plane[t] != static_cast<int>(k)) continue;
+      ++triangles;
+      EXPECT_NEAR(map.error[t], found[k].error, 1e-12) << "triangle " << t;
+    }
+    EXPECT_EQ(triangles, found[k].triangles) << "plane " << k;
+  }
+  const std::filesystem::path picture = dir.path() / "walls.png";
+  write_wall_picture(picture, map, options.min_error);
+  std::ifstream png(picture, std::ios::binary);
+  char signature[8] = {};
+  png.read(signature, 8);
+  EXPECT_EQ(std::string(signature + 1, 3), "PNG") << "a PNG picture of the map";
+  EXPECT_THROW(write_wall_picture(picture, WallErrorMap{map.mesh, {}, {}}, 0.02), std::invalid_argument);
   // The slab: its two triangles' corners in the open, the cube's shadow across its middle.
   const WallPlane& slab = found.front();
   std::printf("measured: the slab's vertices' error %.4f of E_h (%zu plane(s))\n", slab.error, found.size());

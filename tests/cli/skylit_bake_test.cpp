@@ -413,6 +413,9 @@ TEST(SkylitBake, WallsWritesTheSiteWithPlanesWhereTheVerticesMissTheLight) {
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("wall-auto-1:"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("the vertices' error"), std::string::npos) << r.output;
+  // The picture of where the vertices miss the light, beside the site.
+  EXPECT_NE(r.output.find("walls.png"), std::string::npos) << r.output;
+  EXPECT_GT(fs::file_size(dir / "walls.png"), 1000u);
   const skylit::scene::Site walls = skylit::scene::load_site(dir / "walls.yaml");
   const skylit::scene::Site original = skylit::scene::load_site(site);
   ASSERT_EQ(walls.planes.size(), original.planes.size() + 2);

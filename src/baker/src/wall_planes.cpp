@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <map>
 #include <numbers>
@@ -12,6 +13,7 @@
 #include <string>
 
 #include "skylit/base/error.hpp"
+#include "skylit/baker/preview.hpp"
 #include "skylit/baker/refine.hpp"
 #include "skylit/baker/vertex_fit.hpp"
 #include "skylit/baker/visibility.hpp"
@@ -98,7 +100,7 @@ void validate(const WallPlaneOptions& o) {
 
 std::vector<WallPlane> find_wall_planes(const scene::Mesh& model, std::span<const geom::Plane> planes,
                                         std::span<const geom::Plane> virtual_planes, const WallPlaneOptions& options,
-                                        std::FILE* log) {
+                                        std::FILE* log, WallErrorMap* map) {
   using namespace wall_planes_detail;
   validate(options);
   scene::Mesh mesh = model;
@@ -156,6 +158,11 @@ std::vector<WallPlane> find_wall_planes(const scene::Mesh& model, std::span<cons
       }
     }
     if (covered < 0.5 * r.area) candidates.push_back(&r);
+  }
+  if (map != nullptr) {
+    map->mesh = mesh;
+    map->error.assign(triangles, std::numeric_limits<double>::quiet_NaN());
+    map->plane.assign(triangles, -1);
   }
   if (candidates.empty()) return {};
 
@@ -224,6 +231,11 @@ std::vector<WallPlane> find_wall_planes(const scene::Mesh& model, std::span<cons
     }
     points[i].region->squared_error += face_area[points[i].triangle] / 4.0 * squared;
   }
+  if (map != nullptr) {
+    for (const Region* r : candidates) {
+      for (const std::size_t t : r->triangles) map->error[t] = std::sqrt(r->squared_error / r->area);
+    }
+  }
   std::vector<Region*> chosen;
   for (Region* r : candidates) {
     if (std::sqrt(r->squared_error / r->area) >= options.min_error) chosen.push_back(r);
@@ -260,9 +272,46 @@ std::vector<WallPlane> find_wall_planes(const scene::Mesh& model, std::span<cons
     w.area = r->area;
     w.triangles = r->triangles.size();
     w.error = std::sqrt(r->squared_error / r->area);
+    if (map != nullptr) {
+      for (const std::size_t t : r->triangles) map->plane[t] = static_cast<int>(out.size());
+    }
     out.push_back(std::move(w));
   }
   return out;
+}
+
+void write_wall_picture(const std::filesystem::path& file, const WallErrorMap& map, double min_error) {
+  const scene::Mesh& mesh = map.mesh;
+  const std::size_t triangles = mesh.triangle_count();
+  if (map.error.size() != triangles || map.plane.size() != triangles || !(min_error > 0.0)) {
+    throw std::invalid_argument("write_wall_picture: one error and one plane per triangle, and a positive min_error");
+  }
+  // Each triangle its own corners, so that each takes its region's colour whole.
+  scene::Mesh flat;
+  std::vector<Eigen::Vector3d> colour;
+  const auto ramp = [](double x) -> Eigen::Vector3d {  // 0 → dark blue, 0.5 → yellow, 1 → red (linear RGB)
+    x = std::clamp(x, 0.0, 1.0);
+    if (x < 0.5) return Eigen::Vector3d(0.05, 0.05, 0.4) + (x / 0.5) * Eigen::Vector3d(0.85, 0.75, -0.38);
+    return Eigen::Vector3d(0.9, 0.8, 0.02) + ((x - 0.5) / 0.5) * Eigen::Vector3d(0.05, -0.75, 0.0);
+  };
+  for (std::size_t t = 0; t < triangles; ++t) {
+    Eigen::Vector3d c = Eigen::Vector3d::Constant(0.18);  // not measured
+    if (!std::isnan(map.error[t])) {
+      c = ramp(map.error[t] / (2.0 * min_error));
+      if (map.plane[t] < 0) c = 0.35 * c + 0.65 * Eigen::Vector3d::Constant(0.18);  // no plane over it: faded
+    }
+    for (std::size_t k = 0; k < 3; ++k) {
+      const std::uint32_t v = mesh.indices[3 * t + k];
+      flat.positions.push_back(mesh.positions[v]);
+      flat.normals.push_back(mesh.normals[v]);
+      flat.indices.push_back(static_cast<std::uint32_t>(3 * t + k));
+      colour.push_back(c);
+    }
+  }
+  char caption[200];
+  std::snprintf(caption, sizeof caption, "vertex error by flat region: blue 0, yellow %.3f, red %.3f of E_h; bright: a plane, "
+                                         "grey: not measured", min_error, 2.0 * min_error);
+  write_vertex_picture(file, flat, colour, 1.0, caption);
 }
 
 std::vector<WallPlane> add_wall_planes(const std::filesystem::path& site_file, const std::filesystem::path& out_file,
@@ -284,7 +333,8 @@ std::vector<WallPlane> add_wall_planes(const std::filesystem::path& site_file, c
                      " virtual planes, the compositor's most. Fix: remove one to make room");
   }
   options.count = std::min(options.count, room);
-  std::vector<WallPlane> found = find_wall_planes(mesh, site.planes, virtual_planes, options, log);
+  WallErrorMap map;
+  std::vector<WallPlane> found = find_wall_planes(mesh, site.planes, virtual_planes, options, log, &map);
   site.plane_surfaces.resize(site.planes.size(), scene::PlaneSurface::Virtual);
   int next = 1;
   for (WallPlane& w : found) {
@@ -314,6 +364,9 @@ std::vector<WallPlane> add_wall_planes(const std::filesystem::path& site_file, c
   site.root = fs::absolute(site.root.empty() ? site_file.parent_path() : site.root).lexically_normal().lexically_relative(folder);
   site.file.clear();
   write_file_atomic(out_file, scene::site_to_yaml(site));
+  const fs::path picture = fs::path(out_file).replace_extension(".png");
+  write_wall_picture(picture, map, options.min_error);
+  if (log != nullptr) std::fprintf(log, "walls: wrote %s and %s\n", out_file.string().c_str(), picture.string().c_str());
   return found;
 }
 

@@ -38,20 +38,37 @@ struct WallPlane {
   double error = 0.0;         // the vertices' error inside those faces (WallPlaneOptions::min_error's measure)
 };
 
+// What find_wall_planes measured, for a picture: the model as it measured it (refined), and per
+// triangle its flat region's error (WallPlaneOptions::min_error's measure; NaN where a region was
+// not measured: smaller than min_area, or covered by a virtual plane) and the plane proposed over
+// it (its index in find_wall_planes' result; −1: none).
+struct WallErrorMap {
+  scene::Mesh mesh;
+  std::vector<double> error;
+  std::vector<int> plane;
+};
+
 // The model's flat regions (of the refined model with options.refine; triangles joined across shared edges, normals within 1°, in one plane
 // within 1 cm) of at least min_area, not already covered by one of `virtual_planes` (the
 // compositor's rule: within 5 cm, normals within 15°), whose vertices' error at four points per
 // triangle is at least min_error (its measure); the `count` with the largest squared error × area, each with a
 // plane over its rectangle. `planes`: every plane of the site (rays pass through them as the
 // bake's do). InputError for options out of range.
-// A line on `log` (null: none) before the tracing, which takes the time on a large model.
+// A line on `log` (null: none) before the tracing, which takes the time on a large model; what
+// was measured in `map` (null: not kept).
 std::vector<WallPlane> find_wall_planes(const scene::Mesh& mesh, std::span<const geom::Plane> planes,
                                         std::span<const geom::Plane> virtual_planes, const WallPlaneOptions& options,
-                                        std::FILE* log = nullptr);
+                                        std::FILE* log = nullptr, WallErrorMap* map = nullptr);
+
+// A picture of the map (baker::write_vertex_picture's view): each flat region coloured by its
+// vertices' error, dark blue at 0 through yellow to red at 2 × min_error and beyond, faded where
+// no plane was proposed over it; grey where not measured. PNG, written atomically.
+void write_wall_picture(const std::filesystem::path& file, const WallErrorMap& map, double min_error);
 
 // skylit-bake walls: the site at site_file with find_wall_planes' planes added as virtual planes
 // (as many as the compositor's 8 leave room for), written to out_file (the model's path made
-// relative to it); a table of what was found on `log` (null: none). InputError when out_file is
+// relative to it), and write_wall_picture's picture beside it (out_file with .png); a table of
+// what was found on `log` (null: none). InputError when out_file is
 // the site itself or the site has no room for another virtual plane.
 std::vector<WallPlane> add_wall_planes(const std::filesystem::path& site_file, const std::filesystem::path& out_file,
                                        WallPlaneOptions options, std::FILE* log);
