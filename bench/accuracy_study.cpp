@@ -636,7 +636,9 @@ int main(int argc, char** argv) {
       }
 
       std::vector<double> diffs, building_plane_diffs;
-      std::vector<std::vector<float>> plane_T;  // T of each plane, and D_j
+      std::vector<skylit::geom::Plane> bake_planes;  // the bake's planes, its T and D_j
+      for (const auto& record : manifest.planes) bake_planes.push_back(record.plane);
+      std::vector<std::vector<float>> plane_T;
       std::vector<Eigen::Vector3d> plane_D;
       std::vector<std::vector<float>> cpu_ratios;  // T of each plane, for the GPU path's comparison
       std::vector<std::vector<std::vector<float>>> ray_visibility;  // [plane][source]: the CPU path's V
@@ -851,10 +853,8 @@ int main(int argc, char** argv) {
         const Errors gb = building_errors(g.building, building_ref, horizontal);
         // Inside the triangles as the compositor shows it: the sun per point from its map, the
         // virtual planes' T from the GPU blend.
-        std::vector<skylit::geom::Plane> gpu_planes;
-        for (const auto& record : manifest.planes) gpu_planes.push_back(record.plane);
         const InsideTerms gpu_split = gpu_terms_inside(inside_points, transfer, S, lights, first_is_sun || sources.empty(), mesh, g, ground);
-        const std::vector<Eigen::Vector3d> gpu_all = shown_inside(inside_points, gpu_split, virtual_shading(site, gpu_planes, g.ratios, plane_D));
+        const std::vector<Eigen::Vector3d> gpu_all = shown_inside(inside_points, gpu_split, virtual_shading(site, bake_planes, g.ratios, plane_D));
         std::vector<Eigen::Vector3d> gpu_shown, gpu_ref;
         for (const std::size_t k : inside_seen) gpu_shown.push_back(gpu_all[k]), gpu_ref.push_back(inside_ref[k]);
         const Errors gi = building_errors(gpu_shown, gpu_ref, horizontal, inside_areas);
@@ -868,8 +868,6 @@ int main(int argc, char** argv) {
       const Errors building_planes = errors_of(std::move(building_plane_diffs));
       building_rows.back().planes = building_planes;
       {
-        std::vector<skylit::geom::Plane> bake_planes;
-        for (const auto& record : manifest.planes) bake_planes.push_back(record.plane);
         const std::vector<Eigen::Vector3d> inside_all = shown_inside(inside_points, split, virtual_shading(site, bake_planes, plane_T, plane_D));
         std::vector<Eigen::Vector3d> shown, seen_ref;
         for (const std::size_t k : inside_seen) {

@@ -8,15 +8,16 @@
 namespace skylit::render {
 
 PlaneRatioArray::PlaneRatioArray(std::span<const Size> planes) : planes_(planes.begin(), planes.end()) {
+  Size layer;
   for (const Size& s : planes_) {
     if (s.width <= 0 || s.height <= 0) throw std::invalid_argument("PlaneRatioArray: a plane without texels");
-    layer_.width = std::max(layer_.width, s.width);
-    layer_.height = std::max(layer_.height, s.height);
+    layer.width = std::max(layer.width, s.width);
+    layer.height = std::max(layer.height, s.height);
   }
   if (planes_.empty()) return;
   texture_ = gpu::make_texture();
   glBindTexture(GL_TEXTURE_2D_ARRAY, texture_.get());
-  glTexStorage3D(GL_TEXTURE_2D_ARRAY, 1, GL_RGBA32F, layer_.width, layer_.height, static_cast<GLsizei>(planes_.size()));
+  glTexStorage3D(GL_TEXTURE_2D_ARRAY, 1, GL_RGBA32F, layer.width, layer.height, static_cast<GLsizei>(planes_.size()));
   // Read with texelFetch or through the compositor's bilinear sampler object; complete either way.
   glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
   glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_NEAREST);

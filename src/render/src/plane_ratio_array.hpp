@@ -28,11 +28,9 @@ class PlaneRatioArray {
   void gather(std::span<const GLuint> textures);
 
   GLuint texture() const { return texture_.get(); }
-  Size layer_size() const { return layer_; }
 
  private:
   std::vector<Size> planes_;
-  Size layer_;
   gpu::Texture texture_;
   gpu::Framebuffer read_, draw_;
 };

@@ -6,8 +6,6 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "skylit/render/compositor.hpp"
-
 namespace skylit::render {
 
 GLuint ImageTexture::upload(const cv::Mat& codes) {

@@ -21,6 +21,7 @@
 #include "skylit/render/lens_remap.hpp"
 #include "skylit/render/photometric.hpp"
 #include "skylit/render/sun_shadow_map.hpp"
+#include "skylit/render/textures.hpp"  // upload_shadow_ratio, for the compositor's callers
 #include "skylit/scene/mesh.hpp"
 #include "skylit/scene/site.hpp"
 #include "skylit/camera/lens.hpp"
@@ -117,10 +118,6 @@ struct CompositeTimings {
 // negative S_i and energies count as 0.
 Eigen::Vector3d plane_irradiance(const bake_format::PlaneRecord& plane, std::span<const Eigen::Vector3d> sky,
                                  const std::optional<blend::SunLight>& sun, std::span<const blend::SunLight> lamps = {});
-
-// A shadow-ratio texture from CPU data (blend::blend_cpu's output: width × height × 3 floats, RGB, row-major
-// texels): RGBA32F, T in rgb. For the CPU blend path and for tests.
-gpu::Texture upload_shadow_ratio(std::span<const float> rgb, int width, int height);
 
 // Per output pixel p, with the ray the lens model gives p:
 //   background  B = camera(p), linear (8-bit frames are sRGB-decoded; float frames are linear),

@@ -2,6 +2,7 @@
 // Textures filled from the CPU frame after frame, each allocated once and rewritten in place:
 // an 8-bit image for the display, and a plane's shadow ratio T blended on the CPU. They must be
 // used and destroyed while their GL context is current.
+#include <span>
 #include <vector>
 
 #include <GLES3/gl31.h>
@@ -22,6 +23,10 @@ class ImageTexture {
   gpu::Texture texture_;
   cv::Size size_;
 };
+
+// A shadow-ratio texture from CPU data (blend::blend_cpu's output: width × height × 3 floats, RGB, row-major
+// texels): RGBA32F, T in rgb. For the CPU blend path and for tests.
+gpu::Texture upload_shadow_ratio(std::span<const float> rgb, int width, int height);
 
 // The CPU blend's T of one plane on the GPU, for the compositor: RGBA32F, rewritten in place.
 class ShadowRatioTexture {
