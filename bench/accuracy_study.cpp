@@ -235,6 +235,12 @@ int main(int argc, char** argv) {
   app.add_option("--refine-rounds", refine.rounds, "--refine: rounds of splits at most")->capture_default_str();
   app.add_option("--refine-min-edge", refine.min_edge, "--refine: metres, no edge shorter than twice this is split")
       ->capture_default_str();
+  double light_map = 0.0;
+  app.add_option("--light-map", light_map,
+                 "every bake has a light map of this texel (m) over the model's flat regions (skylit-bake --light-map); "
+                 "the building inside the triangles is then shown from it where it covers them");
+  double light_map_min_area = 1.0;
+  app.add_option("--light-map-min-area", light_map_min_area, "m², with --light-map (skylit-bake --light-map-min-area)");
   int vertex_fit = 0;
   app.add_option("--vertex-fit", vertex_fit,
                  "every bake fits its vertices to the light at N² points inside each triangle (skylit-bake --vertex-fit)")
@@ -298,6 +304,7 @@ int main(int argc, char** argv) {
     options.previews = false;
     options.refine = refine;
     options.vertex_fit = vertex_fit;
+    if (light_map > 0.0) options.light_map = skylit::baker::LightMapOptions{light_map, light_map_min_area};
     const auto t = Clock::now();
     skylit::baker::run_bake(options, stderr);
     bake_seconds[key] = seconds_since(t);
@@ -561,8 +568,25 @@ int main(int argc, char** argv) {
       // vertices: the sun's term at the points themselves, the other terms interpolated.
       // Where a virtual plane covers a point, its T_j D_j replaces the vertices' sky and sources, as
       // in the compositor: filled in after the planes' blend below.
-      const InsideTerms split = building_terms_inside(inside_points, transfer, S, building_sources, estimate.sun.has_value(),
-                                                      site, mesh, ground);
+      InsideTerms split = building_terms_inside(inside_points, transfer, S, building_sources, estimate.sun.has_value(),
+                                                site, mesh, ground);
+      // With a light map, the sky and the ground from its texels where it covers a triangle.
+      std::vector<float> light_map_transfer, light_map_ground;
+      std::optional<skylit::bake_format::LightMapLayout> light_map_layout;
+      skylit::blend::GroundLight texel_ground;
+      InsideTerms vertex_sky;
+      if (manifest.light_map) {
+        light_map_layout = skylit::bake_format::read_light_map_layout(bake_dir, manifest);
+        light_map_transfer = skylit::bake_format::read_npy(bake_dir / manifest.light_map->transfer_file, &transfer_shape);
+        texel_ground = ground;
+        texel_ground.transfer = {};
+        if (!ground.transfer.empty() && !manifest.light_map->ground_file.empty()) {
+          light_map_ground = skylit::bake_format::read_npy(bake_dir / manifest.light_map->ground_file, &transfer_shape);
+          texel_ground.transfer = light_map_ground;
+        }
+        vertex_sky = building_terms_inside(inside_points, transfer, S, {}, false, site, mesh);
+        use_light_map(inside_points, *light_map_layout, light_map_transfer, S, texel_ground, vertex_sky.sky, split);
+      }
       std::vector<std::size_t> inside_seen;
       std::vector<double> inside_areas;
       for (std::size_t k = 0; k < inside_ref.size(); ++k) {
@@ -853,7 +877,8 @@ int main(int argc, char** argv) {
         const Errors gb = building_errors(g.building, building_ref, horizontal);
         // Inside the triangles as the compositor shows it: the sun per point from its map, the
         // virtual planes' T from the GPU blend.
-        const InsideTerms gpu_split = gpu_terms_inside(inside_points, transfer, S, lights, first_is_sun || sources.empty(), mesh, g, ground);
+        InsideTerms gpu_split = gpu_terms_inside(inside_points, transfer, S, lights, first_is_sun || sources.empty(), mesh, g, ground);
+        if (light_map_layout) use_light_map(inside_points, *light_map_layout, light_map_transfer, S, texel_ground, vertex_sky.sky, gpu_split);
         const std::vector<Eigen::Vector3d> gpu_all = shown_inside(inside_points, gpu_split, virtual_shading(site, bake_planes, g.ratios, plane_D));
         std::vector<Eigen::Vector3d> gpu_shown, gpu_ref;
         for (const std::size_t k : inside_seen) gpu_shown.push_back(gpu_all[k]), gpu_ref.push_back(inside_ref[k]);

@@ -11,6 +11,8 @@
 // renderer such as llvmpipe, which runs every branch of a run-time choice, read them all.
 // FILTERED_LOOKUPS 1: the shadow ratios are bound with a bilinear sampler (float textures are
 // filterable), one lookup instead of four texel reads.
+// LIGHT_MAP 1: the bake's light map is bound; on its charts the sky's and the ground's light come
+// from its atlas (bilinear between texel centres) instead of from the triangle's corners.
 // library: sun_shadow.glsl
 precision highp float;
 precision highp int;
@@ -20,6 +22,9 @@ precision highp int;
 #endif
 #ifndef FILTERED_LOOKUPS
 #define FILTERED_LOOKUPS 0
+#endif
+#ifndef LIGHT_MAP
+#define LIGHT_MAP 0
 #endif
 #ifndef SUN_SHADOWS
 #define SUN_SHADOWS 1
@@ -35,6 +40,7 @@ in vec3 site_normal;
 in vec2 uv;
 in vec3 sky_irradiance;
 in vec3 ground_irradiance;      // its ground share (render.ground_light)
+in vec2 light_map_at;           // atlas texels; negative: the triangle lies on no chart
 in float camera_depth;
 
 uniform vec3 base_colour;                 // linear glTF baseColorFactor
@@ -53,6 +59,10 @@ uniform vec2 plane_texels[kMaxVirtualPlanes];    // its T's width and height: th
 layout(binding = 2) uniform highp sampler2D albedo_texture;   // sRGB8_ALPHA8: decoded on fetch
 #if VIRTUAL_PLANES > 0
 layout(binding = 4) uniform highp sampler2DArray plane_ratios;   // layer j: plane j's T, RGBA32F
+#endif
+#if LIGHT_MAP
+layout(binding = 5) uniform highp sampler2D light_map;           // E of the sky and the ground, RGBA32F
+uniform vec2 light_map_size;                                     // the atlas, texels
 #endif
 
 layout(location = 0) out vec4 result;
@@ -91,6 +101,29 @@ vec3 plane_ratio(int j, vec2 st) {
 #endif
 }
 
+#if LIGHT_MAP
+// The light map at atlas texel coordinates a (texel centres at +½): bilinear, through the bound
+// sampler or with texelFetch. A chart has a texel beyond each edge of its faces, so that the four
+// texels read are the chart's own.
+vec3 light_map_irradiance(vec2 a) {
+#if FILTERED_LOOKUPS
+  return textureLod(light_map, a / light_map_size, 0.0).rgb;
+#else
+  ivec2 last = ivec2(light_map_size) - 1;
+  vec2 c = a - 0.5;
+  vec2 base = floor(c);
+  vec2 f = c - base;
+  ivec2 i0 = clamp(ivec2(base), ivec2(0), last);
+  ivec2 i1 = clamp(ivec2(base) + 1, ivec2(0), last);
+  vec3 p = texelFetch(light_map, i0, 0).rgb;
+  vec3 q = texelFetch(light_map, ivec2(i1.x, i0.y), 0).rgb;
+  vec3 r = texelFetch(light_map, ivec2(i0.x, i1.y), 0).rgb;
+  vec3 s = texelFetch(light_map, i1, 0).rgb;
+  return mix(mix(p, q, f.x), mix(r, s, f.x), f.y);
+#endif
+}
+#endif
+
 // Visible fraction of the sun's disc where `needed`, 1 elsewhere (shaders/sun_shadow.glsl,
 // appended to this file).
 float sun_visibility_if(vec3 world_position, bool needed);
@@ -126,6 +159,9 @@ void main() {
     irradiance = plane_ratio(j, covering_st) * plane_irradiance[j] + ground_irradiance;
   } else {
     irradiance = sky_irradiance + sun_energy * facing;
+#if LIGHT_MAP
+    if (light_map_at.x >= 0.0) irradiance += light_map_irradiance(light_map_at);
+#endif
   }
   vec3 albedo = base_colour * texture(albedo_texture, uv).rgb;
   vec3 radiance = photometric_scale * albedo / kPi * irradiance;

@@ -45,6 +45,7 @@ int run_verify(const std::filesystem::path& dir) {
 // Everything the command line sets: the bake's options and what the subcommands take.
 struct CommandLine {
   skylit::baker::BakeOptions options;
+  skylit::baker::LightMapOptions light_map{0.0, 1.0};  // texel 0: none
   std::string site, out, resolution, shard, basis;
   int frequency = 0;
   bool quiet = false;
@@ -108,6 +109,13 @@ void add_bake_options(CLI::App& app, CommandLine& c) {
                  "trace the light at N² points inside every triangle too and fit each vertex's transfer to it, so that "
                  "what is interpolated across a face matches its light (docs/baker.md); 0: each vertex's own light")
       ->check(CLI::Range(0, 16))
+      ->capture_default_str();
+  app.add_option("--light-map", c.light_map.texel,
+                 "metres per texel of a light map over the model's flat regions: where a triangle lies on one, the "
+                 "building takes its sky's and ground's light from the map's texels instead of its corners "
+                 "(docs/baker.md); 0: none")
+      ->capture_default_str();
+  app.add_option("--light-map-min-area", c.light_map.min_area, "m²: a flat region smaller than this stays with its vertices, with --light-map")
       ->capture_default_str();
   c.options.method = "auto";
   app.add_option("--method", c.options.method,
@@ -217,6 +225,7 @@ int run_bake(const CLI::App& app, CommandLine& c, std::FILE* log) {
   options.shard = c.shard.empty() ? skylit::baker::shard_from_environment()
                                   : std::optional(skylit::baker::parse_shard(c.shard));
   options.previews = !c.no_previews;
+  if (c.light_map.texel != 0.0) options.light_map = c.light_map;
   if (app.count("--error-budget")) {
     if (app.count("--samples")) {
       throw skylit::InputError("options --error-budget and --samples: the budget picks the samples. Fix: drop one");

@@ -193,6 +193,42 @@ TEST(ManifestJson, RoundTripKeepsEveryField) {
   EXPECT_EQ(to_json(b), j);
 }
 
+TEST(ManifestJson, TheLightMapRoundTripsAndMustAgreeWithThePlan) {
+  Manifest m = sample_manifest();
+  EXPECT_FALSE(manifest_from_json(reparse(to_json(m)), "manifest.json").light_map.has_value());
+  m.plan.light_map = {0.1, 1.5, 777};
+  m.light_map = Manifest::LightMap{};
+  m.light_map->width = 64;
+  m.light_map->height = 48;
+  m.light_map->chart_count = 5;
+  const json j = reparse(to_json(m));
+  EXPECT_EQ(j["plan"]["light_map"]["texels"], 777);
+  EXPECT_EQ(j["light_map"]["transfer"]["shape"], json::array({777, 40}));
+  EXPECT_EQ(j["light_map"]["charts"]["shape"], json::array({5, 13}));
+  EXPECT_FALSE(j["light_map"].contains("ground"));
+  const Manifest b = manifest_from_json(j, "manifest.json");
+  ASSERT_TRUE(b.light_map.has_value());
+  EXPECT_EQ(b.plan.light_map, m.plan.light_map);
+  EXPECT_EQ(b.light_map->width, 64);
+  EXPECT_EQ(b.light_map->chart_count, 5u);
+  EXPECT_EQ(to_json(b), j);
+  EXPECT_EQ(b.plan.traced_count(), b.plan.vertex_count + 777) << "the parts hold the texels after the vertices";
+  // The section and the plan must agree, and its arrays have the plan's texels.
+  json without = j;
+  without.erase("light_map");
+  EXPECT_THROW(manifest_from_json(without, "manifest.json"), InputError);
+  json wrong_rows = j;
+  wrong_rows["light_map"]["transfer"]["shape"][0] = 776;
+  EXPECT_THROW(manifest_from_json(wrong_rows, "manifest.json"), InputError);
+  json outside = j;
+  outside["light_map"]["texels"]["file"] = "../texels.npy";
+  EXPECT_THROW(manifest_from_json(outside, "manifest.json"), InputError);
+  json plan_differs = j;
+  plan_differs["plan"]["light_map"]["texel"] = 0.2;
+  const Manifest c = manifest_from_json(plan_differs, "manifest.json");
+  EXPECT_NE(c.plan.difference(b.plan).find("light_map"), std::string::npos);
+}
+
 TEST(ManifestJson, TheGroundLayerRoundTripsAndOlderManifestsHaveNone) {
   Manifest m = sample_manifest();
   EXPECT_FALSE(manifest_from_json(reparse(to_json(m)), "manifest.json").ground.has_value());

@@ -2,6 +2,7 @@
 #include <charconv>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <sstream>
 
 // Plane::normal() uses cross(), which Eigen defines in <Eigen/Geometry>, not in <Eigen/Core>.
@@ -176,6 +177,17 @@ Plan plan_from(const Source& src, const json& j, const std::string& field) {
   }
   // `vertex_fit` is optional: bakes whose vertices take their own values have none.
   if (j.is_object() && j.contains("vertex_fit")) plan.vertex_fit = to_int(src, j["vertex_fit"], name("vertex_fit"), 0, kMaxVertexFit);
+  // `light_map` is optional: bakes without a light map have none.
+  if (j.is_object() && j.contains("light_map")) {
+    const std::string lfield = name("light_map");
+    const json& l = j["light_map"];
+    plan.light_map.texel = to_double(src, member(src, l, lfield, "texel"), join(lfield, "texel"));
+    plan.light_map.min_area = to_double(src, member(src, l, lfield, "min_area"), join(lfield, "min_area"));
+    plan.light_map.texels = to_count(src, member(src, l, lfield, "texels"), join(lfield, "texels"));
+    if (!(plan.light_map.texel > 0.0) || !std::isfinite(plan.light_map.texel) || !(plan.light_map.min_area >= 0.0)) {
+      src.fail(lfield, "needs texel > 0 and min_area >= 0");
+    }
+  }
   const json& planes = array_of(src, get("planes"), name("planes"));
   for (std::size_t i = 0; i < planes.size(); ++i) {
     plan.planes.push_back(plane_from(src, planes[i], index(name("planes"), i)));
@@ -241,7 +253,7 @@ bool Plan::operator==(const Plan& other) const {
          model_sha256 == other.model_sha256 && frequency == other.frequency && basis == other.basis &&
          samples == other.samples &&
          method == other.method && shadow_map_resolution == other.shadow_map_resolution && preset == other.preset &&
-         ground_samples == other.ground_samples && refine == other.refine && vertex_fit == other.vertex_fit && vertex_count == other.vertex_count && triangle_count == other.triangle_count;
+         ground_samples == other.ground_samples && refine == other.refine && vertex_fit == other.vertex_fit && light_map == other.light_map && vertex_count == other.vertex_count && triangle_count == other.triangle_count;
 }
 
 std::string Plan::difference(const Plan& other) const {
@@ -271,6 +283,13 @@ std::string Plan::difference(const Plan& other) const {
     items.push_back("refine: " + words(refine) + " vs " + words(other.refine));
   }
   number("vertex_fit", vertex_fit, other.vertex_fit);
+  if (!(light_map == other.light_map)) {
+    const auto words = [](const LightMap& l) {
+      return l.texel > 0.0 ? "texel " + exact(l.texel) + " m, min_area " + exact(l.min_area) + " m², " + std::to_string(l.texels) + " texels"
+                           : std::string("none");
+    };
+    items.push_back("light_map: " + words(light_map) + " vs " + words(other.light_map));
+  }
   number("vertex_count", vertex_count, other.vertex_count);
   number("triangle_count", triangle_count, other.triangle_count);
   if (planes.size() != other.planes.size()) {
@@ -322,6 +341,9 @@ json to_json(const Plan& plan) {
   if (!plan.preset.empty()) j["preset"] = plan.preset;
   if (plan.ground_samples > 0) j["ground_samples"] = plan.ground_samples;
   if (plan.vertex_fit > 0) j["vertex_fit"] = plan.vertex_fit;
+  if (plan.light_map.texel > 0.0) {
+    j["light_map"] = {{"texel", plan.light_map.texel}, {"min_area", plan.light_map.min_area}, {"texels", plan.light_map.texels}};
+  }
   if (plan.refine.tolerance > 0.0) {
     j["refine"] = {{"tolerance", plan.refine.tolerance}, {"rounds", plan.refine.rounds}, {"min_edge", plan.refine.min_edge}};
   }
@@ -387,6 +409,18 @@ json to_json(const Manifest& m) {
     out["refinement"] = {{"file", m.refinement->file},
                          {"shape", json::array({m.refinement->edge_count(), 2})},
                          {"rounds", m.refinement->round_sizes}};
+  }
+  if (m.light_map) {
+    const Manifest::LightMap& l = *m.light_map;
+    out["light_map"] = {{"width", l.width},
+                        {"height", l.height},
+                        {"charts", {{"file", l.charts_file}, {"shape", json::array({l.chart_count, 13})}}},
+                        {"triangles", {{"file", l.triangles_file}, {"shape", json::array({m.plan.triangle_count})}}},
+                        {"texels", {{"file", l.texels_file}, {"shape", json::array({m.plan.light_map.texels})}}},
+                        {"transfer", {{"file", l.transfer_file}, {"shape", json::array({m.plan.light_map.texels, layer_count})}}}};
+    if (!l.ground_file.empty()) {
+      out["light_map"]["ground"] = {{"file", l.ground_file}, {"shape", json::array({m.plan.light_map.texels, layer_count})}};
+    }
   }
   return out;
 }
@@ -545,6 +579,40 @@ Manifest manifest_from_json(const json& j, const fs::path& source) {
   }
   if (m.ground.has_value() != (m.plan.ground_samples > 0)) {
     src.fail("ground", m.ground ? "is there but plan.ground_samples is 0" : "is missing but plan.ground_samples is set");
+  }
+  if (j.contains("light_map")) {
+    const json& section = get(j, "", "light_map");
+    Manifest::LightMap l;
+    l.width = to_int(src, get(section, "light_map", "width"), "light_map.width", 1, kMaxPlaneTexels);
+    l.height = to_int(src, get(section, "light_map", "height"), "light_map.height", 1, kMaxPlaneTexels);
+    // Each file with the rows the plan gives it (charts: as many as the section says).
+    const auto file_of = [&](const char* key, std::optional<std::uint64_t> rows, std::optional<std::uint64_t> columns,
+                             std::string& file) -> std::uint64_t {
+      const std::string field = join("light_map", key);
+      const json& entry = get(section, "light_map", key);
+      file = to_string(src, get(entry, field, "file"), join(field, "file"));
+      contained(join(field, "file"), file);
+      const std::string sfield = join(field, "shape");
+      const json& shape = array_of(src, get(entry, field, "shape"), sfield, columns ? 2 : 1);
+      const std::uint64_t r = to_count(src, shape[0], index(sfield, 0));
+      if (rows && r != *rows) src.fail(index(sfield, 0), "is " + std::to_string(r) + " but " + std::to_string(*rows) + " are expected");
+      if (columns && to_count(src, shape[1], index(sfield, 1)) != *columns) {
+        src.fail(index(sfield, 1), "must be " + std::to_string(*columns));
+      }
+      return r;
+    };
+    l.chart_count = file_of("charts", std::nullopt, 13, l.charts_file);
+    file_of("triangles", m.plan.triangle_count, std::nullopt, l.triangles_file);
+    file_of("texels", m.plan.light_map.texels, std::nullopt, l.texels_file);
+    file_of("transfer", m.plan.light_map.texels, m.layer_count(), l.transfer_file);
+    if (section.contains("ground")) file_of("ground", m.plan.light_map.texels, m.layer_count(), l.ground_file);
+    if (l.ground_file.empty() != !m.ground) {
+      src.fail("light_map.ground", m.ground ? "is missing but the bake has a ground layer" : "is there but the bake has no ground layer");
+    }
+    m.light_map = std::move(l);
+  }
+  if (m.light_map.has_value() != (m.plan.light_map.texel > 0.0)) {
+    src.fail("light_map", m.light_map ? "is there but plan.light_map is not" : "is missing but plan.light_map is set");
   }
 
   const json& timings = get(j, "", "timings");

@@ -168,6 +168,13 @@ class Checker {
     require_listed(m.transfer_file, "transfer array");
     require_listed(m.vertices_file, "vertex array");
     if (m.ground) require_listed(m.ground->file, "ground transfer array");
+    if (m.light_map) {
+      require_listed(m.light_map->charts_file, "light map charts");
+      require_listed(m.light_map->triangles_file, "light map triangles");
+      require_listed(m.light_map->texels_file, "light map texels");
+      require_listed(m.light_map->transfer_file, "light map transfer array");
+      if (!m.light_map->ground_file.empty()) require_listed(m.light_map->ground_file, "light map ground transfer array");
+    }
     return present;
   }
 
@@ -336,6 +343,17 @@ VerifyReport verify(const fs::path& bake_dir) {
   if (m.refinement) {
     check.check_array(m.refinement->file, {static_cast<std::size_t>(m.refinement->edge_count()), 2},
                       "(edges split, 2: their vertices)", present, "<u4");
+  }
+  if (m.light_map) {
+    const auto texels = static_cast<std::size_t>(m.plan.light_map.texels);
+    check.check_array(m.light_map->charts_file, {static_cast<std::size_t>(m.light_map->chart_count), 13},
+                      "(charts, 13: x, y, width, height, origin, u, v)", present);
+    check.check_array(m.light_map->triangles_file, {static_cast<std::size_t>(m.plan.triangle_count)}, "(triangle_count)", present, "<u4");
+    check.check_array(m.light_map->texels_file, {texels}, "(light map texels)", present, "<u4");
+    check.check_array(m.light_map->transfer_file, {texels, m.layer_count()}, "(light map texels, layer_count)", present);
+    if (!m.light_map->ground_file.empty()) {
+      check.check_array(m.light_map->ground_file, {texels, m.layer_count()}, "(light map texels, layer_count)", present);
+    }
   }
   report.ok = report.problems.empty();
   return report;

@@ -19,6 +19,7 @@
 #include "skylit/base/progress.hpp"
 #include "skylit/baker/ground_transfer.hpp"
 #include "skylit/baker/vertex_fit.hpp"
+#include "skylit/bake_format/light_map.hpp"
 #include "skylit/baker/preview.hpp"
 #include "skylit/baker/visibility.hpp"
 #include "skylit/geom/spherical.hpp"
@@ -86,6 +87,7 @@ void validate_options(const BakeOptions& o) {
     throw InputError(cli_error("--vertex-fit", "got " + std::to_string(o.vertex_fit),
                                "use 0 (each vertex's own light) or 1 to 16 points per triangle side, e.g. 3"));
   }
+  if (o.light_map) validate_light_map_options(*o.light_map);
   if (o.resume && o.force) {
     throw InputError(cli_error("--resume/--force", "both given",
                                "use --resume to continue an interrupted bake, --force to start over"));
@@ -320,9 +322,11 @@ struct LoadedSite {
   scene::Mesh mesh;
   scene::Refinement refinement;
   FitPoints fit;                          // empty without --vertex-fit
-  std::optional<scene::Mesh> fit_mesh;    // the model with the fit's points as vertices
-  // What the engines trace: the model's vertices, then the fit's points.
+  std::optional<LightMapPoints> light_map;
+  std::optional<scene::Mesh> fit_mesh;    // the model with the fit's points and the light map's texels as vertices
+  // What the engines trace: the model's vertices, then the fit's points, then the light map's texels.
   const scene::Mesh& traced() const { return fit_mesh ? *fit_mesh : mesh; }
+  std::size_t first_texel() const { return mesh.vertex_count() + fit.positions.size(); }
 };
 
 // Assembles the final files from the parts, writes the manifest last, then removes the parts.
@@ -401,15 +405,22 @@ std::uint64_t finalize(const fs::path& out_dir, bake_format::Manifest manifest, 
     for (int i = 0; i < n; ++i) add_vertex_fractions(i, parts.read(i, plan));
   }
   progress.finish();
-  if (loaded.fit_mesh) {
+  // The light map's texels follow the vertices and the fit's points.
+  const std::size_t first_texel = loaded.first_texel();
+  std::vector<float> texel_transfer;
+  if (loaded.light_map) texel_transfer.assign(transfer.begin() + static_cast<std::ptrdiff_t>(first_texel * layers), transfer.end());
+  if (plan.vertex_fit > 0) {
     // Each vertex's transfer fitted to the light at the points inside its triangles, within
     // [0, A_l(n_v)] (vertex_fit.hpp).
     const auto fit_start = std::chrono::steady_clock::now();
-    transfer = fit_vertex_values(mesh, loaded.fit, transfer, layers, std::span<const float>(vertex_unoccluded).first(vertex_count * layers));
+    transfer = fit_vertex_values(mesh, loaded.fit, std::span<const float>(transfer).first(first_texel * layers), layers,
+                                 std::span<const float>(vertex_unoccluded).first(vertex_count * layers));
     if (log != nullptr) {
       std::fprintf(log, "vertex fit: %zu vertices fitted to the light at %zu points inside their triangles (%d² each) in %.1f s\n",
                    vertex_count, loaded.fit.positions.size(), plan.vertex_fit, seconds_since(fit_start));
     }
+  } else {
+    transfer.resize(vertex_count * layers);
   }
 
   const std::size_t transfer_shape[] = {vertex_count, layers};
@@ -436,6 +447,7 @@ std::uint64_t finalize(const fs::path& out_dir, bake_format::Manifest manifest, 
     manifest.files.push_back({record.file, 0, ""});
     manifest.refinement = std::move(record);
   }
+  std::vector<float> texel_ground;  // the light map's, with a ground layer
   if (plan.ground_samples > 0) {
     // The ground layer: the ground's irradiance per layer with the model's shadow, on a grid,
     // and its transfer to every vertex (ground_transfer.hpp), with A_l(z).
@@ -443,7 +455,12 @@ std::uint64_t finalize(const fs::path& out_dir, bake_format::Manifest manifest, 
     const GroundGrid grid = bake_ground_grid(mesh, dome, plan.basis, plan.samples);
     bake_format::Manifest::Ground ground;
     std::vector<float> ground_values = ground_transfer(traced, plan.planes, grid, plan.ground_samples);
-    if (loaded.fit_mesh) ground_values = fit_vertex_values(mesh, loaded.fit, ground_values, layers);
+    if (loaded.light_map) texel_ground.assign(ground_values.begin() + static_cast<std::ptrdiff_t>(first_texel * layers), ground_values.end());
+    if (plan.vertex_fit > 0) {
+      ground_values = fit_vertex_values(mesh, loaded.fit, std::span<const float>(ground_values).first(first_texel * layers), layers);
+    } else {
+      ground_values.resize(vertex_count * layers);
+    }
     ground.horizontal_unoccluded = grid.unoccluded;
     const std::size_t ground_shape[] = {vertex_count, layers};
     bake_format::write_npy(out_dir / ground.file, ground_values, ground_shape);
@@ -454,6 +471,28 @@ std::uint64_t finalize(const fs::path& out_dir, bake_format::Manifest manifest, 
                    vertex_count, plan.ground_samples, seconds_since(ground_start));
     }
     manifest.ground = std::move(ground);
+  }
+  if (loaded.light_map) {
+    // The light map: its layout, and its texels' transfer with those inside another part filled
+    // from their neighbours (light_map.hpp).
+    const bake_format::LightMapLayout& layout = loaded.light_map->layout;
+    bake_format::Manifest::LightMap record;
+    record.width = layout.width;
+    record.height = layout.height;
+    record.chart_count = layout.charts.size();
+    if (plan.ground_samples > 0) record.ground_file = "light_map_ground.npy";
+    fill_unseen_texels(layout, layers, texel_transfer, plan.ground_samples > 0 ? &texel_ground : nullptr);
+    bake_format::write_light_map_layout(out_dir, record, layout);
+    const std::size_t shape[] = {layout.texels.size(), layers};
+    bake_format::write_npy(out_dir / record.transfer_file, texel_transfer, shape);
+    for (const std::string* file : {&record.charts_file, &record.triangles_file, &record.texels_file, &record.transfer_file}) {
+      manifest.files.push_back({*file, 0, ""});
+    }
+    if (!record.ground_file.empty()) {
+      bake_format::write_npy(out_dir / record.ground_file, texel_ground, shape);
+      manifest.files.push_back({record.ground_file, 0, ""});
+    }
+    manifest.light_map = std::move(record);
   }
 
   manifest.finalize_seconds = seconds_since(start);
@@ -467,8 +506,9 @@ std::uint64_t finalize(const fs::path& out_dir, bake_format::Manifest manifest, 
 
 // The site and its model, refined where the light changes when `refine` asks: deterministic, so
 // every shard and a merge refine alike (their plans' vertex counts must agree).
-LoadedSite load(const fs::path& site_file, const RefineOptions& refine, int vertex_fit, int threads, std::FILE* log) {
-  LoadedSite loaded{scene::load_site(site_file), {}, {}, {}, {}};
+LoadedSite load(const fs::path& site_file, const RefineOptions& refine, int vertex_fit, const std::optional<LightMapOptions>& light_map,
+                int threads, std::FILE* log) {
+  LoadedSite loaded{scene::load_site(site_file), {}, {}, {}, {}, {}};
   loaded.mesh = scene::load_site_model(loaded.site);
   if (refine.tolerance > 0.0) {
     const auto start = std::chrono::steady_clock::now();
@@ -482,10 +522,22 @@ LoadedSite load(const fs::path& site_file, const RefineOptions& refine, int vert
                    refine.tolerance, refine.min_edge, seconds_since(start));
     }
   }
-  if (vertex_fit > 0) {
-    loaded.fit = fit_points(loaded.mesh, vertex_fit);
-    loaded.fit_mesh = with_points(loaded.mesh, loaded.fit.positions, loaded.fit.normals);
+  if (vertex_fit > 0) loaded.fit = fit_points(loaded.mesh, vertex_fit);
+  std::vector<Eigen::Vector3f> positions = loaded.fit.positions, normals = loaded.fit.normals;
+  if (light_map) {
+    const auto start = std::chrono::steady_clock::now();
+    loaded.light_map = lay_out_light_map(loaded.mesh, *light_map);
+    const bake_format::LightMapLayout& l = loaded.light_map->layout;
+    positions.insert(positions.end(), loaded.light_map->positions.begin(), loaded.light_map->positions.end());
+    normals.insert(normals.end(), loaded.light_map->normals.begin(), loaded.light_map->normals.end());
+    if (log) {
+      const auto charted = static_cast<std::size_t>(std::count_if(l.triangle_chart.begin(), l.triangle_chart.end(), [](std::int32_t c) { return c >= 0; }));
+      std::fprintf(log, "light map: %zu chart(s) over %zu of %zu triangles (flat regions of at least %g m²), %zu texels of %g m to trace "
+                   "in a %d×%d atlas, laid out in %.1f s\n", l.charts.size(), charted, l.triangle_chart.size(), light_map->min_area,
+                   l.texels.size(), l.texel, l.width, l.height, seconds_since(start));
+    }
   }
+  if (!positions.empty()) loaded.fit_mesh = with_points(loaded.mesh, positions, normals);
   return loaded;
 }
 
@@ -643,10 +695,11 @@ BakeSummary run_bake(const BakeOptions& given, std::FILE* log) {
   const auto start = std::chrono::steady_clock::now();
   validate_options(given);
   check_pca_input(given.pca);
-  const LoadedSite loaded = load(given.site_file, given.refine, given.vertex_fit, given.threads, log);
+  const LoadedSite loaded = load(given.site_file, given.refine, given.vertex_fit, given.light_map, given.threads, log);
   BakeOptions options = given;
   options.method = resolve_method(given);
-  const bake_format::Plan plan = make_plan(options, loaded.site, loaded.mesh);
+  bake_format::Plan plan = make_plan(options, loaded.site, loaded.mesh);
+  if (loaded.light_map) plan.light_map = {given.light_map->texel, given.light_map->min_area, loaded.light_map->layout.texels.size()};
   check_basis_samples(options, plan);
   const geom::Dome dome(plan.frequency);
   const bake_format::PartStore parts(options.out_dir / "parts");
@@ -775,7 +828,9 @@ BakeSummary merge_bakes(const std::vector<fs::path>& shard_dirs, const fs::path&
                      "). Fix: run the missing shards (skylit-bake SITE -o DIR --shard I/N) and merge again");
   }
 
-  const LoadedSite loaded = load(plan->site_file, refine_options_of(*plan), plan->vertex_fit, 0, log);
+  const std::optional<LightMapOptions> light_map =
+      plan->light_map.texel > 0.0 ? std::optional<LightMapOptions>(LightMapOptions{plan->light_map.texel, plan->light_map.min_area}) : std::nullopt;
+  const LoadedSite loaded = load(plan->site_file, refine_options_of(*plan), plan->vertex_fit, light_map, 0, log);
   if (sha256_file(loaded.site.model) != plan->model_sha256 || loaded.mesh.vertex_count() != plan->vertex_count ||
       loaded.mesh.triangle_count() != plan->triangle_count) {
     throw InputError("the model '" + loaded.site.model.string() +

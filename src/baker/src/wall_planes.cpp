@@ -12,6 +12,7 @@
 #include <numeric>
 #include <string>
 
+#include "flat_regions.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/baker/preview.hpp"
 #include "skylit/baker/refine.hpp"
@@ -24,26 +25,7 @@
 namespace skylit::baker {
 namespace wall_planes_detail {
 
-struct UnionFind {
-  std::vector<std::size_t> parent;
-  explicit UnionFind(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), std::size_t{0}); }
-  std::size_t find(std::size_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  }
-  void join(std::size_t a, std::size_t b) { parent[find(a)] = find(b); }
-};
-
-// A vertex position welded to the millimetre, so that faces joined in space join here even where
-// the model repeats a vertex for each face.
-std::array<long, 3> weld(const Eigen::Vector3f& p) {
-  return {std::lround(p.x() * 1000.0f), std::lround(p.y() * 1000.0f), std::lround(p.z() * 1000.0f)};
-}
-
-struct Region {
-  std::vector<std::size_t> triangles;
-  Vec3 normal = Vec3::Zero();  // area-weighted
-  double area = 0.0;
+struct Region : FlatRegion {
   double squared_error = 0.0;  // Σ area × error² over its points
 };
 
@@ -107,44 +89,16 @@ std::vector<WallPlane> find_wall_planes(const scene::Mesh& model, std::span<cons
   if (options.refine.tolerance > 0.0) refine_where_light_changes(mesh, planes, options.refine);
   const std::size_t triangles = mesh.triangle_count();
   const auto corner = [&](std::size_t t, std::size_t k) { return mesh.positions[mesh.indices[3 * t + k]].cast<double>(); };
-  std::vector<Vec3> face_normal(triangles);
-  std::vector<double> face_area(triangles);
-  for (std::size_t t = 0; t < triangles; ++t) {
-    const Vec3 cross = (corner(t, 1) - corner(t, 0)).cross(corner(t, 2) - corner(t, 0));
-    face_area[t] = 0.5 * cross.norm();
-    face_normal[t] = face_area[t] > 0.0 ? Vec3(cross.normalized()) : Vec3::Zero();
-  }
-  // Flat regions: triangles that share an edge (welded), normals within 1°, in one plane within 1 cm.
-  UnionFind sets(triangles);
-  std::map<std::pair<std::array<long, 3>, std::array<long, 3>>, std::size_t> first_on_edge;
-  const double cos_flat = std::cos(std::numbers::pi / 180.0);
-  for (std::size_t t = 0; t < triangles; ++t) {
-    if (face_area[t] <= 0.0) continue;
-    for (std::size_t e = 0; e < 3; ++e) {
-      auto a = weld(mesh.positions[mesh.indices[3 * t + e]]), b = weld(mesh.positions[mesh.indices[3 * t + (e + 1) % 3]]);
-      if (b < a) std::swap(a, b);
-      const auto [it, inserted] = first_on_edge.try_emplace({a, b}, t);
-      if (inserted) continue;
-      const std::size_t u = it->second;
-      if (face_normal[u].dot(face_normal[t]) >= cos_flat && std::abs(face_normal[u].dot(corner(t, 0) - corner(u, 0))) <= 0.01) {
-        sets.join(u, t);
-      }
-    }
-  }
-  std::map<std::size_t, Region> regions;
-  for (std::size_t t = 0; t < triangles; ++t) {
-    if (face_area[t] <= 0.0) continue;
-    Region& r = regions[sets.find(t)];
-    r.triangles.push_back(t);
-    r.normal += face_area[t] * face_normal[t];
-    r.area += face_area[t];
-  }
+  const FlatFaces faces = flat_faces(mesh);
+  const std::vector<Vec3>& face_normal = faces.normal;
+  const std::vector<double>& face_area = faces.area;
+  std::vector<Region> regions;
+  for (FlatRegion& r : flat_regions(mesh, faces)) regions.push_back({std::move(r)});
   // Only regions large enough, and not covered by a virtual plane already.
   const double cos_cover = std::cos(15.0 * std::numbers::pi / 180.0);
   std::vector<Region*> candidates;
-  for (auto& [root, r] : regions) {
+  for (Region& r : regions) {
     if (r.area < options.min_area) continue;
-    r.normal.normalize();
     double covered = 0.0;
     for (const std::size_t t : r.triangles) {
       const Vec3 centroid = (corner(t, 0) + corner(t, 1) + corner(t, 2)) / 3.0;

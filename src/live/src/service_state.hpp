@@ -25,6 +25,7 @@
 #include "service_metrics.hpp"
 #include "sky_link_receiver.hpp"
 #include "sky_stage.hpp"
+#include "skylit/bake_format/light_map.hpp"
 #include "skylit/bake_format/manifest.hpp"
 #include "skylit/blend/basis.hpp"
 #include "skylit/blend/cpu_blend.hpp"
@@ -149,6 +150,8 @@ struct Service::State {
   bake_format::Manifest manifest;
   std::vector<float> transfer;
   std::vector<float> ground_transfer;  // the bake's ground layer, with render.ground_light
+  bake_format::LightMapLayout light_map;  // the bake's light map, with render.light_map (no texels: none)
+  std::vector<float> light_map_transfer, light_map_ground;
   std::vector<blend::BasisImages> bases;
   camera::CameraCalibration sky_calibration, hmd_calibration;
   // camera.stereo: both cameras (hmd_calibration is its left); frames come side by side.

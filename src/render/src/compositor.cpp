@@ -21,6 +21,7 @@
 #include "skylit/blend/vertex_irradiance.hpp"
 #include "skylit/gpu/shader.hpp"
 #include "skylit/camera/lens.hpp"
+#include "building_light.hpp"
 #include "plane_ratio_array.hpp"
 
 namespace skylit::render {
@@ -33,6 +34,7 @@ using gpu::check_gl_error;
 constexpr GLuint kAlbedoUnit = 2;
 constexpr GLuint kSunShadowUnit = 3;
 constexpr GLuint kVirtualRatioUnit = 4;   // the array of every virtual plane's T
+constexpr GLuint kLightMapUnit = 5;
 constexpr GLuint kSunMinmaxUnit = 12;
 constexpr GLuint kCameraUnit = 0;
 constexpr GLuint kRaysUnit = 1;
@@ -194,19 +196,6 @@ std::string plane_list(const scene::Site& site) {
   return names.empty() ? std::string("none") : names;
 }
 
-// Vertex-major values (a bake's transfer arrays: `layers` per vertex) layer after layer, as
-// update_irradiance sums them for every vertex at once; not finite or negative: 0.
-std::vector<float> layer_major(std::span<const float> values, std::size_t vertex_count, std::size_t layers) {
-  std::vector<float> out(layers * vertex_count, 0.0f);
-  for (std::size_t v = 0; v < vertex_count; ++v) {
-    for (std::size_t l = 0; l < layers; ++l) {
-      const float t = values[v * layers + l];
-      out[l * vertex_count + v] = std::isfinite(t) ? std::max(t, 0.0f) : 0.0f;
-    }
-  }
-  return out;
-}
-
 }  // namespace
 
 Eigen::Vector3d plane_irradiance(const bake_format::PlaneRecord& plane, std::span<const Eigen::Vector3d> sky,
@@ -251,6 +240,10 @@ struct Compositor::State {
   std::optional<blend::GroundLayers> ground_layers;
   std::vector<float> ground_by_layer;
   std::vector<Eigen::Vector3d> irradiance_ground;
+  // The light map, when the bake has one: the vertices as drawn (split where charts meet) and the
+  // atlas of the sky's and the ground's light (building_light.hpp).
+  DrawVertices draw_vertices;
+  std::optional<LightMapTexture> light_map;
 
   // Building geometry, grouped by material for one draw each.
   struct MaterialDraw {
@@ -261,7 +254,7 @@ struct Compositor::State {
   };
   std::vector<MaterialDraw> draws;
   gpu::VertexArray building_vertices;
-  gpu::Buffer positions, normals, texcoords, irradiance_values, ground_irradiance_values, indices;
+  gpu::Buffer positions, normals, texcoords, irradiance_values, ground_irradiance_values, atlas_coordinates, indices;
   std::vector<gpu::Texture> albedo_textures;
   gpu::Texture white;                            // 1×1 sRGB white: the albedo of untextured materials
   gpu::Texture ones;                             // 1×1 RGBA32F (1,1,1,1): T of a plane without a texture
@@ -294,6 +287,7 @@ struct Compositor::State {
   void check_inputs(const scene::Site& site, const scene::Mesh& mesh, const bake_format::Manifest& manifest,
                     std::span<const float> transfer_values);
   void upload_building(const scene::Mesh& mesh, std::span<const float> transfer_values);
+  void make_light_map(const scene::Mesh& mesh, const bake_format::Manifest& manifest);
   void make_targets();
   void upload_camera(const cv::Mat& frame);
   void update_irradiance(const std::vector<Eigen::Vector3d>& sky_values, const CompositeInput& input);
@@ -373,6 +367,15 @@ void Compositor::State::check_inputs(const scene::Site& site, const scene::Mesh&
   }
 }
 
+void Compositor::State::make_light_map(const scene::Mesh& mesh, const bake_format::Manifest& manifest) {
+  const bool ground = !options.ground_albedo.isZero(0);
+  LightMapTexture::check(options.light_map, options.light_map_transfer, options.light_map_ground, ground, mesh, manifest.layer_count());
+  light_map.emplace(options.light_map, options.light_map_transfer, ground ? std::span<const float>(options.light_map_ground) : std::span<const float>(),
+                    manifest.layer_count());
+  options.light_map_transfer = {};  // the texture holds them from here on
+  options.light_map_ground = {};
+}
+
 void Compositor::State::upload_building(const scene::Mesh& mesh, std::span<const float> transfer_values) {
   // Transfer vectors layer after layer (update_irradiance sums them for every vertex at once).
   const std::size_t vertex_count = mesh.vertex_count();
@@ -384,6 +387,8 @@ void Compositor::State::upload_building(const scene::Mesh& mesh, std::span<const
   irradiance_sky.clear();
   vertex_normals = mesh.normals;
   vertex_normals.resize(vertex_count, Eigen::Vector3f::UnitZ());
+  draw_vertices = render::draw_vertices(mesh, light_map ? &options.light_map : nullptr);
+  const std::size_t drawn = draw_vertices.model_vertex.size();
 
   // Vertices (texcoords zero when the model has none) and indices grouped by material.
   building_vertices = gpu::make_vertex_array();
@@ -396,13 +401,18 @@ void Compositor::State::upload_building(const scene::Mesh& mesh, std::span<const
     glEnableVertexAttribArray(location);
     glVertexAttribPointer(location, components, GL_FLOAT, GL_FALSE, 0, nullptr);
   };
-  attribute(positions, 0, 3, mesh.positions.front().data(), vertex_count);
-  attribute(normals, 1, 3, mesh.normals.front().data(), vertex_count);
+  const auto floats = [&](const auto& vectors, int components) {
+    return per_draw_vertex(draw_vertices, std::span<const float>(vectors.front().data(), vertex_count * static_cast<std::size_t>(components)), components);
+  };
+  attribute(positions, 0, 3, floats(mesh.positions, 3).data(), drawn);
+  attribute(normals, 1, 3, floats(mesh.normals, 3).data(), drawn);
   std::vector<Eigen::Vector2f> uv = mesh.texcoords;
   uv.resize(vertex_count, Eigen::Vector2f::Zero());
-  attribute(texcoords, 2, 2, uv.front().data(), vertex_count);
-  attribute(irradiance_values, 3, 3, vertex_irradiance.data(), vertex_count);
-  attribute(ground_irradiance_values, 4, 3, vertex_irradiance.data(), vertex_count);  // zero until a sky lights the ground
+  attribute(texcoords, 2, 2, floats(uv, 2).data(), drawn);
+  const std::vector<float> zero(3 * drawn, 0.0f);  // until a sky lights the building
+  attribute(irradiance_values, 3, 3, zero.data(), drawn);
+  attribute(ground_irradiance_values, 4, 3, zero.data(), drawn);
+  attribute(atlas_coordinates, 5, 2, draw_vertices.atlas.front().data(), drawn);
 
   std::vector<std::uint32_t> grouped;
   grouped.reserve(mesh.indices.size());
@@ -413,8 +423,8 @@ void Compositor::State::upload_building(const scene::Mesh& mesh, std::span<const
     for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
       const std::size_t material = std::min<std::size_t>(mesh.triangle_material[t], material_count - 1);
       if (material != m) continue;
-      grouped.insert(grouped.end(), mesh.indices.begin() + static_cast<std::ptrdiff_t>(3 * t),
-                     mesh.indices.begin() + static_cast<std::ptrdiff_t>(3 * t + 3));
+      grouped.insert(grouped.end(), draw_vertices.indices.begin() + static_cast<std::ptrdiff_t>(3 * t),
+                     draw_vertices.indices.begin() + static_cast<std::ptrdiff_t>(3 * t + 3));
     }
     draw.count = static_cast<GLsizei>(grouped.size()) - draw.first;
     if (m < mesh.materials.size()) {
@@ -546,54 +556,27 @@ void Compositor::State::update_irradiance(const std::vector<Eigen::Vector3d>& sk
     ground_values = ground_layers->coefficients(sky_values, lights);
   }
   const bool sky_changed = irradiance_sky.empty() || irradiance_sky != sky_values || irradiance_ground != ground_values;
+  const auto upload = [](const gpu::Buffer& buffer, const std::vector<float>& values) {
+    glBindBuffer(GL_ARRAY_BUFFER, buffer.get());
+    glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(values.size() * sizeof(float)), values.data());
+    glBindBuffer(GL_ARRAY_BUFFER, 0);
+  };
   if (sky_changed) {
     // E_v = Σ_i S_i t_{v,i} in float, layer after layer (the order and precision the vertex
     // shader summed in before), every vertex of a layer at once.
-    std::vector<float> red(count, 0.0f), green(count, 0.0f), blue(count, 0.0f);
-    for (std::size_t i = 0; i < sky_values.size(); ++i) {
-      const auto r = static_cast<float>(sky_values[i].x());
-      const auto g = static_cast<float>(sky_values[i].y());
-      const auto b = static_cast<float>(sky_values[i].z());
-      if (r == 0.0f && g == 0.0f && b == 0.0f) continue;
-      const float* t = transfer_by_layer.data() + i * count;
-      for (std::size_t v = 0; v < count; ++v) {
-        red[v] += t[v] * r;
-        green[v] += t[v] * g;
-        blue[v] += t[v] * b;
-      }
-    }
+    std::vector<Eigen::Vector3f> sky_coefficients;
+    for (const Eigen::Vector3d& S : sky_values) sky_coefficients.push_back(S.cast<float>());
+    sky_sum = sum_layers(transfer_by_layer, count, sky_coefficients);
     // The ground: ρ ⊙ Σ_l S^g_l t^g_{v,l} (blend::GroundLayers), in the sum and on its own for the
     // fragments a virtual plane covers (T_j D_j holds the sky, not the ground).
     if (ground_layers) {
-      std::vector<float> ground_red(count, 0.0f), ground_green(count, 0.0f), ground_blue(count, 0.0f);
-      for (std::size_t l = 0; l < ground_values.size(); ++l) {
-        const Eigen::Vector3f c = options.ground_albedo.cwiseProduct(ground_values[l]).cast<float>();
-        if (c.isZero(0)) continue;
-        const float* t = ground_by_layer.data() + l * count;
-        for (std::size_t v = 0; v < count; ++v) {
-          ground_red[v] += t[v] * c[0];
-          ground_green[v] += t[v] * c[1];
-          ground_blue[v] += t[v] * c[2];
-        }
-      }
-      std::vector<float> ground_rgb(3 * count);
-      for (std::size_t v = 0; v < count; ++v) {
-        red[v] += ground_red[v];
-        green[v] += ground_green[v];
-        blue[v] += ground_blue[v];
-        ground_rgb[3 * v] = ground_red[v];
-        ground_rgb[3 * v + 1] = ground_green[v];
-        ground_rgb[3 * v + 2] = ground_blue[v];
-      }
-      glBindBuffer(GL_ARRAY_BUFFER, ground_irradiance_values.get());
-      glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(ground_rgb.size() * sizeof(float)), ground_rgb.data());
-      glBindBuffer(GL_ARRAY_BUFFER, 0);
+      std::vector<Eigen::Vector3f> ground_coefficients;
+      for (const Eigen::Vector3d& g : ground_values) ground_coefficients.push_back(options.ground_albedo.cwiseProduct(g).cast<float>());
+      const std::vector<float> ground_rgb = sum_layers(ground_by_layer, count, ground_coefficients);
+      for (std::size_t k = 0; k < sky_sum.size(); ++k) sky_sum[k] += ground_rgb[k];
+      upload(ground_irradiance_values, per_draw_vertex(draw_vertices, ground_rgb, 3));
     }
-    for (std::size_t v = 0; v < count; ++v) {
-      sky_sum[3 * v] = red[v];
-      sky_sum[3 * v + 1] = green[v];
-      sky_sum[3 * v + 2] = blue[v];
-    }
+    if (light_map) light_map->update(sky_values, ground_values, options.ground_albedo);
     irradiance_sky = sky_values;
     irradiance_ground = std::move(ground_values);
   }
@@ -623,10 +606,8 @@ void Compositor::State::update_irradiance(const std::vector<Eigen::Vector3d>& sk
     }
   }
   lamps_added = lamps;
-  glBindBuffer(GL_ARRAY_BUFFER, irradiance_values.get());
-  glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(vertex_irradiance.size() * sizeof(float)),
-                  vertex_irradiance.data());
-  glBindBuffer(GL_ARRAY_BUFFER, 0);
+  // On a chart the light map holds the sky and the ground: its corners carry the lamps alone.
+  upload(irradiance_values, per_draw_vertex(draw_vertices, vertex_irradiance, 3, light_map ? std::span<const float>(sky_sum) : std::span<const float>()));
 }
 
 GLuint Compositor::State::ratio_texture(const CompositeInput& input, int plane) const {
@@ -738,6 +719,12 @@ void Compositor::State::draw_building(const CompositeInput& input, const std::ve
   glActiveTexture(GL_TEXTURE0 + kVirtualRatioUnit);
   glBindTexture(GL_TEXTURE_2D_ARRAY, virtual_ratios->texture());
   glBindSampler(kVirtualRatioUnit, filtered_lookups ? bilinear.get() : 0);
+  if (light_map) {
+    glActiveTexture(GL_TEXTURE0 + kLightMapUnit);
+    glBindTexture(GL_TEXTURE_2D, light_map->texture());
+    glBindSampler(kLightMapUnit, filtered_lookups ? bilinear.get() : 0);
+    glUniform2f(uniform(program, "light_map_size"), static_cast<float>(light_map->width()), static_cast<float>(light_map->height()));
+  }
 
   const GLint base_colour = uniform(program, "base_colour");
   for (const MaterialDraw& draw : draws) {
@@ -752,6 +739,7 @@ void Compositor::State::draw_building(const CompositeInput& input, const std::ve
   glDepthMask(GL_TRUE);
   glDisable(GL_DEPTH_TEST);
   glBindSampler(kVirtualRatioUnit, 0);
+  glBindSampler(kLightMapUnit, 0);
   check_gl_error("Compositor: drawing the building");
 }
 
@@ -760,7 +748,7 @@ GLuint Compositor::State::building_program(bool sun_shadows) {
   if (!program) {
     program = load_specialised(shader_dir, {"compose_building.vert", "compose_building.frag"},
                                define("VIRTUAL_PLANES", static_cast<int>(virtual_planes.size())) +
-                                   define("SUN_SHADOWS", sun_shadows ? 1 : 0) +
+                                   define("SUN_SHADOWS", sun_shadows ? 1 : 0) + define("LIGHT_MAP", light_map ? 1 : 0) +
                                    define("FILTERED_LOOKUPS", filtered_lookups ? 1 : 0));
   }
   return program.get();
@@ -857,6 +845,7 @@ Compositor::Compositor(const scene::Site& site, const scene::Mesh& mesh, const b
     s.ground_by_layer = layer_major(o.ground_transfer, mesh.vertex_count(), manifest.layer_count());
     s.options.ground_transfer = {};  // held layer after layer from here on
   }
+  if (!o.light_map.texels.empty()) s.make_light_map(mesh, manifest);
   s.shader_dir = gpu::find_shader_dir(s.options.shader_dir);
   s.filtered_lookups = has_gl_extension("GL_OES_texture_float_linear");
   if (s.filtered_lookups) s.bilinear = bilinear_clamped_sampler();

@@ -73,6 +73,7 @@ TrianglePoints triangle_points(const scene::Mesh& mesh) {
       points.corners.push_back(c);
       points.weights.push_back(b);
       points.areas.push_back(area / 4.0);
+      points.triangles.push_back(static_cast<std::uint32_t>(t / 3));
     }
   }
   return points;
@@ -116,6 +117,30 @@ InsideTerms building_terms_inside(const TrianglePoints& points, std::span<const 
     terms.ground = interpolated_at(points, building_estimate(transfer, no_sky, {}, site, mesh, ground));
   }
   return terms;
+}
+
+void use_light_map(const TrianglePoints& points, const bake_format::LightMapLayout& layout, std::span<const float> transfer,
+                   std::span<const Eigen::Vector3d> S, const blend::GroundLight& ground, std::span<const Eigen::Vector3d> vertex_sky,
+                   InsideTerms& terms) {
+  const std::size_t count = points.positions.size();
+  if (points.triangles.size() != count || vertex_sky.size() != count || terms.sky.size() != count || terms.ground.size() != count) {
+    throw std::invalid_argument("use_light_map: the points, their triangles, the vertices' sky and the terms differ in size");
+  }
+  const std::vector<Eigen::Vector3d> sky = bake_format::light_map_atlas(layout, transfer, S);
+  std::vector<Eigen::Vector3d> ground_light;
+  if (!ground.transfer.empty()) {
+    ground_light = bake_format::light_map_atlas(layout, ground.transfer, ground.coefficients);
+    for (Eigen::Vector3d& g : ground_light) g = g.cwiseProduct(ground.albedo);
+  }
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::uint32_t t = points.triangles[k];
+    if (t >= layout.triangle_chart.size()) throw std::invalid_argument("use_light_map: a point's triangle is not the layout's");
+    const int chart = layout.triangle_chart[t];
+    if (chart < 0) continue;
+    const Eigen::Vector2d a = layout.atlas_coordinates(chart, points.positions[k].cast<double>());
+    terms.sky[k] += bake_format::sample_light_map(sky, layout.width, layout.height, a) - vertex_sky[k];
+    if (!ground_light.empty()) terms.ground[k] = bake_format::sample_light_map(ground_light, layout.width, layout.height, a);
+  }
 }
 
 EquirectLights dome_sky_lights(int frequency, geom::DomeBasis basis, std::span<const Eigen::Vector3d> S, int directions) {

@@ -92,11 +92,22 @@ struct Plan {
   // traced at N² points inside every triangle too and the vertices' transfer fitted to it; 0: each
   // vertex's own value. Plans without the field have 0.
   int vertex_fit = 0;
+  // The light map (skylit-bake --light-map TEXEL; baker/light_map.hpp): square texels of `texel`
+  // metres over the flat regions of at least min_area m², `texels` of them traced; texel 0: none.
+  // Plans without the field have none.
+  struct LightMap {
+    double texel = 0.0;
+    double min_area = 0.0;
+    std::uint64_t texels = 0;
+    bool operator==(const LightMap&) const = default;
+  };
+  LightMap light_map;
   std::uint64_t vertex_count = 0;
   std::uint64_t triangle_count = 0;
-  // The values a bake's parts hold per layer: the vertices', then the fit's points'.
+  // The values a bake's parts hold per layer: the vertices', the fit's points', the light map's texels'.
   std::uint64_t traced_count() const {
-    return vertex_count + triangle_count * static_cast<std::uint64_t>(vertex_fit) * static_cast<std::uint64_t>(vertex_fit);
+    return vertex_count + triangle_count * static_cast<std::uint64_t>(vertex_fit) * static_cast<std::uint64_t>(vertex_fit) +
+           light_map.texels;
   }
 
   int layers_per_face() const { return geom::layers_per_face(basis); }
@@ -128,6 +139,9 @@ struct Plan {
 //   BAKE_DIR/refinement.npy       optional, uint32 [edges, 2]: the model's edges split, round
 //                                 after round (the manifest gives each round's count), which
 //                                 every program replays on the site's model (model.hpp)
+//   BAKE_DIR/light_map_*.npy      optional: the light map (light_map.hpp): its charts, each
+//                                 triangle's chart, its texels, and their transfer (and the
+//                                 ground's, with a ground layer), float32 [texels, layer_count]
 //   BAKE_DIR/preview/*.png        contact sheets (not part of the verified data)
 //
 // While a bake runs, finished work lives in BAKE_DIR/parts/ (one file per dome face, written
@@ -156,6 +170,17 @@ struct Manifest {
     std::uint64_t edge_count() const;
   };
   std::optional<Refinement> refinement;
+  // plan.light_map.texel > 0: the atlas's size and its files (light_map.hpp).
+  struct LightMap {
+    int width = 0, height = 0;
+    std::uint64_t chart_count = 0;
+    std::string charts_file = "light_map_charts.npy";
+    std::string triangles_file = "light_map_triangles.npy";
+    std::string texels_file = "light_map_texels.npy";
+    std::string transfer_file = "light_map_transfer.npy";
+    std::string ground_file;                // "light_map_ground.npy" with a ground layer, else empty
+  };
+  std::optional<LightMap> light_map;
   double bake_seconds = 0.0;              // wall time of the face work (all shards)
   double finalize_seconds = 0.0;
   std::vector<FileRecord> files;          // every data file, hashed

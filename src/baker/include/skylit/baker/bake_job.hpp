@@ -10,6 +10,7 @@
 
 #include "skylit/bake_format/manifest.hpp"
 #include "skylit/bake_format/pca.hpp"
+#include "skylit/baker/light_map.hpp"
 #include "skylit/baker/refine.hpp"
 #include "skylit/baker/visibility.hpp"
 #include "skylit/geom/dome.hpp"
@@ -49,6 +50,9 @@ struct BakeOptions {
   // Least-squares vertex values (vertex_fit.hpp): the light traced at this many² points inside
   // every triangle too, and each vertex's transfer fitted to it; 0: each vertex's own light.
   int vertex_fit = 0;
+  // A light map over the model's flat regions (light_map.hpp), traced with the vertices; none:
+  // the vertices alone carry the building's light.
+  std::optional<LightMapOptions> light_map;
 };
 
 struct BakeSummary {

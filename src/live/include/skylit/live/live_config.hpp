@@ -129,6 +129,9 @@ struct RenderSettings {
   // "Light from the ground"): on with render.ground_light, the bake's ground layer needed; the
   // ground's albedo, RGB (default: photometric.estimate.albedo, 0.2 unless the config gives it).
   bool ground_light = false;
+  // The bake's light map (skylit-bake --light-map), when it has one: on a chart, the building's
+  // sky and ground light from its texels instead of its corners. false: the corners alone.
+  bool light_map = true;
   std::optional<Eigen::Vector3d> ground_albedo;
 };
 

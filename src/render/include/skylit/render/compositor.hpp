@@ -15,6 +15,7 @@
 #include <Eigen/Core>
 #include <opencv2/core/mat.hpp>
 
+#include "skylit/bake_format/light_map.hpp"
 #include "skylit/bake_format/manifest.hpp"
 #include "skylit/gpu/gl.hpp"
 #include "skylit/blend/cpu_blend.hpp"
@@ -50,6 +51,13 @@ struct CompositorOptions {
   // layers, as transfer). InputError when the albedo is set and the bake has no ground layer.
   Eigen::Vector3d ground_albedo = Eigen::Vector3d::Zero();
   std::vector<float> ground_transfer;
+  // The bake's light map (bake_format/light_map.hpp; manifest.light_map; no texels: none): where a
+  // triangle lies on one of its charts, the sky's light (and the ground's, with ground_albedo) comes
+  // from its texels, bilinear, instead of from the triangle's corners. light_map_transfer and
+  // light_map_ground (with ground_albedo) as the bake's light_map_transfer.npy and
+  // light_map_ground.npy. InputError when they do not fit the model or the bake.
+  bake_format::LightMapLayout light_map;
+  std::vector<float> light_map_transfer, light_map_ground;
 };
 
 // Where the camera is: the HMD camera frame (OpenCV's) in the site frame.

@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include "skylit/bake_format/light_map.hpp"
 #include "skylit/blend/vertex_irradiance.hpp"
 #include "skylit/geom/dome_basis.hpp"
 #include "skylit/geom/plane.hpp"
@@ -57,6 +58,7 @@ struct TrianglePoints {
   std::vector<std::array<std::uint32_t, 3>> corners;
   std::vector<Eigen::Vector3d> weights;  // barycentric, sum 1
   std::vector<double> areas;             // m²: the surface each point stands for (a quarter of its triangle)
+  std::vector<std::uint32_t> triangles;  // the triangle each lies in
 };
 TrianglePoints triangle_points(const scene::Mesh& mesh);
 
@@ -79,6 +81,17 @@ struct InsideTerms {
 InsideTerms building_terms_inside(const TrianglePoints& points, std::span<const float> transfer, std::span<const Eigen::Vector3d> S,
                                   std::span<const SourceLight> sources, bool sun_first, const scene::Site& site,
                                   const scene::Mesh& mesh, const blend::GroundLight& ground = {});
+
+// The building with a light map (bake_format/light_map.hpp), as the compositor shows it: at the
+// points on its charts, the sky's and the ground's terms from its texels (bilinear, as the
+// compositor's lookup) in place of the vertices'. `transfer`: the light map's (texel-major, S.size()
+// per texel); `ground`: its ground transfer with S^g and ρ (empty transfer: no ground term);
+// `vertex_sky`: the vertices' sky alone at the points (building_terms_inside without sources), so
+// that what terms.sky holds beyond it (the lamps, per vertex in the compositor too) stays.
+// std::invalid_argument when the sizes do not fit.
+void use_light_map(const TrianglePoints& points, const bake_format::LightMapLayout& layout, std::span<const float> transfer,
+                   std::span<const Eigen::Vector3d> S, const blend::GroundLight& ground, std::span<const Eigen::Vector3d> vertex_sky,
+                   InsideTerms& terms);
 
 // The sky the dome holds, L(ω) = Σ_l S_l φ_l(ω), as `directions` lights of equal solid angle over
 // the upper hemisphere: traced at a point, Σ_l S_l t_l with the point's own transfer, no

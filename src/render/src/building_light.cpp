@@ -1,0 +1,195 @@
+// The light map as the compositor draws it (building_light.hpp).
+#include "building_light.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <map>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+
+#include "skylit/base/error.hpp"
+#include "skylit/base/parallel_for.hpp"
+
+namespace skylit::render {
+namespace {
+
+// Not finite or negative: 0, as the vertices' transfer (compositor.cpp's layer_major).
+std::vector<float> cleaned(std::span<const float> values) {
+  std::vector<float> out(values.begin(), values.end());
+  for (float& x : out) x = std::isfinite(x) ? std::max(x, 0.0f) : 0.0f;
+  return out;
+}
+
+// 0, 1, …, n − 1.
+std::vector<std::uint32_t> identity(std::size_t n) {
+  std::vector<std::uint32_t> out;
+  out.reserve(n);
+  for (std::size_t k = 0; k < n; ++k) out.push_back(static_cast<std::uint32_t>(k));
+  return out;
+}
+
+}  // namespace
+
+std::vector<float> layer_major(std::span<const float> values, std::size_t vertex_count, std::size_t layers) {
+  std::vector<float> out(layers * vertex_count, 0.0f);
+  for (std::size_t v = 0; v < vertex_count; ++v) {
+    for (std::size_t l = 0; l < layers; ++l) {
+      const float t = values[v * layers + l];
+      out[l * vertex_count + v] = std::isfinite(t) ? std::max(t, 0.0f) : 0.0f;
+    }
+  }
+  return out;
+}
+
+std::vector<float> sum_layers(std::span<const float> by_layer, std::size_t vertex_count, std::span<const Eigen::Vector3f> coefficients) {
+  std::vector<float> red(vertex_count, 0.0f), green(vertex_count, 0.0f), blue(vertex_count, 0.0f);
+  for (std::size_t i = 0; i < coefficients.size(); ++i) {
+    const Eigen::Vector3f& c = coefficients[i];
+    if (c.isZero(0)) continue;
+    const float* t = by_layer.data() + i * vertex_count;
+    for (std::size_t v = 0; v < vertex_count; ++v) {
+      red[v] += t[v] * c[0];
+      green[v] += t[v] * c[1];
+      blue[v] += t[v] * c[2];
+    }
+  }
+  std::vector<float> rgb(3 * vertex_count);
+  for (std::size_t v = 0; v < vertex_count; ++v) {
+    rgb[3 * v] = red[v];
+    rgb[3 * v + 1] = green[v];
+    rgb[3 * v + 2] = blue[v];
+  }
+  return rgb;
+}
+
+void LightMapTexture::check(const bake_format::LightMapLayout& l, std::span<const float> transfer, std::span<const float> ground_transfer,
+                            bool ground, const scene::Mesh& mesh, std::size_t layers) {
+  if (l.triangle_chart.size() != mesh.triangle_count() || transfer.size() != l.texels.size() * layers ||
+      (ground && ground_transfer.size() != transfer.size())) {
+    throw InputError(input_message("manifest.json", -1, -1, "light_map",
+                                   "the light map's " + std::to_string(l.triangle_chart.size()) + " triangles and " +
+                                       std::to_string(transfer.size()) + " transfer values (" + std::to_string(ground_transfer.size()) +
+                                       " of the ground) do not fit a model of " + std::to_string(mesh.triangle_count()) +
+                                       " triangles and " + std::to_string(l.texels.size()) + " texels × " + std::to_string(layers) + " layers",
+                                   "re-bake with skylit-bake --light-map, or leave the light map out"));
+  }
+}
+
+DrawVertices draw_vertices(const scene::Mesh& mesh, const bake_format::LightMapLayout* layout) {
+  DrawVertices out;
+  if (layout == nullptr || layout->texels.empty()) {
+    out.model_vertex = identity(mesh.vertex_count());
+    out.atlas.assign(mesh.vertex_count(), Eigen::Vector2f(-1.0f, -1.0f));
+    out.indices = mesh.indices;
+    return out;
+  }
+  if (layout->triangle_chart.size() != mesh.triangle_count()) {
+    throw std::invalid_argument("draw_vertices: the light map has " + std::to_string(layout->triangle_chart.size()) +
+                                " triangles, the model " + std::to_string(mesh.triangle_count()));
+  }
+  // The model's vertices keep their indices for the triangles on no chart; a copy per (vertex,
+  // chart) follows them.
+  out.model_vertex = identity(mesh.vertex_count());
+  out.atlas.assign(mesh.vertex_count(), Eigen::Vector2f(-1.0f, -1.0f));
+  std::map<std::pair<std::uint32_t, std::int32_t>, std::uint32_t> copies;
+  out.indices = mesh.indices;
+  for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
+    const std::int32_t chart = layout->triangle_chart[t];
+    for (std::size_t k = 0; k < 3; ++k) {
+      const std::uint32_t v = mesh.indices[3 * t + k];
+      if (chart < 0) {
+        out.indices[3 * t + k] = v;
+        continue;
+      }
+      const auto [it, inserted] = copies.try_emplace({v, chart}, static_cast<std::uint32_t>(out.model_vertex.size()));
+      if (inserted) {
+        out.model_vertex.push_back(v);
+        out.atlas.push_back(layout->atlas_coordinates(chart, mesh.positions[v].cast<double>()).cast<float>());
+      }
+      out.indices[3 * t + k] = it->second;
+    }
+  }
+  return out;
+}
+
+std::vector<float> per_draw_vertex(const DrawVertices& draw, std::span<const float> values, int components,
+                                   std::span<const float> charted_less) {
+  const auto c = static_cast<std::size_t>(components);
+  std::vector<float> out(draw.model_vertex.size() * c);
+  for (std::size_t d = 0; d < draw.model_vertex.size(); ++d) {
+    const std::size_t v = draw.model_vertex[d];
+    const bool less = !charted_less.empty() && draw.charted(d);
+    for (std::size_t k = 0; k < c; ++k) out[d * c + k] = values[v * c + k] - (less ? charted_less[v * c + k] : 0.0f);
+  }
+  return out;
+}
+
+LightMapTexture::LightMapTexture(const bake_format::LightMapLayout& layout, std::span<const float> transfer,
+                                 std::span<const float> ground, std::size_t layers)
+    : texels_(layout.texels), transfer_(cleaned(transfer)), ground_(cleaned(ground)), layers_(layers), width_(layout.width),
+      height_(layout.height) {
+  if (layers == 0 || transfer.size() != texels_.size() * layers || (!ground.empty() && ground.size() != transfer.size())) {
+    throw std::invalid_argument("LightMapTexture: " + std::to_string(transfer.size()) + " transfer and " + std::to_string(ground.size()) +
+                                " ground values for " + std::to_string(texels_.size()) + " texels of " + std::to_string(layers) + " layers");
+  }
+  texture_ = gpu::make_texture();
+  glBindTexture(GL_TEXTURE_2D, texture_.get());
+  glTexStorage2D(GL_TEXTURE_2D, 1, GL_RGBA32F, width_, height_);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  const std::vector<float> zero(static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_) * 4, 0.0f);
+  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, width_, height_, GL_RGBA, GL_FLOAT, zero.data());
+  glBindTexture(GL_TEXTURE_2D, 0);
+}
+
+void LightMapTexture::update(std::span<const Eigen::Vector3d> S, std::span<const Eigen::Vector3d> ground_coefficients,
+                             const Eigen::Vector3d& albedo) {
+  // The sky's and the ground's coefficients as one row per channel, so that a texel's sum runs
+  // over its contiguous transfer.
+  std::array<std::vector<float>, 3> sky, reflected;
+  for (int c = 0; c < 3; ++c) {
+    sky[static_cast<std::size_t>(c)].assign(layers_, 0.0f);
+    reflected[static_cast<std::size_t>(c)].assign(layers_, 0.0f);
+    for (std::size_t l = 0; l < std::min(layers_, S.size()); ++l) {
+      const double s = S[l][c];
+      sky[static_cast<std::size_t>(c)][l] = std::isfinite(s) ? static_cast<float>(s) : 0.0f;
+    }
+    if (ground_.empty()) continue;
+    for (std::size_t l = 0; l < std::min(layers_, ground_coefficients.size()); ++l) {
+      const double g = albedo[c] * ground_coefficients[l][c];
+      reflected[static_cast<std::size_t>(c)][l] = std::isfinite(g) ? static_cast<float>(g) : 0.0f;
+    }
+  }
+  const std::size_t count = texels_.size();
+  std::vector<float> atlas(static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_) * 4, 0.0f);
+  constexpr std::size_t kBlock = 4096;
+  const auto blocks = static_cast<int>((count + kBlock - 1) / kBlock);
+  parallel_for(blocks, 0, [&](int block) {
+    const std::size_t first = static_cast<std::size_t>(block) * kBlock, last = std::min(count, first + kBlock);
+    for (std::size_t k = first; k < last; ++k) {
+      float* out = atlas.data() + 4 * static_cast<std::size_t>(texels_[k]);
+      const float* t = transfer_.data() + k * layers_;
+      const float* g = ground_.empty() ? nullptr : ground_.data() + k * layers_;
+      for (std::size_t c = 0; c < 3; ++c) {
+        float sum = 0.0f;
+        const float* s = sky[c].data();
+        for (std::size_t l = 0; l < layers_; ++l) sum += t[l] * s[l];
+        if (g != nullptr) {
+          const float* r = reflected[c].data();
+          for (std::size_t l = 0; l < layers_; ++l) sum += g[l] * r[l];
+        }
+        out[c] = sum;
+      }
+      out[3] = 1.0f;
+    }
+  });
+  glBindTexture(GL_TEXTURE_2D, texture_.get());
+  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, width_, height_, GL_RGBA, GL_FLOAT, atlas.data());
+  glBindTexture(GL_TEXTURE_2D, 0);
+}
+
+}  // namespace skylit::render

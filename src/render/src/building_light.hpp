@@ -1,0 +1,71 @@
+#pragma once
+// The building's light as the compositor sums it on the CPU when the sky changes: per vertex from
+// the transfer vectors, and per texel of the bake's light map (bake_format/light_map.hpp), with
+// the model's vertices split where triangles on different charts (or on none) meet, each corner
+// with its chart's atlas coordinates.
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <Eigen/Core>
+#include <GLES3/gl31.h>
+
+#include "skylit/bake_format/light_map.hpp"
+#include "skylit/gpu/gl.hpp"
+#include "skylit/scene/mesh.hpp"
+
+namespace skylit::render {
+
+// Vertex-major values (a bake's transfer arrays: `layers` per vertex) layer after layer, so that
+// a sum runs over every vertex of a layer at once; not finite or negative: 0.
+std::vector<float> layer_major(std::span<const float> values, std::size_t vertex_count, std::size_t layers);
+
+// Σ_l c_l t_{v,l} per vertex, RGB (rgb[3v + k]), in float, layer after layer, from layer-major t;
+// a layer whose coefficient is zero is skipped.
+std::vector<float> sum_layers(std::span<const float> by_layer, std::size_t vertex_count, std::span<const Eigen::Vector3f> coefficients);
+
+// The building's vertices as drawn: a model vertex once per chart its triangles lie on (and once
+// for the triangles on none), each with its atlas coordinates (LightMapLayout::atlas_coordinates;
+// (−1, −1) on none), and the model's triangles over them. Without a layout: the model's own.
+struct DrawVertices {
+  std::vector<std::uint32_t> model_vertex;
+  std::vector<Eigen::Vector2f> atlas;
+  std::vector<std::uint32_t> indices;
+  bool charted(std::size_t draw_vertex) const { return atlas[draw_vertex].x() >= 0.0f; }
+};
+DrawVertices draw_vertices(const scene::Mesh& mesh, const bake_format::LightMapLayout* layout);
+
+// `values` (`components` per model vertex) per draw vertex; a charted one takes its value less
+// `charted_less`'s (the same shape; empty: nothing less), the share the light map carries there.
+std::vector<float> per_draw_vertex(const DrawVertices& draw, std::span<const float> values, int components,
+                                   std::span<const float> charted_less = {});
+
+class LightMapTexture {
+ public:
+  // The options' light map checked against the model and the bake (InputError naming the fix);
+  // `ground`: the ground's light is on (its transfer then needed too).
+  static void check(const bake_format::LightMapLayout& layout, std::span<const float> transfer, std::span<const float> ground_transfer,
+                    bool ground, const scene::Mesh& mesh, std::size_t layers);
+  // transfer and ground (empty: none): the bake's light_map_transfer.npy and light_map_ground.npy,
+  // texel-major, `layers` per texel. Call with the GL context current. std::invalid_argument when
+  // the sizes do not fit.
+  LightMapTexture(const bake_format::LightMapLayout& layout, std::span<const float> transfer, std::span<const float> ground,
+                  std::size_t layers);
+
+  // E = Σ_l S_l t_l + ρ ⊙ Σ_l S^g_l t^g_l per texel (values not finite or negative count as 0, as
+  // at the vertices), written to the texture (RGBA32F, the atlas's size).
+  void update(std::span<const Eigen::Vector3d> S, std::span<const Eigen::Vector3d> ground_coefficients, const Eigen::Vector3d& albedo);
+
+  GLuint texture() const { return texture_.get(); }
+  int width() const { return width_; }
+  int height() const { return height_; }
+
+ private:
+  std::vector<std::uint32_t> texels_;
+  std::vector<float> transfer_, ground_;
+  std::size_t layers_ = 0;
+  int width_ = 0, height_ = 0;
+  gpu::Texture texture_;
+};
+
+}  // namespace skylit::render

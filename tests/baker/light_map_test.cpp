@@ -1,0 +1,203 @@
+// baker::lay_out_light_map and a bake with a light map: charts over the flat faces, every lookup
+// on a face reading its own chart's traced texels, texels off the faces moved onto them, texels
+// inside another part filled from their neighbours; the bake's texels see what a vertex at their
+// place would see.
+#include "skylit/baker/light_map.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+
+#include <gtest/gtest.h>
+
+#include "../support/quiet_bake.hpp"
+#include "../support/temp_dir.hpp"
+#include "box_scene.hpp"
+#include "skylit/bake_format/arrays.hpp"
+#include "skylit/bake_format/manifest.hpp"
+#include "skylit/base/error.hpp"
+#include "skylit/scene/site.hpp"
+
+namespace skylit::baker {
+namespace light_map_test {  // named: the test program is one unity build
+
+using Eigen::Vector2d;
+using Eigen::Vector3d;
+
+// The chart whose rectangle holds atlas texel `index`, or −1.
+int chart_at(const bake_format::LightMapLayout& l, std::uint32_t index) {
+  const int column = static_cast<int>(index) % l.width, row = static_cast<int>(index) / l.width;
+  for (std::size_t c = 0; c < l.charts.size(); ++c) {
+    const bake_format::LightMapChart& f = l.charts[c];
+    if (column >= f.x && column < f.x + f.width && row >= f.y && row < f.y + f.height) return static_cast<int>(c);
+  }
+  return -1;
+}
+
+TEST(LightMap, ChartsCoverTheFlatFacesAndEveryLookupOnThemReadsItsOwnChartsTracedTexels) {
+  skylit::test::TempDir dir("skylit-light-map-");
+  const scene::Mesh mesh = scene::load_site_model(scene::load_site(test::write_cube_on_slab_site(dir.path())));
+  const LightMapPoints lm = lay_out_light_map(mesh, {0.25, 1.0});
+  const bake_format::LightMapLayout& l = lm.layout;
+  // The slab, the cube's four sides and its top: six flat regions of at least 1 m².
+  ASSERT_EQ(l.charts.size(), 6u);
+  ASSERT_EQ(l.triangle_chart.size(), mesh.triangle_count());
+  for (std::size_t t = 0; t < mesh.triangle_count(); ++t) EXPECT_GE(l.triangle_chart[t], 0) << "triangle " << t;
+  // The slab spans 12 m: 48 texels and one beyond each edge.
+  const auto slab = static_cast<std::size_t>(l.triangle_chart[0]);
+  EXPECT_EQ(l.charts[slab].width, 50);
+  EXPECT_EQ(l.charts[slab].height, 50);
+  // Charts inside the atlas and apart.
+  std::vector<int> owner(static_cast<std::size_t>(l.width) * static_cast<std::size_t>(l.height), -1);
+  for (std::size_t c = 0; c < l.charts.size(); ++c) {
+    const bake_format::LightMapChart& f = l.charts[c];
+    ASSERT_LE(f.x + f.width, l.width);
+    ASSERT_LE(f.y + f.height, l.height);
+    for (int j = 0; j < f.height; ++j) {
+      for (int i = 0; i < f.width; ++i) {
+        int& o = owner[static_cast<std::size_t>((f.y + j) * l.width + f.x + i)];
+        EXPECT_EQ(o, -1) << "charts " << o << " and " << c << " overlap";
+        o = static_cast<int>(c);
+      }
+    }
+  }
+  // Traced texels in atlas order, each on its chart's faces: in the chart's plane, and no farther
+  // from its texel centre than a lookup reaches.
+  ASSERT_EQ(lm.positions.size(), l.texels.size());
+  const std::set<std::uint32_t> traced(l.texels.begin(), l.texels.end());
+  EXPECT_TRUE(std::is_sorted(l.texels.begin(), l.texels.end()));
+  std::size_t moved = 0;
+  for (std::size_t k = 0; k < l.texels.size(); ++k) {
+    const int c = chart_at(l, l.texels[k]);
+    ASSERT_GE(c, 0);
+    const bake_format::LightMapChart& f = l.charts[static_cast<std::size_t>(c)];
+    const Vector3d p = lm.positions[k].cast<double>();
+    EXPECT_NEAR((p - f.origin).dot(f.u.cross(f.v)), 0.0, 1e-4) << "texel " << k;
+    const Vector2d a = l.atlas_coordinates(c, p);
+    const Vector2d centre(l.texels[k] % static_cast<std::uint32_t>(l.width) + 0.5, l.texels[k] / static_cast<std::uint32_t>(l.width) + 0.5);
+    EXPECT_LE((a - centre).norm(), std::sqrt(2.0) + 1e-6) << "texel " << k;
+    if ((a - centre).norm() > 1e-3) ++moved;
+    EXPECT_NEAR(lm.normals[k].cast<double>().dot(f.u.cross(f.v)), 1.0, 1e-6);
+  }
+  EXPECT_GT(moved, 0u) << "the texels beyond the faces' edges are moved onto them";
+  // Lookups anywhere on the faces read four traced texels of their own chart.
+  int lookups = 0;
+  for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
+    const int c = l.triangle_chart[t];
+    for (int i = 0; i <= 10; ++i) {
+      for (int j = 0; i + j <= 10; ++j) {
+        const double b0 = i / 10.0, b1 = j / 10.0, b2 = 1.0 - b0 - b1;
+        const Vector3d p = b0 * mesh.positions[mesh.indices[3 * t]].cast<double>() + b1 * mesh.positions[mesh.indices[3 * t + 1]].cast<double>() +
+                           b2 * mesh.positions[mesh.indices[3 * t + 2]].cast<double>();
+        const Vector2d a = l.atlas_coordinates(c, p);
+        const int x0 = static_cast<int>(std::floor(a.x() - 0.5)), y0 = static_cast<int>(std::floor(a.y() - 0.5));
+        for (const auto& [dx, dy] : {std::pair{0, 0}, {1, 0}, {0, 1}, {1, 1}}) {
+          const auto index = static_cast<std::uint32_t>((y0 + dy) * l.width + x0 + dx);
+          ASSERT_EQ(chart_at(l, index), c) << "triangle " << t << " reads another chart at " << a.transpose();
+          ASSERT_TRUE(traced.count(index)) << "triangle " << t << " reads an untraced texel at " << a.transpose();
+        }
+        ++lookups;
+      }
+    }
+  }
+  std::printf("measured: %zu charts in a %d×%d atlas, %zu texels traced (%zu moved onto the faces), %d lookups checked\n",
+              l.charts.size(), l.width, l.height, l.texels.size(), moved, lookups);
+  // A smaller region than min_area stays with its vertices: with 10 m², only the slab.
+  const LightMapPoints slab_only = lay_out_light_map(mesh, {0.25, 10.0});
+  EXPECT_EQ(slab_only.layout.charts.size(), 1u);
+  EXPECT_EQ(std::count(slab_only.layout.triangle_chart.begin(), slab_only.layout.triangle_chart.end(), -1),
+            static_cast<std::ptrdiff_t>(mesh.triangle_count() - 2));
+  const LightMapPoints none = lay_out_light_map(mesh, {0.25, 1000.0});
+  EXPECT_TRUE(none.layout.charts.empty());
+  EXPECT_TRUE(none.layout.texels.empty());
+  EXPECT_THROW(lay_out_light_map(mesh, {0.0, 1.0}), InputError);
+  EXPECT_THROW(lay_out_light_map(mesh, {0.25, -1.0}), InputError);
+  EXPECT_THROW(lay_out_light_map(mesh, {0.0005, 1.0}), InputError) << "a texel the atlas cannot hold";
+}
+
+TEST(LightMap, TexelsThatSawNothingTakeTheMeanOfTheirChartNeighboursThatDid) {
+  // Two 3 × 3 charts side by side; the first's middle texel saw nothing.
+  bake_format::LightMapLayout l;
+  l.texel = 0.1;
+  l.width = 6;
+  l.height = 3;
+  l.charts = {{0, 0, 3, 3, Vector3d::Zero(), Vector3d::UnitX(), Vector3d::UnitY()},
+              {3, 0, 3, 3, Vector3d::Zero(), Vector3d::UnitX(), Vector3d::UnitY()}};
+  for (std::uint32_t k = 0; k < 18; ++k) l.texels.push_back(k);
+  const std::size_t layers = 2;
+  std::vector<float> values(18 * layers), ground(18 * layers, 0.0f);
+  for (std::size_t k = 0; k < 18; ++k) {
+    values[k * layers] = static_cast<float>(k);
+    values[k * layers + 1] = 100.0f + static_cast<float>(k);
+  }
+  const std::size_t middle = 1 * 6 + 1;
+  values[middle * layers] = values[middle * layers + 1] = 0.0f;
+  // Texel 2 (the first chart's right column) has its neighbours 3, 9 in the second chart: not read.
+  fill_unseen_texels(l, layers, values, &ground);
+  // The first chart's other texels: 0, 1, 2, 6, 8, 12, 13, 14.
+  const float mean = (0 + 1 + 2 + 6 + 8 + 12 + 13 + 14) / 8.0f;
+  EXPECT_FLOAT_EQ(values[middle * layers], mean);
+  EXPECT_FLOAT_EQ(values[middle * layers + 1], 100.0f + mean);
+  // A texel with light in `also` (the ground's, on a ceiling) saw something: kept.
+  values[middle * layers] = values[middle * layers + 1] = 0.0f;
+  ground[middle * layers] = 1.0f;
+  fill_unseen_texels(l, layers, values, &ground);
+  EXPECT_EQ(values[middle * layers], 0.0f);
+}
+
+TEST(LightMap, ABakesTexelsSeeWhatAVertexThereSees) {
+  skylit::test::TempDir dir("skylit-light-map-bake-");
+  const std::filesystem::path site_file = test::write_cube_on_slab_site(dir.path());
+  skylit::test::quiet_bake(site_file, dir.path() / "bake", 4, [](BakeOptions& o) { o.light_map = LightMapOptions{0.25, 1.0}; });
+  const bake_format::VerifyReport report = bake_format::verify(dir.path() / "bake");
+  EXPECT_TRUE(report.ok) << (report.problems.empty() ? "" : report.problems.front());
+  const bake_format::Manifest m = bake_format::read_manifest(dir.path() / "bake");
+  ASSERT_TRUE(m.light_map.has_value());
+  EXPECT_FALSE(m.light_map->ground_file.empty()) << "the ground layer's transfer to the texels too";
+  const bake_format::LightMapLayout l = bake_format::read_light_map_layout(dir.path() / "bake", m);
+  const scene::Mesh mesh = scene::load_site_model(scene::load_site(site_file));
+  const LightMapPoints expected = lay_out_light_map(mesh, {0.25, 1.0});
+  EXPECT_EQ(l.texels, expected.layout.texels);
+  EXPECT_EQ(l.triangle_chart, expected.layout.triangle_chart);
+  EXPECT_EQ(m.plan.light_map.texels, l.texels.size());
+  std::vector<std::size_t> shape;
+  const std::vector<float> transfer = bake_format::read_npy(dir.path() / "bake" / m.transfer_file, &shape);
+  const std::vector<float> texels = bake_format::read_npy(dir.path() / "bake" / m.light_map->transfer_file, &shape);
+  const std::size_t layers = m.layer_count();
+  ASSERT_EQ(shape, (std::vector<std::size_t>{l.texels.size(), layers}));
+  // The cube's top sees the whole sky from every point, its corners too: each texel's transfer is
+  // a corner vertex's ((−1, −1, 3), normal up).
+  std::size_t corner = mesh.vertex_count(), top_triangle = mesh.triangle_count();
+  for (std::size_t v = 0; v < mesh.vertex_count(); ++v) {
+    if ((mesh.positions[v] - Eigen::Vector3f(-1, -1, 3)).norm() < 1e-6f && mesh.normals[v].z() > 0.99f) corner = v;
+  }
+  for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
+    if (mesh.positions[mesh.indices[3 * t]].z() == 3.0f && mesh.positions[mesh.indices[3 * t + 1]].z() == 3.0f &&
+        mesh.positions[mesh.indices[3 * t + 2]].z() == 3.0f) {
+      top_triangle = t;
+    }
+  }
+  ASSERT_LT(corner, mesh.vertex_count());
+  ASSERT_LT(top_triangle, mesh.triangle_count());
+  const int top = l.triangle_chart[top_triangle];
+  double worst = 0.0, slab_foot = 1e9, top_sum = 0.0;
+  for (std::size_t j = 0; j < layers; ++j) top_sum += transfer[corner * layers + j];
+  for (std::size_t k = 0; k < l.texels.size(); ++k) {
+    const int c = chart_at(l, l.texels[k]);
+    double sum = 0.0;
+    for (std::size_t j = 0; j < layers; ++j) sum += texels[k * layers + j];
+    if (c == top) {
+      for (std::size_t j = 0; j < layers; ++j) worst = std::max(worst, std::abs(double(texels[k * layers + j]) - transfer[corner * layers + j]));
+    } else if (c == l.triangle_chart[0]) {
+      slab_foot = std::min(slab_foot, sum);
+    }
+  }
+  std::printf("measured: the top's texels within %.2g sr of its corner's transfer; the slab's darkest texel %.3f of the top's light\n", worst,
+              slab_foot / top_sum);
+  EXPECT_LT(worst, 1e-6);
+  // The slab's texels at the cube's foot see half the sky or less, where its corners see all of it.
+  EXPECT_LT(slab_foot, 0.6 * top_sum);
+}
+
+}  // namespace light_map_test
+}  // namespace skylit::baker
