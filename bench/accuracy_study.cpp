@@ -241,6 +241,8 @@ int main(int argc, char** argv) {
                  "the building inside the triangles is then shown from it where it covers them");
   double light_map_min_area = 1.0;
   app.add_option("--light-map-min-area", light_map_min_area, "m², with --light-map (skylit-bake --light-map-min-area)");
+  int light_map_min_across = 0;
+  app.add_option("--light-map-min-across", light_map_min_across, "texels, with --light-map (skylit-bake --light-map-min-across)");
   int vertex_fit = 0;
   app.add_option("--vertex-fit", vertex_fit,
                  "every bake fits its vertices to the light at N² points inside each triangle (skylit-bake --vertex-fit)")
@@ -304,7 +306,7 @@ int main(int argc, char** argv) {
     options.previews = false;
     options.refine = refine;
     options.vertex_fit = vertex_fit;
-    if (light_map > 0.0) options.light_map = skylit::baker::LightMapOptions{light_map, light_map_min_area};
+    if (light_map > 0.0) options.light_map = skylit::baker::LightMapOptions{light_map, light_map_min_area, light_map_min_across};
     const auto t = Clock::now();
     skylit::baker::run_bake(options, stderr);
     bake_seconds[key] = seconds_since(t);

@@ -12,6 +12,8 @@
 // a frame whose building takes N − 1 lamps per vertex, each against N = 1.
 // SKYLIT_COMPOSE_BENCH_SITE=FILE bakes that site instead of the sample site (e.g. one with the
 // planes of skylit-bake walls: what more virtual planes cost the building's pass).
+// SKYLIT_COMPOSE_BENCH_LIGHT_MAP=TEXEL[,MIN_AREA] bakes a light map too (skylit-bake --light-map)
+// and every compositor draws with it: its sum per new sky, and its lookups in the building's pass.
 #include <algorithm>
 #include <array>
 #include <cstdio>
@@ -29,6 +31,7 @@
 
 #include "skylit/bake_format/manifest.hpp"
 #include "skylit/bake_format/arrays.hpp"
+#include "skylit/bake_format/light_map.hpp"
 #include "skylit/bake_format/model.hpp"
 #include "skylit/baker/bake_job.hpp"
 #include "skylit/gpu/egl_context.hpp"
@@ -54,6 +57,8 @@ struct Scene {
   scene::Mesh mesh;
   bake_format::Manifest manifest;
   std::vector<float> transfer, ground_transfer;
+  bake_format::LightMapLayout light_map;         // SKYLIT_COMPOSE_BENCH_LIGHT_MAP; no texels: none
+  std::vector<float> light_map_transfer, light_map_ground;
   std::vector<Eigen::Vector3d> sky;
   blend::SunLight sun;
   std::vector<gpu::Texture> ratios;
@@ -86,6 +91,15 @@ struct Scene {
     if (const char* refine = std::getenv("SKYLIT_COMPOSE_BENCH_REFINE"); refine != nullptr && *refine != '\0') {
       options.refine.tolerance = std::atof(refine);
     }
+    // A light map, TEXEL[,MIN_AREA] (skylit-bake --light-map): every compositor here draws with it.
+    if (const char* light_map_option = std::getenv("SKYLIT_COMPOSE_BENCH_LIGHT_MAP"); light_map_option != nullptr && *light_map_option != '\0') {
+      baker::LightMapOptions l;
+      if (std::sscanf(light_map_option, "%lf,%lf", &l.texel, &l.min_area) < 1) {
+        std::fprintf(stderr, "SKYLIT_COMPOSE_BENCH_LIGHT_MAP: expected TEXEL[,MIN_AREA], got '%s'\n", light_map_option);
+        std::exit(2);
+      }
+      options.light_map = l;
+    }
     std::FILE* quiet = std::fopen("/dev/null", "w");
     baker::run_bake(options, quiet);
     std::fclose(quiet);
@@ -95,6 +109,13 @@ struct Scene {
     std::vector<std::size_t> shape;
     transfer = bake_format::read_npy(dir / manifest.transfer_file, &shape);
     ground_transfer = bake_format::read_npy(dir / manifest.ground->file, &shape);
+    if (manifest.light_map) {
+      light_map = bake_format::read_light_map_layout(dir, manifest);
+      light_map_transfer = bake_format::read_npy(dir / manifest.light_map->transfer_file, &shape);
+      light_map_ground = bake_format::read_npy(dir / manifest.light_map->ground_file, &shape);
+      std::fprintf(stderr, "compose_bench: a light map of %zu texels (%d×%d atlas) over %zu charts\n", light_map.texels.size(),
+                   light_map.width, light_map.height, light_map.charts.size());
+    }
     sky.assign(transfer.size() / mesh.vertex_count(), Eigen::Vector3d(0.3, 0.4, 0.6));  // one value per basis layer
     const double az = 140 * std::numbers::pi / 180, el = 35 * std::numbers::pi / 180;
     sun = {Eigen::Vector3d(std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)), Eigen::Vector3d::Constant(3.0)};
@@ -121,6 +142,14 @@ struct Scene {
     return scene;
   }
 };
+
+// Options with the scene's light map, when it has one.
+render::CompositorOptions light_mapped(const Scene& scene) {
+  render::CompositorOptions options;
+  options.light_map = scene.light_map;
+  options.light_map_transfer = scene.light_map_transfer;
+  return options;
+}
 
 // The sample HMD camera (config/hmd_camera.yaml) scaled to width (same focal length per pixel of
 // width), any height.
@@ -161,7 +190,7 @@ void frame(benchmark::State& state, bool read_back) {
   const int width = static_cast<int>(state.range(0));
   const int height = static_cast<int>(state.range(1));
   const camera::CameraCalibration calibration = camera(width, height);
-  render::CompositorOptions options;
+  render::CompositorOptions options = light_mapped(scene);
   options.lens.render_scale = static_cast<double>(state.range(2)) / 100.0;
   render::Compositor compositor(scene.site, scene.mesh, scene.manifest, scene.transfer, calibration, options);
   cv::Mat image;
@@ -189,7 +218,7 @@ void BM_CompositeStages(benchmark::State& state) {
   const int width = static_cast<int>(state.range(0));
   const int height = static_cast<int>(state.range(1));
   const camera::CameraCalibration calibration = camera(width, height);
-  render::CompositorOptions options;
+  render::CompositorOptions options = light_mapped(scene);
   options.lens.render_scale = static_cast<double>(state.range(2)) / 100.0;
   options.time_stages = true;
   render::Compositor compositor(scene.site, scene.mesh, scene.manifest, scene.transfer, calibration, options);
@@ -229,11 +258,12 @@ void BM_CompositeStages(benchmark::State& state) {
 void BM_CompositeDrawNewSky(benchmark::State& state) {
   Scene& scene = Scene::get();
   const camera::CameraCalibration calibration = camera(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
-  render::CompositorOptions options;
+  render::CompositorOptions options = light_mapped(scene);
   options.lens.render_scale = static_cast<double>(state.range(2)) / 100.0;
   if (state.range(3) != 0) {
     options.ground_albedo = Eigen::Vector3d::Constant(0.2);
     options.ground_transfer = scene.ground_transfer;
+    if (!scene.light_map.texels.empty()) options.light_map_ground = scene.light_map_ground;
   }
   render::Compositor compositor(scene.site, scene.mesh, scene.manifest, scene.transfer, calibration, options);
   cv::Mat image;

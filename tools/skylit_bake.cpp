@@ -45,7 +45,7 @@ int run_verify(const std::filesystem::path& dir) {
 // Everything the command line sets: the bake's options and what the subcommands take.
 struct CommandLine {
   skylit::baker::BakeOptions options;
-  skylit::baker::LightMapOptions light_map{0.0, 1.0};  // texel 0: none
+  skylit::baker::LightMapOptions light_map{0.0, 1.0, 0};  // texel 0: none
   std::string site, out, resolution, shard, basis;
   int frequency = 0;
   bool quiet = false;
@@ -116,6 +116,10 @@ void add_bake_options(CLI::App& app, CommandLine& c) {
                  "(docs/baker.md); 0: none")
       ->capture_default_str();
   app.add_option("--light-map-min-area", c.light_map.min_area, "m²: a flat region smaller than this stays with its vertices, with --light-map")
+      ->capture_default_str();
+  app.add_option("--light-map-min-across", c.light_map.min_across,
+                 "with --light-map: a chart narrower than this many texels takes finer ones, as many across it, down to a "
+                 "quarter of the texel; 0: every chart the same")
       ->capture_default_str();
   c.options.method = "auto";
   app.add_option("--method", c.options.method,

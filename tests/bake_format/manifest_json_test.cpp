@@ -196,7 +196,7 @@ TEST(ManifestJson, RoundTripKeepsEveryField) {
 TEST(ManifestJson, TheLightMapRoundTripsAndMustAgreeWithThePlan) {
   Manifest m = sample_manifest();
   EXPECT_FALSE(manifest_from_json(reparse(to_json(m)), "manifest.json").light_map.has_value());
-  m.plan.light_map = {0.1, 1.5, 777};
+  m.plan.light_map = {0.1, 1.5, 6, 777};
   m.light_map = Manifest::LightMap{};
   m.light_map->width = 64;
   m.light_map->height = 48;
@@ -204,7 +204,8 @@ TEST(ManifestJson, TheLightMapRoundTripsAndMustAgreeWithThePlan) {
   const json j = reparse(to_json(m));
   EXPECT_EQ(j["plan"]["light_map"]["texels"], 777);
   EXPECT_EQ(j["light_map"]["transfer"]["shape"], json::array({777, 40}));
-  EXPECT_EQ(j["light_map"]["charts"]["shape"], json::array({5, 13}));
+  EXPECT_EQ(j["light_map"]["charts"]["shape"], json::array({5, 14}));
+  EXPECT_EQ(j["plan"]["light_map"]["min_across"], 6);
   EXPECT_FALSE(j["light_map"].contains("ground"));
   const Manifest b = manifest_from_json(j, "manifest.json");
   ASSERT_TRUE(b.light_map.has_value());

@@ -34,10 +34,37 @@ int chart_at(const bake_format::LightMapLayout& l, std::uint32_t index) {
   return -1;
 }
 
+// Lookups anywhere on the faces (66 points per triangle) read four traced texels of their own
+// chart; the count checked.
+int lookups_read_their_charts_traced_texels(const scene::Mesh& mesh, const bake_format::LightMapLayout& l) {
+  const std::set<std::uint32_t> traced(l.texels.begin(), l.texels.end());
+  int lookups = 0;
+  for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
+    const int c = l.triangle_chart[t];
+    if (c < 0) continue;
+    for (int i = 0; i <= 10; ++i) {
+      for (int j = 0; i + j <= 10; ++j) {
+        const double b0 = i / 10.0, b1 = j / 10.0, b2 = 1.0 - b0 - b1;
+        const Vector3d p = b0 * mesh.positions[mesh.indices[3 * t]].cast<double>() + b1 * mesh.positions[mesh.indices[3 * t + 1]].cast<double>() +
+                           b2 * mesh.positions[mesh.indices[3 * t + 2]].cast<double>();
+        const Vector2d a = l.atlas_coordinates(c, p);
+        const int x0 = static_cast<int>(std::floor(a.x() - 0.5)), y0 = static_cast<int>(std::floor(a.y() - 0.5));
+        for (const auto& [dx, dy] : {std::pair{0, 0}, {1, 0}, {0, 1}, {1, 1}}) {
+          const auto index = static_cast<std::uint32_t>((y0 + dy) * l.width + x0 + dx);
+          EXPECT_EQ(chart_at(l, index), c) << "triangle " << t << " reads another chart at " << a.transpose();
+          EXPECT_TRUE(traced.count(index)) << "triangle " << t << " reads an untraced texel at " << a.transpose();
+        }
+        ++lookups;
+      }
+    }
+  }
+  return lookups;
+}
+
 TEST(LightMap, ChartsCoverTheFlatFacesAndEveryLookupOnThemReadsItsOwnChartsTracedTexels) {
   skylit::test::TempDir dir("skylit-light-map-");
   const scene::Mesh mesh = scene::load_site_model(scene::load_site(test::write_cube_on_slab_site(dir.path())));
-  const LightMapPoints lm = lay_out_light_map(mesh, {0.25, 1.0});
+  const LightMapPoints lm = lay_out_light_map(mesh, {0.25, 1.0, 0});
   const bake_format::LightMapLayout& l = lm.layout;
   // The slab, the cube's four sides and its top: six flat regions of at least 1 m².
   ASSERT_EQ(l.charts.size(), 6u);
@@ -64,7 +91,6 @@ TEST(LightMap, ChartsCoverTheFlatFacesAndEveryLookupOnThemReadsItsOwnChartsTrace
   // Traced texels in atlas order, each on its chart's faces: in the chart's plane, and no farther
   // from its texel centre than a lookup reaches.
   ASSERT_EQ(lm.positions.size(), l.texels.size());
-  const std::set<std::uint32_t> traced(l.texels.begin(), l.texels.end());
   EXPECT_TRUE(std::is_sorted(l.texels.begin(), l.texels.end()));
   std::size_t moved = 0;
   for (std::size_t k = 0; k < l.texels.size(); ++k) {
@@ -79,40 +105,31 @@ TEST(LightMap, ChartsCoverTheFlatFacesAndEveryLookupOnThemReadsItsOwnChartsTrace
     if ((a - centre).norm() > 1e-3) ++moved;
     EXPECT_NEAR(lm.normals[k].cast<double>().dot(f.u.cross(f.v)), 1.0, 1e-6);
   }
-  EXPECT_GT(moved, 0u) << "the texels beyond the faces' edges are moved onto them";
-  // Lookups anywhere on the faces read four traced texels of their own chart.
-  int lookups = 0;
-  for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
-    const int c = l.triangle_chart[t];
-    for (int i = 0; i <= 10; ++i) {
-      for (int j = 0; i + j <= 10; ++j) {
-        const double b0 = i / 10.0, b1 = j / 10.0, b2 = 1.0 - b0 - b1;
-        const Vector3d p = b0 * mesh.positions[mesh.indices[3 * t]].cast<double>() + b1 * mesh.positions[mesh.indices[3 * t + 1]].cast<double>() +
-                           b2 * mesh.positions[mesh.indices[3 * t + 2]].cast<double>();
-        const Vector2d a = l.atlas_coordinates(c, p);
-        const int x0 = static_cast<int>(std::floor(a.x() - 0.5)), y0 = static_cast<int>(std::floor(a.y() - 0.5));
-        for (const auto& [dx, dy] : {std::pair{0, 0}, {1, 0}, {0, 1}, {1, 1}}) {
-          const auto index = static_cast<std::uint32_t>((y0 + dy) * l.width + x0 + dx);
-          ASSERT_EQ(chart_at(l, index), c) << "triangle " << t << " reads another chart at " << a.transpose();
-          ASSERT_TRUE(traced.count(index)) << "triangle " << t << " reads an untraced texel at " << a.transpose();
-        }
-        ++lookups;
-      }
-    }
-  }
+  // The ring of texels around each chart, and no other: the slab's 50² − 48², each side's
+  // 10 × 14 − 8 × 12, the top's 10² − 8².
+  EXPECT_EQ(moved, 196u + 4 * 44u + 36u) << "the texels beyond the faces' edges are moved onto them, the others stay";
+  const int lookups = lookups_read_their_charts_traced_texels(mesh, l);
   std::printf("measured: %zu charts in a %d×%d atlas, %zu texels traced (%zu moved onto the faces), %d lookups checked\n",
               l.charts.size(), l.width, l.height, l.texels.size(), moved, lookups);
+  // With min_across 20 texels, the cube's 2 m sides take 0.1 m texels (20 across), its top too;
+  // the slab keeps 0.25 m.
+  const LightMapPoints fine = lay_out_light_map(mesh, {0.25, 1.0, 20});
+  for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
+    EXPECT_DOUBLE_EQ(fine.layout.charts[static_cast<std::size_t>(fine.layout.triangle_chart[t])].texel, t < 2 ? 0.25 : 0.1) << "triangle " << t;
+  }
+  EXPECT_GT(lookups_read_their_charts_traced_texels(mesh, fine.layout), 0);
+  EXPECT_THROW(lay_out_light_map(mesh, {0.25, 1.0, -1}), InputError);
   // A smaller region than min_area stays with its vertices: with 10 m², only the slab.
-  const LightMapPoints slab_only = lay_out_light_map(mesh, {0.25, 10.0});
+  const LightMapPoints slab_only = lay_out_light_map(mesh, {0.25, 10.0, 0});
   EXPECT_EQ(slab_only.layout.charts.size(), 1u);
   EXPECT_EQ(std::count(slab_only.layout.triangle_chart.begin(), slab_only.layout.triangle_chart.end(), -1),
             static_cast<std::ptrdiff_t>(mesh.triangle_count() - 2));
-  const LightMapPoints none = lay_out_light_map(mesh, {0.25, 1000.0});
+  const LightMapPoints none = lay_out_light_map(mesh, {0.25, 1000.0, 0});
   EXPECT_TRUE(none.layout.charts.empty());
   EXPECT_TRUE(none.layout.texels.empty());
-  EXPECT_THROW(lay_out_light_map(mesh, {0.0, 1.0}), InputError);
-  EXPECT_THROW(lay_out_light_map(mesh, {0.25, -1.0}), InputError);
-  EXPECT_THROW(lay_out_light_map(mesh, {0.0005, 1.0}), InputError) << "a texel the atlas cannot hold";
+  EXPECT_THROW(lay_out_light_map(mesh, {0.0, 1.0, 0}), InputError);
+  EXPECT_THROW(lay_out_light_map(mesh, {0.25, -1.0, 0}), InputError);
+  EXPECT_THROW(lay_out_light_map(mesh, {0.0005, 1.0, 0}), InputError) << "a texel the atlas cannot hold";
 }
 
 TEST(LightMap, TexelsThatSawNothingTakeTheMeanOfTheirChartNeighboursThatDid) {
@@ -148,7 +165,7 @@ TEST(LightMap, TexelsThatSawNothingTakeTheMeanOfTheirChartNeighboursThatDid) {
 TEST(LightMap, ABakesTexelsSeeWhatAVertexThereSees) {
   skylit::test::TempDir dir("skylit-light-map-bake-");
   const std::filesystem::path site_file = test::write_cube_on_slab_site(dir.path());
-  skylit::test::quiet_bake(site_file, dir.path() / "bake", 4, [](BakeOptions& o) { o.light_map = LightMapOptions{0.25, 1.0}; });
+  skylit::test::quiet_bake(site_file, dir.path() / "bake", 4, [](BakeOptions& o) { o.light_map = LightMapOptions{0.25, 1.0, 0}; });
   const bake_format::VerifyReport report = bake_format::verify(dir.path() / "bake");
   EXPECT_TRUE(report.ok) << (report.problems.empty() ? "" : report.problems.front());
   const bake_format::Manifest m = bake_format::read_manifest(dir.path() / "bake");
@@ -156,7 +173,7 @@ TEST(LightMap, ABakesTexelsSeeWhatAVertexThereSees) {
   EXPECT_FALSE(m.light_map->ground_file.empty()) << "the ground layer's transfer to the texels too";
   const bake_format::LightMapLayout l = bake_format::read_light_map_layout(dir.path() / "bake", m);
   const scene::Mesh mesh = scene::load_site_model(scene::load_site(site_file));
-  const LightMapPoints expected = lay_out_light_map(mesh, {0.25, 1.0});
+  const LightMapPoints expected = lay_out_light_map(mesh, {0.25, 1.0, 0});
   EXPECT_EQ(l.texels, expected.layout.texels);
   EXPECT_EQ(l.triangle_chart, expected.layout.triangle_chart);
   EXPECT_EQ(m.plan.light_map.texels, l.texels.size());

@@ -749,7 +749,7 @@ TEST_F(CompositorTest, ALightMapShowsItsTexelsBilinearlyOnItsCharts) {
   // everywhere: the ratio of the two composites is f as the CPU reads the atlas
   // (bake_format::sample_light_map), pixel by pixel, and not what the face's corners would give.
   const BakedSite& baked = BakedSite::get();
-  const baker::LightMapPoints lm = baker::lay_out_light_map(baked.mesh, {0.25, 1.0});
+  const baker::LightMapPoints lm = baker::lay_out_light_map(baked.mesh, {0.25, 1.0, 0});
   const std::size_t layers = baked.manifest.layer_count();
   const auto pattern = [](const Eigen::Vector3f& p) { return 1.0 + 0.3 * std::sin(2.5 * p.x()) + 0.2 * p.z(); };
   std::vector<float> patterned(lm.layout.texels.size() * layers, 0.0f), flat(patterned.size(), 0.0f);

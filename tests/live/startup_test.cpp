@@ -328,25 +328,31 @@ TEST(ServiceConfig, TheGroundsLightIsASettingThatNeedsTheBakesGroundLayer) {
   EXPECT_NE(message.find("--ground-samples"), std::string::npos) << message;
 }
 
-// A bake that refined the model (skylit-bake --refine): the service draws and lights the refined
-// model, whose vertices the bake's arrays follow.
-TEST(ServiceConfig, ABakeOfARefinedModelRunsOnTheRefinedModel) {
+// A bake that refined the model (skylit-bake --refine) with a light map (--light-map): the service
+// draws and lights the refined model, whose vertices the bake's arrays follow, and its charts from
+// the light map, frames with the sky composited.
+TEST(ServiceConfig, ABakeOfARefinedModelWithALightMapRunsOnTheRefinedModel) {
   const Rig rig;
   const BakedSite& baked = BakedSite::get();
   const fs::path refined = rig.dir() / "refined_bake";
   skylit::test::quiet_bake(baked.dir / "site.yaml", refined, 4, [](skylit::baker::BakeOptions& o) {
     o.refine.tolerance = 0.05;
     o.ground_samples = 16;
+    o.light_map = skylit::baker::LightMapOptions{0.25, 1.0, 0};
   });
   const skylit::bake_format::Manifest manifest = skylit::bake_format::read_manifest(refined);
   ASSERT_TRUE(manifest.refinement.has_value());
+  ASSERT_TRUE(manifest.light_map.has_value());
   ASSERT_GT(manifest.plan.vertex_count, baked.mesh.vertex_count()) << "the tower's faces split where the annex shades them";
   std::string text = rig.config_text();
   const std::string bake_line = "bake: " + quoted(baked.dir / "bake");
   text.replace(text.find(bake_line), bake_line.size(), "bake: " + quoted(refined));
   const fs::path file = rig.dir() / "refined.yaml";
   std::ofstream(file) << text << "render:\n  ground_light: true\n";
-  EXPECT_NO_THROW(live::Service(live::load_live_config(file), quiet_options()));
+  live::ServiceOptions options = quiet_options();
+  options.frames_with_sky = 2;
+  live::Service service(live::load_live_config(file), options);
+  EXPECT_GE(service.run(), 2);
 }
 
 // Every input a config names lies inside its root (its folder, or `root:`); secrets and outputs

@@ -28,7 +28,7 @@ TEST(StudyLightMap, TheSlabsTexelsCarryTheCubesShadowWhereItsCornersOnlyInterpol
   const skylit::test::TempDir dir("study_light_map");
   const std::filesystem::path site_file = skylit::baker::test::write_cube_on_slab_site(dir.path());
   skylit::test::quiet_bake(site_file, dir.path() / "bake", 16, [](skylit::baker::BakeOptions& o) {
-    o.light_map = skylit::baker::LightMapOptions{0.25, 1.0};
+    o.light_map = skylit::baker::LightMapOptions{0.25, 1.0, 0};
   });
   const skylit::scene::Site site = skylit::scene::load_site(site_file);
   const skylit::scene::Mesh mesh = skylit::scene::load_site_model(site);

@@ -183,6 +183,7 @@ Plan plan_from(const Source& src, const json& j, const std::string& field) {
     const json& l = j["light_map"];
     plan.light_map.texel = to_double(src, member(src, l, lfield, "texel"), join(lfield, "texel"));
     plan.light_map.min_area = to_double(src, member(src, l, lfield, "min_area"), join(lfield, "min_area"));
+    if (l.contains("min_across")) plan.light_map.min_across = to_int(src, l["min_across"], join(lfield, "min_across"), 0, 1024);
     plan.light_map.texels = to_count(src, member(src, l, lfield, "texels"), join(lfield, "texels"));
     if (!(plan.light_map.texel > 0.0) || !std::isfinite(plan.light_map.texel) || !(plan.light_map.min_area >= 0.0)) {
       src.fail(lfield, "needs texel > 0 and min_area >= 0");
@@ -285,7 +286,8 @@ std::string Plan::difference(const Plan& other) const {
   number("vertex_fit", vertex_fit, other.vertex_fit);
   if (!(light_map == other.light_map)) {
     const auto words = [](const LightMap& l) {
-      return l.texel > 0.0 ? "texel " + exact(l.texel) + " m, min_area " + exact(l.min_area) + " m², " + std::to_string(l.texels) + " texels"
+      return l.texel > 0.0 ? "texel " + exact(l.texel) + " m, min_area " + exact(l.min_area) + " m², min_across " +
+                                 std::to_string(l.min_across) + ", " + std::to_string(l.texels) + " texels"
                            : std::string("none");
     };
     items.push_back("light_map: " + words(light_map) + " vs " + words(other.light_map));
@@ -343,6 +345,7 @@ json to_json(const Plan& plan) {
   if (plan.vertex_fit > 0) j["vertex_fit"] = plan.vertex_fit;
   if (plan.light_map.texel > 0.0) {
     j["light_map"] = {{"texel", plan.light_map.texel}, {"min_area", plan.light_map.min_area}, {"texels", plan.light_map.texels}};
+    if (plan.light_map.min_across > 0) j["light_map"]["min_across"] = plan.light_map.min_across;
   }
   if (plan.refine.tolerance > 0.0) {
     j["refine"] = {{"tolerance", plan.refine.tolerance}, {"rounds", plan.refine.rounds}, {"min_edge", plan.refine.min_edge}};
@@ -414,7 +417,7 @@ json to_json(const Manifest& m) {
     const Manifest::LightMap& l = *m.light_map;
     out["light_map"] = {{"width", l.width},
                         {"height", l.height},
-                        {"charts", {{"file", l.charts_file}, {"shape", json::array({l.chart_count, 13})}}},
+                        {"charts", {{"file", l.charts_file}, {"shape", json::array({l.chart_count, 14})}}},
                         {"triangles", {{"file", l.triangles_file}, {"shape", json::array({m.plan.triangle_count})}}},
                         {"texels", {{"file", l.texels_file}, {"shape", json::array({m.plan.light_map.texels})}}},
                         {"transfer", {{"file", l.transfer_file}, {"shape", json::array({m.plan.light_map.texels, layer_count})}}}};
@@ -601,7 +604,7 @@ Manifest manifest_from_json(const json& j, const fs::path& source) {
       }
       return r;
     };
-    l.chart_count = file_of("charts", std::nullopt, 13, l.charts_file);
+    l.chart_count = file_of("charts", std::nullopt, 14, l.charts_file);
     file_of("triangles", m.plan.triangle_count, std::nullopt, l.triangles_file);
     file_of("texels", m.plan.light_map.texels, std::nullopt, l.texels_file);
     file_of("transfer", m.plan.light_map.texels, m.layer_count(), l.transfer_file);

@@ -532,9 +532,10 @@ LoadedSite load(const fs::path& site_file, const RefineOptions& refine, int vert
     normals.insert(normals.end(), loaded.light_map->normals.begin(), loaded.light_map->normals.end());
     if (log) {
       const auto charted = static_cast<std::size_t>(std::count_if(l.triangle_chart.begin(), l.triangle_chart.end(), [](std::int32_t c) { return c >= 0; }));
-      std::fprintf(log, "light map: %zu chart(s) over %zu of %zu triangles (flat regions of at least %g m²), %zu texels of %g m to trace "
-                   "in a %d×%d atlas, laid out in %.1f s\n", l.charts.size(), charted, l.triangle_chart.size(), light_map->min_area,
-                   l.texels.size(), l.texel, l.width, l.height, seconds_since(start));
+      const auto finer = static_cast<std::size_t>(std::count_if(l.charts.begin(), l.charts.end(), [&](const auto& c) { return c.texel < l.texel; }));
+      std::fprintf(log, "light map: %zu chart(s) over %zu of %zu triangles (flat regions of at least %g m²), %zu texels of %g m (finer on "
+                   "%zu narrow charts) to trace in a %d×%d atlas, laid out in %.1f s\n", l.charts.size(), charted, l.triangle_chart.size(),
+                   light_map->min_area, l.texels.size(), l.texel, finer, l.width, l.height, seconds_since(start));
     }
   }
   if (!positions.empty()) loaded.fit_mesh = with_points(loaded.mesh, positions, normals);
@@ -699,7 +700,9 @@ BakeSummary run_bake(const BakeOptions& given, std::FILE* log) {
   BakeOptions options = given;
   options.method = resolve_method(given);
   bake_format::Plan plan = make_plan(options, loaded.site, loaded.mesh);
-  if (loaded.light_map) plan.light_map = {given.light_map->texel, given.light_map->min_area, loaded.light_map->layout.texels.size()};
+  if (loaded.light_map) {
+    plan.light_map = {given.light_map->texel, given.light_map->min_area, given.light_map->min_across, loaded.light_map->layout.texels.size()};
+  }
   check_basis_samples(options, plan);
   const geom::Dome dome(plan.frequency);
   const bake_format::PartStore parts(options.out_dir / "parts");
@@ -829,7 +832,9 @@ BakeSummary merge_bakes(const std::vector<fs::path>& shard_dirs, const fs::path&
   }
 
   const std::optional<LightMapOptions> light_map =
-      plan->light_map.texel > 0.0 ? std::optional<LightMapOptions>(LightMapOptions{plan->light_map.texel, plan->light_map.min_area}) : std::nullopt;
+      plan->light_map.texel > 0.0
+          ? std::optional<LightMapOptions>(LightMapOptions{plan->light_map.texel, plan->light_map.min_area, plan->light_map.min_across})
+          : std::nullopt;
   const LoadedSite loaded = load(plan->site_file, refine_options_of(*plan), plan->vertex_fit, light_map, 0, log);
   if (sha256_file(loaded.site.model) != plan->model_sha256 || loaded.mesh.vertex_count() != plan->vertex_count ||
       loaded.mesh.triangle_count() != plan->triangle_count) {

@@ -66,19 +66,21 @@ void validate_light_map_options(const LightMapOptions& o) {
   if (!(o.min_area >= 0.0) || !std::isfinite(o.min_area)) {
     throw InputError("--light-map-min-area: must be m² ≥ 0. Fix: give e.g. --light-map-min-area 1");
   }
+  if (o.min_across < 0 || o.min_across > 1024) {
+    throw InputError("--light-map-min-across: must be 0 (off) to 1024 texels. Fix: give e.g. --light-map-min-across 6");
+  }
 }
 
 LightMapPoints lay_out_light_map(const scene::Mesh& mesh, const LightMapOptions& options) {
   using light_map_detail::Vec2, light_map_detail::Vec3, light_map_detail::TexelHit, light_map_detail::kMaxAtlasSide, light_map_detail::nearest_barycentric;
   validate_light_map_options(options);
-  const double texel = options.texel;
   const FlatFaces faces = flat_faces(mesh);
   const std::vector<FlatRegion> regions = flat_regions(mesh, faces);
   const auto corner = [&](std::size_t t, std::size_t k) -> Vec3 { return mesh.positions[mesh.indices[3 * t + k]].cast<double>(); };
 
   LightMapPoints out;
   bake_format::LightMapLayout& layout = out.layout;
-  layout.texel = texel;
+  layout.texel = options.texel;
   layout.triangle_chart.assign(mesh.triangle_count(), -1);
 
   // Charts before packing: texels in chart coordinates, each with its point on the region.
@@ -104,9 +106,14 @@ LightMapPoints lay_out_light_map(const scene::Mesh& mesh, const LightMapOptions&
         offset += d.dot(n) / (3.0 * static_cast<double>(r.triangles.size()));
       }
     }
+    // A narrow region takes texels fine enough to have min_across of them across it.
+    const double narrow = std::min(s1 - s0, t1 - t0);
+    double texel = options.texel;
+    if (options.min_across > 0 && narrow < options.min_across * texel) texel = std::max(0.25 * texel, narrow / options.min_across);
     // Texel 0's centre half a texel before the region's first edge and one texel more than the
     // region spans: a bilinear lookup anywhere on the region reads texels of this chart only.
     Chart chart;
+    chart.frame.texel = texel;
     chart.frame.width = static_cast<int>(std::floor((s1 - s0) / texel + 0.5)) + 2;
     chart.frame.height = static_cast<int>(std::floor((t1 - t0) / texel + 0.5)) + 2;
     if (chart.frame.width > kMaxAtlasSide || chart.frame.height > kMaxAtlasSide) {
@@ -177,7 +184,7 @@ LightMapPoints lay_out_light_map(const scene::Mesh& mesh, const LightMapOptions&
   layout.height = std::max(1, y + shelf);
   if (layout.height > kMaxAtlasSide) {
     throw InputError("--light-map: the model's flat regions need an atlas of " + std::to_string(layout.width) + "×" +
-                     std::to_string(layout.height) + " texels of " + std::to_string(texel) + " m, more than " +
+                     std::to_string(layout.height) + " texels of " + std::to_string(options.texel) + " m, more than " +
                      std::to_string(kMaxAtlasSide) + " along a side. Fix: give a larger texel or a larger --light-map-min-area");
   }
 
@@ -195,12 +202,12 @@ LightMapPoints lay_out_light_map(const scene::Mesh& mesh, const LightMapOptions&
         if (!std::isfinite(hit.distance)) continue;
         Vec3 point = Vec3::Zero();
         for (std::size_t k = 0; k < 3; ++k) point += hit.weights[static_cast<Eigen::Index>(k)] * corner(hit.triangle, k);
-        if (hit.distance > 0.0) {
+        if (hit.distance > 1e-6 * f.texel) {  // not rounding inside a triangle
           // Off the region: its nearest point lies on an edge; a little into the triangle, so that
           // the point is on the face and not on the part the edge meets.
           const Vec3 centroid = (corner(hit.triangle, 0) + corner(hit.triangle, 1) + corner(hit.triangle, 2)) / 3.0;
           const double inward = (centroid - point).norm();
-          if (inward > 0.0) point += std::min(0.05 * texel, 0.5 * inward) * (centroid - point) / inward;
+          if (inward > 0.0) point += std::min(0.05 * f.texel, 0.5 * inward) * (centroid - point) / inward;
         }
         traced.push_back({static_cast<std::uint32_t>((f.y + j) * layout.width + f.x + i), point.cast<float>(),
                           faces.normal[hit.triangle].cast<float>()});

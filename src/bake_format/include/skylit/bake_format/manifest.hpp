@@ -93,11 +93,13 @@ struct Plan {
   // vertex's own value. Plans without the field have 0.
   int vertex_fit = 0;
   // The light map (skylit-bake --light-map TEXEL; baker/light_map.hpp): square texels of `texel`
-  // metres over the flat regions of at least min_area m², `texels` of them traced; texel 0: none.
-  // Plans without the field have none.
+  // metres over the flat regions of at least min_area m², finer on a chart narrower than
+  // min_across texels (0: never), `texels` of them traced; texel 0: none. Plans without the field
+  // have none.
   struct LightMap {
     double texel = 0.0;
     double min_area = 0.0;
+    int min_across = 0;
     std::uint64_t texels = 0;
     bool operator==(const LightMap&) const = default;
   };

@@ -19,8 +19,12 @@ namespace skylit::baker {
 struct LightMapOptions {
   double texel = 0.1;     // metres per texel
   double min_area = 1.0;  // m²: a smaller flat region stays with its vertices
+  // A chart narrower than this many texels (a beam's side, a column's facet) takes finer texels,
+  // as many across its narrower side, down to a quarter of `texel`; 0: every chart the same.
+  int min_across = 0;
 };
-// InputError naming the option (--light-map, --light-map-min-area) for values out of range.
+// InputError naming the option (--light-map, --light-map-min-area, --light-map-min-across) for
+// values out of range.
 void validate_light_map_options(const LightMapOptions& options);
 
 struct LightMapPoints {
