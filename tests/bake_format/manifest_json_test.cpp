@@ -204,7 +204,7 @@ TEST(ManifestJson, TheLightMapRoundTripsAndMustAgreeWithThePlan) {
   const json j = reparse(to_json(m));
   EXPECT_EQ(j["plan"]["light_map"]["texels"], 777);
   EXPECT_EQ(j["light_map"]["transfer"]["shape"], json::array({777, 40}));
-  EXPECT_EQ(j["light_map"]["charts"]["shape"], json::array({5, 14}));
+  EXPECT_EQ(j["light_map"]["charts"]["shape"], json::array({5, 15}));
   EXPECT_EQ(j["plan"]["light_map"]["min_across"], 6);
   EXPECT_FALSE(j["light_map"].contains("ground"));
   const Manifest b = manifest_from_json(j, "manifest.json");

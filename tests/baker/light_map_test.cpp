@@ -111,11 +111,14 @@ TEST(LightMap, ChartsCoverTheFlatFacesAndEveryLookupOnThemReadsItsOwnChartsTrace
   const int lookups = lookups_read_their_charts_traced_texels(mesh, l);
   std::printf("measured: %zu charts in a %d×%d atlas, %zu texels traced (%zu moved onto the faces), %d lookups checked\n",
               l.charts.size(), l.width, l.height, l.texels.size(), moved, lookups);
-  // With min_across 20 texels, the cube's 2 m sides take 0.1 m texels (20 across), its top too;
-  // the slab keeps 0.25 m.
-  const LightMapPoints fine = lay_out_light_map(mesh, {0.25, 1.0, 20});
+  // With min_across 10 texels, the cube's 2 m sides take 0.2 m texels across (10 of them) and
+  // 0.25 m up its 3 m; its top 0.2 m both ways; the slab keeps 0.25 m.
+  const LightMapPoints fine = lay_out_light_map(mesh, {0.25, 1.0, 10});
   for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
-    EXPECT_DOUBLE_EQ(fine.layout.charts[static_cast<std::size_t>(fine.layout.triangle_chart[t])].texel, t < 2 ? 0.25 : 0.1) << "triangle " << t;
+    const bake_format::LightMapChart& f = fine.layout.charts[static_cast<std::size_t>(fine.layout.triangle_chart[t])];
+    const bool side = t >= 2 && t < 10;
+    EXPECT_DOUBLE_EQ(std::max(f.texel_u, f.texel_v), t < 2 || side ? 0.25 : 0.2) << "triangle " << t;
+    EXPECT_DOUBLE_EQ(std::min(f.texel_u, f.texel_v), t < 2 ? 0.25 : 0.2) << "triangle " << t;
   }
   EXPECT_GT(lookups_read_their_charts_traced_texels(mesh, fine.layout), 0);
   EXPECT_THROW(lay_out_light_map(mesh, {0.25, 1.0, -1}), InputError);

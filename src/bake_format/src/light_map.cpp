@@ -14,7 +14,7 @@ namespace light_map_detail {
 
 namespace fs = std::filesystem;
 constexpr std::uint32_t kNoChart = std::numeric_limits<std::uint32_t>::max();
-constexpr int kChartColumns = 14;
+constexpr int kChartColumns = 15;
 
 [[noreturn]] void bad_light_map(const fs::path& file, const std::string& field, const std::string& problem) {
   throw InputError(input_message(file, -1, -1, field, problem, "re-bake with skylit-bake --light-map"));
@@ -26,8 +26,8 @@ using namespace light_map_detail;
 
 Eigen::Vector2d LightMapLayout::atlas_coordinates(int chart, const Eigen::Vector3d& p) const {
   const LightMapChart& c = charts.at(static_cast<std::size_t>(chart));
-  const Eigen::Vector3d d = (p - c.origin) / c.texel;
-  return {c.x + 0.5 + d.dot(c.u), c.y + 0.5 + d.dot(c.v)};
+  const Eigen::Vector3d d = p - c.origin;
+  return {c.x + 0.5 + d.dot(c.u) / c.texel_u, c.y + 0.5 + d.dot(c.v) / c.texel_v};
 }
 
 Eigen::Vector3d sample_light_map(std::span<const Eigen::Vector3d> atlas, int width, int height, const Eigen::Vector2d& a) {
@@ -70,7 +70,8 @@ void write_light_map_layout(const fs::path& bake_dir, const Manifest::LightMap& 
     for (const Eigen::Vector3d* w : {&c.origin, &c.u, &c.v}) {
       for (int k = 0; k < 3; ++k) charts.push_back(static_cast<float>((*w)[k]));
     }
-    charts.push_back(static_cast<float>(c.texel));
+    charts.push_back(static_cast<float>(c.texel_u));
+    charts.push_back(static_cast<float>(c.texel_v));
   }
   const std::size_t chart_shape[] = {layout.charts.size(), kChartColumns};
   write_npy(bake_dir / record.charts_file, charts, chart_shape);
@@ -94,7 +95,7 @@ LightMapLayout read_light_map_layout(const fs::path& bake_dir, const Manifest& m
   const fs::path charts_file = bake_dir / record.charts_file;
   const std::vector<float> charts = read_npy(charts_file, &shape);
   if (shape.size() != 2 || shape[1] != kChartColumns || shape[0] != record.chart_count) {
-    bad_light_map(charts_file, "shape", "must be [" + std::to_string(record.chart_count) + ", 14]");
+    bad_light_map(charts_file, "shape", "must be [" + std::to_string(record.chart_count) + ", 15]");
   }
   for (std::size_t i = 0; i < record.chart_count; ++i) {
     const float* row = charts.data() + i * kChartColumns;
@@ -103,10 +104,13 @@ LightMapLayout read_light_map_layout(const fs::path& bake_dir, const Manifest& m
     c.origin = Eigen::Vector3f(row[4], row[5], row[6]).cast<double>();
     c.u = Eigen::Vector3f(row[7], row[8], row[9]).cast<double>();
     c.v = Eigen::Vector3f(row[10], row[11], row[12]).cast<double>();
-    c.texel = row[13];
-    if (!(c.texel > 0.0) || !(c.texel <= layout.texel * (1.0 + 1e-6))) {
-      bad_light_map(charts_file, "chart " + std::to_string(i), "has a texel of " + std::to_string(c.texel) + " m, not in (0, " +
-                                                                     std::to_string(layout.texel) + "] (plan.light_map.texel)");
+    c.texel_u = row[13];
+    c.texel_v = row[14];
+    for (const double texel : {c.texel_u, c.texel_v}) {
+      if (!(texel > 0.0) || !(texel <= layout.texel * (1.0 + 1e-6))) {
+        bad_light_map(charts_file, "chart " + std::to_string(i), "has a texel of " + std::to_string(texel) + " m, not in (0, " +
+                                                                       std::to_string(layout.texel) + "] (plan.light_map.texel)");
+      }
     }
     if (c.x < 0 || c.y < 0 || c.width < 1 || c.height < 1 || c.x + c.width > layout.width || c.y + c.height > layout.height ||
         !c.origin.allFinite() || std::abs(c.u.norm() - 1.0) > 1e-3 || std::abs(c.v.norm() - 1.0) > 1e-3) {

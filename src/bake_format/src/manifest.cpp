@@ -417,7 +417,7 @@ json to_json(const Manifest& m) {
     const Manifest::LightMap& l = *m.light_map;
     out["light_map"] = {{"width", l.width},
                         {"height", l.height},
-                        {"charts", {{"file", l.charts_file}, {"shape", json::array({l.chart_count, 14})}}},
+                        {"charts", {{"file", l.charts_file}, {"shape", json::array({l.chart_count, 15})}}},
                         {"triangles", {{"file", l.triangles_file}, {"shape", json::array({m.plan.triangle_count})}}},
                         {"texels", {{"file", l.texels_file}, {"shape", json::array({m.plan.light_map.texels})}}},
                         {"transfer", {{"file", l.transfer_file}, {"shape", json::array({m.plan.light_map.texels, layer_count})}}}};
@@ -604,7 +604,7 @@ Manifest manifest_from_json(const json& j, const fs::path& source) {
       }
       return r;
     };
-    l.chart_count = file_of("charts", std::nullopt, 14, l.charts_file);
+    l.chart_count = file_of("charts", std::nullopt, 15, l.charts_file);
     file_of("triangles", m.plan.triangle_count, std::nullopt, l.triangles_file);
     file_of("texels", m.plan.light_map.texels, std::nullopt, l.texels_file);
     file_of("transfer", m.plan.light_map.texels, m.layer_count(), l.transfer_file);

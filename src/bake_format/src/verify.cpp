@@ -346,8 +346,8 @@ VerifyReport verify(const fs::path& bake_dir) {
   }
   if (m.light_map) {
     const auto texels = static_cast<std::size_t>(m.plan.light_map.texels);
-    check.check_array(m.light_map->charts_file, {static_cast<std::size_t>(m.light_map->chart_count), 14},
-                      "(charts, 14: x, y, width, height, origin, u, v, texel)", present);
+    check.check_array(m.light_map->charts_file, {static_cast<std::size_t>(m.light_map->chart_count), 15},
+                      "(charts, 15: x, y, width, height, origin, u, v, texel_u, texel_v)", present);
     check.check_array(m.light_map->triangles_file, {static_cast<std::size_t>(m.plan.triangle_count)}, "(triangle_count)", present, "<u4");
     check.check_array(m.light_map->texels_file, {texels}, "(light map texels)", present, "<u4");
     check.check_array(m.light_map->transfer_file, {texels, m.layer_count()}, "(light map texels, layer_count)", present);

@@ -532,7 +532,7 @@ LoadedSite load(const fs::path& site_file, const RefineOptions& refine, int vert
     normals.insert(normals.end(), loaded.light_map->normals.begin(), loaded.light_map->normals.end());
     if (log) {
       const auto charted = static_cast<std::size_t>(std::count_if(l.triangle_chart.begin(), l.triangle_chart.end(), [](std::int32_t c) { return c >= 0; }));
-      const auto finer = static_cast<std::size_t>(std::count_if(l.charts.begin(), l.charts.end(), [&](const auto& c) { return c.texel < l.texel; }));
+      const auto finer = static_cast<std::size_t>(std::count_if(l.charts.begin(), l.charts.end(), [&](const auto& c) { return std::min(c.texel_u, c.texel_v) < l.texel; }));
       std::fprintf(log, "light map: %zu chart(s) over %zu of %zu triangles (flat regions of at least %g m²), %zu texels of %g m (finer on "
                    "%zu narrow charts) to trace in a %d×%d atlas, laid out in %.1f s\n", l.charts.size(), charted, l.triangle_chart.size(),
                    light_map->min_area, l.texels.size(), l.texel, finer, l.width, l.height, seconds_since(start));

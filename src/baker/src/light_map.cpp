@@ -106,44 +106,49 @@ LightMapPoints lay_out_light_map(const scene::Mesh& mesh, const LightMapOptions&
         offset += d.dot(n) / (3.0 * static_cast<double>(r.triangles.size()));
       }
     }
-    // A narrow region takes texels fine enough to have min_across of them across it.
-    const double narrow = std::min(s1 - s0, t1 - t0);
-    double texel = options.texel;
-    if (options.min_across > 0 && narrow < options.min_across * texel) texel = std::max(0.25 * texel, narrow / options.min_across);
+    // Across a narrow region, texels fine enough to have min_across of them (its light changes
+    // fastest there, near the parts it meets); along it, the chart's texel.
+    const auto texel_over = [&](double extent) {
+      const double texel = options.texel;
+      return options.min_across > 0 && extent < options.min_across * texel ? std::max(0.25 * texel, extent / options.min_across) : texel;
+    };
+    Chart chart;
+    chart.frame.texel_u = texel_over(s1 - s0);
+    chart.frame.texel_v = texel_over(t1 - t0);
+    const double tu = chart.frame.texel_u, tv = chart.frame.texel_v;
     // Texel 0's centre half a texel before the region's first edge and one texel more than the
     // region spans: a bilinear lookup anywhere on the region reads texels of this chart only.
-    Chart chart;
-    chart.frame.texel = texel;
-    chart.frame.width = static_cast<int>(std::floor((s1 - s0) / texel + 0.5)) + 2;
-    chart.frame.height = static_cast<int>(std::floor((t1 - t0) / texel + 0.5)) + 2;
+    chart.frame.width = static_cast<int>(std::floor((s1 - s0) / tu + 0.5)) + 2;
+    chart.frame.height = static_cast<int>(std::floor((t1 - t0) / tv + 0.5)) + 2;
     if (chart.frame.width > kMaxAtlasSide || chart.frame.height > kMaxAtlasSide) {
       throw InputError("--light-map: a flat region of " + std::to_string(r.area) + " m² would be " + std::to_string(chart.frame.width) +
-                       "×" + std::to_string(chart.frame.height) + " texels of " + std::to_string(texel) +
+                       "×" + std::to_string(chart.frame.height) + " texels of " + std::to_string(options.texel) +
                        " m, more than the atlas's " + std::to_string(kMaxAtlasSide) + " along a side. Fix: give a larger texel");
     }
-    const double so = s0 - 0.5 * texel, to = t0 - 0.5 * texel;
+    const double so = s0 - 0.5 * tu, to = t0 - 0.5 * tv;
     chart.frame.origin = anchor + so * u + to * v + offset * n;
     chart.frame.u = u;
     chart.frame.v = v;
     chart.texels.assign(static_cast<std::size_t>(chart.frame.width) * static_cast<std::size_t>(chart.frame.height), TexelHit{});
-    // Each triangle's nearest point to the texel centres around it: a lookup at distance below a
-    // texel along both axes reads a texel, so those within √2 texels are the ones it needs.
-    const double reach = std::sqrt(2.0) * texel;
+    // Each triangle's nearest point to the texel centres around it (in metres): a lookup less than
+    // a texel away along both axes reads a texel, so those within the texel's diagonal are the
+    // ones it needs.
+    const double reach = std::hypot(tu, tv);
     for (const std::size_t t : r.triangles) {
       std::array<Vec2, 3> p;
       for (std::size_t k = 0; k < 3; ++k) {
         const Vec3 d = corner(t, k) - anchor;
-        p[k] = Vec2((d.dot(u) - so) / texel, (d.dot(v) - to) / texel);
+        p[k] = Vec2(d.dot(u) - so, d.dot(v) - to);
       }
-      const int i0 = std::max(0, static_cast<int>(std::floor(std::min({p[0].x(), p[1].x(), p[2].x()}) - 1.5)));
-      const int i1 = std::min(chart.frame.width - 1, static_cast<int>(std::ceil(std::max({p[0].x(), p[1].x(), p[2].x()}) + 1.5)));
-      const int j0 = std::max(0, static_cast<int>(std::floor(std::min({p[0].y(), p[1].y(), p[2].y()}) - 1.5)));
-      const int j1 = std::min(chart.frame.height - 1, static_cast<int>(std::ceil(std::max({p[0].y(), p[1].y(), p[2].y()}) + 1.5)));
+      const int i0 = std::max(0, static_cast<int>(std::floor(std::min({p[0].x(), p[1].x(), p[2].x()}) / tu - 1.5)));
+      const int i1 = std::min(chart.frame.width - 1, static_cast<int>(std::ceil(std::max({p[0].x(), p[1].x(), p[2].x()}) / tu + 1.5)));
+      const int j0 = std::max(0, static_cast<int>(std::floor(std::min({p[0].y(), p[1].y(), p[2].y()}) / tv - 1.5)));
+      const int j1 = std::min(chart.frame.height - 1, static_cast<int>(std::ceil(std::max({p[0].y(), p[1].y(), p[2].y()}) / tv + 1.5)));
       for (int j = j0; j <= j1; ++j) {
         for (int i = i0; i <= i1; ++i) {
-          const Vec2 centre(i, j);
+          const Vec2 centre(i * tu, j * tv);
           const Vec3 w = nearest_barycentric(centre, p[0], p[1], p[2]);
-          const double distance = texel * (centre - (w[0] * p[0] + w[1] * p[1] + w[2] * p[2])).norm();
+          const double distance = (centre - (w[0] * p[0] + w[1] * p[1] + w[2] * p[2])).norm();
           TexelHit& hit = chart.texels[static_cast<std::size_t>(j) * static_cast<std::size_t>(chart.frame.width) + static_cast<std::size_t>(i)];
           if (distance <= reach && distance < hit.distance) hit = {distance, t, w};
         }
@@ -202,12 +207,13 @@ LightMapPoints lay_out_light_map(const scene::Mesh& mesh, const LightMapOptions&
         if (!std::isfinite(hit.distance)) continue;
         Vec3 point = Vec3::Zero();
         for (std::size_t k = 0; k < 3; ++k) point += hit.weights[static_cast<Eigen::Index>(k)] * corner(hit.triangle, k);
-        if (hit.distance > 1e-6 * f.texel) {  // not rounding inside a triangle
+        const double texel = std::min(f.texel_u, f.texel_v);
+        if (hit.distance > 1e-6 * texel) {  // not rounding inside a triangle
           // Off the region: its nearest point lies on an edge; a little into the triangle, so that
           // the point is on the face and not on the part the edge meets.
           const Vec3 centroid = (corner(hit.triangle, 0) + corner(hit.triangle, 1) + corner(hit.triangle, 2)) / 3.0;
           const double inward = (centroid - point).norm();
-          if (inward > 0.0) point += std::min(0.05 * f.texel, 0.5 * inward) * (centroid - point) / inward;
+          if (inward > 0.0) point += std::min(0.05 * texel, 0.5 * inward) * (centroid - point) / inward;
         }
         traced.push_back({static_cast<std::uint32_t>((f.y + j) * layout.width + f.x + i), point.cast<float>(),
                           faces.normal[hit.triangle].cast<float>()});

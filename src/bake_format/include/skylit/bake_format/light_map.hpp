@@ -15,18 +15,18 @@
 
 namespace skylit::bake_format {
 
-// A chart: width × height texels of `texel` metres at atlas column x, row y; texel (i, j) of it
-// is centred at origin + texel (i u + j v), u and v unit and in its region's plane (u × v its
-// normal).
+// A chart: width × height texels of texel_u × texel_v metres at atlas column x, row y; texel
+// (i, j) of it is centred at origin + i texel_u u + j texel_v v, u and v unit and in its region's
+// plane (u × v its normal).
 struct LightMapChart {
   int x = 0, y = 0, width = 0, height = 0;
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   Eigen::Vector3d u = Eigen::Vector3d::UnitX(), v = Eigen::Vector3d::UnitY();
-  double texel = 0.0;
+  double texel_u = 0.0, texel_v = 0.0;
 };
 
 struct LightMapLayout {
-  double texel = 0.0;                          // metres: the largest chart's (a narrow chart's may be finer)
+  double texel = 0.0;                          // metres: the charts' (finer across a narrow chart)
   int width = 0, height = 0;                   // the atlas, texels
   std::vector<LightMapChart> charts;
   std::vector<std::int32_t> triangle_chart;    // per triangle of the model as baked; −1: none
@@ -49,8 +49,8 @@ Eigen::Vector3d sample_light_map(std::span<const Eigen::Vector3d> atlas, int wid
 std::vector<Eigen::Vector3d> light_map_atlas(const LightMapLayout& layout, std::span<const float> transfer,
                                              std::span<const Eigen::Vector3d> S);
 
-// The layout's three files in bake_dir (record's names): charts float32 [charts, 14] (x, y,
-// width, height, origin, u, v, texel), triangles uint32 [triangles] (0xFFFFFFFF: none), texels uint32
+// The layout's three files in bake_dir (record's names): charts float32 [charts, 15] (x, y,
+// width, height, origin, u, v, texel_u, texel_v), triangles uint32 [triangles] (0xFFFFFFFF: none), texels uint32
 // [texels].
 void write_light_map_layout(const std::filesystem::path& bake_dir, const Manifest::LightMap& record, const LightMapLayout& layout);
 // Reads and checks them against the manifest: InputError naming the file and what is wrong
