@@ -12,7 +12,7 @@
 // a frame whose building takes N − 1 lamps per vertex, each against N = 1.
 // SKYLIT_COMPOSE_BENCH_SITE=FILE bakes that site instead of the sample site (e.g. one with the
 // planes of skylit-bake walls: what more virtual planes cost the building's pass).
-// SKYLIT_COMPOSE_BENCH_LIGHT_MAP=TEXEL[,MIN_AREA] bakes a light map too (skylit-bake --light-map)
+// SKYLIT_COMPOSE_BENCH_LIGHT_MAP=TEXEL[,MIN_AREA[,MIN_ACROSS]] bakes a light map too (skylit-bake --light-map)
 // and every compositor draws with it: its sum per new sky, and its lookups in the building's pass.
 #include <algorithm>
 #include <array>
@@ -91,11 +91,11 @@ struct Scene {
     if (const char* refine = std::getenv("SKYLIT_COMPOSE_BENCH_REFINE"); refine != nullptr && *refine != '\0') {
       options.refine.tolerance = std::atof(refine);
     }
-    // A light map, TEXEL[,MIN_AREA] (skylit-bake --light-map): every compositor here draws with it.
+    // A light map, TEXEL[,MIN_AREA[,MIN_ACROSS]] (skylit-bake --light-map): every compositor here draws with it.
     if (const char* light_map_option = std::getenv("SKYLIT_COMPOSE_BENCH_LIGHT_MAP"); light_map_option != nullptr && *light_map_option != '\0') {
       baker::LightMapOptions l;
-      if (std::sscanf(light_map_option, "%lf,%lf", &l.texel, &l.min_area) < 1) {
-        std::fprintf(stderr, "SKYLIT_COMPOSE_BENCH_LIGHT_MAP: expected TEXEL[,MIN_AREA], got '%s'\n", light_map_option);
+      if (std::sscanf(light_map_option, "%lf,%lf,%d", &l.texel, &l.min_area, &l.min_across) < 1) {
+        std::fprintf(stderr, "SKYLIT_COMPOSE_BENCH_LIGHT_MAP: expected TEXEL[,MIN_AREA[,MIN_ACROSS]], got '%s'\n", light_map_option);
         std::exit(2);
       }
       options.light_map = l;

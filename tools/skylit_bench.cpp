@@ -47,6 +47,16 @@ int main(int argc, char** argv) {
       ->delimiter(',')
       ->check(CLI::Range(0, 16))
       ->capture_default_str();
+  trade->add_option("--light-maps", o.light_maps,
+                    "skylit-bake --light-map per bake: a light map of this texel (m) over the model's flat regions, the "
+                    "building inside the triangles shown from it where it covers them (0: none)")
+      ->delimiter(',')
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  trade->add_option("--light-map-min-area", o.light_map_min_area, "m², with --light-maps (skylit-bake --light-map-min-area)")
+      ->capture_default_str();
+  trade->add_option("--light-map-min-across", o.light_map_min_across, "texels, with --light-maps (skylit-bake --light-map-min-across)")
+      ->capture_default_str();
   trade->add_option("--forms", o.forms, "full, lean, cropped, pcaK, pcaKtN (clustered PCA, tiles of N texels)")->delimiter(',')->capture_default_str();
   trade->add_option("--bits", o.bits, "layer bit depth: 16 (half), 8 (unorm8; not with PCA)")->delimiter(',')->capture_default_str();
   trade->add_option("--sun", o.sun, "sun separation: on, off")->delimiter(',')->capture_default_str();

@@ -148,42 +148,39 @@ LightMapTexture::LightMapTexture(const bake_format::LightMapLayout& layout, std:
 
 void LightMapTexture::update(std::span<const Eigen::Vector3d> S, std::span<const Eigen::Vector3d> ground_coefficients,
                              const Eigen::Vector3d& albedo) {
-  // The sky's and the ground's coefficients as one row per channel, so that a texel's sum runs
-  // over its contiguous transfer.
-  std::array<std::vector<float>, 3> sky, reflected;
-  for (int c = 0; c < 3; ++c) {
-    sky[static_cast<std::size_t>(c)].assign(layers_, 0.0f);
-    reflected[static_cast<std::size_t>(c)].assign(layers_, 0.0f);
-    for (std::size_t l = 0; l < std::min(layers_, S.size()); ++l) {
-      const double s = S[l][c];
-      sky[static_cast<std::size_t>(c)][l] = std::isfinite(s) ? static_cast<float>(s) : 0.0f;
+  // E = T S (+ G ρS^g): texels × layers times layers × 3, as matrix products (SIMD) over blocks of
+  // texels on every core.
+  using Coefficients = Eigen::Matrix<float, Eigen::Dynamic, 3>;
+  using Rows = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  Coefficients sky = Coefficients::Zero(static_cast<Eigen::Index>(layers_), 3);
+  Coefficients reflected = Coefficients::Zero(static_cast<Eigen::Index>(layers_), 3);
+  for (std::size_t l = 0; l < std::min(layers_, S.size()); ++l) {
+    for (int c = 0; c < 3; ++c) {
+      const double value = S[l][c];
+      sky(static_cast<Eigen::Index>(l), c) = std::isfinite(value) ? static_cast<float>(value) : 0.0f;
     }
-    if (ground_.empty()) continue;
+  }
+  if (!ground_.empty()) {
     for (std::size_t l = 0; l < std::min(layers_, ground_coefficients.size()); ++l) {
-      const double g = albedo[c] * ground_coefficients[l][c];
-      reflected[static_cast<std::size_t>(c)][l] = std::isfinite(g) ? static_cast<float>(g) : 0.0f;
+      for (int c = 0; c < 3; ++c) {
+        const double value = albedo[c] * ground_coefficients[l][c];
+        reflected(static_cast<Eigen::Index>(l), c) = std::isfinite(value) ? static_cast<float>(value) : 0.0f;
+      }
     }
   }
   const std::size_t count = texels_.size();
   std::vector<float> atlas(static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_) * 4, 0.0f);
   constexpr std::size_t kBlock = 4096;
   const auto blocks = static_cast<int>((count + kBlock - 1) / kBlock);
+  const auto layers = static_cast<Eigen::Index>(layers_);
   parallel_for(blocks, 0, [&](int block) {
-    const std::size_t first = static_cast<std::size_t>(block) * kBlock, last = std::min(count, first + kBlock);
-    for (std::size_t k = first; k < last; ++k) {
-      float* out = atlas.data() + 4 * static_cast<std::size_t>(texels_[k]);
-      const float* t = transfer_.data() + k * layers_;
-      const float* g = ground_.empty() ? nullptr : ground_.data() + k * layers_;
-      for (std::size_t c = 0; c < 3; ++c) {
-        float sum = 0.0f;
-        const float* s = sky[c].data();
-        for (std::size_t l = 0; l < layers_; ++l) sum += t[l] * s[l];
-        if (g != nullptr) {
-          const float* r = reflected[c].data();
-          for (std::size_t l = 0; l < layers_; ++l) sum += g[l] * r[l];
-        }
-        out[c] = sum;
-      }
+    const std::size_t first = static_cast<std::size_t>(block) * kBlock, rows = std::min(count, first + kBlock) - first;
+    const auto n = static_cast<Eigen::Index>(rows);
+    Coefficients E = Eigen::Map<const Rows>(transfer_.data() + first * layers_, n, layers) * sky;
+    if (!ground_.empty()) E.noalias() += Eigen::Map<const Rows>(ground_.data() + first * layers_, n, layers) * reflected;
+    for (std::size_t k = 0; k < rows; ++k) {
+      float* out = atlas.data() + 4 * static_cast<std::size_t>(texels_[first + k]);
+      for (int c = 0; c < 3; ++c) out[c] = E(static_cast<Eigen::Index>(k), c);
       out[3] = 1.0f;
     }
   });

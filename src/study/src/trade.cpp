@@ -137,7 +137,8 @@ Grid make_grid(const TradeOptions& o) {
         for (int scale : o.texel_scales) {
         for (double refine : o.refines) {
         for (int vertex_fit : o.vertex_fits) {
-          const BakeKey key{f, *basis, k, scale, refine, vertex_fit};
+        for (double light_map : o.light_maps) {
+          const BakeKey key{f, *basis, k, scale, refine, vertex_fit, light_map};
           for (const std::string& form_text : o.forms) {
             const Form form = parse_form(form_text);
             for (int bits : o.bits) {
@@ -165,6 +166,7 @@ Grid make_grid(const TradeOptions& o) {
               }
             }
           }
+        }
         }
         }
         }
@@ -267,6 +269,7 @@ void make_bakes(const Run& run, const Grid& grid, const Sites& sites, Bakes& mad
       options.method = "raytrace";
       options.refine.tolerance = key.refine;
       options.vertex_fit = key.vertex_fit;
+      if (key.light_map > 0) options.light_map = baker::LightMapOptions{key.light_map, run.o.light_map_min_area, run.o.light_map_min_across};
       options.force = true;
       options.previews = false;
       const auto t = Clock::now();
@@ -528,6 +531,12 @@ FrameTimes time_frames(const TradeOptions& o, const Grid& grid, const Sites& sit
     const std::vector<float> transfer = bake_format::read_npy(dir / manifest.transfer_file, &shape);
     std::vector<geom::Plane> planes;
     for (const auto& record : manifest.planes) planes.push_back(record.plane);
+    render::CompositorOptions options;
+    options.lens.render_scale = s.render_scale;
+    if (manifest.light_map) {
+      options.light_map = bake_format::read_light_map_layout(dir, manifest);
+      options.light_map_transfer = bake_format::read_npy(dir / manifest.light_map->transfer_file, &shape);
+    }
     if (s.sun) {
       render::SunShadowOptions map_options;
       map_options.max_sources = s.sources;
@@ -542,8 +551,6 @@ FrameTimes time_frames(const TradeOptions& o, const Grid& grid, const Sites& sit
       rig->ratios.push_back(render::upload_shadow_ratio(T, plane.width, plane.height));
       rig->names.push_back(rig->ratios.back().get());
     }
-    render::CompositorOptions options;
-    options.lens.render_scale = s.render_scale;
     rig->compositor = std::make_unique<render::Compositor>(site.site, mesh, manifest, transfer, hmd, options);
     rig->image = cv::Mat(hmd.image_height, hmd.image_width, CV_8UC3);
     cv::randu(rig->image, cv::Scalar::all(0), cv::Scalar::all(256));
@@ -594,6 +601,8 @@ struct SettingBake {
   bake_format::Manifest manifest;
   std::vector<blend::BasisImages> basis;
   std::vector<float> transfer, ground_transfer;  // the latter empty without a ground layer
+  std::optional<bake_format::LightMapLayout> light_map;
+  std::vector<float> light_map_transfer, light_map_ground;
 };
 
 // Also the bake's cost in `r`: its time, size on disk and stored layers.
@@ -601,10 +610,17 @@ SettingBake load_setting_bake(const Bakes& made, Result& r) {
   const Setting& s = r.setting;
   const bool pca = s.form.form == blend::BasisForm::Pca;
   const fs::path bake_dir = pca ? made.pca_dirs.at({s.bake, s.form.components, s.form.tile}) : made.dirs.at(s.bake);
-  SettingBake bake{bake_format::read_manifest(bake_dir), {}, {}, {}};
+  SettingBake bake{bake_format::read_manifest(bake_dir), {}, {}, {}, {}, {}, {}};
   std::vector<std::size_t> shape;
   bake.transfer = bake_format::read_npy(bake_dir / bake.manifest.transfer_file, &shape);
   if (bake.manifest.ground) bake.ground_transfer = bake_format::read_npy(bake_dir / bake.manifest.ground->file, &shape);
+  if (bake.manifest.light_map) {
+    bake.light_map = bake_format::read_light_map_layout(bake_dir, bake.manifest);
+    bake.light_map_transfer = bake_format::read_npy(bake_dir / bake.manifest.light_map->transfer_file, &shape);
+    if (!bake.manifest.light_map->ground_file.empty()) {
+      bake.light_map_ground = bake_format::read_npy(bake_dir / bake.manifest.light_map->ground_file, &shape);
+    }
+  }
   r.bake_seconds = made.seconds.at(s.bake) + (pca ? made.pca_seconds.at({s.bake, s.form.components, s.form.tile}) : 0.0);
   r.bake_bytes = directory_bytes(bake_dir);
   std::vector<blend::BasisImages>& basis = bake.basis;
@@ -720,8 +736,15 @@ void evaluate_skies(const Bench& bench, const SettingBake& bake, const sky::SkyE
     building_diffs.append(study::building_estimate(bake.transfer, S, sources, site.site, mesh, ground), building_reference.vertices,
                           horizontal);
     // Inside the triangles, the compositor's way: a virtual plane's T_j D_j where one covers a point.
-    const study::InsideTerms inside_terms = study::building_terms_inside(building_reference.points, bake.transfer, S, sources,
-                                                                         estimate.sun.has_value(), site.site, mesh, ground);
+    study::InsideTerms inside_terms = study::building_terms_inside(building_reference.points, bake.transfer, S, sources,
+                                                                   estimate.sun.has_value(), site.site, mesh, ground);
+    if (bake.light_map) {
+      // The sky and the ground from the light map where it covers a triangle.
+      blend::GroundLight texel_ground = ground;
+      texel_ground.transfer = ground.transfer.empty() ? std::span<const float>() : std::span<const float>(bake.light_map_ground);
+      const study::InsideTerms vertex_sky = study::building_terms_inside(building_reference.points, bake.transfer, S, {}, false, site.site, mesh);
+      study::use_light_map(building_reference.points, *bake.light_map, bake.light_map_transfer, S, texel_ground, vertex_sky.sky, inside_terms);
+    }
     std::vector<std::vector<float>> plane_T(basis.size());
     std::vector<Eigen::Vector3d> plane_D(basis.size(), Eigen::Vector3d::Zero());
     std::vector<double> sky_diffs;

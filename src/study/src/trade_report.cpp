@@ -187,6 +187,7 @@ nlohmann::json to_json(const Result& r) {
           {"texel_scale", r.setting.bake.texel_scale},
           {"refine", r.setting.bake.refine},
           {"vertex_fit", r.setting.bake.vertex_fit},
+          {"light_map", r.setting.bake.light_map},
           {"vertices", r.vertices},
           {"form", r.setting.form.name()},
           {"bits", r.setting.bits},
@@ -232,10 +233,10 @@ nlohmann::json to_json(const Result& r) {
 
 std::string markdown_table(const std::vector<Result>& results) {
   std::string md =
-      "| # | ν | basis | K | texel scale | refine (vertices) | vertex fit | form | bits | sun | S thr. | ΔS thr. | smoothing s | render scale | RMS | p99 | max | edge (m / °) | "
+      "| # | ν | basis | K | texel scale | refine (vertices) | vertex fit | light map (m) | form | bits | sun | S thr. | ΔS thr. | smoothing s | render scale | RMS | p99 | max | edge (m / °) | "
       "building RMS / p99 (without the ground layer) | inside the triangles, by area: RMS / p99 | bake s | "
       "bake MB | GPU MB | blend ms wall / CPU | frame ms wall / CPU | cost ms (frames/s) | service frames/s (p50 ms, dropped) | Pareto |\n"
-      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   int k = 0;
   for (const Result& r : results) {
     const Setting& s = r.setting;
@@ -257,15 +258,17 @@ std::string markdown_table(const std::vector<Result>& results) {
     } else {
       std::snprintf(refine, sizeof refine, "— (%zu)", r.vertices);
     }
+    char light_map[32] = "—";
+    if (s.bake.light_map > 0) std::snprintf(light_map, sizeof light_map, "%g", s.bake.light_map);
     char inside[64];
     std::snprintf(inside, sizeof inside, "%.4f / %.4f", r.building_inside.rms, r.building_inside.p99);
     char row[896];
     std::snprintf(row, sizeof row,
-                  "| %d | %d | %s | %d | 1/%d | %s | %s | %s | %d | %s | %g | %g | %g | %g | %.4f | %.4f | %.4f | %s | %s | %s | %.1f | %.2f | %.1f | "
+                  "| %d | %d | %s | %d | 1/%d | %s | %s | %s | %s | %d | %s | %g | %g | %g | %g | %.4f | %.4f | %.4f | %s | %s | %s | %.1f | %.2f | %.1f | "
                   "%.1f / %.1f | %.1f / %.1f | %.1f (%.0f) | %s | %s |\n",
                   k++, s.bake.frequency, std::string(geom::basis_name(s.bake.basis)).c_str(), s.bake.samples,
                   s.bake.texel_scale, refine, s.bake.vertex_fit > 0 ? (std::to_string(s.bake.vertex_fit) + "²").c_str() : "—",
-                  s.form.name().c_str(), s.bits, sun.c_str(), s.skip_threshold, s.change_threshold, s.smoothing, s.render_scale, r.error.rms,
+                  light_map, s.form.name().c_str(), s.bits, sun.c_str(), s.skip_threshold, s.change_threshold, s.smoothing, s.render_scale, r.error.rms,
                   r.error.p99, r.error.max, edge, building, inside, r.bake_seconds, static_cast<double>(r.bake_bytes) / 1e6,
                   static_cast<double>(r.gpu_bytes) / 1e6, r.blend_ms, r.blend_cpu_ms, r.frame_ms, r.frame_cpu_ms, r.cost_ms,
                   1000.0 / r.cost_ms, service,

@@ -30,7 +30,8 @@ struct BakeKey {
   int texel_scale = 8;
   double refine = 0;  // skylit-bake --refine (0: the model as it is)
   int vertex_fit = 0;  // skylit-bake --vertex-fit (0: each vertex's own light)
-  auto tie() const { return std::tie(frequency, basis, samples, texel_scale, refine, vertex_fit); }
+  double light_map = 0;  // skylit-bake --light-map (0: none)
+  auto tie() const { return std::tie(frequency, basis, samples, texel_scale, refine, vertex_fit, light_map); }
   bool operator<(const BakeKey& o) const { return tie() < o.tie(); }
   std::string name() const {
     std::string text = "nu" + std::to_string(frequency) + "_" + std::string(geom::basis_name(basis)) + "_k" +
@@ -41,6 +42,11 @@ struct BakeKey {
       text += tolerance;
     }
     if (vertex_fit > 0) text += "_f" + std::to_string(vertex_fit);
+    if (light_map > 0) {
+      char texel[32];
+      std::snprintf(texel, sizeof texel, "_lm%g", light_map);
+      text += texel;
+    }
     return text;
   }
 };

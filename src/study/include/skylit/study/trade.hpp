@@ -22,6 +22,11 @@ struct TradeOptions {
   std::vector<double> refines{0.0};
   // skylit-bake --vertex-fit per bake: 0, each vertex's own light; N, fitted to N² points a triangle.
   std::vector<int> vertex_fits{0};
+  // skylit-bake --light-map per bake: 0, none; TEXEL, a light map over the flat regions of at
+  // least light_map_min_area m², light_map_min_across texels across a narrow one.
+  std::vector<double> light_maps{0.0};
+  double light_map_min_area = 0.1;
+  int light_map_min_across = 10;
   std::vector<std::string> forms{"full", "lean", "pca8"};
   std::vector<int> bits{16, 8};
   std::vector<std::string> sun{"on", "off"};
