@@ -129,21 +129,11 @@ std::vector<float> per_draw_vertex(const DrawVertices& draw, std::span<const flo
 LightMapTexture::LightMapTexture(const bake_format::LightMapLayout& layout, std::span<const float> transfer,
                                  std::span<const float> ground, std::size_t layers)
     : texels_(layout.texels), transfer_(cleaned(transfer)), ground_(cleaned(ground)), layers_(layers), width_(layout.width),
-      height_(layout.height) {
+      height_(layout.height), texture_(layout.width, layout.height) {
   if (layers == 0 || transfer.size() != texels_.size() * layers || (!ground.empty() && ground.size() != transfer.size())) {
     throw std::invalid_argument("LightMapTexture: " + std::to_string(transfer.size()) + " transfer and " + std::to_string(ground.size()) +
                                 " ground values for " + std::to_string(texels_.size()) + " texels of " + std::to_string(layers) + " layers");
   }
-  texture_ = gpu::make_texture();
-  glBindTexture(GL_TEXTURE_2D, texture_.get());
-  glTexStorage2D(GL_TEXTURE_2D, 1, GL_RGBA32F, width_, height_);
-  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-  const std::vector<float> zero(static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_) * 4, 0.0f);
-  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, width_, height_, GL_RGBA, GL_FLOAT, zero.data());
-  glBindTexture(GL_TEXTURE_2D, 0);
 }
 
 void LightMapTexture::update(std::span<const Eigen::Vector3d> S, std::span<const Eigen::Vector3d> ground_coefficients,
@@ -184,9 +174,7 @@ void LightMapTexture::update(std::span<const Eigen::Vector3d> S, std::span<const
       out[3] = 1.0f;
     }
   });
-  glBindTexture(GL_TEXTURE_2D, texture_.get());
-  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, width_, height_, GL_RGBA, GL_FLOAT, atlas.data());
-  glBindTexture(GL_TEXTURE_2D, 0);
+  texture_.upload(atlas);
 }
 
 }  // namespace skylit::render

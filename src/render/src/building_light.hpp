@@ -11,7 +11,7 @@
 #include <GLES3/gl31.h>
 
 #include "skylit/bake_format/light_map.hpp"
-#include "skylit/gpu/gl.hpp"
+#include "skylit/render/textures.hpp"
 #include "skylit/scene/mesh.hpp"
 
 namespace skylit::render {
@@ -65,7 +65,7 @@ class LightMapTexture {
   std::vector<float> transfer_, ground_;
   std::size_t layers_ = 0;
   int width_ = 0, height_ = 0;
-  gpu::Texture texture_;
+  ShadowRatioTexture texture_;
 };
 
 }  // namespace skylit::render

@@ -28,7 +28,8 @@ class ImageTexture {
 // texels): RGBA32F, T in rgb. For the CPU blend path and for tests.
 gpu::Texture upload_shadow_ratio(std::span<const float> rgb, int width, int height);
 
-// The CPU blend's T of one plane on the GPU, for the compositor: RGBA32F, rewritten in place.
+// Values from the CPU on the GPU, for the compositor: RGBA32F, rewritten in place, 1 until the
+// first upload. The CPU blend's T of one plane; the light map's irradiance.
 class ShadowRatioTexture {
  public:
   ShadowRatioTexture(int width, int height);
