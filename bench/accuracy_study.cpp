@@ -239,9 +239,9 @@ int main(int argc, char** argv) {
   app.add_option("--light-map", light_map,
                  "every bake has a light map of this texel (m) over the model's flat regions (skylit-bake --light-map); "
                  "the building inside the triangles is then shown from it where it covers them");
-  double light_map_min_area = 1.0;
+  double light_map_min_area = 0.1;
   app.add_option("--light-map-min-area", light_map_min_area, "m², with --light-map (skylit-bake --light-map-min-area)");
-  int light_map_min_across = 0;
+  int light_map_min_across = 10;
   app.add_option("--light-map-min-across", light_map_min_across, "texels, with --light-map (skylit-bake --light-map-min-across)");
   int vertex_fit = 0;
   app.add_option("--vertex-fit", vertex_fit,

@@ -45,7 +45,7 @@ int run_verify(const std::filesystem::path& dir) {
 // Everything the command line sets: the bake's options and what the subcommands take.
 struct CommandLine {
   skylit::baker::BakeOptions options;
-  skylit::baker::LightMapOptions light_map{0.0, 1.0, 0};  // texel 0: none
+  skylit::baker::LightMapOptions light_map{0.0, 0.1, 10};  // texel 0: none
   std::string site, out, resolution, shard, basis;
   int frequency = 0;
   bool quiet = false;

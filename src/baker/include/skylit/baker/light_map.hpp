@@ -18,10 +18,11 @@ namespace skylit::baker {
 
 struct LightMapOptions {
   double texel = 0.1;     // metres per texel
-  double min_area = 1.0;  // m²: a smaller flat region stays with its vertices
+  double min_area = 0.1;  // m²: a smaller flat region stays with its vertices
   // A chart narrower than this many texels (a beam's side, a column's facet) takes finer texels,
   // as many across its narrower side, down to a quarter of `texel`; 0: every chart the same.
-  int min_across = 0;
+  // (The defaults are what bench/RESULTS.md, "A light map on the flat faces", found best.)
+  int min_across = 10;
 };
 // InputError naming the option (--light-map, --light-map-min-area, --light-map-min-across) for
 // values out of range.
