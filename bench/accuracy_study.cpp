@@ -235,14 +235,12 @@ int main(int argc, char** argv) {
   app.add_option("--refine-rounds", refine.rounds, "--refine: rounds of splits at most")->capture_default_str();
   app.add_option("--refine-min-edge", refine.min_edge, "--refine: metres, no edge shorter than twice this is split")
       ->capture_default_str();
-  double light_map = 0.0;
-  app.add_option("--light-map", light_map,
+  skylit::baker::LightMapOptions light_map_options{0.0, 0.1, 10};  // texel 0: none
+  app.add_option("--light-map", light_map_options.texel,
                  "every bake has a light map of this texel (m) over the model's flat regions (skylit-bake --light-map); "
                  "the building inside the triangles is then shown from it where it covers them");
-  double light_map_min_area = 0.1;
-  app.add_option("--light-map-min-area", light_map_min_area, "m², with --light-map (skylit-bake --light-map-min-area)");
-  int light_map_min_across = 10;
-  app.add_option("--light-map-min-across", light_map_min_across, "texels, with --light-map (skylit-bake --light-map-min-across)");
+  app.add_option("--light-map-min-area", light_map_options.min_area, "m², with --light-map (skylit-bake --light-map-min-area)");
+  app.add_option("--light-map-min-across", light_map_options.min_across, "texels, with --light-map (skylit-bake --light-map-min-across)");
   int vertex_fit = 0;
   app.add_option("--vertex-fit", vertex_fit,
                  "every bake fits its vertices to the light at N² points inside each triangle (skylit-bake --vertex-fit)")
@@ -306,7 +304,7 @@ int main(int argc, char** argv) {
     options.previews = false;
     options.refine = refine;
     options.vertex_fit = vertex_fit;
-    if (light_map > 0.0) options.light_map = skylit::baker::LightMapOptions{light_map, light_map_min_area, light_map_min_across};
+    if (light_map_options.texel > 0.0) options.light_map = light_map_options;
     const auto t = Clock::now();
     skylit::baker::run_bake(options, stderr);
     bake_seconds[key] = seconds_since(t);
@@ -573,21 +571,15 @@ int main(int argc, char** argv) {
       InsideTerms split = building_terms_inside(inside_points, transfer, S, building_sources, estimate.sun.has_value(),
                                                 site, mesh, ground);
       // With a light map, the sky and the ground from its texels where it covers a triangle.
-      std::vector<float> light_map_transfer, light_map_ground;
-      std::optional<skylit::bake_format::LightMapLayout> light_map_layout;
+      std::optional<skylit::bake_format::LightMapArrays> texel_map;
       skylit::blend::GroundLight texel_ground;
       InsideTerms vertex_sky;
       if (manifest.light_map) {
-        light_map_layout = skylit::bake_format::read_light_map_layout(bake_dir, manifest);
-        light_map_transfer = skylit::bake_format::read_npy(bake_dir / manifest.light_map->transfer_file, &transfer_shape);
+        texel_map = skylit::bake_format::read_light_map(bake_dir, manifest);
         texel_ground = ground;
-        texel_ground.transfer = {};
-        if (!ground.transfer.empty() && !manifest.light_map->ground_file.empty()) {
-          light_map_ground = skylit::bake_format::read_npy(bake_dir / manifest.light_map->ground_file, &transfer_shape);
-          texel_ground.transfer = light_map_ground;
-        }
+        texel_ground.transfer = ground.transfer.empty() ? std::span<const float>() : std::span<const float>(texel_map->ground);
         vertex_sky = building_terms_inside(inside_points, transfer, S, {}, false, site, mesh);
-        use_light_map(inside_points, *light_map_layout, light_map_transfer, S, texel_ground, vertex_sky.sky, split);
+        use_light_map(inside_points, texel_map->layout, texel_map->transfer, S, texel_ground, vertex_sky.sky, split);
       }
       std::vector<std::size_t> inside_seen;
       std::vector<double> inside_areas;
@@ -880,7 +872,7 @@ int main(int argc, char** argv) {
         // Inside the triangles as the compositor shows it: the sun per point from its map, the
         // virtual planes' T from the GPU blend.
         InsideTerms gpu_split = gpu_terms_inside(inside_points, transfer, S, lights, first_is_sun || sources.empty(), mesh, g, ground);
-        if (light_map_layout) use_light_map(inside_points, *light_map_layout, light_map_transfer, S, texel_ground, vertex_sky.sky, gpu_split);
+        if (texel_map) use_light_map(inside_points, texel_map->layout, texel_map->transfer, S, texel_ground, vertex_sky.sky, gpu_split);
         const std::vector<Eigen::Vector3d> gpu_all = shown_inside(inside_points, gpu_split, virtual_shading(site, bake_planes, g.ratios, plane_D));
         std::vector<Eigen::Vector3d> gpu_shown, gpu_ref;
         for (const std::size_t k : inside_seen) gpu_shown.push_back(gpu_all[k]), gpu_ref.push_back(inside_ref[k]);

@@ -57,8 +57,7 @@ struct Scene {
   scene::Mesh mesh;
   bake_format::Manifest manifest;
   std::vector<float> transfer, ground_transfer;
-  bake_format::LightMapLayout light_map;         // SKYLIT_COMPOSE_BENCH_LIGHT_MAP; no texels: none
-  std::vector<float> light_map_transfer, light_map_ground;
+  bake_format::LightMapArrays light_map;         // SKYLIT_COMPOSE_BENCH_LIGHT_MAP; no texels: none
   std::vector<Eigen::Vector3d> sky;
   blend::SunLight sun;
   std::vector<gpu::Texture> ratios;
@@ -110,11 +109,9 @@ struct Scene {
     transfer = bake_format::read_npy(dir / manifest.transfer_file, &shape);
     ground_transfer = bake_format::read_npy(dir / manifest.ground->file, &shape);
     if (manifest.light_map) {
-      light_map = bake_format::read_light_map_layout(dir, manifest);
-      light_map_transfer = bake_format::read_npy(dir / manifest.light_map->transfer_file, &shape);
-      light_map_ground = bake_format::read_npy(dir / manifest.light_map->ground_file, &shape);
-      std::fprintf(stderr, "compose_bench: a light map of %zu texels (%d×%d atlas) over %zu charts\n", light_map.texels.size(),
-                   light_map.width, light_map.height, light_map.charts.size());
+      light_map = bake_format::read_light_map(dir, manifest);
+      std::fprintf(stderr, "compose_bench: a light map of %zu texels (%d×%d atlas) over %zu charts\n", light_map.layout.texels.size(),
+                   light_map.layout.width, light_map.layout.height, light_map.layout.charts.size());
     }
     sky.assign(transfer.size() / mesh.vertex_count(), Eigen::Vector3d(0.3, 0.4, 0.6));  // one value per basis layer
     const double az = 140 * std::numbers::pi / 180, el = 35 * std::numbers::pi / 180;
@@ -146,8 +143,7 @@ struct Scene {
 // Options with the scene's light map, when it has one.
 render::CompositorOptions light_mapped(const Scene& scene) {
   render::CompositorOptions options;
-  options.light_map = scene.light_map;
-  options.light_map_transfer = scene.light_map_transfer;
+  options.light_map = {scene.light_map.layout, scene.light_map.transfer, {}};
   return options;
 }
 
@@ -263,7 +259,7 @@ void BM_CompositeDrawNewSky(benchmark::State& state) {
   if (state.range(3) != 0) {
     options.ground_albedo = Eigen::Vector3d::Constant(0.2);
     options.ground_transfer = scene.ground_transfer;
-    if (!scene.light_map.texels.empty()) options.light_map_ground = scene.light_map_ground;
+    options.light_map.ground = scene.light_map.ground;
   }
   render::Compositor compositor(scene.site, scene.mesh, scene.manifest, scene.transfer, calibration, options);
   cv::Mat image;

@@ -761,8 +761,7 @@ TEST_F(CompositorTest, ALightMapShowsItsTexelsBilinearlyOnItsCharts) {
   const std::vector<Vector3d> uniform = uniform_sky(1.0);
   auto run = [&](const std::vector<float>& transfer) {
     render::CompositorOptions options;
-    options.light_map = lm.layout;
-    options.light_map_transfer = transfer;
+    options.light_map = {lm.layout, transfer, {}};
     render::Compositor compositor = make(options);
     render::CompositeInput input;
     input.camera = black;
@@ -813,8 +812,7 @@ TEST_F(CompositorTest, ALightMapShowsItsTexelsBilinearlyOnItsCharts) {
   EXPECT_LT(rms, 1e-3);
   // The light map's sizes must fit the model and the bake.
   render::CompositorOptions wrong;
-  wrong.light_map = lm.layout;
-  wrong.light_map_transfer = std::vector<float>(3);
+  wrong.light_map = {lm.layout, std::vector<float>(3), {}};
   EXPECT_THROW(make(wrong), InputError);
 }
 

@@ -146,4 +146,12 @@ LightMapLayout read_light_map_layout(const fs::path& bake_dir, const Manifest& m
   return layout;
 }
 
+LightMapArrays read_light_map(const fs::path& bake_dir, const Manifest& manifest) {
+  LightMapArrays out{read_light_map_layout(bake_dir, manifest), {}, {}};
+  std::vector<std::size_t> shape;
+  out.transfer = read_npy(bake_dir / manifest.light_map->transfer_file, &shape);
+  if (!manifest.light_map->ground_file.empty()) out.ground = read_npy(bake_dir / manifest.light_map->ground_file, &shape);
+  return out;
+}
+
 }  // namespace skylit::bake_format

@@ -280,8 +280,6 @@ void Service::State::RenderLoop::make_compositor_and_display() {
     compositor_options.ground_transfer = s.ground_transfer;
   }
   compositor_options.light_map = s.light_map;
-  compositor_options.light_map_transfer = s.light_map_transfer;
-  compositor_options.light_map_ground = s.light_map_ground;
   compositor.emplace(s.site, s.mesh, s.manifest, s.transfer, s.hmd_calibration, compositor_options);
   if (window) camera_texture.emplace();
   if (window && hmd_profile) hmd.emplace(*hmd_profile);

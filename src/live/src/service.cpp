@@ -146,11 +146,8 @@ Service::Service(const LiveConfig& config, const ServiceOptions& options) : stat
     s.ground_transfer = bake_format::read_npy(config.bake / s.manifest.ground->file, &shape);
   }
   if (s.manifest.light_map && config.render.light_map) {
-    s.light_map = bake_format::read_light_map_layout(config.bake, s.manifest);
-    s.light_map_transfer = bake_format::read_npy(config.bake / s.manifest.light_map->transfer_file, &shape);
-    if (config.render.ground_light) {
-      s.light_map_ground = bake_format::read_npy(config.bake / s.manifest.light_map->ground_file, &shape);
-    }
+    s.light_map = bake_format::read_light_map(config.bake, s.manifest);
+    if (!config.render.ground_light) s.light_map.ground = {};
   }
   for (std::size_t j = 0; j < s.manifest.planes.size(); ++j) {
     if (config.blend.basis == blend::BasisForm::Pca && !s.manifest.planes[j].pca) {

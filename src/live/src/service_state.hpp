@@ -150,8 +150,7 @@ struct Service::State {
   bake_format::Manifest manifest;
   std::vector<float> transfer;
   std::vector<float> ground_transfer;  // the bake's ground layer, with render.ground_light
-  bake_format::LightMapLayout light_map;  // the bake's light map, with render.light_map (no texels: none)
-  std::vector<float> light_map_transfer, light_map_ground;
+  bake_format::LightMapArrays light_map;  // the bake's light map, with render.light_map (no texels: none)
   std::vector<blend::BasisImages> bases;
   camera::CameraCalibration sky_calibration, hmd_calibration;
   // camera.stereo: both cameras (hmd_calibration is its left); frames come side by side.

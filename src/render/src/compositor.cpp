@@ -369,11 +369,12 @@ void Compositor::State::check_inputs(const scene::Site& site, const scene::Mesh&
 
 void Compositor::State::make_light_map(const scene::Mesh& mesh, const bake_format::Manifest& manifest) {
   const bool ground = !options.ground_albedo.isZero(0);
-  LightMapTexture::check(options.light_map, options.light_map_transfer, options.light_map_ground, ground, mesh, manifest.layer_count());
-  light_map.emplace(options.light_map, options.light_map_transfer, ground ? std::span<const float>(options.light_map_ground) : std::span<const float>(),
+  const bake_format::LightMapArrays& l = options.light_map;
+  LightMapTexture::check(l.layout, l.transfer, l.ground, ground, mesh, manifest.layer_count());
+  light_map.emplace(l.layout, l.transfer, ground ? std::span<const float>(l.ground) : std::span<const float>(),
                     manifest.layer_count());
-  options.light_map_transfer = {};  // the texture holds them from here on
-  options.light_map_ground = {};
+  options.light_map.transfer = {};  // the texture holds them from here on
+  options.light_map.ground = {};
 }
 
 void Compositor::State::upload_building(const scene::Mesh& mesh, std::span<const float> transfer_values) {
@@ -387,7 +388,7 @@ void Compositor::State::upload_building(const scene::Mesh& mesh, std::span<const
   irradiance_sky.clear();
   vertex_normals = mesh.normals;
   vertex_normals.resize(vertex_count, Eigen::Vector3f::UnitZ());
-  draw_vertices = render::draw_vertices(mesh, light_map ? &options.light_map : nullptr);
+  draw_vertices = render::draw_vertices(mesh, light_map ? &options.light_map.layout : nullptr);
   const std::size_t drawn = draw_vertices.model_vertex.size();
 
   // Vertices (texcoords zero when the model has none) and indices grouped by material.
@@ -845,7 +846,7 @@ Compositor::Compositor(const scene::Site& site, const scene::Mesh& mesh, const b
     s.ground_by_layer = layer_major(o.ground_transfer, mesh.vertex_count(), manifest.layer_count());
     s.options.ground_transfer = {};  // held layer after layer from here on
   }
-  if (!o.light_map.texels.empty()) s.make_light_map(mesh, manifest);
+  if (!o.light_map.layout.texels.empty()) s.make_light_map(mesh, manifest);
   s.shader_dir = gpu::find_shader_dir(s.options.shader_dir);
   s.filtered_lookups = has_gl_extension("GL_OES_texture_float_linear");
   if (s.filtered_lookups) s.bilinear = bilinear_clamped_sampler();

@@ -533,10 +533,7 @@ FrameTimes time_frames(const TradeOptions& o, const Grid& grid, const Sites& sit
     for (const auto& record : manifest.planes) planes.push_back(record.plane);
     render::CompositorOptions options;
     options.lens.render_scale = s.render_scale;
-    if (manifest.light_map) {
-      options.light_map = bake_format::read_light_map_layout(dir, manifest);
-      options.light_map_transfer = bake_format::read_npy(dir / manifest.light_map->transfer_file, &shape);
-    }
+    if (manifest.light_map) options.light_map = bake_format::read_light_map(dir, manifest);
     if (s.sun) {
       render::SunShadowOptions map_options;
       map_options.max_sources = s.sources;
@@ -601,8 +598,7 @@ struct SettingBake {
   bake_format::Manifest manifest;
   std::vector<blend::BasisImages> basis;
   std::vector<float> transfer, ground_transfer;  // the latter empty without a ground layer
-  std::optional<bake_format::LightMapLayout> light_map;
-  std::vector<float> light_map_transfer, light_map_ground;
+  std::optional<bake_format::LightMapArrays> light_map;
 };
 
 // Also the bake's cost in `r`: its time, size on disk and stored layers.
@@ -610,17 +606,11 @@ SettingBake load_setting_bake(const Bakes& made, Result& r) {
   const Setting& s = r.setting;
   const bool pca = s.form.form == blend::BasisForm::Pca;
   const fs::path bake_dir = pca ? made.pca_dirs.at({s.bake, s.form.components, s.form.tile}) : made.dirs.at(s.bake);
-  SettingBake bake{bake_format::read_manifest(bake_dir), {}, {}, {}, {}, {}, {}};
+  SettingBake bake{bake_format::read_manifest(bake_dir), {}, {}, {}, {}};
   std::vector<std::size_t> shape;
   bake.transfer = bake_format::read_npy(bake_dir / bake.manifest.transfer_file, &shape);
   if (bake.manifest.ground) bake.ground_transfer = bake_format::read_npy(bake_dir / bake.manifest.ground->file, &shape);
-  if (bake.manifest.light_map) {
-    bake.light_map = bake_format::read_light_map_layout(bake_dir, bake.manifest);
-    bake.light_map_transfer = bake_format::read_npy(bake_dir / bake.manifest.light_map->transfer_file, &shape);
-    if (!bake.manifest.light_map->ground_file.empty()) {
-      bake.light_map_ground = bake_format::read_npy(bake_dir / bake.manifest.light_map->ground_file, &shape);
-    }
-  }
+  if (bake.manifest.light_map) bake.light_map = bake_format::read_light_map(bake_dir, bake.manifest);
   r.bake_seconds = made.seconds.at(s.bake) + (pca ? made.pca_seconds.at({s.bake, s.form.components, s.form.tile}) : 0.0);
   r.bake_bytes = directory_bytes(bake_dir);
   std::vector<blend::BasisImages>& basis = bake.basis;
@@ -741,9 +731,10 @@ void evaluate_skies(const Bench& bench, const SettingBake& bake, const sky::SkyE
     if (bake.light_map) {
       // The sky and the ground from the light map where it covers a triangle.
       blend::GroundLight texel_ground = ground;
-      texel_ground.transfer = ground.transfer.empty() ? std::span<const float>() : std::span<const float>(bake.light_map_ground);
+      texel_ground.transfer = ground.transfer.empty() ? std::span<const float>() : std::span<const float>(bake.light_map->ground);
       const study::InsideTerms vertex_sky = study::building_terms_inside(building_reference.points, bake.transfer, S, {}, false, site.site, mesh);
-      study::use_light_map(building_reference.points, *bake.light_map, bake.light_map_transfer, S, texel_ground, vertex_sky.sky, inside_terms);
+      study::use_light_map(building_reference.points, bake.light_map->layout, bake.light_map->transfer, S, texel_ground, vertex_sky.sky,
+                           inside_terms);
     }
     std::vector<std::vector<float>> plane_T(basis.size());
     std::vector<Eigen::Vector3d> plane_D(basis.size(), Eigen::Vector3d::Zero());

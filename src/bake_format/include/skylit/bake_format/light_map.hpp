@@ -57,4 +57,12 @@ void write_light_map_layout(const std::filesystem::path& bake_dir, const Manifes
 // (a chart outside the atlas, a triangle's chart out of range, texels out of order).
 LightMapLayout read_light_map_layout(const std::filesystem::path& bake_dir, const Manifest& manifest);
 
+// The bake's light map whole: its layout and its texels' transfer, and the ground's with a ground
+// layer (else empty). InputError as read_light_map_layout and read_npy.
+struct LightMapArrays {
+  LightMapLayout layout;
+  std::vector<float> transfer, ground;
+};
+LightMapArrays read_light_map(const std::filesystem::path& bake_dir, const Manifest& manifest);
+
 }  // namespace skylit::bake_format

@@ -1,11 +1,7 @@
 #pragma once
 // The building's light map (docs/baker.md, "A light map on the flat faces"): the model's flat
 // regions of at least min_area laid out as charts of square texels in one atlas, and the point
-// each texel stands for, which the bake traces as it traces a vertex. Its texels keep their
-// centres inside the region's triangles: a texel whose centre falls outside (at the region's edge,
-// where a bilinear lookup from inside still reads it) takes the nearest point of the region,
-// moved a little into its triangle, so that it sees what the faces at the edge see and not what
-// lies past it (the part the wall meets, the inside of a column).
+// each texel stands for, which the bake traces as it traces a vertex.
 #include <span>
 #include <vector>
 
@@ -33,6 +29,10 @@ struct LightMapPoints {
   std::vector<Eigen::Vector3f> positions;  // per traced texel (layout.texels' order)
   std::vector<Eigen::Vector3f> normals;    // its triangle's face normal
 };
+// Its texels keep their points on the region's triangles: a texel whose centre falls outside (at
+// the region's edge, where a bilinear lookup from inside still reads it) takes the region's point
+// nearest its centre, moved a little into its triangle, so that it sees what the faces at the
+// edge see and not what lies past it (the part the wall meets, the inside of a column).
 // Deterministic (every shard and a merge lay it out alike). InputError when the atlas would exceed
 // 16384 texels along a side (a texel too fine for the model).
 LightMapPoints lay_out_light_map(const scene::Mesh& mesh, const LightMapOptions& options);

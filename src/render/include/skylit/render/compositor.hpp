@@ -53,11 +53,9 @@ struct CompositorOptions {
   std::vector<float> ground_transfer;
   // The bake's light map (bake_format/light_map.hpp; manifest.light_map; no texels: none): where a
   // triangle lies on one of its charts, the sky's light (and the ground's, with ground_albedo) comes
-  // from its texels, bilinear, instead of from the triangle's corners. light_map_transfer and
-  // light_map_ground (with ground_albedo) as the bake's light_map_transfer.npy and
-  // light_map_ground.npy. InputError when they do not fit the model or the bake.
-  bake_format::LightMapLayout light_map;
-  std::vector<float> light_map_transfer, light_map_ground;
+  // from its texels, bilinear, instead of from the triangle's corners (its ground transfer needed
+  // with ground_albedo). InputError when it does not fit the model or the bake.
+  bake_format::LightMapArrays light_map;
 };
 
 // Where the camera is: the HMD camera frame (OpenCV's) in the site frame.
