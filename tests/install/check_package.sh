@@ -57,9 +57,12 @@ site="$work/site"
 cp -r "$root/usr/share/skylit/examples" "$site"
 cd "$site"
 demo=build/demo
-# The presets are the installed ones (the default of --presets, shown by --help).
-"$bin/skylit-bake" --help | grep -q -- "--presets TEXT=$root/usr/share/skylit/presets.yaml" ||
-  fail "skylit-bake's presets are not the unpacked ones: $("$bin/skylit-bake" --help | grep -- --presets)"
+# The presets are the installed ones (the default of --presets, shown by --help). The help is
+# read whole first: grep -q leaves at its first match, and with pipefail a program still
+# writing into the closed pipe would fail the check.
+bake_help=$("$bin/skylit-bake" --help)
+grep -q -- "--presets TEXT=$root/usr/share/skylit/presets.yaml" <<<"$bake_help" ||
+  fail "skylit-bake's presets are not the unpacked ones: $(grep -- --presets <<<"$bake_help")"
 "$bin/skylit-bake" config/sample_site.yaml -o $demo/bake --quiet
 "$bin/skylit-bake" verify $demo/bake > "$work/verify.log"
 "$bin/skylit-sky" --calib config/sky_camera.yaml --equirect data/hdri/park.exr -o $demo/sky/park.exr --quiet
