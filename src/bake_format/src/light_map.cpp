@@ -10,19 +10,18 @@
 #include "skylit/base/error.hpp"
 
 namespace skylit::bake_format {
-namespace light_map_detail {
-
 namespace fs = std::filesystem;
-constexpr std::uint32_t kNoChart = std::numeric_limits<std::uint32_t>::max();
-constexpr int kChartColumns = 15;
+
+namespace {
+
+constexpr std::uint32_t kNoLightMapChart = std::numeric_limits<std::uint32_t>::max();
+constexpr int kLightMapChartColumns = 15;
 
 [[noreturn]] void bad_light_map(const fs::path& file, const std::string& field, const std::string& problem) {
   throw InputError(input_message(file, -1, -1, field, problem, "re-bake with skylit-bake --light-map"));
 }
 
-}  // namespace light_map_detail
-
-using namespace light_map_detail;
+}  // namespace
 
 Eigen::Vector2d LightMapLayout::atlas_coordinates(int chart, const Eigen::Vector3d& p) const {
   const LightMapChart& c = charts.at(static_cast<std::size_t>(chart));
@@ -64,7 +63,7 @@ std::vector<Eigen::Vector3d> light_map_atlas(const LightMapLayout& layout, std::
 
 void write_light_map_layout(const fs::path& bake_dir, const Manifest::LightMap& record, const LightMapLayout& layout) {
   std::vector<float> charts;
-  charts.reserve(layout.charts.size() * kChartColumns);
+  charts.reserve(layout.charts.size() * kLightMapChartColumns);
   for (const LightMapChart& c : layout.charts) {
     charts.insert(charts.end(), {static_cast<float>(c.x), static_cast<float>(c.y), static_cast<float>(c.width), static_cast<float>(c.height)});
     for (const Eigen::Vector3d* w : {&c.origin, &c.u, &c.v}) {
@@ -73,11 +72,11 @@ void write_light_map_layout(const fs::path& bake_dir, const Manifest::LightMap& 
     charts.push_back(static_cast<float>(c.texel_u));
     charts.push_back(static_cast<float>(c.texel_v));
   }
-  const std::size_t chart_shape[] = {layout.charts.size(), kChartColumns};
+  const std::size_t chart_shape[] = {layout.charts.size(), kLightMapChartColumns};
   write_npy(bake_dir / record.charts_file, charts, chart_shape);
   std::vector<std::uint32_t> triangles(layout.triangle_chart.size());
   std::transform(layout.triangle_chart.begin(), layout.triangle_chart.end(), triangles.begin(),
-                 [](std::int32_t c) { return c < 0 ? kNoChart : static_cast<std::uint32_t>(c); });
+                 [](std::int32_t c) { return c < 0 ? kNoLightMapChart : static_cast<std::uint32_t>(c); });
   const std::size_t triangle_shape[] = {triangles.size()};
   write_npy_u32(bake_dir / record.triangles_file, triangles, triangle_shape);
   const std::size_t texel_shape[] = {layout.texels.size()};
@@ -94,11 +93,11 @@ LightMapLayout read_light_map_layout(const fs::path& bake_dir, const Manifest& m
   std::vector<std::size_t> shape;
   const fs::path charts_file = bake_dir / record.charts_file;
   const std::vector<float> charts = read_npy(charts_file, &shape);
-  if (shape.size() != 2 || shape[1] != kChartColumns || shape[0] != record.chart_count) {
+  if (shape.size() != 2 || shape[1] != kLightMapChartColumns || shape[0] != record.chart_count) {
     bad_light_map(charts_file, "shape", "must be [" + std::to_string(record.chart_count) + ", 15]");
   }
   for (std::size_t i = 0; i < record.chart_count; ++i) {
-    const float* row = charts.data() + i * kChartColumns;
+    const float* row = charts.data() + i * kLightMapChartColumns;
     LightMapChart c;
     c.x = static_cast<int>(row[0]), c.y = static_cast<int>(row[1]), c.width = static_cast<int>(row[2]), c.height = static_cast<int>(row[3]);
     c.origin = Eigen::Vector3f(row[4], row[5], row[6]).cast<double>();
@@ -126,11 +125,11 @@ LightMapLayout read_light_map_layout(const fs::path& bake_dir, const Manifest& m
   }
   layout.triangle_chart.reserve(triangles.size());
   for (std::size_t t = 0; t < triangles.size(); ++t) {
-    if (triangles[t] != kNoChart && triangles[t] >= layout.charts.size()) {
+    if (triangles[t] != kNoLightMapChart && triangles[t] >= layout.charts.size()) {
       bad_light_map(triangles_file, "triangle " + std::to_string(t), "names chart " + std::to_string(triangles[t]) + " of " +
                                                                std::to_string(layout.charts.size()));
     }
-    layout.triangle_chart.push_back(triangles[t] == kNoChart ? -1 : static_cast<std::int32_t>(triangles[t]));
+    layout.triangle_chart.push_back(triangles[t] == kNoLightMapChart ? -1 : static_cast<std::int32_t>(triangles[t]));
   }
   const fs::path texels_file = bake_dir / record.texels_file;
   layout.texels = read_npy_u32(texels_file, &shape);

@@ -5,7 +5,6 @@
 #include <array>
 #include <cmath>
 #include <map>
-#include <numeric>
 #include <stdexcept>
 #include <string>
 
@@ -78,31 +77,21 @@ void LightMapTexture::check(const bake_format::LightMapLayout& l, std::span<cons
 }
 
 DrawVertices draw_vertices(const scene::Mesh& mesh, const bake_format::LightMapLayout* layout) {
-  DrawVertices out;
-  if (layout == nullptr || layout->texels.empty()) {
-    out.model_vertex = identity(mesh.vertex_count());
-    out.atlas.assign(mesh.vertex_count(), Eigen::Vector2f(-1.0f, -1.0f));
-    out.indices = mesh.indices;
-    return out;
-  }
+  // The model's vertices keep their indices for the triangles on no chart; a copy per (vertex,
+  // chart) follows them.
+  DrawVertices out{identity(mesh.vertex_count()), std::vector<Eigen::Vector2f>(mesh.vertex_count(), Eigen::Vector2f(-1.0f, -1.0f)),
+                   mesh.indices};
+  if (layout == nullptr || layout->texels.empty()) return out;
   if (layout->triangle_chart.size() != mesh.triangle_count()) {
     throw std::invalid_argument("draw_vertices: the light map has " + std::to_string(layout->triangle_chart.size()) +
                                 " triangles, the model " + std::to_string(mesh.triangle_count()));
   }
-  // The model's vertices keep their indices for the triangles on no chart; a copy per (vertex,
-  // chart) follows them.
-  out.model_vertex = identity(mesh.vertex_count());
-  out.atlas.assign(mesh.vertex_count(), Eigen::Vector2f(-1.0f, -1.0f));
   std::map<std::pair<std::uint32_t, std::int32_t>, std::uint32_t> copies;
-  out.indices = mesh.indices;
   for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
     const std::int32_t chart = layout->triangle_chart[t];
+    if (chart < 0) continue;
     for (std::size_t k = 0; k < 3; ++k) {
       const std::uint32_t v = mesh.indices[3 * t + k];
-      if (chart < 0) {
-        out.indices[3 * t + k] = v;
-        continue;
-      }
       const auto [it, inserted] = copies.try_emplace({v, chart}, static_cast<std::uint32_t>(out.model_vertex.size()));
       if (inserted) {
         out.model_vertex.push_back(v);
