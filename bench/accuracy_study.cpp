@@ -241,6 +241,12 @@ int main(int argc, char** argv) {
                  "the building inside the triangles is then shown from it where it covers them");
   app.add_option("--light-map-min-area", light_map_options.min_area, "m², with --light-map (skylit-bake --light-map-min-area)");
   app.add_option("--light-map-min-across", light_map_options.min_across, "texels, with --light-map (skylit-bake --light-map-min-across)");
+  skylit::bake_format::LightMapPcaOptions light_map_pca{0, 0.0};  // components 0: the full form
+  app.add_option("--light-map-components", light_map_pca.components,
+                 "with --light-map: the light map's PCA form, K components per chart, in place of the full form "
+                 "(skylit-bake --light-map-components); 0: the full form");
+  app.add_option("--light-map-sky-correlation", light_map_pca.sky_correlation_deg,
+                 "degrees, with --light-map-components (skylit-bake --light-map-sky-correlation)");
   int vertex_fit = 0;
   app.add_option("--vertex-fit", vertex_fit,
                  "every bake fits its vertices to the light at N² points inside each triangle (skylit-bake --vertex-fit)")
@@ -305,6 +311,7 @@ int main(int argc, char** argv) {
     options.refine = refine;
     options.vertex_fit = vertex_fit;
     if (light_map_options.texel > 0.0) options.light_map = light_map_options;
+    if (light_map_options.texel > 0.0 && light_map_pca.components > 0) options.light_map_pca = light_map_pca;
     const auto t = Clock::now();
     skylit::baker::run_bake(options, stderr);
     bake_seconds[key] = seconds_since(t);
@@ -329,7 +336,7 @@ int main(int argc, char** argv) {
       pca.components = k;
       pca.sky_correlation_deg = pca_correlation;
       pca.tile = pca_tile;
-      skylit::baker::compress_bake(copy, pca, stderr);
+      skylit::baker::compress_bake(copy, pca, std::nullopt, stderr);
       pca_bakes[{key, k}] = copy;
     }
   }
@@ -575,7 +582,14 @@ int main(int argc, char** argv) {
       skylit::blend::GroundLight texel_ground;
       InsideTerms vertex_sky;
       if (manifest.light_map) {
-        texel_map = skylit::bake_format::read_light_map(bake_dir, manifest);
+        // The PCA form as the compositor sums it: the same sum over its t̂.
+        const bool pca = manifest.light_map->pca.has_value();
+        texel_map = skylit::bake_format::read_light_map(bake_dir, manifest,
+                                                        pca ? skylit::bake_format::LightMapForm::Pca : skylit::bake_format::LightMapForm::Full);
+        if (pca) {
+          texel_map->transfer = skylit::bake_format::expand_light_map(texel_map->layout, texel_map->pca->sky);
+          if (manifest.ground) texel_map->ground = skylit::bake_format::expand_light_map(texel_map->layout, texel_map->pca->ground);
+        }
         texel_ground = ground;
         texel_ground.transfer = ground.transfer.empty() ? std::span<const float>() : std::span<const float>(texel_map->ground);
         vertex_sky = building_terms_inside(inside_points, transfer, S, {}, false, site, mesh);

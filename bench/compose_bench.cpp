@@ -90,14 +90,17 @@ struct Scene {
     if (const char* refine = std::getenv("SKYLIT_COMPOSE_BENCH_REFINE"); refine != nullptr && *refine != '\0') {
       options.refine.tolerance = std::atof(refine);
     }
-    // A light map, TEXEL[,MIN_AREA[,MIN_ACROSS]] (skylit-bake --light-map): every compositor here draws with it.
+    // A light map, TEXEL[,MIN_AREA[,MIN_ACROSS[,COMPONENTS]]] (skylit-bake --light-map, and its PCA
+    // form with COMPONENTS > 0): every compositor here draws with it, in its smallest form.
     if (const char* light_map_option = std::getenv("SKYLIT_COMPOSE_BENCH_LIGHT_MAP"); light_map_option != nullptr && *light_map_option != '\0') {
       baker::LightMapOptions l;
-      if (std::sscanf(light_map_option, "%lf,%lf,%d", &l.texel, &l.min_area, &l.min_across) < 1) {
-        std::fprintf(stderr, "SKYLIT_COMPOSE_BENCH_LIGHT_MAP: expected TEXEL[,MIN_AREA[,MIN_ACROSS]], got '%s'\n", light_map_option);
+      int components = 0;
+      if (std::sscanf(light_map_option, "%lf,%lf,%d,%d", &l.texel, &l.min_area, &l.min_across, &components) < 1) {
+        std::fprintf(stderr, "SKYLIT_COMPOSE_BENCH_LIGHT_MAP: expected TEXEL[,MIN_AREA[,MIN_ACROSS[,COMPONENTS]]], got '%s'\n", light_map_option);
         std::exit(2);
       }
       options.light_map = l;
+      if (components > 0) options.light_map_pca = bake_format::LightMapPcaOptions{components, 0.0};
     }
     std::FILE* quiet = std::fopen("/dev/null", "w");
     baker::run_bake(options, quiet);
@@ -109,9 +112,10 @@ struct Scene {
     transfer = bake_format::read_npy(dir / manifest.transfer_file, &shape);
     ground_transfer = bake_format::read_npy(dir / manifest.ground->file, &shape);
     if (manifest.light_map) {
-      light_map = bake_format::read_light_map(dir, manifest);
-      std::fprintf(stderr, "compose_bench: a light map of %zu texels (%d×%d atlas) over %zu charts\n", light_map.layout.texels.size(),
-                   light_map.layout.width, light_map.layout.height, light_map.layout.charts.size());
+      light_map = bake_format::read_light_map(dir, manifest, bake_format::smallest_light_map_form(manifest));
+      std::fprintf(stderr, "compose_bench: a light map of %zu texels (%d×%d atlas) over %zu charts, %s\n", light_map.layout.texels.size(),
+                   light_map.layout.width, light_map.layout.height, light_map.layout.charts.size(),
+                   light_map.pca ? ("its PCA form of " + std::to_string(light_map.pca->sky.components) + " components").c_str() : "the full form");
     }
     sky.assign(transfer.size() / mesh.vertex_count(), Eigen::Vector3d(0.3, 0.4, 0.6));  // one value per basis layer
     const double az = 140 * std::numbers::pi / 180, el = 35 * std::numbers::pi / 180;
@@ -143,7 +147,7 @@ struct Scene {
 // Options with the scene's light map, when it has one.
 render::CompositorOptions light_mapped(const Scene& scene) {
   render::CompositorOptions options;
-  options.light_map = {scene.light_map.layout, scene.light_map.transfer, {}};
+  options.light_map = {scene.light_map.layout, scene.light_map.transfer, {}, scene.light_map.pca};  // the ground added where wanted
   return options;
 }
 

@@ -66,11 +66,27 @@ struct CommandLine {
   CLI::App* compress = nullptr;
   std::string compress_dir;
 
+  skylit::bake_format::LightMapPcaOptions light_map_pca{0, 0.0};  // components 0: none
+  std::optional<skylit::bake_format::LightMapPcaOptions> wanted_light_map_pca() const {
+    if (light_map_pca.components == 0) return std::nullopt;
+    return light_map_pca;
+  }
   std::optional<skylit::bake_format::PcaOptions> wanted_pca() const {
     if (!pca.components && !pca.variance && !pca.max_error) return std::nullopt;
     return pca;
   }
 };
+
+void add_light_map_pca_options(CLI::App& to, skylit::bake_format::LightMapPcaOptions& pca) {
+  to.add_option("--light-map-components", pca.components,
+                "also store the light map's transfer compressed chart by chart to K components, so that a new sky sums "
+                "K + 1 values per texel instead of every layer (docs/baker.md); 0: only the full form")
+      ->capture_default_str();
+  to.add_option("--light-map-sky-correlation", pca.sky_correlation_deg,
+                "degrees: with --light-map-components, the components that matter for skies whose radiance is correlated "
+                "over this angle; 0: every layer alike")
+      ->capture_default_str();
+}
 
 void add_pca_options(CLI::App& to, skylit::bake_format::PcaOptions& pca) {
   to.add_option("--pca-components", pca.components, "also store the basis compressed to at least K principal components");
@@ -146,6 +162,7 @@ void add_bake_options(CLI::App& app, CommandLine& c) {
   app.add_flag("--no-previews", c.no_previews, "skip the preview contact sheets");
   app.add_flag("-q,--quiet", c.quiet, "only warnings and errors");
   add_pca_options(app, c.pca);
+  add_light_map_pca_options(app, c.light_map_pca);
 }
 
 void add_subcommands(CLI::App& app, CommandLine& c) {
@@ -157,10 +174,12 @@ void add_subcommands(CLI::App& app, CommandLine& c) {
   c.merge->add_option("-o,--output", c.merge_out, "finished bake directory")->required();
   c.merge->add_flag("--no-previews", c.merge_no_previews, "skip the preview contact sheets");
   add_pca_options(*c.merge, c.pca);
+  add_light_map_pca_options(*c.merge, c.light_map_pca);
 
-  c.compress = app.add_subcommand("compress", "add (or replace) the PCA form of every plane of a finished bake");
+  c.compress = app.add_subcommand("compress", "add (or replace) the PCA form of every plane of a finished bake, or of its light map");
   c.compress->add_option("bake_dir", c.compress_dir, "bake directory")->required()->check(CLI::ExistingDirectory);
   add_pca_options(*c.compress, c.pca);
+  add_light_map_pca_options(*c.compress, c.light_map_pca);
 
   c.walls = app.add_subcommand("walls", "write the site with virtual planes on the flat faces whose vertices cannot carry "
                                          "their light (docs/baker.md)");
@@ -230,6 +249,7 @@ int run_bake(const CLI::App& app, CommandLine& c, std::FILE* log) {
                                   : std::optional(skylit::baker::parse_shard(c.shard));
   options.previews = !c.no_previews;
   if (c.light_map.texel != 0.0) options.light_map = c.light_map;
+  options.light_map_pca = c.wanted_light_map_pca();
   if (app.count("--error-budget")) {
     if (app.count("--samples")) {
       throw skylit::InputError("options --error-budget and --samples: the budget picks the samples. Fix: drop one");
@@ -249,7 +269,7 @@ int run(const CLI::App& app, CommandLine& c, std::FILE* log) {
   if (*c.verify) return run_verify(c.verify_dir);
   if (*c.merge) {
     std::vector<std::filesystem::path> dirs(c.merge_dirs.begin(), c.merge_dirs.end());
-    skylit::baker::merge_bakes(dirs, c.merge_out, !c.merge_no_previews, log, c.wanted_pca());
+    skylit::baker::merge_bakes(dirs, c.merge_out, !c.merge_no_previews, log, c.wanted_pca(), c.wanted_light_map_pca());
     return 0;
   }
   if (*c.walls) {
@@ -257,10 +277,7 @@ int run(const CLI::App& app, CommandLine& c, std::FILE* log) {
     return 0;
   }
   if (*c.compress) {
-    if (!c.wanted_pca()) {
-      throw skylit::InputError("compress needs --pca-components K, --pca-variance F or --pca-max-error E");
-    }
-    skylit::baker::compress_bake(c.compress_dir, c.pca, log);
+    skylit::baker::compress_bake(c.compress_dir, c.wanted_pca(), c.wanted_light_map_pca(), log);
     return 0;
   }
   return run_bake(app, c, log);

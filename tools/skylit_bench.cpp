@@ -57,6 +57,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   trade->add_option("--light-map-min-across", o.light_map_min_across, "texels, with --light-maps (skylit-bake --light-map-min-across)")
       ->capture_default_str();
+  trade->add_option("--light-map-components", o.light_map_components,
+                    "with --light-maps: each light map also in its PCA form of K components per chart, which the frame "
+                    "and the error then use (skylit-bake --light-map-components); 0: the full form")
+      ->check(CLI::Range(0, 4096))
+      ->capture_default_str();
   trade->add_option("--forms", o.forms, "full, lean, cropped, pcaK, pcaKtN (clustered PCA, tiles of N texels)")->delimiter(',')->capture_default_str();
   trade->add_option("--bits", o.bits, "layer bit depth: 16 (half), 8 (unorm8; not with PCA)")->delimiter(',')->capture_default_str();
   trade->add_option("--sun", o.sun, "sun separation: on, off")->delimiter(',')->capture_default_str();

@@ -228,6 +228,31 @@ TEST(ManifestJson, TheLightMapRoundTripsAndMustAgreeWithThePlan) {
   plan_differs["plan"]["light_map"]["texel"] = 0.2;
   const Manifest c = manifest_from_json(plan_differs, "manifest.json");
   EXPECT_NE(c.plan.difference(b.plan).find("light_map"), std::string::npos);
+  // Its PCA form: K components per chart, the shapes from the plan, the charts and K.
+  Manifest::LightMap::Pca pca;
+  pca.components = 3;
+  pca.sky_correlation_deg = 45.0;
+  pca.rms_error = 0.25;
+  pca.max_error = 1.5;
+  m.light_map->pca = pca;
+  const json p = reparse(to_json(m));
+  EXPECT_EQ(p["light_map"]["pca"]["weights"]["shape"], json::array({777, 3}));
+  EXPECT_EQ(p["light_map"]["pca"]["vectors"]["shape"], json::array({5, 4, 40}));
+  EXPECT_FALSE(p["light_map"]["pca"].contains("ground_weights"));
+  const Manifest d = manifest_from_json(p, "manifest.json");
+  ASSERT_TRUE(d.light_map && d.light_map->pca);
+  EXPECT_EQ(d.light_map->pca->components, 3);
+  EXPECT_EQ(d.light_map->pca->max_error, 1.5);
+  EXPECT_EQ(to_json(d), p);
+  json wrong_k = p;
+  wrong_k["light_map"]["pca"]["vectors"]["shape"][1] = 3;
+  EXPECT_THROW(manifest_from_json(wrong_k, "manifest.json"), InputError);
+  json with_ground = p;
+  with_ground["light_map"]["pca"]["ground_weights"] = p["light_map"]["pca"]["weights"];
+  with_ground["light_map"]["pca"]["ground_vectors"] = p["light_map"]["pca"]["vectors"];
+  with_ground["light_map"]["pca"]["ground_rms_error"] = 0.0;
+  with_ground["light_map"]["pca"]["ground_max_error"] = 0.0;
+  EXPECT_THROW(manifest_from_json(with_ground, "manifest.json"), InputError) << "the bake has no ground layer";
 }
 
 TEST(ManifestJson, TheGroundLayerRoundTripsAndOlderManifestsHaveNone) {

@@ -14,7 +14,9 @@
 #include "../support/temp_dir.hpp"
 #include "box_scene.hpp"
 #include "skylit/bake_format/arrays.hpp"
+#include "skylit/bake_format/light_map.hpp"
 #include "skylit/bake_format/manifest.hpp"
+#include "skylit/baker/bake_job.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/scene/site.hpp"
 
@@ -217,6 +219,73 @@ TEST(LightMap, ABakesTexelsSeeWhatAVertexThereSees) {
   EXPECT_LT(worst, 1e-6);
   // The slab's texels at the cube's foot see half the sky or less, where its corners see all of it.
   EXPECT_LT(slab_foot, 0.6 * top_sum);
+}
+
+TEST(LightMap, ItsPcaFormFromTheBakeAndFromCompressComeBackWithinTheirStatedError) {
+  skylit::test::TempDir dir("skylit-light-map-pca-bake-");
+  const std::filesystem::path site_file = test::write_cube_on_slab_site(dir.path());
+  const std::filesystem::path bake = dir.path() / "bake";
+  skylit::test::quiet_bake(site_file, bake, 4, [](BakeOptions& o) {
+    o.light_map = LightMapOptions{0.25, 1.0, 0};
+    o.light_map_pca = bake_format::LightMapPcaOptions{4, 45.0};
+  });
+  const bake_format::VerifyReport report = bake_format::verify(bake);
+  EXPECT_TRUE(report.ok) << (report.problems.empty() ? "" : report.problems.front());
+  const bake_format::Manifest m = bake_format::read_manifest(bake);
+  ASSERT_TRUE(m.light_map && m.light_map->pca);
+  EXPECT_EQ(m.light_map->pca->components, 4);
+  EXPECT_FALSE(m.light_map->pca->ground_weights_file.empty()) << "the ground's transfer compressed too";
+  const bake_format::LightMapArrays full = bake_format::read_light_map(bake, m);
+  const bake_format::LightMapArrays pca = bake_format::read_light_map(bake, m, bake_format::LightMapForm::Pca);
+  EXPECT_TRUE(pca.transfer.empty());
+  ASSERT_TRUE(pca.pca.has_value());
+  const std::vector<float> sky = bake_format::expand_light_map(pca.layout, pca.pca->sky);
+  const std::vector<float> ground = bake_format::expand_light_map(pca.layout, pca.pca->ground);
+  double worst = 0.0, worst_ground = 0.0;
+  for (std::size_t i = 0; i < sky.size(); ++i) {
+    worst = std::max(worst, std::abs(double(sky[i]) - full.transfer[i]));
+    worst_ground = std::max(worst_ground, std::abs(double(ground[i]) - full.ground[i]));
+  }
+  EXPECT_NEAR(worst, m.light_map->pca->max_error, 1e-6);
+  EXPECT_NEAR(worst_ground, m.light_map->pca->ground_max_error, 1e-6);
+  // Single layers may be far off (a face's shadow edge is one of 480); what a sky sees is their
+  // sum over smooth radiance. A uniform sky of radiance 1 (E_h = π) and one brighter towards the
+  // zenith, per texel, as shares of E_h.
+  const std::size_t layers = m.layer_count(), per_face = static_cast<std::size_t>(m.plan.layers_per_face());
+  for (const bool zenith : {false, true}) {
+    double squares = 0.0, largest = 0.0;
+    std::vector<double> S(layers);
+    for (std::size_t l = 0; l < layers; ++l) S[l] = zenith ? 2.0 * m.faces[l / per_face].direction.z() : 1.0;
+    const double horizontal = zenith ? 4.0 * 3.14159265358979 / 3.0 : 3.14159265358979;  // ∫ 2 cos²θ dω, ∫ cos θ dω
+    const std::size_t texels = pca.layout.texels.size();
+    for (std::size_t x = 0; x < texels; ++x) {
+      double e = 0.0;
+      for (std::size_t l = 0; l < layers; ++l) e += S[l] * (double(sky[x * layers + l]) - std::max(0.0f, full.transfer[x * layers + l]));
+      squares += e * e;
+      largest = std::max(largest, std::abs(e));
+    }
+    const double rms = std::sqrt(squares / static_cast<double>(texels)) / horizontal;
+    std::printf("measured: K = 4 per chart, a %s sky: E within %.4f of E_h (RMS %.4f); single values within %.3g sr\n",
+                zenith ? "zenith-bright" : "uniform", largest / horizontal, rms, worst);
+    EXPECT_LT(rms, 0.01);
+  }
+  // compress adds the same form to a finished bake (here: replaces it), and the bake verifies.
+  baker::compress_bake(bake, std::nullopt, bake_format::LightMapPcaOptions{4, 45.0}, nullptr);
+  EXPECT_TRUE(bake_format::verify(bake).ok);
+  const bake_format::Manifest again = bake_format::read_manifest(bake);
+  ASSERT_TRUE(again.light_map && again.light_map->pca);
+  const bake_format::LightMapArrays recompressed = bake_format::read_light_map(bake, again, bake_format::LightMapForm::Pca);
+  EXPECT_EQ(recompressed.pca->sky.vectors, pca.pca->sky.vectors);
+  EXPECT_EQ(recompressed.pca->sky.weights, pca.pca->sky.weights);
+  EXPECT_EQ(again.files.size(), m.files.size()) << "the old form's files replaced, not listed twice";
+  // The options are checked before any work.
+  BakeOptions no_map;
+  no_map.site_file = site_file;
+  no_map.out_dir = dir.path() / "none";
+  no_map.light_map_pca = bake_format::LightMapPcaOptions{4, 45.0};
+  EXPECT_THROW(run_bake(no_map, nullptr), InputError);
+  EXPECT_THROW(baker::compress_bake(bake, std::nullopt, bake_format::LightMapPcaOptions{0, 45.0}, nullptr), InputError);
+  EXPECT_THROW(baker::compress_bake(bake, std::nullopt, std::nullopt, nullptr), InputError);
 }
 
 }  // namespace light_map_test

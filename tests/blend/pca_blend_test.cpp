@@ -65,7 +65,7 @@ double max_abs_difference(std::span<const float> a, std::span<const float> b) {
 bake_format::Manifest compressed_bake(const fs::path& dir, const bake_format::PcaOptions& options) {
   bake_format::test::write_synthetic_bake(dir);
   std::FILE* quiet = std::fopen("/dev/null", "w");
-  baker::compress_bake(dir, options, quiet);
+  baker::compress_bake(dir, options, std::nullopt, quiet);
   std::fclose(quiet);
   return bake_format::read_manifest(dir);
 }
@@ -141,7 +141,7 @@ TEST(PcaBlend, CompressingAgainReplacesTheForm) {
   TempDir dir;
   compressed_bake(dir.path(), pca_components(3));
   std::FILE* quiet = std::fopen("/dev/null", "w");
-  baker::compress_bake(dir.path(), pca_components(5), quiet);
+  baker::compress_bake(dir.path(), pca_components(5), std::nullopt, quiet);
   std::fclose(quiet);
   const bake_format::VerifyReport report = bake_format::verify(dir.path());
   ASSERT_TRUE(report.ok) << (report.problems.empty() ? "" : report.problems.front());
@@ -201,8 +201,8 @@ TEST(PcaBlend, ATiledFormWhoseManifestLostItsTileIsRefusedByShape) {
 TEST(PcaBlend, CompressRefusesBadOptionsAndForeignDirectories) {
   TempDir dir;
   bake_format::test::write_synthetic_bake(dir.path());
-  EXPECT_THROW(baker::compress_bake(dir.path(), pca_components(0), nullptr), InputError);
-  EXPECT_THROW(baker::compress_bake(dir.path() / "nowhere", pca_components(2), nullptr), InputError);
+  EXPECT_THROW(baker::compress_bake(dir.path(), pca_components(0), std::nullopt, nullptr), InputError);
+  EXPECT_THROW(baker::compress_bake(dir.path() / "nowhere", pca_components(2), std::nullopt, nullptr), InputError);
 }
 
 class PcaGpuBlend : public skylit::test::GlSuite {};

@@ -759,9 +759,9 @@ TEST_F(CompositorTest, ALightMapShowsItsTexelsBilinearlyOnItsCharts) {
   }
   const cv::Mat black(240, 320, CV_32FC3, cv::Scalar::all(0.0));
   const std::vector<Vector3d> uniform = uniform_sky(1.0);
-  auto run = [&](const std::vector<float>& transfer) {
+  auto run = [&](const std::vector<float>& transfer, std::optional<bake_format::LightMapPca> pca = std::nullopt) {
     render::CompositorOptions options;
-    options.light_map = {lm.layout, transfer, {}};
+    options.light_map = {lm.layout, pca ? std::vector<float>() : transfer, {}, std::move(pca)};
     render::Compositor compositor = make(options);
     render::CompositeInput input;
     input.camera = black;
@@ -810,9 +810,29 @@ TEST_F(CompositorTest, ALightMapShowsItsTexelsBilinearlyOnItsCharts) {
   // lookup half a texel off would be 0.09 off.
   EXPECT_LT(worst, 0.01);
   EXPECT_LT(rms, 1e-3);
+  // Its PCA form: the pattern varies in one layer, so one component per chart holds it, and the
+  // compositor's sum over the charts' components shows what the full form shows.
+  const bake_format::LightMapPca pca{bake_format::compress_light_map(lm.layout, patterned, layers, {1, 0.0}), {}};
+  EXPECT_LT(pca.sky.max_error, 1e-5);
+  const cv::Mat compressed = run(patterned, pca);
+  double pca_worst = 0.0;
+  for (int y = 0; y < shown.rows; ++y) {
+    for (int x = 0; x < shown.cols; ++x) {
+      for (int c = 0; c < 3; ++c) {
+        const float a = shown.at<cv::Vec3f>(y, x)[c], b = compressed.at<cv::Vec3f>(y, x)[c];
+        const double e = std::abs(a - b) / std::max(1e-3f, std::abs(a));
+        if (!(e <= pca_worst)) pca_worst = e;
+      }
+    }
+  }
+  std::printf("measured: the PCA form (K = 1) within %.2g (relative) of the full form, every pixel\n", pca_worst);
+  EXPECT_LT(pca_worst, 1e-4);
   // The light map's sizes must fit the model and the bake.
   render::CompositorOptions wrong;
-  wrong.light_map = {lm.layout, std::vector<float>(3), {}};
+  wrong.light_map = {lm.layout, std::vector<float>(3), {}, std::nullopt};
+  EXPECT_THROW(make(wrong), InputError);
+  wrong.light_map = {lm.layout, {}, {}, bake_format::LightMapPca{bake_format::compress_light_map(lm.layout, patterned, layers, {1, 0.0}), {}}};
+  wrong.light_map.pca->sky.weights.pop_back();
   EXPECT_THROW(make(wrong), InputError);
 }
 

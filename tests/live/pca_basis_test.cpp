@@ -28,7 +28,7 @@ fs::path compressed_bake(const Rig& rig, int tile = 0) {
   bake_format::PcaOptions options;
   options.variance = 0.999;
   options.tile = tile;
-  baker::compress_bake(copy, options, nullptr);
+  baker::compress_bake(copy, options, std::nullopt, nullptr);
   return copy;
 }
 

@@ -351,6 +351,16 @@ TEST(ServiceConfig, ABakeOfARefinedModelWithALightMapRunsOnTheRefinedModel) {
   std::ofstream(file) << text << "render:\n  ground_light: true\n";
   live::ServiceOptions options = quiet_options();
   options.frames_with_sky = 2;
+  {
+    live::Service service(live::load_live_config(file), options);
+    EXPECT_GE(service.run(), 2);
+  }
+  // Its PCA form: asked for before the bake has one, refused with the fix; then added and drawn.
+  std::ofstream(file) << text << "render:\n  ground_light: true\n  light_map_form: pca\n";
+  const std::string message = skylit::test::error_of([&] { live::Service(live::load_live_config(file), quiet_options()); });
+  EXPECT_NE(message.find("render.light_map_form"), std::string::npos) << message;
+  EXPECT_NE(message.find("--light-map-components"), std::string::npos) << message;
+  skylit::baker::compress_bake(refined, std::nullopt, skylit::bake_format::LightMapPcaOptions{8, 45.0}, nullptr);
   live::Service service(live::load_live_config(file), options);
   EXPECT_GE(service.run(), 2);
 }

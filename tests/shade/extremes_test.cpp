@@ -154,7 +154,7 @@ class ExtremesTest : public ::testing::TestWithParam<BakeVariant> {
       bake_format::PcaOptions pca;
       pca.components = v.pca_components;
       pca.tile = v.pca_tile;
-      baker::compress_bake(out / "bake", pca, nullptr);
+      baker::compress_bake(out / "bake", pca, std::nullopt, nullptr);
     }) / "bake";
   }
   static const bake_format::Manifest& manifest() {

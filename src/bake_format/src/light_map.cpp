@@ -145,8 +145,16 @@ LightMapLayout read_light_map_layout(const fs::path& bake_dir, const Manifest& m
   return layout;
 }
 
-LightMapArrays read_light_map(const fs::path& bake_dir, const Manifest& manifest) {
-  LightMapArrays out{read_light_map_layout(bake_dir, manifest), {}, {}};
+LightMapForm smallest_light_map_form(const Manifest& manifest) {
+  return manifest.light_map && manifest.light_map->pca ? LightMapForm::Pca : LightMapForm::Full;
+}
+
+LightMapArrays read_light_map(const fs::path& bake_dir, const Manifest& manifest, LightMapForm form) {
+  LightMapArrays out{read_light_map_layout(bake_dir, manifest), {}, {}, std::nullopt};
+  if (form == LightMapForm::Pca) {
+    out.pca = read_light_map_pca(bake_dir, manifest, out.layout);
+    return out;
+  }
   std::vector<std::size_t> shape;
   out.transfer = read_npy(bake_dir / manifest.light_map->transfer_file, &shape);
   if (!manifest.light_map->ground_file.empty()) out.ground = read_npy(bake_dir / manifest.light_map->ground_file, &shape);

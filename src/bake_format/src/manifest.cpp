@@ -424,6 +424,25 @@ json to_json(const Manifest& m) {
     if (!l.ground_file.empty()) {
       out["light_map"]["ground"] = {{"file", l.ground_file}, {"shape", json::array({m.plan.light_map.texels, layer_count})}};
     }
+    if (l.pca) {
+      const Manifest::LightMap::Pca& p = *l.pca;
+      const auto k = static_cast<std::uint64_t>(p.components);
+      const json weights_shape = json::array({m.plan.light_map.texels, k});
+      const json vectors_shape = json::array({l.chart_count, k + 1, layer_count});
+      json& pca = out["light_map"]["pca"];
+      pca = {{"components", p.components},
+             {"sky_correlation_deg", p.sky_correlation_deg},
+             {"rms_error", p.rms_error},
+             {"max_error", p.max_error},
+             {"weights", {{"file", p.weights_file}, {"shape", weights_shape}}},
+             {"vectors", {{"file", p.vectors_file}, {"shape", vectors_shape}}}};
+      if (!p.ground_weights_file.empty()) {
+        pca["ground_weights"] = {{"file", p.ground_weights_file}, {"shape", weights_shape}};
+        pca["ground_vectors"] = {{"file", p.ground_vectors_file}, {"shape", vectors_shape}};
+        pca["ground_rms_error"] = p.ground_rms_error;
+        pca["ground_max_error"] = p.ground_max_error;
+      }
+    }
   }
   return out;
 }
@@ -611,6 +630,41 @@ Manifest manifest_from_json(const json& j, const fs::path& source) {
     if (section.contains("ground")) file_of("ground", m.plan.light_map.texels, m.layer_count(), l.ground_file);
     if (l.ground_file.empty() != !m.ground) {
       src.fail("light_map.ground", m.ground ? "is missing but the bake has a ground layer" : "is there but the bake has no ground layer");
+    }
+    if (section.contains("pca")) {
+      const std::string pfield = "light_map.pca";
+      const json& pca = get(section, "light_map", "pca");
+      Manifest::LightMap::Pca p;
+      p.components = to_int(src, get(pca, pfield, "components"), join(pfield, "components"), 1, kMaxPcaComponents);
+      p.sky_correlation_deg = to_double(src, get(pca, pfield, "sky_correlation_deg"), join(pfield, "sky_correlation_deg"));
+      p.rms_error = to_double(src, get(pca, pfield, "rms_error"), join(pfield, "rms_error"));
+      p.max_error = to_double(src, get(pca, pfield, "max_error"), join(pfield, "max_error"));
+      const auto k = static_cast<std::uint64_t>(p.components);
+      // Each file with the shape the plan, the charts and K give it.
+      const auto pca_file = [&](const char* key, const std::vector<std::uint64_t>& expected, std::string& file) {
+        const std::string field = join(pfield, key);
+        const json& entry = get(pca, pfield, key);
+        file = to_string(src, get(entry, field, "file"), join(field, "file"));
+        contained(join(field, "file"), file);
+        const std::string sfield = join(field, "shape");
+        const json& shape = array_of(src, get(entry, field, "shape"), sfield, expected.size());
+        for (std::size_t d = 0; d < expected.size(); ++d) {
+          const std::uint64_t size = to_count(src, shape[d], index(sfield, d));
+          if (size != expected[d]) src.fail(index(sfield, d), "is " + std::to_string(size) + " but " + std::to_string(expected[d]) + " is expected");
+        }
+      };
+      pca_file("weights", {m.plan.light_map.texels, k}, p.weights_file);
+      pca_file("vectors", {l.chart_count, k + 1, m.layer_count()}, p.vectors_file);
+      if (pca.contains("ground_weights") || pca.contains("ground_vectors")) {
+        pca_file("ground_weights", {m.plan.light_map.texels, k}, p.ground_weights_file);
+        pca_file("ground_vectors", {l.chart_count, k + 1, m.layer_count()}, p.ground_vectors_file);
+        p.ground_rms_error = to_double(src, get(pca, pfield, "ground_rms_error"), join(pfield, "ground_rms_error"));
+        p.ground_max_error = to_double(src, get(pca, pfield, "ground_max_error"), join(pfield, "ground_max_error"));
+      }
+      if (p.ground_weights_file.empty() != !m.ground) {
+        src.fail("light_map.pca.ground_weights", m.ground ? "is missing but the bake has a ground layer" : "is there but the bake has no ground layer");
+      }
+      l.pca = std::move(p);
     }
     m.light_map = std::move(l);
   }

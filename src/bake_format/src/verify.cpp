@@ -174,6 +174,14 @@ class Checker {
       require_listed(m.light_map->texels_file, "light map texels");
       require_listed(m.light_map->transfer_file, "light map transfer array");
       if (!m.light_map->ground_file.empty()) require_listed(m.light_map->ground_file, "light map ground transfer array");
+      if (const auto& pca = m.light_map->pca) {
+        require_listed(pca->weights_file, "light map PCA weights");
+        require_listed(pca->vectors_file, "light map PCA vectors");
+        if (!pca->ground_weights_file.empty()) {
+          require_listed(pca->ground_weights_file, "light map PCA ground weights");
+          require_listed(pca->ground_vectors_file, "light map PCA ground vectors");
+        }
+      }
     }
     return present;
   }

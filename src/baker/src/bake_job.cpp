@@ -58,6 +58,15 @@ std::string cli_error(const std::string& option, const std::string& problem, con
   return "option " + option + ": " + problem + ". Fix: " + fix;
 }
 
+void check_light_map_pca_input(const bake_format::LightMapPcaOptions& options) {
+  try {
+    bake_format::check_light_map_pca_options(options);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(std::string(e.what()) + ". Fix: give --light-map-components K (1 to 4096) and --light-map-sky-correlation "
+                     "of 0 (every layer alike) or an angle in degrees");
+  }
+}
+
 void validate_options(const BakeOptions& o) {
   if (o.frequency && (*o.frequency < 2 || *o.frequency > 64 || *o.frequency % 2 != 0)) {
     throw InputError(cli_error("--frequency", "got " + std::to_string(*o.frequency),
@@ -88,6 +97,12 @@ void validate_options(const BakeOptions& o) {
                                "use 0 (each vertex's own light) or 1 to 16 points per triangle side, e.g. 3"));
   }
   if (o.light_map) validate_light_map_options(*o.light_map);
+  if (o.light_map_pca) {
+    if (!o.light_map) {
+      throw InputError(cli_error("--light-map-components", "given without --light-map", "give --light-map TEXEL too, or leave it out"));
+    }
+    check_light_map_pca_input(*o.light_map_pca);
+  }
   if (o.resume && o.force) {
     throw InputError(cli_error("--resume/--force", "both given",
                                "use --resume to continue an interrupted bake, --force to start over"));
@@ -316,6 +331,55 @@ void write_pca_form(const fs::path& out_dir, const bake_format::Manifest& manife
   record.pca = std::move(r);
 }
 
+// Writes the light map's PCA form beside its full form and records it in the manifest, with its
+// files listed (their sizes and hashes still to be filled in).
+void write_light_map_pca_form(const fs::path& out_dir, bake_format::Manifest& manifest, const bake_format::LightMapLayout& layout,
+                              std::span<const float> transfer, std::span<const float> ground,
+                              const bake_format::LightMapPcaOptions& options, std::FILE* log) {
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<Vec3> directions;
+  const std::size_t per_face = static_cast<std::size_t>(manifest.plan.layers_per_face());
+  for (std::size_t l = 0; l < manifest.layer_count(); ++l) directions.push_back(manifest.faces[l / per_face].direction);
+  bake_format::LightMapPca pca;
+  pca.sky = bake_format::compress_light_map(layout, transfer, manifest.layer_count(), options, directions);
+  bake_format::Manifest::LightMap::Pca record;
+  record.components = options.components;
+  record.sky_correlation_deg = options.sky_correlation_deg;
+  record.rms_error = pca.sky.rms_error;
+  record.max_error = pca.sky.max_error;
+  if (!ground.empty()) {
+    bake_format::LightMapPcaOptions plain = options;
+    plain.sky_correlation_deg = 0.0;
+    pca.ground = bake_format::compress_light_map(layout, ground, manifest.layer_count(), plain);
+    record.ground_weights_file = "light_map_pca_ground_weights.npy";
+    record.ground_vectors_file = "light_map_pca_ground_vectors.npy";
+    record.ground_rms_error = pca.ground.rms_error;
+    record.ground_max_error = pca.ground.max_error;
+  }
+  bake_format::write_light_map_pca(out_dir, record, pca);
+  std::set<std::string> names{record.weights_file, record.vectors_file};
+  if (!ground.empty()) names.insert({record.ground_weights_file, record.ground_vectors_file});
+  std::erase_if(manifest.files, [&](const bake_format::FileRecord& f) { return names.count(f.path) > 0; });
+  for (const std::string& name : names) manifest.files.push_back({name, 0, ""});
+  if (log) {
+    const std::size_t full = layout.texels.size() * manifest.layer_count(), kept =
+        layout.texels.size() * static_cast<std::size_t>(options.components) + layout.charts.size() * static_cast<std::size_t>(options.components + 1) * manifest.layer_count();
+    constexpr double kMiB = 1024.0 * 1024.0;
+    std::fprintf(log,
+                 "skylit-bake: light map: PCA keeps K = %d component(s) per chart of %zu layers, %.1f MiB instead of %.1f MiB%s; "
+                 "|t - t_full| RMS %.2g sr (%.2f%% of t's RMS), max %.2g sr",
+                 options.components, manifest.layer_count(), 4.0 * static_cast<double>(kept) / kMiB, 4.0 * static_cast<double>(full) / kMiB,
+                 ground.empty() ? "" : " (each of the sky's and the ground's)", pca.sky.rms_error,
+                 pca.sky.rms_value > 0.0 ? 100.0 * pca.sky.rms_error / pca.sky.rms_value : 0.0, pca.sky.max_error);
+    if (!ground.empty()) {
+      std::fprintf(log, "; the ground's RMS %.2g sr (%.2f%%)", pca.ground.rms_error,
+                   pca.ground.rms_value > 0.0 ? 100.0 * pca.ground.rms_error / pca.ground.rms_value : 0.0);
+    }
+    std::fprintf(log, ", in %.1f s\n", seconds_since(start));
+  }
+  manifest.light_map->pca = std::move(record);
+}
+
 // The site and its model as baked: refined when asked, and with the vertex fit's points.
 struct LoadedSite {
   scene::Site site;
@@ -332,7 +396,7 @@ struct LoadedSite {
 // Assembles the final files from the parts, writes the manifest last, then removes the parts.
 std::uint64_t finalize(const fs::path& out_dir, bake_format::Manifest manifest, const LoadedSite& loaded,
                        const geom::Dome& dome, bool previews, const std::optional<bake_format::PcaOptions>& pca,
-                       std::FILE* log) {
+                       const std::optional<bake_format::LightMapPcaOptions>& light_map_pca, std::FILE* log) {
   const scene::Mesh& mesh = loaded.mesh;
   const scene::Mesh& traced = loaded.traced();
   const scene::Refinement& refinement = loaded.refinement;
@@ -493,6 +557,7 @@ std::uint64_t finalize(const fs::path& out_dir, bake_format::Manifest manifest, 
       manifest.files.push_back({record.ground_file, 0, ""});
     }
     manifest.light_map = std::move(record);
+    if (light_map_pca) write_light_map_pca_form(out_dir, manifest, layout, texel_transfer, texel_ground, *light_map_pca, log);
   }
 
   manifest.finalize_seconds = seconds_since(start);
@@ -759,7 +824,7 @@ BakeSummary run_bake(const BakeOptions& given, std::FILE* log) {
     bake_format::Manifest manifest = manifest_for(plan, dome);
     manifest.bake_seconds = seconds_since(start);
     summary.bytes_written =
-        finalize(options.out_dir, manifest, loaded, dome, options.previews, options.pca, log);
+        finalize(options.out_dir, manifest, loaded, dome, options.previews, options.pca, options.light_map_pca, log);
     summary.complete = true;
   }
   summary.seconds = seconds_since(start);
@@ -771,9 +836,11 @@ BakeSummary run_bake(const BakeOptions& given, std::FILE* log) {
 }
 
 BakeSummary merge_bakes(const std::vector<fs::path>& shard_dirs, const fs::path& out_dir, bool previews,
-                        std::FILE* log, const std::optional<bake_format::PcaOptions>& pca) {
+                        std::FILE* log, const std::optional<bake_format::PcaOptions>& pca,
+                        const std::optional<bake_format::LightMapPcaOptions>& light_map_pca) {
   const auto start = std::chrono::steady_clock::now();
   check_pca_input(pca);
+  if (light_map_pca) check_light_map_pca_input(*light_map_pca);
   if (shard_dirs.empty()) {
     throw InputError("merge needs at least one shard directory. Fix: skylit-bake merge DIR... -o OUT_DIR");
   }
@@ -841,19 +908,28 @@ BakeSummary merge_bakes(const std::vector<fs::path>& shard_dirs, const fs::path&
     throw InputError("the model '" + loaded.site.model.string() +
                      "' changed since the shards were baked. Fix: re-bake the shards");
   }
+  if (light_map_pca && !loaded.light_map) {
+    throw InputError("merge: --light-map-components was given but the shards were baked without a light map. Fix: leave it out");
+  }
   bake_format::Manifest manifest = manifest_for(*plan, dome);
   BakeSummary summary;
   summary.faces_total = dome.face_count();
   summary.faces_skipped = dome.face_count();
-  summary.bytes_written = finalize(out_dir, manifest, loaded, dome, previews, pca, log);
+  summary.bytes_written = finalize(out_dir, manifest, loaded, dome, previews, pca, light_map_pca, log);
   summary.complete = true;
   summary.seconds = seconds_since(start);
   log_summary(log, *plan, summary, out_dir);
   return summary;
 }
 
-void compress_bake(const fs::path& bake_dir, const bake_format::PcaOptions& options, std::FILE* log) {
+void compress_bake(const fs::path& bake_dir, const std::optional<bake_format::PcaOptions>& options,
+                   const std::optional<bake_format::LightMapPcaOptions>& light_map_pca, std::FILE* log) {
+  if (!options && !light_map_pca) {
+    throw InputError("compress needs --pca-components K, --pca-variance F or --pca-max-error E (the planes), or "
+                     "--light-map-components K (the light map)");
+  }
   check_pca_input(options);
+  if (light_map_pca) check_light_map_pca_input(*light_map_pca);
   const bake_format::VerifyReport report = bake_format::verify(bake_dir);
   if (!report.ok) {
     std::string problems;
@@ -861,15 +937,28 @@ void compress_bake(const fs::path& bake_dir, const bake_format::PcaOptions& opti
     throw InputError(bake_dir.string() + " is not a verified bake:" + problems);
   }
   bake_format::Manifest manifest = report.manifest;
+  if (light_map_pca && !manifest.light_map) {
+    throw InputError(bake_dir.string() + " has no light map to compress. Fix: bake it with --light-map TEXEL, or leave out "
+                     "--light-map-components");
+  }
   for (bake_format::PlaneRecord& record : manifest.planes) {
+    if (!options) break;
     if (record.pca) {
       const std::set<std::string> old{record.pca->file, record.pca->coefficients};
       std::erase_if(manifest.files, [&](const bake_format::FileRecord& f) { return old.count(f.path) > 0; });
     }
     const bake_format::ImageStack stack = bake_format::read_exr_stack(bake_dir / record.file);
-    write_pca_form(bake_dir, manifest, record, stack, options, log);
+    write_pca_form(bake_dir, manifest, record, stack, *options, log);
     manifest.files.push_back({record.pca->file, 0, ""});
     manifest.files.push_back({record.pca->coefficients, 0, ""});
+  }
+  if (light_map_pca) {
+    if (const auto& old = manifest.light_map->pca) {
+      const std::set<std::string> names{old->weights_file, old->vectors_file, old->ground_weights_file, old->ground_vectors_file};
+      std::erase_if(manifest.files, [&](const bake_format::FileRecord& f) { return names.count(f.path) > 0; });
+    }
+    const bake_format::LightMapArrays full = bake_format::read_light_map(bake_dir, manifest);
+    write_light_map_pca_form(bake_dir, manifest, full.layout, full.transfer, full.ground, *light_map_pca, log);
   }
   bake_format::write_manifest(bake_dir, manifest);
 }

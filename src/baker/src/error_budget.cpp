@@ -311,6 +311,7 @@ BakeSummary bake_into(const BakeOptions& base, geom::DomeBasis basis, const fs::
   o.force = true;
   o.previews = false;
   o.pca.reset();
+  o.light_map_pca.reset();
   return run_bake(o, log);
 }
 
@@ -461,7 +462,7 @@ ErrorBudgetReport run_error_budget_bake(const BakeOptions& bake, const ErrorBudg
                            bake_format::read_exr_stack(bake.out_dir / manifest.planes[j].file));
     }
   }
-  if (bake.pca) compress_bake(bake.out_dir, *bake.pca, log);
+  if (bake.pca || bake.light_map_pca) compress_bake(bake.out_dir, bake.pca, bake.light_map_pca, log);
   report.final_bake.complete = true;
   report.final_bake.faces_total = picked.faces;
   report.final_bake.faces_baked = picked.faces;

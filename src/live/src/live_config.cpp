@@ -20,7 +20,7 @@ constexpr const char* kDocs = "see docs/live.md (Configuration)";
 constexpr std::array<std::string_view, 16> kTopKeys{"site",     "bake",  "preset",      "sky",    "camera", "pose",   "imu",
                                                     "fusion",   "tracking", "blend", "render", "photometric", "output", "status", "display",
                                                     "root"};
-constexpr std::array<std::string_view, 4> kRenderKeys{"scale", "ground_light", "ground_albedo", "light_map"};
+constexpr std::array<std::string_view, 5> kRenderKeys{"scale", "ground_light", "ground_albedo", "light_map", "light_map_form"};
 constexpr std::array<std::string_view, 11> kSkyKeys{"calibration", "source",      "response",   "rate",
                                                    "sun",         "smoothing",   "stale_after", "max_sources",
                                                    "sun_colour",  "clipped_sun_energy", "bracket"};
@@ -362,6 +362,10 @@ void parse_render(const YamlReader& r, const YAML::Node& root, LiveConfig& c) {
     }
     if (auto n = YamlReader::optional(render, "light_map")) {
       c.render.light_map = r.boolean(n, "render.light_map", "true (the bake's light map, where it has one) or false (the vertices alone)");
+    }
+    if (auto n = YamlReader::optional(render, "light_map_form")) {
+      constexpr std::array<std::string_view, 3> forms{"auto", "full", "pca"};
+      c.render.light_map_form = r.choice(n, "render.light_map_form", forms);
     }
     if (auto n = YamlReader::optional(render, "ground_albedo")) {
       const std::string fix = "the ground's reflectance in [0, 1]: a number, e.g. 0.2, or [r, g, b]";

@@ -146,7 +146,15 @@ Service::Service(const LiveConfig& config, const ServiceOptions& options) : stat
     s.ground_transfer = bake_format::read_npy(config.bake / s.manifest.ground->file, &shape);
   }
   if (s.manifest.light_map && config.render.light_map) {
-    s.light_map = bake_format::read_light_map(config.bake, s.manifest);
+    const bool has_pca = s.manifest.light_map->pca.has_value();
+    if (config.render.light_map_form == "pca" && !has_pca) {
+      throw InputError(input_message(config.file, -1, -1, "render.light_map_form",
+                                     "pca, and the bake " + config.bake.string() + " has no PCA form of its light map",
+                                     "add it with skylit-bake compress " + config.bake.string() +
+                                         " --light-map-components 16, or set 'render: {light_map_form: auto}'"));
+    }
+    const bool pca = has_pca && config.render.light_map_form != "full";
+    s.light_map = bake_format::read_light_map(config.bake, s.manifest, pca ? bake_format::LightMapForm::Pca : bake_format::LightMapForm::Full);
     if (!config.render.ground_light) s.light_map.ground = {};
   }
   for (std::size_t j = 0; j < s.manifest.planes.size(); ++j) {

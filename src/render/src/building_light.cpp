@@ -63,16 +63,29 @@ std::vector<float> sum_layers(std::span<const float> by_layer, std::size_t verte
   return rgb;
 }
 
-void LightMapTexture::check(const bake_format::LightMapLayout& l, std::span<const float> transfer, std::span<const float> ground_transfer,
-                            bool ground, const scene::Mesh& mesh, std::size_t layers) {
-  if (l.triangle_chart.size() != mesh.triangle_count() || transfer.size() != l.texels.size() * layers ||
-      (ground && ground_transfer.size() != transfer.size())) {
-    throw InputError(input_message("manifest.json", -1, -1, "light_map",
-                                   "the light map's " + std::to_string(l.triangle_chart.size()) + " triangles and " +
-                                       std::to_string(transfer.size()) + " transfer values (" + std::to_string(ground_transfer.size()) +
-                                       " of the ground) do not fit a model of " + std::to_string(mesh.triangle_count()) +
-                                       " triangles and " + std::to_string(l.texels.size()) + " texels × " + std::to_string(layers) + " layers",
-                                   "re-bake with skylit-bake --light-map, or leave the light map out"));
+void LightMapTexture::check(const bake_format::LightMapArrays& arrays, bool ground, const scene::Mesh& mesh, std::size_t layers) {
+  const bake_format::LightMapLayout& l = arrays.layout;
+  const std::size_t texels = l.texels.size();
+  std::string problem;
+  if (l.triangle_chart.size() != mesh.triangle_count()) {
+    problem = "the light map's " + std::to_string(l.triangle_chart.size()) + " triangles do not fit a model of " +
+              std::to_string(mesh.triangle_count());
+  } else if (arrays.pca) {
+    const bake_format::LightMapPca& p = *arrays.pca;
+    const auto fits = [&](const bake_format::LightMapComponents& c) {
+      const auto k = static_cast<std::size_t>(c.components);
+      return c.layers == layers && c.weights.size() == texels * k && c.vectors.size() == l.charts.size() * (k + 1) * layers;
+    };
+    if (!fits(p.sky) || (ground && !fits(p.ground))) {
+      problem = "the light map's PCA form does not fit " + std::to_string(texels) + " texels of " + std::to_string(l.charts.size()) +
+                " charts × " + std::to_string(layers) + " layers" + (ground ? " (the ground's needed too)" : "");
+    }
+  } else if (arrays.transfer.size() != texels * layers || (ground && arrays.ground.size() != arrays.transfer.size())) {
+    problem = "the light map's " + std::to_string(arrays.transfer.size()) + " transfer values (" + std::to_string(arrays.ground.size()) +
+              " of the ground) do not fit " + std::to_string(texels) + " texels × " + std::to_string(layers) + " layers";
+  }
+  if (!problem.empty()) {
+    throw InputError(input_message("manifest.json", -1, -1, "light_map", problem, "re-bake with skylit-bake --light-map, or leave the light map out"));
   }
 }
 
@@ -115,22 +128,41 @@ std::vector<float> per_draw_vertex(const DrawVertices& draw, std::span<const flo
   return out;
 }
 
-LightMapTexture::LightMapTexture(const bake_format::LightMapLayout& layout, std::span<const float> transfer,
-                                 std::span<const float> ground, std::size_t layers)
-    : texels_(layout.texels), transfer_(cleaned(transfer)), ground_(cleaned(ground)), layers_(layers), width_(layout.width),
-      height_(layout.height), texture_(layout.width, layout.height) {
-  if (layers == 0 || transfer.size() != texels_.size() * layers || (!ground.empty() && ground.size() != transfer.size())) {
-    throw std::invalid_argument("LightMapTexture: " + std::to_string(transfer.size()) + " transfer and " + std::to_string(ground.size()) +
-                                " ground values for " + std::to_string(texels_.size()) + " texels of " + std::to_string(layers) + " layers");
+LightMapTexture::LightMapTexture(bake_format::LightMapArrays&& arrays, bool ground, std::size_t layers)
+    : texels_(std::move(arrays.layout.texels)), layers_(layers), width_(arrays.layout.width), height_(arrays.layout.height),
+      texture_(arrays.layout.width, arrays.layout.height) {
+  const std::size_t count = texels_.size();
+  if (arrays.pca) {
+    arrays.layout.texels = texels_;  // the charts per texel need them
+    texel_chart_ = bake_format::light_map_texel_charts(arrays.layout);
+    arrays.layout.texels.clear();
+    const std::size_t charts = arrays.layout.charts.size();
+    const auto fits = [&](const bake_format::LightMapComponents& c) {
+      const auto k = static_cast<std::size_t>(c.components);
+      return c.layers == layers && c.weights.size() == count * k && c.vectors.size() == charts * (k + 1) * layers;
+    };
+    pca_ground_ = ground;
+    if (layers == 0 || !fits(arrays.pca->sky) || (ground && !fits(arrays.pca->ground)) ||
+        std::find(texel_chart_.begin(), texel_chart_.end(), -1) != texel_chart_.end()) {
+      throw std::invalid_argument("LightMapTexture: the PCA form does not fit " + std::to_string(count) + " texels of " +
+                                  std::to_string(layers) + " layers");
+    }
+    pca_ = std::move(arrays.pca);
+    if (!ground) pca_->ground = {};
+    return;
+  }
+  transfer_ = cleaned(arrays.transfer);
+  if (ground) ground_ = cleaned(arrays.ground);
+  arrays.transfer = {};
+  arrays.ground = {};
+  if (layers == 0 || transfer_.size() != count * layers || (!ground_.empty() && ground_.size() != transfer_.size())) {
+    throw std::invalid_argument("LightMapTexture: " + std::to_string(transfer_.size()) + " transfer and " + std::to_string(ground_.size()) +
+                                " ground values for " + std::to_string(count) + " texels of " + std::to_string(layers) + " layers");
   }
 }
 
 void LightMapTexture::update(std::span<const Eigen::Vector3d> S, std::span<const Eigen::Vector3d> ground_coefficients,
                              const Eigen::Vector3d& albedo) {
-  // E = T S (+ G ρS^g): texels × layers times layers × 3, as matrix products (SIMD) over blocks of
-  // texels on every core.
-  using Coefficients = Eigen::Matrix<float, Eigen::Dynamic, 3>;
-  using Rows = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
   Coefficients sky = Coefficients::Zero(static_cast<Eigen::Index>(layers_), 3);
   Coefficients reflected = Coefficients::Zero(static_cast<Eigen::Index>(layers_), 3);
   for (std::size_t l = 0; l < std::min(layers_, S.size()); ++l) {
@@ -139,16 +171,26 @@ void LightMapTexture::update(std::span<const Eigen::Vector3d> S, std::span<const
       sky(static_cast<Eigen::Index>(l), c) = std::isfinite(value) ? static_cast<float>(value) : 0.0f;
     }
   }
-  if (!ground_.empty()) {
-    for (std::size_t l = 0; l < std::min(layers_, ground_coefficients.size()); ++l) {
-      for (int c = 0; c < 3; ++c) {
-        const double value = albedo[c] * ground_coefficients[l][c];
-        reflected(static_cast<Eigen::Index>(l), c) = std::isfinite(value) ? static_cast<float>(value) : 0.0f;
-      }
+  for (std::size_t l = 0; l < std::min(layers_, ground_coefficients.size()); ++l) {
+    for (int c = 0; c < 3; ++c) {
+      const double value = albedo[c] * ground_coefficients[l][c];
+      reflected(static_cast<Eigen::Index>(l), c) = std::isfinite(value) ? static_cast<float>(value) : 0.0f;
     }
   }
-  const std::size_t count = texels_.size();
   std::vector<float> atlas(static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_) * 4, 0.0f);
+  if (pca_) {
+    sum_pca(sky, reflected, atlas);
+  } else {
+    sum_full(sky, reflected, atlas);
+  }
+  texture_.upload(atlas);
+}
+
+void LightMapTexture::sum_full(const Coefficients& sky, const Coefficients& reflected, std::vector<float>& atlas) const {
+  // E = T S (+ G ρS^g): texels × layers times layers × 3, as matrix products (SIMD) over blocks of
+  // texels on every core.
+  using Rows = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const std::size_t count = texels_.size();
   constexpr std::size_t kBlock = 4096;
   const auto blocks = static_cast<int>((count + kBlock - 1) / kBlock);
   const auto layers = static_cast<Eigen::Index>(layers_);
@@ -163,7 +205,39 @@ void LightMapTexture::update(std::span<const Eigen::Vector3d> S, std::span<const
       out[3] = 1.0f;
     }
   });
-  texture_.upload(atlas);
+}
+
+void LightMapTexture::sum_pca(const Coefficients& sky, const Coefficients& reflected, std::vector<float>& atlas) const {
+  // Per chart its K + 1 vectors times S (one matrix product over every chart), then per texel K
+  // multiply-adds per channel.
+  using Rows = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const auto per_chart = [&](const bake_format::LightMapComponents& c, const Coefficients& coefficients) -> Coefficients {
+    const auto rows = static_cast<Eigen::Index>(c.vectors.size() / layers_);
+    return Eigen::Map<const Rows>(c.vectors.data(), rows, static_cast<Eigen::Index>(layers_)) * coefficients;
+  };
+  const Coefficients sky_sums = per_chart(pca_->sky, sky);
+  const Coefficients ground_sums = pca_ground_ ? per_chart(pca_->ground, reflected) : Coefficients();
+  const auto add = [&](const bake_format::LightMapComponents& c, const Coefficients& sums, std::size_t x, float* out) {
+    const auto k = static_cast<std::size_t>(c.components);
+    const auto first = static_cast<Eigen::Index>(static_cast<std::size_t>(texel_chart_[x]) * (k + 1));
+    const float* a = c.weights.data() + x * k;
+    for (int ch = 0; ch < 3; ++ch) {
+      float e = sums(first, ch);
+      for (std::size_t j = 0; j < k; ++j) e += a[j] * sums(first + 1 + static_cast<Eigen::Index>(j), ch);
+      out[ch] += e;
+    }
+  };
+  const std::size_t count = texels_.size();
+  constexpr std::size_t kBlock = 16384;
+  parallel_for(static_cast<int>((count + kBlock - 1) / kBlock), 0, [&](int block) {
+    const std::size_t first = static_cast<std::size_t>(block) * kBlock, last = std::min(count, first + kBlock);
+    for (std::size_t x = first; x < last; ++x) {
+      float* out = atlas.data() + 4 * static_cast<std::size_t>(texels_[x]);
+      add(pca_->sky, sky_sums, x, out);
+      if (pca_ground_) add(pca_->ground, ground_sums, x, out);
+      out[3] = 1.0f;
+    }
+  });
 }
 
 }  // namespace skylit::render

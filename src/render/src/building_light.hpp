@@ -4,6 +4,7 @@
 // the model's vertices split where triangles on different charts (or on none) meet, each corner
 // with its chart's atlas coordinates.
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -42,27 +43,35 @@ std::vector<float> per_draw_vertex(const DrawVertices& draw, std::span<const flo
 
 class LightMapTexture {
  public:
-  // The options' light map checked against the model and the bake (InputError naming the fix);
-  // `ground`: the ground's light is on (its transfer then needed too).
-  static void check(const bake_format::LightMapLayout& layout, std::span<const float> transfer, std::span<const float> ground_transfer,
-                    bool ground, const scene::Mesh& mesh, std::size_t layers);
-  // transfer and ground (empty: none): the bake's light_map_transfer.npy and light_map_ground.npy,
-  // texel-major, `layers` per texel. Call with the GL context current. std::invalid_argument when
-  // the sizes do not fit.
-  LightMapTexture(const bake_format::LightMapLayout& layout, std::span<const float> transfer, std::span<const float> ground,
-                  std::size_t layers);
+  // The options' light map (either form) checked against the model and the bake (InputError naming
+  // the fix); `ground`: the ground's light is on (its transfer then needed too).
+  static void check(const bake_format::LightMapArrays& arrays, bool ground, const scene::Mesh& mesh, std::size_t layers);
+  // The full form: transfer and ground (empty: none) texel-major, `layers` per texel; or the PCA
+  // form when arrays.pca holds it (its ground's with `ground`). Moves the arrays' values in. Call
+  // with the GL context current. std::invalid_argument when the sizes do not fit.
+  LightMapTexture(bake_format::LightMapArrays&& arrays, bool ground, std::size_t layers);
 
-  // E = Σ_l S_l t_l + ρ ⊙ Σ_l S^g_l t^g_l per texel (values not finite or negative count as 0, as
-  // at the vertices), written to the texture (RGBA32F, the atlas's size).
+  // E = Σ_l S_l t_l + ρ ⊙ Σ_l S^g_l t^g_l per texel, written to the texture (RGBA32F, the atlas's
+  // size). The full form: values not finite or negative count as 0, as at the vertices. The PCA
+  // form: per chart the K + 1 sums μ_c·S, p_{c,k}·S, then per texel μ_c·S + Σ_k a_{x,k} p_{c,k}·S,
+  // which is the same sum over t̂.
   void update(std::span<const Eigen::Vector3d> S, std::span<const Eigen::Vector3d> ground_coefficients, const Eigen::Vector3d& albedo);
 
   GLuint texture() const { return texture_.get(); }
   int width() const { return width_; }
   int height() const { return height_; }
+  bool compressed() const { return pca_.has_value(); }
 
  private:
+  using Coefficients = Eigen::Matrix<float, Eigen::Dynamic, 3>;
+  void sum_full(const Coefficients& sky, const Coefficients& reflected, std::vector<float>& atlas) const;
+  void sum_pca(const Coefficients& sky, const Coefficients& reflected, std::vector<float>& atlas) const;
+
   std::vector<std::uint32_t> texels_;
   std::vector<float> transfer_, ground_;
+  std::optional<bake_format::LightMapPca> pca_;
+  bool pca_ground_ = false;
+  std::vector<std::int32_t> texel_chart_;  // the PCA form's chart per texel
   std::size_t layers_ = 0;
   int width_ = 0, height_ = 0;
   ShadowRatioTexture texture_;

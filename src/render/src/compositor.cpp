@@ -369,12 +369,12 @@ void Compositor::State::check_inputs(const scene::Site& site, const scene::Mesh&
 
 void Compositor::State::make_light_map(const scene::Mesh& mesh, const bake_format::Manifest& manifest) {
   const bool ground = !options.ground_albedo.isZero(0);
-  const bake_format::LightMapArrays& l = options.light_map;
-  LightMapTexture::check(l.layout, l.transfer, l.ground, ground, mesh, manifest.layer_count());
-  light_map.emplace(l.layout, l.transfer, ground ? std::span<const float>(l.ground) : std::span<const float>(),
-                    manifest.layer_count());
-  options.light_map.transfer = {};  // the texture holds them from here on
-  options.light_map.ground = {};
+  LightMapTexture::check(options.light_map, ground, mesh, manifest.layer_count());
+  // The texture takes the values; the layout stays for the draw's vertices.
+  bake_format::LightMapArrays arrays{options.light_map.layout, std::move(options.light_map.transfer),
+                                     std::move(options.light_map.ground), std::move(options.light_map.pca)};
+  options.light_map.pca.reset();
+  light_map.emplace(std::move(arrays), ground, manifest.layer_count());
 }
 
 void Compositor::State::upload_building(const scene::Mesh& mesh, std::span<const float> transfer_values) {

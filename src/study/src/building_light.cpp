@@ -339,4 +339,12 @@ std::size_t worst_vertex(std::span<const Eigen::Vector3d> estimate, std::span<co
   return worst;
 }
 
+bake_format::LightMapArrays light_map_as_shown(const std::filesystem::path& bake_dir, const bake_format::Manifest& manifest) {
+  if (!manifest.light_map || !manifest.light_map->pca) return bake_format::read_light_map(bake_dir, manifest);
+  bake_format::LightMapArrays map = bake_format::read_light_map(bake_dir, manifest, bake_format::LightMapForm::Pca);
+  map.transfer = bake_format::expand_light_map(map.layout, map.pca->sky);
+  if (manifest.ground) map.ground = bake_format::expand_light_map(map.layout, map.pca->ground);
+  return map;
+}
+
 }  // namespace skylit::study

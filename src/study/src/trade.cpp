@@ -270,6 +270,7 @@ void make_bakes(const Run& run, const Grid& grid, const Sites& sites, Bakes& mad
       options.refine.tolerance = key.refine;
       options.vertex_fit = key.vertex_fit;
       if (key.light_map > 0) options.light_map = baker::LightMapOptions{key.light_map, run.o.light_map_min_area, run.o.light_map_min_across};
+      if (key.light_map > 0 && run.o.light_map_components > 0) options.light_map_pca = bake_format::LightMapPcaOptions{run.o.light_map_components, 0.0};
       options.force = true;
       options.previews = false;
       const auto t = Clock::now();
@@ -313,7 +314,7 @@ void make_pca_forms(const Grid& grid, Bakes& made) {
       pca.components = k;
       pca.tile = tile;
       const auto t = Clock::now();
-      baker::compress_bake(copy, pca, nullptr);
+      baker::compress_bake(copy, pca, std::nullopt, nullptr);
       pca_seconds[{key, k, tile}] = seconds_since(t);
       write_file_atomic(stamp, nlohmann::json{{"seconds", pca_seconds[{key, k, tile}]}}.dump() + "\n");
       std::printf("PCA %s K=%d tile %d: %.1f s\n", key.name().c_str(), k, tile, pca_seconds[{key, k, tile}]);
@@ -533,7 +534,7 @@ FrameTimes time_frames(const TradeOptions& o, const Grid& grid, const Sites& sit
     for (const auto& record : manifest.planes) planes.push_back(record.plane);
     render::CompositorOptions options;
     options.lens.render_scale = s.render_scale;
-    if (manifest.light_map) options.light_map = bake_format::read_light_map(dir, manifest);
+    if (manifest.light_map) options.light_map = bake_format::read_light_map(dir, manifest, bake_format::smallest_light_map_form(manifest));
     if (s.sun) {
       render::SunShadowOptions map_options;
       map_options.max_sources = s.sources;
@@ -610,7 +611,7 @@ SettingBake load_setting_bake(const Bakes& made, Result& r) {
   std::vector<std::size_t> shape;
   bake.transfer = bake_format::read_npy(bake_dir / bake.manifest.transfer_file, &shape);
   if (bake.manifest.ground) bake.ground_transfer = bake_format::read_npy(bake_dir / bake.manifest.ground->file, &shape);
-  if (bake.manifest.light_map) bake.light_map = bake_format::read_light_map(bake_dir, bake.manifest);
+  if (bake.manifest.light_map) bake.light_map = study::light_map_as_shown(bake_dir, bake.manifest);
   r.bake_seconds = made.seconds.at(s.bake) + (pca ? made.pca_seconds.at({s.bake, s.form.components, s.form.tile}) : 0.0);
   r.bake_bytes = directory_bytes(bake_dir);
   std::vector<blend::BasisImages>& basis = bake.basis;
@@ -904,6 +905,7 @@ nlohmann::json trade_json(const Run& run, const std::vector<SkyData>& skies, con
   for (const SkyData& d : skies) sky_names.push_back({{"name", d.name}, {"sunny", d.sunny}});
   return nlohmann::json{{"frame", {{"width", o.frame_width}, {"height", o.frame_height}}},
                         {"skies", sky_names},
+                        {"light_map_components", o.light_map_components},
                         {"blend_threads", o.threads},
                         {"timing_scale", o.timing_scale},
                         {"reference_supersample", o.reference_supersample},

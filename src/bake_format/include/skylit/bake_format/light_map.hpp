@@ -1,11 +1,12 @@
 #pragma once
 // The building's light map (docs/bake-format.md, "The light map"): the model's large flat regions
-// laid out as charts in one atlas of square texels, each texel a point on its region whose
-// transfer the bake traced as it traces a vertex's. Where a triangle lies on a chart the
-// compositor takes the sky's and the ground's light from the atlas (bilinear between texel
-// centres) instead of interpolating it between the triangle's corners.
+// laid out as charts in one atlas of texels, each a point on its region traced as a vertex is.
+// Where a triangle lies on a chart the compositor takes the sky's and the ground's light from the
+// atlas (bilinear between texel centres), not from its corners. Its PCA form holds the transfer
+// compressed chart by chart.
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -57,12 +58,77 @@ void write_light_map_layout(const std::filesystem::path& bake_dir, const Manifes
 // (a chart outside the atlas, a triangle's chart out of range, texels out of order).
 LightMapLayout read_light_map_layout(const std::filesystem::path& bake_dir, const Manifest& manifest);
 
-// The bake's light map whole: its layout and its texels' transfer, and the ground's with a ground
-// layer (else empty). InputError as read_light_map_layout and read_npy.
+// ---- The PCA form (docs/bake-format.md, "The light map's PCA form"; light_map_pca.cpp) ----
+//
+// The texels of one chart lie on one plane, facing one way, so their transfer vectors differ only
+// in what the model hides from each: a few components per chart hold them (a wall's shadow edge
+// moves across it smoothly). For texel x of chart c
+//
+//   t̂_x = μ_c + Σ_k a_{x,k} p_{c,k}         E_x = μ_c·S + Σ_k a_{x,k} (p_{c,k}·S)
+//
+// μ_c the chart's mean transfer, p_{c,k} its components (the projections of its texels onto the
+// leading left singular vectors a_{·,k}, unit over the chart's texels), so that t̂ is the best
+// rank-K fit of the chart's centred transfer in the prior's weighted norm.
+struct LightMapPcaOptions {
+  int components = 32;  // K per chart, >= 1 (a chart of fewer texels keeps as many as it has)
+  // A sky prior (PcaOptions::sky_correlation_deg) for the sky's transfer: the fit weighted for
+  // skies whose radiance is correlated over this angle. 0 (the default): every layer alike,
+  // which on park (a low sun, its aureole left in the layers) was the better fit at every K
+  // (bench/RESULTS.md). The ground's layers carry the separated sources' light on the ground,
+  // one face's spike, so the ground's transfer is always fitted with every layer alike.
+  double sky_correlation_deg = 0.0;
+};
+// std::invalid_argument naming the field.
+void check_light_map_pca_options(const LightMapPcaOptions& options);
+
+// One texel-major transfer array of the light map (the sky's or the ground's), compressed.
+struct LightMapComponents {
+  int components = 0;            // K (0: none)
+  std::size_t layers = 0;
+  std::vector<float> weights;    // [texels, K]: a_{x,k}
+  std::vector<float> vectors;    // [charts, K + 1, layers]: μ_c, then p_{c,1} … p_{c,K}
+  // |t − t̂| over every texel and layer, in the transfer's units (steradians); for scale, the
+  // RMS of t itself.
+  double rms_error = 0.0;
+  double max_error = 0.0;
+  double rms_value = 0.0;
+};
+
+// The chart whose rectangle holds each traced texel (layout.texels order).
+std::vector<std::int32_t> light_map_texel_charts(const LightMapLayout& layout);
+
+// `transfer`: texel-major, `layers` per texel (light_map_transfer.npy or light_map_ground.npy);
+// values not finite or negative count as 0, as the compositor's sum. `directions`: per layer, unit
+// (its face's centre), needed when sky_correlation_deg > 0. std::invalid_argument for sizes that
+// do not fit or bad options.
+LightMapComponents compress_light_map(const LightMapLayout& layout, std::span<const float> transfer, std::size_t layers,
+                                      const LightMapPcaOptions& options, std::span<const Vec3> directions = {});
+
+// t̂, texel-major as the full form (what the compositor's sum of this form equals).
+std::vector<float> expand_light_map(const LightMapLayout& layout, const LightMapComponents& components);
+
+// The bake's PCA form of its light map: the sky's, and the ground's with a ground layer.
+struct LightMapPca {
+  LightMapComponents sky, ground;
+};
+// Writes the form's files (record.light_map->pca's names) into bake_dir.
+void write_light_map_pca(const std::filesystem::path& bake_dir, const Manifest::LightMap::Pca& record, const LightMapPca& pca);
+// Reads them and checks them against the manifest and the layout: InputError naming the file.
+LightMapPca read_light_map_pca(const std::filesystem::path& bake_dir, const Manifest& manifest, const LightMapLayout& layout);
+
+// ---- The bake's light map whole ----
+//
+// Its layout, and either its texels' transfer and the ground's with a ground layer (else empty),
+// the full form, or its PCA form (then transfer and ground are empty).
+enum class LightMapForm { Full, Pca };
 struct LightMapArrays {
   LightMapLayout layout;
   std::vector<float> transfer, ground;
+  std::optional<LightMapPca> pca;
 };
-LightMapArrays read_light_map(const std::filesystem::path& bake_dir, const Manifest& manifest);
+// The PCA form where the bake has one, else the full.
+LightMapForm smallest_light_map_form(const Manifest& manifest);
+// InputError as read_light_map_layout and read_npy, and for the PCA form of a bake without one.
+LightMapArrays read_light_map(const std::filesystem::path& bake_dir, const Manifest& manifest, LightMapForm form = LightMapForm::Full);
 
 }  // namespace skylit::bake_format

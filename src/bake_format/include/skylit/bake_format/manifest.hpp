@@ -143,7 +143,8 @@ struct Plan {
 //                                 every program replays on the site's model (model.hpp)
 //   BAKE_DIR/light_map_*.npy      optional: the light map (light_map.hpp): its charts, each
 //                                 triangle's chart, its texels, and their transfer (and the
-//                                 ground's, with a ground layer), float32 [texels, layer_count]
+//                                 ground's, with a ground layer), float32 [texels, layer_count];
+//                                 optional light_map_pca_*.npy, the same compressed by chart
 //   BAKE_DIR/preview/*.png        contact sheets (not part of the verified data)
 //
 // While a bake runs, finished work lives in BAKE_DIR/parts/ (one file per dome face, written
@@ -181,6 +182,18 @@ struct Manifest {
     std::string texels_file = "light_map_texels.npy";
     std::string transfer_file = "light_map_transfer.npy";
     std::string ground_file;                // "light_map_ground.npy" with a ground layer, else empty
+    // Optional: the transfer compressed chart by chart (light_map_pca.hpp; skylit-bake
+    // --light-map-components), the full form staying beside it.
+    struct Pca {
+      int components = 0;
+      double sky_correlation_deg = 0.0;
+      std::string weights_file = "light_map_pca_weights.npy";   // float32 [texels, K]
+      std::string vectors_file = "light_map_pca_vectors.npy";   // float32 [charts, K + 1, layers]
+      std::string ground_weights_file, ground_vectors_file;     // with a ground layer, else empty
+      double rms_error = 0.0, max_error = 0.0;                  // steradians, the sky's transfer
+      double ground_rms_error = 0.0, ground_max_error = 0.0;    // the ground's
+    };
+    std::optional<Pca> pca;
   };
   std::optional<LightMap> light_map;
   double bake_seconds = 0.0;              // wall time of the face work (all shards)

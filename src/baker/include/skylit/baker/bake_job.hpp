@@ -53,6 +53,9 @@ struct BakeOptions {
   // A light map over the model's flat regions (light_map.hpp), traced with the vertices; none:
   // the vertices alone carry the building's light.
   std::optional<LightMapOptions> light_map;
+  // Also store the light map's transfer compressed chart by chart (bake_format/light_map.hpp,
+  // "The PCA form"); needs light_map.
+  std::optional<bake_format::LightMapPcaOptions> light_map_pca;
 };
 
 struct BakeSummary {
@@ -83,12 +86,15 @@ BakeSummary run_bake(const BakeOptions& options, std::FILE* log = stderr);
 // the bake there. InputError when plans differ or faces are missing (listing them). `log` may be null.
 BakeSummary merge_bakes(const std::vector<std::filesystem::path>& shard_dirs,
                         const std::filesystem::path& out_dir, bool previews,
-                        std::FILE* log = stderr, const std::optional<bake_format::PcaOptions>& pca = std::nullopt);
+                        std::FILE* log = stderr, const std::optional<bake_format::PcaOptions>& pca = std::nullopt,
+                        const std::optional<bake_format::LightMapPcaOptions>& light_map_pca = std::nullopt);
 
-// Adds (or replaces) the PCA form of every plane of a finished bake (bake/pca.hpp) and rewrites
-// its manifest. InputError for a directory that is not a verified bake. One line per plane on `log`
-// (null: none).
-void compress_bake(const std::filesystem::path& bake_dir, const bake_format::PcaOptions& options, std::FILE* log = stderr);
+// Adds (or replaces) the PCA form of every plane of a finished bake (bake/pca.hpp), and of its
+// light map with light_map_pca, and rewrites its manifest. InputError for a directory that is not
+// a verified bake, for light_map_pca on a bake without a light map, or for neither given. One line
+// per plane (and for the light map) on `log` (null: none).
+void compress_bake(const std::filesystem::path& bake_dir, const std::optional<bake_format::PcaOptions>& options,
+                   const std::optional<bake_format::LightMapPcaOptions>& light_map_pca = std::nullopt, std::FILE* log = stderr);
 
 // The sample directions of dome face `face`: its centre for samples == 1, else stratified.
 std::vector<geom::Vec3> face_sample_directions(const geom::Dome& dome, int face, int samples);

@@ -132,6 +132,9 @@ struct RenderSettings {
   // The bake's light map (skylit-bake --light-map), when it has one: on a chart, the building's
   // sky and ground light from its texels instead of its corners. false: the corners alone.
   bool light_map = true;
+  // Its form: "auto" (the PCA form where the bake has one, else the full), "full" or "pca" (the
+  // bake's PCA form needed).
+  std::string light_map_form = "auto";
   std::optional<Eigen::Vector3d> ground_albedo;
 };
 

@@ -5,6 +5,7 @@
 // dome), as a share of the sky's horizontal irradiance.
 #include <array>
 #include <cstdint>
+#include <filesystem>
 #include <span>
 #include <vector>
 
@@ -92,6 +93,11 @@ InsideTerms building_terms_inside(const TrianglePoints& points, std::span<const 
 void use_light_map(const TrianglePoints& points, const bake_format::LightMapLayout& layout, std::span<const float> transfer,
                    std::span<const Eigen::Vector3d> S, const blend::GroundLight& ground, std::span<const Eigen::Vector3d> vertex_sky,
                    InsideTerms& terms);
+
+// The bake's light map as the compositor sums it: its PCA form where the bake has one, t̂
+// expanded into transfer and ground (texel-major, as the full form) for use_light_map; else the
+// full form. InputError as bake_format::read_light_map.
+bake_format::LightMapArrays light_map_as_shown(const std::filesystem::path& bake_dir, const bake_format::Manifest& manifest);
 
 // The sky the dome holds, L(ω) = Σ_l S_l φ_l(ω), as `directions` lights of equal solid angle over
 // the upper hemisphere: traced at a point, Σ_l S_l t_l with the point's own transfer, no

@@ -27,6 +27,7 @@ struct TradeOptions {
   std::vector<double> light_maps{0.0};
   double light_map_min_area = 0.1;
   int light_map_min_across = 10;
+  int light_map_components = 0;  // K: every light map also in its PCA form, which the frame and the error use; 0: none
   std::vector<std::string> forms{"full", "lean", "pca8"};
   std::vector<int> bits{16, 8};
   std::vector<std::string> sun{"on", "off"};
