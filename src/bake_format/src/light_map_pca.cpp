@@ -1,4 +1,4 @@
-// The light map's PCA form: its compression chart by chart, and its files (light_map_pca.hpp).
+// The light map's PCA form: its compression chart by chart, and its files (light_map.hpp).
 #include "skylit/bake_format/light_map.hpp"
 
 #include <algorithm>
@@ -11,6 +11,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "skylit/bake_format/arrays.hpp"
+#include "skylit/bake_format/pca.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/base/parallel_for.hpp"
 
@@ -20,26 +21,6 @@ namespace fs = std::filesystem;
 namespace {
 
 using FloatRows = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-
-// C^{1/2} for the prior C_rc = exp(−θ²/2σ²) over the layers' directions (the sky's radiance
-// correlated over σ), scaled to a norm near that of the identity (its scale does not matter).
-Eigen::MatrixXd prior_root(std::span<const Vec3> directions, double sigma_deg) {
-  const auto n = static_cast<Eigen::Index>(directions.size());
-  const double sigma = sigma_deg * 3.14159265358979323846 / 180.0;
-  Eigen::MatrixXd moments(n, n);
-  for (Eigen::Index r = 0; r < n; ++r) {
-    for (Eigen::Index c = 0; c < n; ++c) {
-      const Vec3& a = directions[static_cast<std::size_t>(r)];
-      const Vec3& b = directions[static_cast<std::size_t>(c)];
-      const double angle = std::atan2(a.cross(b).norm(), a.dot(b));
-      moments(r, c) = std::exp(-0.5 * angle * angle / (sigma * sigma));
-    }
-  }
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(moments);
-  const Eigen::VectorXd roots = solver.eigenvalues().cwiseMax(0.0).cwiseSqrt();
-  Eigen::MatrixXd root = solver.eigenvectors() * roots.asDiagonal() * solver.eigenvectors().transpose();
-  return root / (root.norm() / std::sqrt(static_cast<double>(std::max<Eigen::Index>(n, 1))));
-}
 
 struct ChartResult {
   double squared_error = 0.0, max_error = 0.0, squared_value = 0.0;
@@ -168,7 +149,7 @@ LightMapComponents compress_light_map(const LightMapLayout& layout, std::span<co
   out.weights.assign(layout.texels.size() * K, 0.0f);
   out.vectors.assign(layout.charts.size() * (K + 1) * layers, 0.0f);
   const std::optional<Eigen::MatrixXd> root =
-      options.sky_correlation_deg > 0.0 ? std::optional<Eigen::MatrixXd>(prior_root(directions, options.sky_correlation_deg)) : std::nullopt;
+      options.sky_correlation_deg > 0.0 ? std::optional<Eigen::MatrixXd>(sky_prior_root(directions, {}, options.sky_correlation_deg)) : std::nullopt;
 
   // The largest charts first, so that the threads finish together.
   std::vector<std::size_t> order(layout.charts.size());

@@ -34,6 +34,26 @@ ResidualStats residual_stats(const RowMatrix& residual) {
 
 }  // namespace
 
+Eigen::MatrixXd sky_prior_root(std::span<const Vec3> directions, std::span<const double> weights, double sigma_deg) {
+  const auto n = static_cast<Eigen::Index>(directions.size());
+  const double sigma = sigma_deg * 3.14159265358979323846 / 180.0;
+  Eigen::MatrixXd moments(n, n);
+  for (Eigen::Index r = 0; r < n; ++r) {
+    for (Eigen::Index c = 0; c < n; ++c) {
+      const Vec3& a = directions[static_cast<std::size_t>(r)];
+      const Vec3& b = directions[static_cast<std::size_t>(c)];
+      const double angle = std::atan2(a.cross(b).norm(), a.dot(b));
+      const double w = weights.empty() ? 1.0 : weights[static_cast<std::size_t>(r)] * weights[static_cast<std::size_t>(c)];
+      moments(r, c) = w * std::exp(-0.5 * angle * angle / (sigma * sigma));
+    }
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> prior(moments);
+  const Eigen::VectorXd roots = prior.eigenvalues().cwiseMax(0.0).cwiseSqrt();
+  Eigen::MatrixXd root = prior.eigenvectors() * roots.asDiagonal() * prior.eigenvectors().transpose();
+  if (n > 0) root /= root.norm() / std::sqrt(static_cast<double>(n));  // scale is irrelevant; keep it near 1
+  return root;
+}
+
 void check_pca_options(const PcaOptions& options) {
   if (!options.components && !options.variance && !options.max_error) {
     throw std::invalid_argument("pca: give at least one of components, variance and max_error");
@@ -129,20 +149,13 @@ RegionPca compress_region(const ImageStack& stack, std::span<const double> unocc
     if (directions.size() != static_cast<std::size_t>(stack.layers)) {
       throw std::invalid_argument("compress_pca: a sky prior needs one direction per layer");
     }
-    const double sigma = options.sky_correlation_deg * 3.14159265358979323846 / 180.0;
-    Eigen::MatrixXd moments(rows, rows);
-    for (Eigen::Index r = 0; r < rows; ++r) {
-      for (Eigen::Index c = 0; c < rows; ++c) {
-        const auto lr = static_cast<std::size_t>(lit[static_cast<std::size_t>(r)]);
-        const auto lc = static_cast<std::size_t>(lit[static_cast<std::size_t>(c)]);
-        const double angle = std::atan2(directions[lr].cross(directions[lc]).norm(), directions[lr].dot(directions[lc]));
-        moments(r, c) = unoccluded[lr] * unoccluded[lc] * std::exp(-0.5 * angle * angle / (sigma * sigma));
-      }
+    std::vector<Vec3> lit_directions;
+    std::vector<double> lit_weights;
+    for (const int l : lit) {
+      lit_directions.push_back(directions[static_cast<std::size_t>(l)]);
+      lit_weights.push_back(unoccluded[static_cast<std::size_t>(l)]);
     }
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> prior(moments);
-    const Eigen::VectorXd roots = prior.eigenvalues().cwiseMax(0.0).cwiseSqrt();
-    mixing_root = prior.eigenvectors() * roots.asDiagonal() * prior.eigenvectors().transpose();
-    mixing_root /= mixing_root.norm() / std::sqrt(static_cast<double>(rows));  // scale is irrelevant; keep it near 1
+    mixing_root = sky_prior_root(lit_directions, lit_weights, options.sky_correlation_deg);
   }
   std::vector<Eigen::VectorXd> eigenvectors;
   if (rows > 0) {

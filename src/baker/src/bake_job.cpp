@@ -278,6 +278,14 @@ void log_footprint(const bake_format::PlaneRecord& record, const bake_format::Im
                static_cast<double>(f.shadowed_texels) * 2.0 / kMiB + (f.unshadowed > 0 ? layer_mib : 0.0));
 }
 
+// Each layer's direction: its face's centre (the sky prior's).
+std::vector<Vec3> layer_directions(const bake_format::Manifest& manifest) {
+  std::vector<Vec3> directions;
+  const std::size_t per_face = static_cast<std::size_t>(manifest.plan.layers_per_face());
+  for (std::size_t l = 0; l < manifest.layer_count(); ++l) directions.push_back(manifest.faces[l / per_face].direction);
+  return directions;
+}
+
 // Options checked before any work, so that a typo does not cost a bake.
 void check_pca_input(const std::optional<bake_format::PcaOptions>& options) {
   if (!options) return;
@@ -294,10 +302,7 @@ void check_pca_input(const std::optional<bake_format::PcaOptions>& options) {
 void write_pca_form(const fs::path& out_dir, const bake_format::Manifest& manifest, bake_format::PlaneRecord& record,
                     const bake_format::ImageStack& stack, const bake_format::PcaOptions& options, std::FILE* log) {
   const auto start = std::chrono::steady_clock::now();
-  // Each layer's direction: its face's centre.
-  std::vector<Vec3> directions;
-  const std::size_t per_face = static_cast<std::size_t>(manifest.plan.layers_per_face());
-  for (std::size_t l = 0; l < manifest.layer_count(); ++l) directions.push_back(manifest.faces[l / per_face].direction);
+  const std::vector<Vec3> directions = layer_directions(manifest);
   const bake_format::PcaBasis pca = bake_format::compress_pca(stack, record.unoccluded, options, directions);
   bake_format::PcaRecord r;
   const fs::path stem = fs::path(record.file).replace_extension();
@@ -337,9 +342,7 @@ void write_light_map_pca_form(const fs::path& out_dir, bake_format::Manifest& ma
                               std::span<const float> transfer, std::span<const float> ground,
                               const bake_format::LightMapPcaOptions& options, std::FILE* log) {
   const auto start = std::chrono::steady_clock::now();
-  std::vector<Vec3> directions;
-  const std::size_t per_face = static_cast<std::size_t>(manifest.plan.layers_per_face());
-  for (std::size_t l = 0; l < manifest.layer_count(); ++l) directions.push_back(manifest.faces[l / per_face].direction);
+  const std::vector<Vec3> directions = layer_directions(manifest);
   bake_format::LightMapPca pca;
   pca.sky = bake_format::compress_light_map(layout, transfer, manifest.layer_count(), options, directions);
   bake_format::Manifest::LightMap::Pca record;

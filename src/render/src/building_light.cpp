@@ -63,6 +63,16 @@ std::vector<float> sum_layers(std::span<const float> by_layer, std::size_t verte
   return rgb;
 }
 
+namespace {
+
+// A compressed transfer array of `texels` texels over `charts` charts, `layers` per vector.
+bool pca_fits(const bake_format::LightMapComponents& c, std::size_t texels, std::size_t charts, std::size_t layers) {
+  const auto k = static_cast<std::size_t>(c.components);
+  return layers > 0 && c.layers == layers && c.weights.size() == texels * k && c.vectors.size() == charts * (k + 1) * layers;
+}
+
+}  // namespace
+
 void LightMapTexture::check(const bake_format::LightMapArrays& arrays, bool ground, const scene::Mesh& mesh, std::size_t layers) {
   const bake_format::LightMapLayout& l = arrays.layout;
   const std::size_t texels = l.texels.size();
@@ -72,11 +82,7 @@ void LightMapTexture::check(const bake_format::LightMapArrays& arrays, bool grou
               std::to_string(mesh.triangle_count());
   } else if (arrays.pca) {
     const bake_format::LightMapPca& p = *arrays.pca;
-    const auto fits = [&](const bake_format::LightMapComponents& c) {
-      const auto k = static_cast<std::size_t>(c.components);
-      return c.layers == layers && c.weights.size() == texels * k && c.vectors.size() == l.charts.size() * (k + 1) * layers;
-    };
-    if (!fits(p.sky) || (ground && !fits(p.ground))) {
+    if (!pca_fits(p.sky, texels, l.charts.size(), layers) || (ground && !pca_fits(p.ground, texels, l.charts.size(), layers))) {
       problem = "the light map's PCA form does not fit " + std::to_string(texels) + " texels of " + std::to_string(l.charts.size()) +
                 " charts × " + std::to_string(layers) + " layers" + (ground ? " (the ground's needed too)" : "");
     }
@@ -129,20 +135,13 @@ std::vector<float> per_draw_vertex(const DrawVertices& draw, std::span<const flo
 }
 
 LightMapTexture::LightMapTexture(bake_format::LightMapArrays&& arrays, bool ground, std::size_t layers)
-    : texels_(std::move(arrays.layout.texels)), layers_(layers), width_(arrays.layout.width), height_(arrays.layout.height),
+    : texels_(arrays.layout.texels), layers_(layers), width_(arrays.layout.width), height_(arrays.layout.height),
       texture_(arrays.layout.width, arrays.layout.height) {
   const std::size_t count = texels_.size();
   if (arrays.pca) {
-    arrays.layout.texels = texels_;  // the charts per texel need them
     texel_chart_ = bake_format::light_map_texel_charts(arrays.layout);
-    arrays.layout.texels.clear();
     const std::size_t charts = arrays.layout.charts.size();
-    const auto fits = [&](const bake_format::LightMapComponents& c) {
-      const auto k = static_cast<std::size_t>(c.components);
-      return c.layers == layers && c.weights.size() == count * k && c.vectors.size() == charts * (k + 1) * layers;
-    };
-    pca_ground_ = ground;
-    if (layers == 0 || !fits(arrays.pca->sky) || (ground && !fits(arrays.pca->ground)) ||
+    if (!pca_fits(arrays.pca->sky, count, charts, layers) || (ground && !pca_fits(arrays.pca->ground, count, charts, layers)) ||
         std::find(texel_chart_.begin(), texel_chart_.end(), -1) != texel_chart_.end()) {
       throw std::invalid_argument("LightMapTexture: the PCA form does not fit " + std::to_string(count) + " texels of " +
                                   std::to_string(layers) + " layers");
@@ -216,7 +215,7 @@ void LightMapTexture::sum_pca(const Coefficients& sky, const Coefficients& refle
     return Eigen::Map<const Rows>(c.vectors.data(), rows, static_cast<Eigen::Index>(layers_)) * coefficients;
   };
   const Coefficients sky_sums = per_chart(pca_->sky, sky);
-  const Coefficients ground_sums = pca_ground_ ? per_chart(pca_->ground, reflected) : Coefficients();
+  const Coefficients ground_sums = pca_->ground.components > 0 ? per_chart(pca_->ground, reflected) : Coefficients();
   const auto add = [&](const bake_format::LightMapComponents& c, const Coefficients& sums, std::size_t x, float* out) {
     const auto k = static_cast<std::size_t>(c.components);
     const auto first = static_cast<Eigen::Index>(static_cast<std::size_t>(texel_chart_[x]) * (k + 1));
@@ -234,7 +233,7 @@ void LightMapTexture::sum_pca(const Coefficients& sky, const Coefficients& refle
     for (std::size_t x = first; x < last; ++x) {
       float* out = atlas.data() + 4 * static_cast<std::size_t>(texels_[x]);
       add(pca_->sky, sky_sums, x, out);
-      if (pca_ground_) add(pca_->ground, ground_sums, x, out);
+      if (pca_->ground.components > 0) add(pca_->ground, ground_sums, x, out);
       out[3] = 1.0f;
     }
   });

@@ -69,8 +69,7 @@ class LightMapTexture {
 
   std::vector<std::uint32_t> texels_;
   std::vector<float> transfer_, ground_;
-  std::optional<bake_format::LightMapPca> pca_;
-  bool pca_ground_ = false;
+  std::optional<bake_format::LightMapPca> pca_;  // the ground's components with the ground on, else none
   std::vector<std::int32_t> texel_chart_;  // the PCA form's chart per texel
   std::size_t layers_ = 0;
   int width_ = 0, height_ = 0;

@@ -5,6 +5,8 @@
 #include <span>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "skylit/bake_format/arrays.hpp"
 #include "skylit/bake_format/manifest.hpp"
 
@@ -76,6 +78,11 @@ struct PcaBasis {
 // `directions`: per layer, unit, its face's centre (needed only with sky_correlation_deg > 0).
 PcaBasis compress_pca(const ImageStack& stack, std::span<const double> unoccluded, const PcaOptions& options,
                       std::span<const Vec3> directions = {});
+
+// C^{1/2} of the sky prior's second moments C_rc = w_r w_c exp(−θ_rc²/2σ²) over the layers'
+// directions (w empty: 1), scaled to a norm near the identity's: the weighting both PCA forms
+// (the planes' and the light map's) fit in.
+Eigen::MatrixXd sky_prior_root(std::span<const Vec3> directions, std::span<const double> weights, double sigma_deg);
 
 // Names of the PCA form's layers: "mean", "pc_001", …
 std::vector<std::string> pca_layer_names(int components);
