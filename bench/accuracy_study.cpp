@@ -247,6 +247,12 @@ int main(int argc, char** argv) {
                  "(skylit-bake --light-map-components); 0: the full form");
   app.add_option("--light-map-sky-correlation", light_map_pca.sky_correlation_deg,
                  "degrees, with --light-map-components (skylit-bake --light-map-sky-correlation)");
+  double inside_spacing = 0.0;
+  app.add_option("--inside-spacing", inside_spacing,
+                 "metres: the points inside the triangles about this far apart or closer, a large triangle split into smaller ones "
+                 "first, so that the figures inside the triangles compare models tessellated differently (0: four "
+                 "points per triangle)")
+      ->check(CLI::Range(0.0, 100.0));
   int vertex_fit = 0;
   app.add_option("--vertex-fit", vertex_fit,
                  "every bake fits its vertices to the light at N² points inside each triangle (skylit-bake --vertex-fit)")
@@ -401,7 +407,14 @@ int main(int argc, char** argv) {
     const auto building_start = Clock::now();
     std::vector<Eigen::Vector3d> building_ref = building_reference(sky_lights, site, mesh);
     // And inside the triangles, where the compositor interpolates the vertices' E.
-    const TrianglePoints inside_points = triangle_points(mesh);
+    const TrianglePoints inside_points = triangle_points(mesh, inside_spacing);
+    if (inside_spacing > 0) {
+      std::fprintf(stderr, "%s: %zu points inside the model's triangles (about %g m apart)\n", sky_file.stem().c_str(),
+                   inside_points.positions.size(), inside_spacing);
+    } else {
+      std::fprintf(stderr, "%s: %zu points inside the model's triangles (four per triangle)\n", sky_file.stem().c_str(),
+                   inside_points.positions.size());
+    }
     std::vector<Eigen::Vector3d> inside_ref = building_reference_at(sky_lights, site, mesh, inside_points);
     const std::vector<Eigen::Vector3d> sky_vertex_ref = building_ref, sky_inside_ref = inside_ref;  // before the ground's
     std::vector<Eigen::Vector3d> ground_inside_ref(inside_ref.size(), Eigen::Vector3d::Zero());

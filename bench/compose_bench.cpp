@@ -12,7 +12,8 @@
 // a frame whose building takes N − 1 lamps per vertex, each against N = 1.
 // SKYLIT_COMPOSE_BENCH_SITE=FILE bakes that site instead of the sample site (e.g. one with the
 // planes of skylit-bake walls: what more virtual planes cost the building's pass).
-// SKYLIT_COMPOSE_BENCH_LIGHT_MAP=TEXEL[,MIN_AREA[,MIN_ACROSS]] bakes a light map too (skylit-bake --light-map)
+// SKYLIT_COMPOSE_BENCH_LIGHT_MAP=TEXEL[,MIN_AREA[,MIN_ACROSS[,COMPONENTS]]] bakes a light map too (skylit-bake
+// --light-map; with COMPONENTS its PCA form, which the compositor then reads)
 // and every compositor draws with it: its sum per new sky, and its lookups in the building's pass.
 #include <algorithm>
 #include <array>

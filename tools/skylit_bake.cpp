@@ -215,12 +215,21 @@ void apply_preset(const CLI::App& app, CommandLine& c) {
   }
   if (!app.count("--refine")) c.options.refine.tolerance = preset.refine;
   if (!app.count("--vertex-fit")) c.options.vertex_fit = preset.vertex_fit;
+  if (!app.count("--light-map")) c.light_map.texel = preset.light_map;
+  if (!app.count("--light-map-min-area")) c.light_map.min_area = preset.light_map_min_area;
+  if (!app.count("--light-map-min-across")) c.light_map.min_across = preset.light_map_min_across;
+  if (!app.count("--light-map-components")) c.light_map_pca.components = c.light_map.texel > 0 ? preset.light_map_components : 0;
   c.options.preset = preset.name;
-  spdlog::info("preset {} ({}): frequency {}, basis {}, samples {}, PCA components {}{}{}{}", preset.name, c.presets_file,
+  spdlog::info("preset {} ({}): frequency {}, basis {}, samples {}, PCA components {}{}{}{}{}", preset.name, c.presets_file,
                c.frequency, c.basis, c.options.samples, c.pca.components ? std::to_string(*c.pca.components) : "none",
                c.pca.tile > 0 ? " in tiles of " + std::to_string(c.pca.tile) + " texels" : "",
                c.options.refine.tolerance > 0 ? fmt::format(", refined at {:g}", c.options.refine.tolerance) : "",
-               c.options.vertex_fit > 0 ? fmt::format(", vertices fitted to {}² points per triangle", c.options.vertex_fit) : "");
+               c.options.vertex_fit > 0 ? fmt::format(", vertices fitted to {}² points per triangle", c.options.vertex_fit) : "",
+               c.light_map.texel > 0 ? fmt::format(", a light map of {:g} m texels{}", c.light_map.texel,
+                                                   c.light_map_pca.components > 0
+                                                       ? fmt::format(" and its PCA form of {} components", c.light_map_pca.components)
+                                                       : "")
+                                     : "");
 }
 
 // A bake of SITE into -o, plain or picked by --error-budget.

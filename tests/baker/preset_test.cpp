@@ -68,6 +68,20 @@ TEST(BakePreset, ABadFieldIsNamed) {
   EXPECT_EQ(p.refine, 0.0);  // the model as it is unless the preset says otherwise
   std::ofstream(file) << "quick:\n  bake: {frequency: 2, basis: corners, samples: 4, refine: 0.2}\n  live: {basis: full}\n";
   EXPECT_EQ(load_bake_preset(PresetsFile(file), "quick").refine, 0.2);
+  EXPECT_EQ(load_bake_preset(PresetsFile(file), "quick").light_map, 0.0);  // no light map unless the preset says so
+
+  std::ofstream(file) << "quick:\n  bake: {frequency: 2, basis: corners, samples: 4, light_map: 0.1, light_map_min_across: 6, "
+                         "light_map_components: 32}\n  live: {basis: full}\n";
+  const BakePreset mapped = load_bake_preset(PresetsFile(file), "quick");
+  EXPECT_EQ(mapped.light_map, 0.1);
+  EXPECT_EQ(mapped.light_map_min_area, 0.1);  // skylit-bake's default
+  EXPECT_EQ(mapped.light_map_min_across, 6);
+  EXPECT_EQ(mapped.light_map_components, 32);
+  message = error_for("{frequency: 2, basis: corners, samples: 4, light_map_components: 32}");
+  EXPECT_NE(message.find("quick.bake.light_map"), std::string::npos) << message;
+  EXPECT_NE(message.find("need a light map"), std::string::npos) << message;
+  message = error_for("{frequency: 2, basis: corners, samples: 4, light_map: -0.1}");
+  EXPECT_NE(message.find("quick.bake.light_map"), std::string::npos) << message;
   fs::remove(file);
 }
 

@@ -3,6 +3,7 @@
 // reference and through a real bake's transfer vectors, and a separated sun on each face.
 #include "skylit/study/building_light.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <numbers>
@@ -92,6 +93,39 @@ TEST_F(BuildingLight, InsideTheTrianglesTheCubesFacesAreLitAsAtTheirVertices) {
   }
   const study::Errors inside = study::building_errors(interpolated, reference, study::horizontal_irradiance(lights));
   EXPECT_LT(inside.max, 5e-3);
+}
+
+// With a spacing, a large triangle is split into m² equal ones first: the points' areas still sum
+// to each triangle's area, every point lies inside its triangle, and their barycentric centroid
+// is the triangle's (the split is symmetric).
+TEST_F(BuildingLight, PointsAtASpacingCoverEachTriangleEvenly) {
+  const skylit::scene::Mesh mesh = skylit::scene::load_site_model(site());
+  const study::TrianglePoints coarse = study::triangle_points(mesh);
+  for (const double spacing : {0.25, 0.7}) {
+    SCOPED_TRACE(spacing);
+    const study::TrianglePoints points = study::triangle_points(mesh, spacing);
+    std::vector<double> area(mesh.triangle_count(), 0.0);
+    std::vector<Vector3d> centroid(mesh.triangle_count(), Vector3d::Zero());
+    std::vector<std::size_t> count(mesh.triangle_count(), 0);
+    for (std::size_t k = 0; k < points.positions.size(); ++k) {
+      const std::uint32_t t = points.triangles[k];
+      area[t] += points.areas[k];
+      centroid[t] += points.weights[k];
+      ++count[t];
+      EXPECT_NEAR(points.weights[k].sum(), 1.0, 1e-12);
+      EXPECT_GT(points.weights[k].minCoeff(), 0.0) << "point " << k << " lies inside its triangle";
+    }
+    for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
+      const Eigen::Vector3f a = mesh.positions[mesh.indices[3 * t]], b = mesh.positions[mesh.indices[3 * t + 1]],
+                            c = mesh.positions[mesh.indices[3 * t + 2]];
+      const double triangle_area = 0.5 * (b - a).cross(c - a).norm();
+      const auto m = static_cast<std::size_t>(std::max(1.0, std::ceil(std::sqrt(2.0 * triangle_area) / spacing - 1e-9)));
+      EXPECT_EQ(count[t], 4 * m * m) << "triangle " << t;
+      EXPECT_NEAR(area[t], triangle_area, 1e-5) << "triangle " << t;
+      EXPECT_LT((centroid[t] / static_cast<double>(count[t]) - Vector3d::Constant(1.0 / 3.0)).norm(), 1e-9) << "triangle " << t;
+    }
+    EXPECT_GT(points.positions.size(), coarse.positions.size());
+  }
 }
 
 TEST_F(BuildingLight, TheTransferVectorsGiveTheSameLightAndEachSourceItsCosine) {

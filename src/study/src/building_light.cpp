@@ -54,26 +54,42 @@ scene::Mesh mesh_with_points(const scene::Mesh& mesh, const TrianglePoints& poin
 
 }  // namespace
 
-TrianglePoints triangle_points(const scene::Mesh& mesh) {
+TrianglePoints triangle_points(const scene::Mesh& mesh, double spacing) {
   TrianglePoints points;
-  const std::array<Eigen::Vector3d, 4> barycentric{Eigen::Vector3d(1.0, 1.0, 1.0) / 3.0, Eigen::Vector3d(4.0, 1.0, 1.0) / 6.0,
-                                                   Eigen::Vector3d(1.0, 4.0, 1.0) / 6.0, Eigen::Vector3d(1.0, 1.0, 4.0) / 6.0};
+  const std::array<Eigen::Vector3d, 4> pattern{Eigen::Vector3d(1.0, 1.0, 1.0) / 3.0, Eigen::Vector3d(4.0, 1.0, 1.0) / 6.0,
+                                               Eigen::Vector3d(1.0, 4.0, 1.0) / 6.0, Eigen::Vector3d(1.0, 1.0, 4.0) / 6.0};
   for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
     const std::array<std::uint32_t, 3> c{mesh.indices[t], mesh.indices[t + 1], mesh.indices[t + 2]};
-    const double area = 0.5 * static_cast<double>((mesh.positions[c[1]] - mesh.positions[c[0]]).cross(mesh.positions[c[2]] - mesh.positions[c[0]]).norm());
-    for (const Eigen::Vector3d& b : barycentric) {
-      Eigen::Vector3f p = Eigen::Vector3f::Zero(), n = Eigen::Vector3f::Zero();
-      for (int k = 0; k < 3; ++k) {
-        p += static_cast<float>(b[k]) * mesh.positions[c[static_cast<std::size_t>(k)]];
-        n += static_cast<float>(b[k]) * mesh.normals[c[static_cast<std::size_t>(k)]];
+    const std::array<Eigen::Vector3f, 3> q{mesh.positions[c[0]], mesh.positions[c[1]], mesh.positions[c[2]]};
+    const double area = 0.5 * static_cast<double>((q[1] - q[0]).cross(q[2] - q[0]).norm());
+    // By area, not by the longest side: a long thin triangle (a beam's side) would otherwise take
+    // thousands of points across its width.
+    const int m = spacing > 0.0 ? std::max(1, static_cast<int>(std::ceil(std::sqrt(2.0 * area) / spacing - 1e-9))) : 1;
+    // Sub-triangle corners in the triangle's barycentric grid of step 1/m: the upward ones
+    // (i, j), (i+1, j), (i, j+1) and the downward ones (i+1, j), (i, j+1), (i+1, j+1).
+    const auto grid = [m](int i, int j) -> Eigen::Vector3d { return Eigen::Vector3d(m - i - j, i, j) / m; };
+    const auto add = [&](const std::array<Eigen::Vector3d, 3>& sub) {
+      for (const Eigen::Vector3d& b : pattern) {
+        const Eigen::Vector3d w = b[0] * sub[0] + b[1] * sub[1] + b[2] * sub[2];
+        Eigen::Vector3f p = Eigen::Vector3f::Zero(), n = Eigen::Vector3f::Zero();
+        for (int k = 0; k < 3; ++k) {
+          p += static_cast<float>(w[k]) * q[static_cast<std::size_t>(k)];
+          n += static_cast<float>(w[k]) * mesh.normals[c[static_cast<std::size_t>(k)]];
+        }
+        if (!(n.norm() > 0.0f)) continue;  // opposite normals cancel: no surface to light
+        points.positions.push_back(p);
+        points.normals.push_back(n.normalized());
+        points.corners.push_back(c);
+        points.weights.push_back(w);
+        points.areas.push_back(area / (4.0 * m * m));
+        points.triangles.push_back(static_cast<std::uint32_t>(t / 3));
       }
-      if (!(n.norm() > 0.0f)) continue;  // opposite normals cancel: no surface to light
-      points.positions.push_back(p);
-      points.normals.push_back(n.normalized());
-      points.corners.push_back(c);
-      points.weights.push_back(b);
-      points.areas.push_back(area / 4.0);
-      points.triangles.push_back(static_cast<std::uint32_t>(t / 3));
+    };
+    for (int i = 0; i < m; ++i) {
+      for (int j = 0; i + j < m; ++j) {
+        add({grid(i, j), grid(i + 1, j), grid(i, j + 1)});
+        if (i + j + 1 < m) add({grid(i + 1, j), grid(i, j + 1), grid(i + 1, j + 1)});
+      }
     }
   }
   return points;

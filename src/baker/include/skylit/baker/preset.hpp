@@ -17,6 +17,10 @@ struct BakePreset {
   int pca_tile = 0;                               // clustered PCA: tiles of this many texels (0: one set per plane)
   double refine = 0;                              // skylit-bake --refine (0: the model as it is)
   int vertex_fit = 0;                             // skylit-bake --vertex-fit (0: each vertex's own light)
+  double light_map = 0;                           // skylit-bake --light-map, metres per texel (0: none)
+  double light_map_min_area = 0.1;                // --light-map-min-area, m²
+  int light_map_min_across = 10;                  // --light-map-min-across, texels
+  int light_map_components = 0;                   // --light-map-components (0: the full form only)
 };
 
 // The bake section of preset `name`. InputError (file, line, field, fix) for anything wrong.

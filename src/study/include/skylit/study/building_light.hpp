@@ -52,16 +52,19 @@ std::vector<Eigen::Vector3d> building_estimate(std::span<const float> transfer, 
 // Points inside the model's triangles, where the compositor shows E interpolated from the
 // vertices: per triangle its centroid and the three points halfway from it to each corner
 // (barycentric (2/3, 1/6, 1/6) and its turns), each with its triangle's corners and weights and
-// the interpolated normal (normalised, as the fragment shader takes it).
+// the interpolated normal (normalised, as the fragment shader takes it). With `spacing` > 0 (m), a
+// triangle of area A is first split into m² equal ones, m = ⌈√(2A) / spacing⌉ (a right isosceles
+// triangle's legs over the spacing), each with those four points: the points' density then does
+// not depend on how the model is tessellated, and a large triangle's edges are sampled too.
 struct TrianglePoints {
   std::vector<Eigen::Vector3f> positions;
   std::vector<Eigen::Vector3f> normals;
   std::vector<std::array<std::uint32_t, 3>> corners;
   std::vector<Eigen::Vector3d> weights;  // barycentric, sum 1
-  std::vector<double> areas;             // m²: the surface each point stands for (a quarter of its triangle)
+  std::vector<double> areas;             // m²: the surface each point stands for (a quarter of its (sub-)triangle)
   std::vector<std::uint32_t> triangles;  // the triangle each lies in
 };
-TrianglePoints triangle_points(const scene::Mesh& mesh);
+TrianglePoints triangle_points(const scene::Mesh& mesh, double spacing = 0.0);
 
 // E at the points as the compositor interpolates it from the vertices' E.
 std::vector<Eigen::Vector3d> interpolated_at(const TrianglePoints& points, std::span<const Eigen::Vector3d> vertex_E);
