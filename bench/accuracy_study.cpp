@@ -28,6 +28,7 @@
 // path (study/gpu_path.hpp: every separated source's shadow map, the GPU blend, the building lit
 // through the maps) in a third table, beside the CPU path's ray-cast visibility.
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -922,6 +923,28 @@ int main(int argc, char** argv) {
         }
         inside = building_errors(shown, seen_ref, horizontal);
         inside_by_area = building_errors(shown, seen_ref, horizontal, inside_areas);
+        if (texel_map) {
+          // Where the error lies: the triangles the light map covers, and the rest (their vertices).
+          std::array<std::vector<Eigen::Vector3d>, 2> part_shown, part_ref;
+          std::array<std::vector<double>, 2> part_areas;
+          for (std::size_t i = 0; i < inside_seen.size(); ++i) {
+            const std::size_t part = texel_map->layout.triangle_chart[inside_points.triangles[inside_seen[i]]] >= 0 ? 0 : 1;
+            part_shown[part].push_back(shown[i]);
+            part_ref[part].push_back(seen_ref[i]);
+            part_areas[part].push_back(inside_areas[i]);
+          }
+          double total_area = 0;
+          for (const double a : inside_areas) total_area += a;
+          for (std::size_t part = 0; part < 2; ++part) {
+            if (part_shown[part].empty()) continue;
+            const Errors part_errors = building_errors(part_shown[part], part_ref[part], horizontal, part_areas[part]);
+            double area = 0;
+            for (const double a : part_areas[part]) area += a;
+            std::fprintf(stderr, "%s %s: inside the triangles %s: RMS %.4f, p99 %.4f by area over %.1f m² (%.1f%% of the area)\n",
+                         sky_file.stem().c_str(), c.name.c_str(), part == 0 ? "the light map covers" : "it does not cover", part_errors.rms,
+                         part_errors.p99, area, 100.0 * area / std::max(total_area, 1e-12));
+          }
+        }
         terms[3] = inside_by_area;
         building_rows.back().inside = inside;
         building_rows.back().inside_by_area = inside_by_area;
