@@ -454,6 +454,30 @@ TEST(SkylitBake, PresetSetsTheBakeAndAnUnknownOneListsTheValidNames) {
   EXPECT_FALSE(fs::exists(dir / "other" / "manifest.json"));
 }
 
+// A preset's light map: its texel, smallest region, narrowest chart and PCA form reach the bake;
+// --light-map 0 on the command line turns it off, its PCA form with it.
+TEST(SkylitBake, APresetsLightMapReachesTheBakeAndTheCommandLineTurnsItOff) {
+  TempDir dir;
+  const fs::path presets = dir / "presets.yaml";
+  std::ofstream(presets) << "mapped:\n  bake: {frequency: 2, basis: faces, samples: 3, light_map: 0.5, light_map_min_area: 2, "
+                            "light_map_min_across: 2, light_map_components: 4}\n  live: {basis: full}\n";
+  const std::string common = (kSource / "config" / "sample_site.yaml").string() + " --presets " + presets.string() +
+                             " --preset mapped --method raytrace --resolution 8x4 --no-previews";
+  const Result mapped = run(common + " -o " + (dir / "mapped").string());
+  ASSERT_EQ(mapped.status, 0) << mapped.output;
+  const auto m = skylit::bake_format::read_manifest(dir / "mapped");
+  EXPECT_EQ(m.plan.light_map.texel, 0.5);
+  EXPECT_EQ(m.plan.light_map.min_area, 2.0);
+  EXPECT_EQ(m.plan.light_map.min_across, 2);
+  ASSERT_TRUE(m.light_map.has_value());
+  ASSERT_TRUE(m.light_map->pca.has_value());
+  EXPECT_EQ(m.light_map->pca->components, 4);
+
+  const Result plain = run(common + " --light-map 0 -o " + (dir / "plain").string());
+  ASSERT_EQ(plain.status, 0) << plain.output;
+  EXPECT_FALSE(skylit::bake_format::read_manifest(dir / "plain").light_map.has_value());
+}
+
 // The defaults a user meets first, on two bakes of the sample site at 16×16 texels a plane, both
 // with the default --method (auto): one with -q, one that talks. Made once per build of this
 // program (support/fixture_cache.hpp) with what each printed beside it; tests change copies only.

@@ -46,19 +46,21 @@ BakePreset load_bake_preset(const PresetsFile& presets, const std::string& name)
   if (auto n = YamlReader::optional(s.node, "light_map")) {
     p.light_map = r.non_negative(n, s.field_of("light_map"), "metres per texel, e.g. 0.1 (skylit-bake --light-map), or 0 for none");
   }
+  bool light_map_keys = false;  // any of the light map's other keys
   if (auto n = YamlReader::optional(s.node, "light_map_min_area")) {
     p.light_map_min_area = r.non_negative(n, s.field_of("light_map_min_area"), "m², e.g. 0.1 (skylit-bake --light-map-min-area)");
+    light_map_keys = true;
   }
   if (auto n = YamlReader::optional(s.node, "light_map_min_across")) {
     p.light_map_min_across = static_cast<int>(r.integer(n, s.field_of("light_map_min_across"), 1, 1024,
                                                         "texels across a narrow chart, e.g. 10 (skylit-bake --light-map-min-across)"));
+    light_map_keys = true;
   }
   if (auto n = YamlReader::optional(s.node, "light_map_components")) {
     p.light_map_components = static_cast<int>(r.integer(n, s.field_of("light_map_components"), 0, 4096,
                                                         "components of the light map's PCA form, e.g. 32, or 0 for the full form only"));
+    light_map_keys = true;
   }
-  const bool light_map_keys = YamlReader::optional(s.node, "light_map_min_area") || YamlReader::optional(s.node, "light_map_min_across") ||
-                              YamlReader::optional(s.node, "light_map_components");
   if (p.light_map == 0 && light_map_keys) {
     r.fail(s.node, s.field_of("light_map"), "the light map's other keys need a light map", "add e.g. light_map: 0.1, or remove them");
   }
