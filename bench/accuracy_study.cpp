@@ -103,6 +103,10 @@ const std::vector<Config> kConfigs{
     {"nu4-corners", 4, 16, true, skylit::geom::DomeBasis::Corners},             // the balanced preset's bake
     {"nu4-quadratics64", 4, 64, true, skylit::geom::DomeBasis::Quadratics},     // the accurate preset's
     {"nu4-corners+sources", 4, 16, true, skylit::geom::DomeBasis::Corners, false, Config::Mix::Sources},
+    // What the balanced dome leaves: a finer dome, denser visibility
+    {"nu6-corners", 6, 16, true, skylit::geom::DomeBasis::Corners},
+    {"nu8-corners", 8, 16, true, skylit::geom::DomeBasis::Corners},
+    {"nu4-corners64", 4, 64, true, skylit::geom::DomeBasis::Corners},
     // ν=2, three linear hats per face (120 layers), area lights
     {"corners", 2, 16, true, skylit::geom::DomeBasis::Corners},
     {"corners-nosun", 2, 16, false, skylit::geom::DomeBasis::Corners},
@@ -170,7 +174,8 @@ int main(int argc, char** argv) {
   app.add_option("--supersample", supersample, "fisheye rendering: sub-pixels per axis")->capture_default_str();
   app.add_option("--out", out_dir, "bakes and results")->capture_default_str();
   app.add_option("--configs", config_list,
-                 "comma-separated subset of paper,area,area+sun,area64+sun,nu4,nu8,corners,corners-nosun,corners64,"
+                 "comma-separated subset of paper,area,area+sun,area64+sun,nu4,nu8,nu4-corners,nu6-corners,nu8-corners,"
+                 "nu4-corners64,nu4-quadratics64,corners,corners-nosun,corners64,"
                  "area+oracle,corners+oracle,corners64+oracle and the diagnoses corners64+oracle-light,"
                  "corners64+oracle-dome,corners64+oracle-energy,corners64+oracle-point,corners64+oracle-corepoint,"
                  "corners64+fill,corners64+sources; quadratics,quadratics64,quadratics64+sources");
@@ -242,7 +247,7 @@ int main(int argc, char** argv) {
                  "the building inside the triangles is then shown from it where it covers them");
   app.add_option("--light-map-min-area", light_map_options.min_area, "m², with --light-map (skylit-bake --light-map-min-area)");
   app.add_option("--light-map-min-across", light_map_options.min_across, "texels, with --light-map (skylit-bake --light-map-min-across)");
-  skylit::bake_format::LightMapPcaOptions light_map_pca{0, 0.0};  // components 0: the full form
+  skylit::bake_format::LightMapPcaOptions light_map_pca{0, 0.0, true};  // components 0: the full form
   app.add_option("--light-map-components", light_map_pca.components,
                  "with --light-map: the light map's PCA form, K components per chart, in place of the full form "
                  "(skylit-bake --light-map-components); 0: the full form");

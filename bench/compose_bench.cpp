@@ -101,7 +101,7 @@ struct Scene {
         std::exit(2);
       }
       options.light_map = l;
-      if (components > 0) options.light_map_pca = bake_format::LightMapPcaOptions{components, 0.0};
+      if (components > 0) options.light_map_pca = bake_format::LightMapPcaOptions{components, 0.0, true};
     }
     std::FILE* quiet = std::fopen("/dev/null", "w");
     baker::run_bake(options, quiet);

@@ -1,4 +1,5 @@
 // skylit-bake: bakes a site's basis shadow images and transfer vectors, verifies and merges bakes.
+#include <cstdint>
 #include <cstdio>
 #include <iostream>
 #include <regex>
@@ -66,9 +67,15 @@ struct CommandLine {
   CLI::App* compress = nullptr;
   std::string compress_dir;
 
-  skylit::bake_format::LightMapPcaOptions light_map_pca{0, 0.0};  // components 0: none
+  skylit::bake_format::LightMapPcaOptions light_map_pca{0, 0.0, true};  // components 0: none
   std::optional<skylit::bake_format::LightMapPcaOptions> wanted_light_map_pca() const {
-    if (light_map_pca.components == 0) return std::nullopt;
+    if (light_map_pca.components == 0) {
+      if (!light_map_pca.keep_full_form) {
+        throw skylit::InputError("option --light-map-pca-only: given without the PCA form. Fix: add --light-map-components K "
+                                 "(e.g. 32), or leave it out");
+      }
+      return std::nullopt;
+    }
     return light_map_pca;
   }
   std::optional<skylit::bake_format::PcaOptions> wanted_pca() const {
@@ -86,6 +93,11 @@ void add_light_map_pca_options(CLI::App& to, skylit::bake_format::LightMapPcaOpt
                 "degrees: with --light-map-components, the components that matter for skies whose radiance is correlated "
                 "over this angle; 0: every layer alike")
       ->capture_default_str();
+  to.add_flag_function(
+      "--light-map-pca-only,!--light-map-keep-full",
+      [&pca](std::int64_t count) { pca.keep_full_form = count < 0; },
+      "with --light-map-components: leave the light map's full form out of the bake (most of its size; compress "
+      "cannot then fit another K); --light-map-keep-full keeps it where a preset would not");
 }
 
 void add_pca_options(CLI::App& to, skylit::bake_format::PcaOptions& pca) {
@@ -219,6 +231,9 @@ void apply_preset(const CLI::App& app, CommandLine& c) {
   if (!app.count("--light-map-min-area")) c.light_map.min_area = preset.light_map_min_area;
   if (!app.count("--light-map-min-across")) c.light_map.min_across = preset.light_map_min_across;
   if (!app.count("--light-map-components")) c.light_map_pca.components = c.light_map.texel > 0 ? preset.light_map_components : 0;
+  if (!app.count("--light-map-pca-only")) {  // nor --light-map-keep-full, its other name
+    c.light_map_pca.keep_full_form = !preset.light_map_pca_only || c.light_map_pca.components == 0;  // no PCA form: the full form
+  }
   c.options.preset = preset.name;
   spdlog::info("preset {} ({}): frequency {}, basis {}, samples {}, PCA components {}{}{}{}{}", preset.name, c.presets_file,
                c.frequency, c.basis, c.options.samples, c.pca.components ? std::to_string(*c.pca.components) : "none",
@@ -227,7 +242,8 @@ void apply_preset(const CLI::App& app, CommandLine& c) {
                c.options.vertex_fit > 0 ? fmt::format(", vertices fitted to {}² points per triangle", c.options.vertex_fit) : "",
                c.light_map.texel > 0 ? fmt::format(", a light map of {:g} m texels{}", c.light_map.texel,
                                                    c.light_map_pca.components > 0
-                                                       ? fmt::format(" and its PCA form of {} components", c.light_map_pca.components)
+                                                       ? fmt::format(" and its PCA form of {} components{}", c.light_map_pca.components,
+                                                                     c.light_map_pca.keep_full_form ? "" : " only")
                                                        : "")
                                      : "");
 }

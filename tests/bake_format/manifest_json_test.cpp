@@ -253,6 +253,24 @@ TEST(ManifestJson, TheLightMapRoundTripsAndMustAgreeWithThePlan) {
   with_ground["light_map"]["pca"]["ground_rms_error"] = 0.0;
   with_ground["light_map"]["pca"]["ground_max_error"] = 0.0;
   EXPECT_THROW(manifest_from_json(with_ground, "manifest.json"), InputError) << "the bake has no ground layer";
+  // The PCA form alone (--light-map-pca-only): no transfer entry, and it reads back without one.
+  Manifest pca_only = d;
+  pca_only.light_map->transfer_file.clear();
+  const json q = reparse(to_json(pca_only));
+  EXPECT_FALSE(q["light_map"].contains("transfer"));
+  const Manifest e = manifest_from_json(q, "manifest.json");
+  ASSERT_TRUE(e.light_map && e.light_map->pca);
+  EXPECT_FALSE(e.light_map->has_full_form());
+  EXPECT_EQ(to_json(e), q);
+  // Neither form is refused, naming the full form's entry.
+  json neither = q;
+  neither["light_map"].erase("pca");
+  try {
+    (void)manifest_from_json(neither, "manifest.json");
+    ADD_FAILURE() << "a light map with neither form was accepted";
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("light_map.transfer"), std::string::npos) << error.what();
+  }
 }
 
 TEST(ManifestJson, TheGroundLayerRoundTripsAndOlderManifestsHaveNone) {

@@ -227,7 +227,7 @@ TEST(LightMap, ItsPcaFormFromTheBakeAndFromCompressComeBackWithinTheirStatedErro
   const std::filesystem::path bake = dir.path() / "bake";
   skylit::test::quiet_bake(site_file, bake, 4, [](BakeOptions& o) {
     o.light_map = LightMapOptions{0.25, 1.0, 0};
-    o.light_map_pca = bake_format::LightMapPcaOptions{4, 45.0};
+    o.light_map_pca = bake_format::LightMapPcaOptions{4, 45.0, true};
   });
   const bake_format::VerifyReport report = bake_format::verify(bake);
   EXPECT_TRUE(report.ok) << (report.problems.empty() ? "" : report.problems.front());
@@ -270,7 +270,7 @@ TEST(LightMap, ItsPcaFormFromTheBakeAndFromCompressComeBackWithinTheirStatedErro
     EXPECT_LT(rms, 0.01);
   }
   // compress adds the same form to a finished bake (here: replaces it), and the bake verifies.
-  baker::compress_bake(bake, std::nullopt, bake_format::LightMapPcaOptions{4, 45.0}, nullptr);
+  baker::compress_bake(bake, std::nullopt, bake_format::LightMapPcaOptions{4, 45.0, true}, nullptr);
   EXPECT_TRUE(bake_format::verify(bake).ok);
   const bake_format::Manifest again = bake_format::read_manifest(bake);
   ASSERT_TRUE(again.light_map && again.light_map->pca);
@@ -282,10 +282,71 @@ TEST(LightMap, ItsPcaFormFromTheBakeAndFromCompressComeBackWithinTheirStatedErro
   BakeOptions no_map;
   no_map.site_file = site_file;
   no_map.out_dir = dir.path() / "none";
-  no_map.light_map_pca = bake_format::LightMapPcaOptions{4, 45.0};
+  no_map.light_map_pca = bake_format::LightMapPcaOptions{4, 45.0, true};
   EXPECT_THROW(run_bake(no_map, nullptr), InputError);
-  EXPECT_THROW(baker::compress_bake(bake, std::nullopt, bake_format::LightMapPcaOptions{0, 45.0}, nullptr), InputError);
+  EXPECT_THROW(baker::compress_bake(bake, std::nullopt, bake_format::LightMapPcaOptions{0, 45.0, true}, nullptr), InputError);
   EXPECT_THROW(baker::compress_bake(bake, std::nullopt, std::nullopt, nullptr), InputError);
+}
+
+// The bytes of the files a bake lists.
+std::uintmax_t listed_bytes(const std::filesystem::path& bake, const bake_format::Manifest& m) {
+  std::uintmax_t bytes = 0;
+  for (const bake_format::FileRecord& f : m.files) bytes += std::filesystem::file_size(bake / f.path);
+  return bytes;
+}
+
+TEST(LightMap, APcaOnlyBakeLeavesTheFullFormOutAndServesTheSamePcaForm) {
+  skylit::test::TempDir dir("skylit-light-map-pca-only-");
+  const std::filesystem::path site_file = test::write_cube_on_slab_site(dir.path());
+  const std::filesystem::path both = dir.path() / "both", only = dir.path() / "only";
+  for (const auto& [out, keep] : {std::pair{both, true}, std::pair{only, false}}) {
+    skylit::test::quiet_bake(site_file, out, 4, [keep = keep](BakeOptions& o) {
+      o.light_map = LightMapOptions{0.25, 1.0, 0};
+      o.light_map_pca = bake_format::LightMapPcaOptions{4, 0.0, keep};
+    });
+  }
+  const bake_format::VerifyReport report = bake_format::verify(only);
+  EXPECT_TRUE(report.ok) << (report.problems.empty() ? "" : report.problems.front());
+  const bake_format::Manifest kept = bake_format::read_manifest(both), m = bake_format::read_manifest(only);
+  ASSERT_TRUE(m.light_map && m.light_map->pca);
+  EXPECT_FALSE(m.light_map->has_full_form());
+  EXPECT_TRUE(m.light_map->ground_file.empty());
+  for (const std::string name : {"light_map_transfer.npy", "light_map_ground.npy"}) {
+    EXPECT_FALSE(std::filesystem::exists(only / name)) << name;
+    EXPECT_TRUE(std::filesystem::exists(both / name)) << name;
+  }
+  EXPECT_EQ(bake_format::smallest_light_map_form(m), bake_format::LightMapForm::Pca);
+  const bake_format::LightMapArrays a = bake_format::read_light_map(both, kept, bake_format::LightMapForm::Pca);
+  const bake_format::LightMapArrays b = bake_format::read_light_map(only, m, bake_format::LightMapForm::Pca);
+  EXPECT_EQ(a.pca->sky.weights, b.pca->sky.weights);
+  EXPECT_EQ(a.pca->sky.vectors, b.pca->sky.vectors);
+  EXPECT_EQ(a.pca->ground.vectors, b.pca->ground.vectors);
+  const std::uintmax_t with_full = listed_bytes(both, kept), without = listed_bytes(only, m);
+  std::printf("measured: the bake %ju bytes with the full form, %ju without\n", with_full, without);
+  EXPECT_LT(without, with_full);
+  // Asking for the full form, or for compress to fit another K, says what the bake holds and what to do.
+  try {
+    (void)bake_format::read_light_map(only, m);
+    ADD_FAILURE() << "the full form of a PCA-only bake was read";
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("light_map.transfer"), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("--light-map-pca-only"), std::string::npos) << error.what();
+  }
+  try {
+    baker::compress_bake(only, std::nullopt, bake_format::LightMapPcaOptions{8, 0.0, false}, nullptr);
+    ADD_FAILURE() << "compress fitted a PCA-only bake";
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("--light-map-pca-only"), std::string::npos) << error.what();
+  }
+  // compress drops the full form of a finished bake when asked, keeping the same PCA form.
+  baker::compress_bake(both, std::nullopt, bake_format::LightMapPcaOptions{4, 0.0, false}, nullptr);
+  EXPECT_TRUE(bake_format::verify(both).ok);
+  const bake_format::Manifest dropped = bake_format::read_manifest(both);
+  EXPECT_FALSE(dropped.light_map->has_full_form());
+  EXPECT_FALSE(std::filesystem::exists(both / "light_map_transfer.npy"));
+  EXPECT_FALSE(std::filesystem::exists(both / "light_map_ground.npy"));
+  EXPECT_EQ(bake_format::read_light_map(both, dropped, bake_format::LightMapForm::Pca).pca->sky.weights, b.pca->sky.weights);
+  EXPECT_EQ(listed_bytes(both, dropped), without);
 }
 
 }  // namespace light_map_test

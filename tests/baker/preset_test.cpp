@@ -77,6 +77,12 @@ TEST(BakePreset, ABadFieldIsNamed) {
   EXPECT_EQ(mapped.light_map_min_area, 0.1);  // skylit-bake's default
   EXPECT_EQ(mapped.light_map_min_across, 6);
   EXPECT_EQ(mapped.light_map_components, 32);
+  EXPECT_FALSE(mapped.light_map_pca_only);  // the full form kept unless the preset says otherwise
+  message = error_for("{frequency: 2, basis: corners, samples: 4, light_map: 0.1, light_map_pca_only: true}");
+  EXPECT_NE(message.find("quick.bake.light_map_pca_only"), std::string::npos) << message;
+  EXPECT_NE(message.find("light_map_components"), std::string::npos) << message;
+  message = error_for("{frequency: 2, basis: corners, samples: 4, light_map: 0.1, light_map_components: 32, light_map_pca_only: 3}");
+  EXPECT_NE(message.find("quick.bake.light_map_pca_only"), std::string::npos) << message;
   message = error_for("{frequency: 2, basis: corners, samples: 4, light_map_components: 32}");
   EXPECT_NE(message.find("quick.bake.light_map"), std::string::npos) << message;
   EXPECT_NE(message.find("need a light map"), std::string::npos) << message;

@@ -454,13 +454,14 @@ TEST(SkylitBake, PresetSetsTheBakeAndAnUnknownOneListsTheValidNames) {
   EXPECT_FALSE(fs::exists(dir / "other" / "manifest.json"));
 }
 
-// A preset's light map: its texel, smallest region, narrowest chart and PCA form reach the bake;
-// --light-map 0 on the command line turns it off, its PCA form with it.
+// A preset's light map: its texel, smallest region, narrowest chart and PCA form (alone) reach
+// the bake; --light-map-keep-full keeps the full form, --light-map 0 turns the map off, its PCA
+// form with it, and --light-map-pca-only without a PCA form is refused.
 TEST(SkylitBake, APresetsLightMapReachesTheBakeAndTheCommandLineTurnsItOff) {
   TempDir dir;
   const fs::path presets = dir / "presets.yaml";
   std::ofstream(presets) << "mapped:\n  bake: {frequency: 2, basis: faces, samples: 3, light_map: 0.5, light_map_min_area: 2, "
-                            "light_map_min_across: 2, light_map_components: 4}\n  live: {basis: full}\n";
+                            "light_map_min_across: 2, light_map_components: 4, light_map_pca_only: true}\n  live: {basis: full}\n";
   const std::string common = (kSource / "config" / "sample_site.yaml").string() + " --presets " + presets.string() +
                              " --preset mapped --method raytrace --resolution 8x4 --no-previews";
   const Result mapped = run(common + " -o " + (dir / "mapped").string());
@@ -472,10 +473,24 @@ TEST(SkylitBake, APresetsLightMapReachesTheBakeAndTheCommandLineTurnsItOff) {
   ASSERT_TRUE(m.light_map.has_value());
   ASSERT_TRUE(m.light_map->pca.has_value());
   EXPECT_EQ(m.light_map->pca->components, 4);
+  EXPECT_FALSE(m.light_map->has_full_form());
+  EXPECT_FALSE(fs::exists(dir / "mapped" / "light_map_transfer.npy"));
+
+  const Result kept = run(common + " --light-map-keep-full -o " + (dir / "kept").string());
+  ASSERT_EQ(kept.status, 0) << kept.output;
+  const auto k = skylit::bake_format::read_manifest(dir / "kept");
+  ASSERT_TRUE(k.light_map && k.light_map->pca);
+  EXPECT_TRUE(k.light_map->has_full_form());
+  EXPECT_TRUE(fs::exists(dir / "kept" / "light_map_transfer.npy"));
 
   const Result plain = run(common + " --light-map 0 -o " + (dir / "plain").string());
   ASSERT_EQ(plain.status, 0) << plain.output;
   EXPECT_FALSE(skylit::bake_format::read_manifest(dir / "plain").light_map.has_value());
+
+  const Result alone = run(common + " --light-map 0 --light-map-pca-only -o " + (dir / "alone").string());
+  EXPECT_EQ(alone.status, 2) << alone.output;
+  EXPECT_NE(alone.output.find("--light-map-components"), std::string::npos) << alone.output;
+  EXPECT_FALSE(fs::exists(dir / "alone" / "manifest.json"));
 }
 
 // The defaults a user meets first, on two bakes of the sample site at 16×16 texels a plane, both

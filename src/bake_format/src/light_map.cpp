@@ -155,6 +155,10 @@ LightMapArrays read_light_map(const fs::path& bake_dir, const Manifest& manifest
     out.pca = read_light_map_pca(bake_dir, manifest, out.layout);
     return out;
   }
+  if (!manifest.light_map->has_full_form()) {
+    throw InputError(input_message(bake_dir / "manifest.json", -1, -1, "light_map.transfer", "is not in this bake: it keeps only the light map's PCA form (skylit-bake --light-map-pca-only)",
+                                   "read its PCA form (render.light_map_form: auto or pca), or bake again without --light-map-pca-only"));
+  }
   std::vector<std::size_t> shape;
   out.transfer = read_npy(bake_dir / manifest.light_map->transfer_file, &shape);
   if (!manifest.light_map->ground_file.empty()) out.ground = read_npy(bake_dir / manifest.light_map->ground_file, &shape);

@@ -419,8 +419,10 @@ json to_json(const Manifest& m) {
                         {"height", l.height},
                         {"charts", {{"file", l.charts_file}, {"shape", json::array({l.chart_count, 15})}}},
                         {"triangles", {{"file", l.triangles_file}, {"shape", json::array({m.plan.triangle_count})}}},
-                        {"texels", {{"file", l.texels_file}, {"shape", json::array({m.plan.light_map.texels})}}},
-                        {"transfer", {{"file", l.transfer_file}, {"shape", json::array({m.plan.light_map.texels, layer_count})}}}};
+                        {"texels", {{"file", l.texels_file}, {"shape", json::array({m.plan.light_map.texels})}}}};
+    if (!l.transfer_file.empty()) {
+      out["light_map"]["transfer"] = {{"file", l.transfer_file}, {"shape", json::array({m.plan.light_map.texels, layer_count})}};
+    }
     if (!l.ground_file.empty()) {
       out["light_map"]["ground"] = {{"file", l.ground_file}, {"shape", json::array({m.plan.light_map.texels, layer_count})}};
     }
@@ -626,9 +628,16 @@ Manifest manifest_from_json(const json& j, const fs::path& source) {
     l.chart_count = file_of("charts", std::nullopt, 15, l.charts_file);
     file_of("triangles", m.plan.triangle_count, std::nullopt, l.triangles_file);
     file_of("texels", m.plan.light_map.texels, std::nullopt, l.texels_file);
-    file_of("transfer", m.plan.light_map.texels, m.layer_count(), l.transfer_file);
+    // The full form may be left out where the PCA form is there (skylit-bake --light-map-pca-only).
+    const bool full_form = section.contains("transfer") || !section.contains("pca");
+    if (full_form) {
+      file_of("transfer", m.plan.light_map.texels, m.layer_count(), l.transfer_file);
+    } else {
+      l.transfer_file.clear();
+    }
     if (section.contains("ground")) file_of("ground", m.plan.light_map.texels, m.layer_count(), l.ground_file);
-    if (l.ground_file.empty() != !m.ground) {
+    if (!full_form && !l.ground_file.empty()) src.fail("light_map.ground", "is there but light_map.transfer is not");
+    if (full_form && l.ground_file.empty() != !m.ground) {
       src.fail("light_map.ground", m.ground ? "is missing but the bake has a ground layer" : "is there but the bake has no ground layer");
     }
     if (section.contains("pca")) {

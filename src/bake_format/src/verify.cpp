@@ -172,7 +172,7 @@ class Checker {
       require_listed(m.light_map->charts_file, "light map charts");
       require_listed(m.light_map->triangles_file, "light map triangles");
       require_listed(m.light_map->texels_file, "light map texels");
-      require_listed(m.light_map->transfer_file, "light map transfer array");
+      if (m.light_map->has_full_form()) require_listed(m.light_map->transfer_file, "light map transfer array");
       if (!m.light_map->ground_file.empty()) require_listed(m.light_map->ground_file, "light map ground transfer array");
       if (const auto& pca = m.light_map->pca) {
         require_listed(pca->weights_file, "light map PCA weights");
@@ -358,7 +358,9 @@ VerifyReport verify(const fs::path& bake_dir) {
                       "(charts, 15: x, y, width, height, origin, u, v, texel_u, texel_v)", present);
     check.check_array(m.light_map->triangles_file, {static_cast<std::size_t>(m.plan.triangle_count)}, "(triangle_count)", present, "<u4");
     check.check_array(m.light_map->texels_file, {texels}, "(light map texels)", present, "<u4");
-    check.check_array(m.light_map->transfer_file, {texels, m.layer_count()}, "(light map texels, layer_count)", present);
+    if (m.light_map->has_full_form()) {
+      check.check_array(m.light_map->transfer_file, {texels, m.layer_count()}, "(light map texels, layer_count)", present);
+    }
     if (!m.light_map->ground_file.empty()) {
       check.check_array(m.light_map->ground_file, {texels, m.layer_count()}, "(light map texels, layer_count)", present);
     }

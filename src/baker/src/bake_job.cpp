@@ -550,14 +550,20 @@ std::uint64_t finalize(const fs::path& out_dir, bake_format::Manifest manifest, 
     if (plan.ground_samples > 0) record.ground_file = "light_map_ground.npy";
     fill_unseen_texels(layout, layers, texel_transfer, plan.ground_samples > 0 ? &texel_ground : nullptr);
     bake_format::write_light_map_layout(out_dir, record, layout);
-    const std::size_t shape[] = {layout.texels.size(), layers};
-    bake_format::write_npy(out_dir / record.transfer_file, texel_transfer, shape);
-    for (const std::string* file : {&record.charts_file, &record.triangles_file, &record.texels_file, &record.transfer_file}) {
+    for (const std::string* file : {&record.charts_file, &record.triangles_file, &record.texels_file}) {
       manifest.files.push_back({*file, 0, ""});
     }
-    if (!record.ground_file.empty()) {
-      bake_format::write_npy(out_dir / record.ground_file, texel_ground, shape);
-      manifest.files.push_back({record.ground_file, 0, ""});
+    if (light_map_pca && !light_map_pca->keep_full_form) {
+      record.transfer_file.clear();
+      record.ground_file.clear();
+    } else {
+      const std::size_t shape[] = {layout.texels.size(), layers};
+      bake_format::write_npy(out_dir / record.transfer_file, texel_transfer, shape);
+      manifest.files.push_back({record.transfer_file, 0, ""});
+      if (!record.ground_file.empty()) {
+        bake_format::write_npy(out_dir / record.ground_file, texel_ground, shape);
+        manifest.files.push_back({record.ground_file, 0, ""});
+      }
     }
     manifest.light_map = std::move(record);
     if (light_map_pca) write_light_map_pca_form(out_dir, manifest, layout, texel_transfer, texel_ground, *light_map_pca, log);
@@ -944,6 +950,12 @@ void compress_bake(const fs::path& bake_dir, const std::optional<bake_format::Pc
     throw InputError(bake_dir.string() + " has no light map to compress. Fix: bake it with --light-map TEXEL, or leave out "
                      "--light-map-components");
   }
+  if (light_map_pca && !manifest.light_map->has_full_form()) {
+    throw InputError(bake_dir.string() + " keeps only its light map's PCA form (K = " + std::to_string(manifest.light_map->pca->components) +
+                     "; it was baked with --light-map-pca-only), so there is nothing to fit another K to. Fix: bake again "
+                     "with --light-map-components K, or without --light-map-pca-only to compress it later");
+  }
+  std::vector<fs::path> dropped;  // the light map's full form, with --light-map-pca-only
   for (bake_format::PlaneRecord& record : manifest.planes) {
     if (!options) break;
     if (record.pca) {
@@ -962,8 +974,21 @@ void compress_bake(const fs::path& bake_dir, const std::optional<bake_format::Pc
     }
     const bake_format::LightMapArrays full = bake_format::read_light_map(bake_dir, manifest);
     write_light_map_pca_form(bake_dir, manifest, full.layout, full.transfer, full.ground, *light_map_pca, log);
+    if (!light_map_pca->keep_full_form) {
+      for (std::string* file : {&manifest.light_map->transfer_file, &manifest.light_map->ground_file}) {
+        if (file->empty()) continue;
+        std::erase_if(manifest.files, [&](const bake_format::FileRecord& f) { return f.path == *file; });
+        dropped.push_back(bake_dir / *file);
+        file->clear();
+      }
+    }
   }
+  // The manifest first: a crash between leaves files it does not list, never a list without files.
   bake_format::write_manifest(bake_dir, manifest);
+  for (const fs::path& file : dropped) fs::remove(file);
+  if (log && !dropped.empty()) {
+    std::fprintf(log, "skylit-bake: removed the light map's full form (%zu file(s)); the bake keeps its PCA form\n", dropped.size());
+  }
 }
 
 }  // namespace skylit::baker

@@ -6,9 +6,10 @@
 namespace skylit::baker {
 namespace {
 
-constexpr std::array<std::string_view, 11> kKeys{"frequency",  "basis",     "samples",           "pca_components",
+constexpr std::array<std::string_view, 12> kKeys{"frequency",  "basis",     "samples",           "pca_components",
                                                  "pca_tile",   "refine",    "vertex_fit",        "light_map",
-                                                 "light_map_min_area", "light_map_min_across", "light_map_components"};
+                                                 "light_map_min_area", "light_map_min_across", "light_map_components",
+                                                 "light_map_pca_only"};
 constexpr std::array<std::string_view, 3> kBases{"faces", "corners", "quadratics"};
 
 }  // namespace
@@ -60,6 +61,13 @@ BakePreset load_bake_preset(const PresetsFile& presets, const std::string& name)
     p.light_map_components = static_cast<int>(r.integer(n, s.field_of("light_map_components"), 0, 4096,
                                                         "components of the light map's PCA form, e.g. 32, or 0 for the full form only"));
     light_map_keys = true;
+  }
+  if (auto n = YamlReader::optional(s.node, "light_map_pca_only")) {
+    p.light_map_pca_only = r.boolean(n, s.field_of("light_map_pca_only"), "true or false (skylit-bake --light-map-pca-only)");
+    light_map_keys = true;
+    if (p.light_map_pca_only && p.light_map_components == 0) {
+      r.fail(n, s.field_of("light_map_pca_only"), "needs the PCA form", "add e.g. light_map_components: 32, or remove it");
+    }
   }
   if (p.light_map == 0 && light_map_keys) {
     r.fail(s.node, s.field_of("light_map"), "the light map's other keys need a light map", "add e.g. light_map: 0.1, or remove them");

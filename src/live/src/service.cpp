@@ -153,6 +153,12 @@ Service::Service(const LiveConfig& config, const ServiceOptions& options) : stat
                                      "add it with skylit-bake compress " + config.bake.string() +
                                          " --light-map-components 16, or set 'render: {light_map_form: auto}'"));
     }
+    if (config.render.light_map_form == "full" && !s.manifest.light_map->has_full_form()) {
+      throw InputError(input_message(config.file, -1, -1, "render.light_map_form",
+                                     "full, and the bake " + config.bake.string() + " keeps only its light map's PCA form "
+                                     "(skylit-bake --light-map-pca-only)",
+                                     "set 'render: {light_map_form: auto}', or re-bake with --light-map-keep-full"));
+    }
     const bool pca = has_pca && config.render.light_map_form != "full";
     s.light_map = bake_format::read_light_map(config.bake, s.manifest, pca ? bake_format::LightMapForm::Pca : bake_format::LightMapForm::Full);
     if (!config.render.ground_light) s.light_map.ground = {};

@@ -270,7 +270,7 @@ void make_bakes(const Run& run, const Grid& grid, const Sites& sites, Bakes& mad
       options.refine.tolerance = key.refine;
       options.vertex_fit = key.vertex_fit;
       if (key.light_map > 0) options.light_map = baker::LightMapOptions{key.light_map, run.o.light_map_min_area, run.o.light_map_min_across};
-      if (key.light_map > 0 && run.o.light_map_components > 0) options.light_map_pca = bake_format::LightMapPcaOptions{run.o.light_map_components, 0.0};
+      if (key.light_map > 0 && run.o.light_map_components > 0) options.light_map_pca = bake_format::LightMapPcaOptions{run.o.light_map_components, 0.0, true};
       options.force = true;
       options.previews = false;
       const auto t = Clock::now();

@@ -77,6 +77,9 @@ struct LightMapPcaOptions {
   // (bench/RESULTS.md). The ground's layers carry the separated sources' light on the ground,
   // one face's spike, so the ground's transfer is always fitted with every layer alike.
   double sky_correlation_deg = 0.0;
+  // The bake keeps the full form beside it (skylit-bake compress can then fit another K), or
+  // leaves it out (--light-map-pca-only): the full form is 480 floats per texel, most of a bake.
+  bool keep_full_form = true;
 };
 // std::invalid_argument naming the field.
 void check_light_map_pca_options(const LightMapPcaOptions& options);

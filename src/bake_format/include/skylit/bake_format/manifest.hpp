@@ -180,10 +180,12 @@ struct Manifest {
     std::string charts_file = "light_map_charts.npy";
     std::string triangles_file = "light_map_triangles.npy";
     std::string texels_file = "light_map_texels.npy";
+    // The full form; both empty when the bake keeps only the PCA form (--light-map-pca-only).
     std::string transfer_file = "light_map_transfer.npy";
     std::string ground_file;                // "light_map_ground.npy" with a ground layer, else empty
+    bool has_full_form() const { return !transfer_file.empty(); }
     // Optional: the transfer compressed chart by chart (light_map_pca.hpp; skylit-bake
-    // --light-map-components), the full form staying beside it.
+    // --light-map-components), the full form beside it unless --light-map-pca-only.
     struct Pca {
       int components = 0;
       double sky_correlation_deg = 0.0;

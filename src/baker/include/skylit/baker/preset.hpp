@@ -21,6 +21,7 @@ struct BakePreset {
   double light_map_min_area = 0.1;                // --light-map-min-area, m²
   int light_map_min_across = 10;                  // --light-map-min-across, texels
   int light_map_components = 0;                   // --light-map-components (0: the full form only)
+  bool light_map_pca_only = false;                // --light-map-pca-only: the bake leaves the full form out
 };
 
 // The bake section of preset `name`. InputError (file, line, field, fix) for anything wrong.
