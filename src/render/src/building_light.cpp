@@ -207,24 +207,39 @@ void LightMapTexture::sum_full(const Coefficients& sky, const Coefficients& refl
 }
 
 void LightMapTexture::sum_pca(const Coefficients& sky, const Coefficients& reflected, std::vector<float>& atlas) const {
-  // Per chart its K + 1 vectors times S (one matrix product over every chart), then per texel K
-  // multiply-adds per channel.
+  // Per chart its K + 1 vectors times S (matrix products over blocks of charts' rows, on every
+  // core), then per texel K multiply-adds per channel. The sums are row-major, so that a chart's
+  // (K + 1) × 3 lie together for its texels.
   using Rows = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-  const auto per_chart = [&](const bake_format::LightMapComponents& c, const Coefficients& coefficients) -> Coefficients {
-    const auto rows = static_cast<Eigen::Index>(c.vectors.size() / layers_);
-    return Eigen::Map<const Rows>(c.vectors.data(), rows, static_cast<Eigen::Index>(layers_)) * coefficients;
+  using Sums = Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor>;
+  const auto layers = static_cast<Eigen::Index>(layers_);
+  const auto per_chart = [&](const bake_format::LightMapComponents& c, const Coefficients& coefficients) {
+    const std::size_t rows = c.vectors.size() / layers_;
+    constexpr std::size_t kRows = 2048;
+    Sums sums(static_cast<Eigen::Index>(rows), 3);
+    parallel_for(static_cast<int>((rows + kRows - 1) / kRows), 0, [&](int block) {
+      const std::size_t first = static_cast<std::size_t>(block) * kRows, n = std::min(rows, first + kRows) - first;
+      sums.middleRows(static_cast<Eigen::Index>(first), static_cast<Eigen::Index>(n)).noalias() =
+          Eigen::Map<const Rows>(c.vectors.data() + first * layers_, static_cast<Eigen::Index>(n), layers) * coefficients;
+    });
+    return sums;
   };
-  const Coefficients sky_sums = per_chart(pca_->sky, sky);
-  const Coefficients ground_sums = pca_->ground.components > 0 ? per_chart(pca_->ground, reflected) : Coefficients();
-  const auto add = [&](const bake_format::LightMapComponents& c, const Coefficients& sums, std::size_t x, float* out) {
+  const Sums sky_sums = per_chart(pca_->sky, sky);
+  const Sums ground_sums = pca_->ground.components > 0 ? per_chart(pca_->ground, reflected) : Sums();
+  const auto add = [&](const bake_format::LightMapComponents& c, const Sums& sums, std::size_t x, float* out) {
     const auto k = static_cast<std::size_t>(c.components);
-    const auto first = static_cast<Eigen::Index>(static_cast<std::size_t>(texel_chart_[x]) * (k + 1));
+    const float* s = sums.data() + static_cast<std::size_t>(texel_chart_[x]) * (k + 1) * 3;
     const float* a = c.weights.data() + x * k;
-    for (int ch = 0; ch < 3; ++ch) {
-      float e = sums(first, ch);
-      for (std::size_t j = 0; j < k; ++j) e += a[j] * sums(first + 1 + static_cast<Eigen::Index>(j), ch);
-      out[ch] += e;
+    float e0 = s[0], e1 = s[1], e2 = s[2];
+    for (std::size_t j = 0; j < k; ++j) {
+      const float* p = s + 3 * (j + 1);
+      e0 += a[j] * p[0];
+      e1 += a[j] * p[1];
+      e2 += a[j] * p[2];
     }
+    out[0] += e0;
+    out[1] += e1;
+    out[2] += e2;
   };
   const std::size_t count = texels_.size();
   constexpr std::size_t kBlock = 16384;
