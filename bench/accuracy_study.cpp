@@ -181,6 +181,10 @@ int main(int argc, char** argv) {
                  "corners64+fill,corners64+sources; quadratics,quadratics64,quadratics64+sources");
   std::string only_sky;
   bool dump = false;
+  bool reuse_bakes = false;
+  app.add_flag("--reuse-bakes", reuse_bakes,
+               "a configuration whose bake directory under --out already holds a finished bake uses it as it is "
+               "(its settings are not checked: for a rerun of the same study on other skies)");
   int reference_supersample = 4;
   app.add_option("--reference-supersample", reference_supersample,
                  "reference: bright pixels and their neighbours as N×N bilinear sub-directions (1: one point per pixel)")
@@ -325,7 +329,11 @@ int main(int argc, char** argv) {
     if (light_map_options.texel > 0.0) options.light_map = light_map_options;
     if (light_map_options.texel > 0.0 && light_map_pca.components > 0) options.light_map_pca = light_map_pca;
     const auto t = Clock::now();
-    skylit::baker::run_bake(options, stderr);
+    if (reuse_bakes && fs::exists(dir / "manifest.json")) {
+      std::fprintf(stderr, "reusing the bake in %s (--reuse-bakes: its settings are taken on trust)\n", dir.c_str());
+    } else {
+      skylit::baker::run_bake(options, stderr);
+    }
     bake_seconds[key] = seconds_since(t);
     bakes[key] = dir;
   }
