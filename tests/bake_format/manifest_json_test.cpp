@@ -262,6 +262,9 @@ TEST(ManifestJson, TheLightMapRoundTripsAndMustAgreeWithThePlan) {
   ASSERT_TRUE(e.light_map && e.light_map->pca);
   EXPECT_FALSE(e.light_map->has_full_form());
   EXPECT_EQ(to_json(e), q);
+  json ground_alone = q;
+  ground_alone["light_map"]["ground"] = p["light_map"]["transfer"];
+  EXPECT_THROW(manifest_from_json(ground_alone, "manifest.json"), InputError) << "the full form's ground without its transfer";
   // Neither form is refused, naming the full form's entry.
   json neither = q;
   neither["light_map"].erase("pca");

@@ -420,7 +420,7 @@ json to_json(const Manifest& m) {
                         {"charts", {{"file", l.charts_file}, {"shape", json::array({l.chart_count, 15})}}},
                         {"triangles", {{"file", l.triangles_file}, {"shape", json::array({m.plan.triangle_count})}}},
                         {"texels", {{"file", l.texels_file}, {"shape", json::array({m.plan.light_map.texels})}}}};
-    if (!l.transfer_file.empty()) {
+    if (l.has_full_form()) {
       out["light_map"]["transfer"] = {{"file", l.transfer_file}, {"shape", json::array({m.plan.light_map.texels, layer_count})}};
     }
     if (!l.ground_file.empty()) {

@@ -547,16 +547,15 @@ std::uint64_t finalize(const fs::path& out_dir, bake_format::Manifest manifest, 
     record.width = layout.width;
     record.height = layout.height;
     record.chart_count = layout.charts.size();
-    if (plan.ground_samples > 0) record.ground_file = "light_map_ground.npy";
+    const bool full_form = !light_map_pca || light_map_pca->keep_full_form;
+    if (!full_form) record.transfer_file.clear();
+    if (full_form && plan.ground_samples > 0) record.ground_file = "light_map_ground.npy";
     fill_unseen_texels(layout, layers, texel_transfer, plan.ground_samples > 0 ? &texel_ground : nullptr);
     bake_format::write_light_map_layout(out_dir, record, layout);
     for (const std::string* file : {&record.charts_file, &record.triangles_file, &record.texels_file}) {
       manifest.files.push_back({*file, 0, ""});
     }
-    if (light_map_pca && !light_map_pca->keep_full_form) {
-      record.transfer_file.clear();
-      record.ground_file.clear();
-    } else {
+    if (full_form) {
       const std::size_t shape[] = {layout.texels.size(), layers};
       bake_format::write_npy(out_dir / record.transfer_file, texel_transfer, shape);
       manifest.files.push_back({record.transfer_file, 0, ""});
