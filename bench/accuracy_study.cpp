@@ -936,6 +936,53 @@ int main(int argc, char** argv) {
         }
         inside = building_errors(shown, seen_ref, horizontal);
         inside_by_area = building_errors(shown, seen_ref, horizontal, inside_areas);
+        // Negative coefficients (corners, quadratics: a fit's undershoot beside a bright spot) as
+        // the blend keeps them and as the compositor's building counted them before
+        // (render::BuildingIrradiance: as 0): their share of the horizontal irradiance, and the
+        // building as shown with them taken as 0.
+        {
+          std::vector<Eigen::Vector3d> zeroed(S.begin(), S.end());
+          Eigen::Vector3d negative = Eigen::Vector3d::Zero();
+          int channels = 0;
+          for (std::size_t i = 0; i < zeroed.size(); ++i) {
+            for (int ch = 0; ch < 3; ++ch) {
+              if (zeroed[i][ch] >= 0.0) continue;
+              ++channels;
+              if (manifest.ground) negative[ch] += zeroed[i][ch] * manifest.ground->horizontal_unoccluded[i];
+              zeroed[i][ch] = 0.0;
+            }
+          }
+          if (channels > 0) {
+            skylit::blend::GroundLight zeroed_ground = ground;
+            if (!ground.transfer.empty()) {
+              std::vector<skylit::blend::SunLight> lights;
+              for (const SourceLight& source : building_sources) lights.push_back({source.direction, source.energy});
+              const skylit::blend::GroundLayers layers(manifest.plan.frequency, manifest.plan.basis, manifest.ground->horizontal_unoccluded);
+              zeroed_ground.coefficients = layers.coefficients(zeroed, lights);
+            }
+            InsideTerms zeroed_split = building_terms_inside(inside_points, transfer, zeroed, building_sources, estimate.sun.has_value(),
+                                                             site, mesh, zeroed_ground);
+            if (texel_map) {
+              skylit::blend::GroundLight zeroed_texel_ground = zeroed_ground;
+              zeroed_texel_ground.transfer = texel_ground.transfer;
+              const InsideTerms zeroed_vertex_sky = building_terms_inside(inside_points, transfer, zeroed, {}, false, site, mesh);
+              use_light_map(inside_points, texel_map->layout, texel_map->transfer, zeroed, zeroed_texel_ground, zeroed_vertex_sky.sky,
+                            zeroed_split);
+            }
+            const std::vector<Eigen::Vector3d> zeroed_all =
+                shown_inside(inside_points, zeroed_split, virtual_shading(site, bake_planes, plane_T, plane_D));
+            std::vector<Eigen::Vector3d> zeroed_shown;
+            for (const std::size_t k : inside_seen) zeroed_shown.push_back(zeroed_all[k]);
+            const Errors zeroed_errors = building_errors(zeroed_shown, seen_ref, horizontal, inside_areas);
+            std::fprintf(stderr,
+                         "%s %s: %d negative S channels of %zu, their horizontal irradiance %.4f of E_h; the building inside its "
+                         "triangles with them as 0: RMS %.4f, p99 %.4f by area (%.4f, %.4f as they are)\n",
+                         sky_file.stem().c_str(), c.name.c_str(), channels, 3 * S.size(), luminance(negative) / luminance(horizontal),
+                         zeroed_errors.rms, zeroed_errors.p99, inside_by_area.rms, inside_by_area.p99);
+          } else {
+            std::fprintf(stderr, "%s %s: no negative S channel\n", sky_file.stem().c_str(), c.name.c_str());
+          }
+        }
         if (texel_map) {
           // Where the error lies: the triangles the light map covers, and the rest (their vertices).
           std::array<std::vector<Eigen::Vector3d>, 2> part_shown, part_ref;

@@ -254,8 +254,10 @@ void BM_CompositeStages(benchmark::State& state) {
 }
 
 // A frame that takes a new sky (every frame here; the service takes one a second): the building's
-// per-vertex sky irradiance is summed again on the CPU. args: width, height, render scale in
-// percent, the ground's light (render.ground_light: its layer summed too).
+// light (per vertex and per light-map texel) is summed again on the CPU, or (ahead 1) taken
+// summed already, as the live service's sky thread sums it for each sky (CompositeInput::
+// irradiance: the frame uploads it). args: width, height, render scale in percent, the ground's
+// light (render.ground_light: its layer summed too), ahead.
 void BM_CompositeDrawNewSky(benchmark::State& state) {
   Scene& scene = Scene::get();
   const camera::CameraCalibration calibration = camera(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
@@ -271,21 +273,59 @@ void BM_CompositeDrawNewSky(benchmark::State& state) {
   render::CompositeInput input = frame_input(scene, calibration, image);
   std::vector<Eigen::Vector3d> skies[2] = {scene.sky, scene.sky};
   for (Eigen::Vector3d& value : skies[1]) value *= 1.01;
+  std::shared_ptr<const render::SkyIrradiance> sums[2];
+  for (int j = 0; j < 2 && state.range(4) != 0; ++j) {
+    sums[j] = std::make_shared<const render::SkyIrradiance>(compositor.building_irradiance()->sum(skies[j], input.sun, input.lamps));
+  }
   compositor.composite(input);
   int k = 0;
   for (auto _ : state) {
-    input.sky = skies[k ^= 1];
+    k ^= 1;
+    input.sky = skies[k];
+    input.irradiance = sums[k];
     compositor.draw(input);
     glFinish();
   }
   pinhole_counters(state, compositor);
+  state.counters["summed_in_frame"] = compositor.last_stats().building_light_summed ? 1 : 0;
+}
+
+// The building's light for one sky alone (BuildingIrradiance::sum: per vertex and per light-map
+// texel, on every core), as the live service's sky thread sums it. arg: the ground's light.
+void BM_BuildingLightSum(benchmark::State& state) {
+  Scene& scene = Scene::get();
+  const camera::CameraCalibration calibration = camera(640, 480);
+  render::CompositorOptions options = light_mapped(scene);
+  if (state.range(0) != 0) {
+    options.ground_albedo = Eigen::Vector3d::Constant(0.2);
+    options.ground_transfer = scene.ground_transfer;
+    options.light_map.ground = scene.light_map.ground;
+  }
+  const render::Compositor compositor(scene.site, scene.mesh, scene.manifest, scene.transfer, calibration, options);
+  const std::shared_ptr<const render::BuildingIrradiance> building = compositor.building_irradiance();
+  const std::clock_t cpu_start = std::clock();
+  for (auto _ : state) {
+    const render::SkyIrradiance sums = building->sum(scene.sky, scene.sun, {});
+    benchmark::DoNotOptimize(sums.vertices.data());
+  }
+  state.counters["process_cpu_ms"] = 1000.0 * static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC /
+                                     static_cast<double>(state.iterations());
+  state.counters["atlas_texels"] = static_cast<double>(building->atlas_width()) * building->atlas_height();
 }
 
 void BM_CompositeDraw(benchmark::State& state) { frame(state, false); }
 void BM_CompositeWithReadBack(benchmark::State& state) { frame(state, true); }
 
 BENCHMARK(BM_CompositeDraw)->Args({640, 480, 100})->Args({640, 480, 60})->Args({1280, 720, 100})->Args({1920, 1080, 100})->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK(BM_CompositeDrawNewSky)->ArgNames({"width", "height", "scale", "ground"})->Args({640, 480, 60, 0})->Args({640, 480, 60, 1})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_CompositeDrawNewSky)
+    ->ArgNames({"width", "height", "scale", "ground", "ahead"})
+    ->Args({640, 480, 60, 0, 0})
+    ->Args({640, 480, 60, 1, 0})
+    ->Args({640, 480, 60, 0, 1})
+    ->Args({640, 480, 60, 1, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK(BM_BuildingLightSum)->ArgNames({"ground"})->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_CompositeWithReadBack)->Args({640, 480, 100})->Args({1280, 720, 100})->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_CompositeStages)
     ->ArgNames({"w", "h", "scale%", "sun_map"})

@@ -354,6 +354,11 @@ TEST(ServiceConfig, ABakeOfARefinedModelWithALightMapRunsOnTheRefinedModel) {
   {
     live::Service service(live::load_live_config(file), options);
     EXPECT_GE(service.run(), 2);
+    // The building's light is summed on the sky thread, once per sky, and the frames take it.
+    const nlohmann::json status = nlohmann::json::parse(service.status_json());
+    EXPECT_GT(status["stage_ms_p50"]["building_light"].get<double>(), 0.0) << status["stage_ms_p50"].dump();
+    EXPECT_GE(status["building_light_sums"]["sky_thread"].get<std::int64_t>(), 1) << status["building_light_sums"].dump();
+    EXPECT_EQ(status["building_light_sums"]["in_frame"].get<std::int64_t>(), 0) << status["building_light_sums"].dump();
   }
   // Its PCA form: asked for before the bake has one, refused with the fix; then added and drawn.
   std::ofstream(file) << text << "render:\n  ground_light: true\n  light_map_form: pca\n";

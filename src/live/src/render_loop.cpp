@@ -277,10 +277,15 @@ void Service::State::RenderLoop::make_compositor_and_display() {
   compositor_options.lens.render_scale = s.config.render.scale;
   if (s.config.render.ground_light) {
     compositor_options.ground_albedo = s.config.render.ground_albedo.value_or(s.config.photometric.albedo);
-    compositor_options.ground_transfer = s.ground_transfer;
   }
-  compositor_options.light_map = s.light_map;
-  compositor.emplace(s.site, s.mesh, s.manifest, s.transfer, s.hmd_calibration, compositor_options);
+  // The first compositor takes the bake's arrays and makes the building's sums per sky; the right
+  // eye's shares them, and the sky thread sums them ahead for each sky.
+  render::CompositorOptions first = compositor_options;
+  if (s.config.render.ground_light) first.ground_transfer = std::move(s.ground_transfer);
+  first.light_map = std::move(s.light_map);
+  compositor.emplace(s.site, s.mesh, s.manifest, s.transfer, s.hmd_calibration, std::move(first));
+  s.building_irradiance = compositor->building_irradiance();
+  compositor_options.building_irradiance = s.building_irradiance;
   if (window) camera_texture.emplace();
   if (window && hmd_profile) hmd.emplace(*hmd_profile);
   stereo = hmd && s.config.display->stereo;
@@ -549,6 +554,7 @@ cv::Mat Service::State::RenderLoop::composite_and_show(FrameStageTimes& times, c
     const std::size_t first = sky->sun ? 1 : 0;
     if (vertex.size() == first + sky->lamps.size()) input.lamp_vertex_visibility = std::span(vertex).subspan(first);
   }
+  input.irradiance = sky->building_light;
   input.opacity = opacity;
   if (reference_plane &&
       (!last_photometric_estimate || frames - *last_photometric_estimate >= s.config.photometric.every)) {
@@ -583,6 +589,9 @@ cv::Mat Service::State::RenderLoop::composite_and_show(FrameStageTimes& times, c
     window->present(hmd->panel_texture(), hmd_profile->panel_width, hmd_profile->panel_height);
   } else if (window) {
     present(compositor->display_texture(), s.hmd_calibration.image_width, s.hmd_calibration.image_height);
+  }
+  for (const render::Compositor* drawn : {&*compositor, compositor_right ? &*compositor_right : nullptr}) {
+    if (drawn != nullptr && drawn->last_stats().building_light_summed) ++s.counters.building_light_in_frame;
   }
   return composite;
 }

@@ -102,6 +102,10 @@ struct Counters {
   std::atomic<std::int64_t> sky_estimates{0};
   std::atomic<std::int64_t> blends_run{0};
   std::atomic<std::int64_t> blends_skipped{0};
+  // The building's light summed for a new sky: ahead on the sky thread, or by a compositor in the
+  // frame that took the sky (a sky that came without its sums).
+  std::atomic<std::int64_t> building_light_sky_thread{0};
+  std::atomic<std::int64_t> building_light_in_frame{0};
   std::atomic<std::int64_t> pose_missing{0};
   std::atomic<std::int64_t> frames_without_sky{0};
   std::atomic<std::int64_t> sky_errors{0};

@@ -43,6 +43,7 @@
 #include "skylit/live/service.hpp"
 #include "skylit/live/status_server.hpp"
 #include "skylit/live/sun_shadow_exchange.hpp"
+#include "skylit/render/building_irradiance.hpp"
 #include "skylit/render/photometric.hpp"
 #include "skylit/scene/mesh.hpp"
 #include "skylit/scene/site.hpp"
@@ -91,6 +92,10 @@ struct SkyState {
   // null without a sun. The render thread switches to it when it differs from the one it has.
   SunShadowHandle sun_map;
   double cpu_blend_ms = 0;        // the CPU blend of every plane
+  // The building's light for this S and these sources (render::BuildingIrradiance::sum), summed
+  // on the sky thread so that the frame that takes the sky does not; null: the compositor sums.
+  std::shared_ptr<const render::SkyIrradiance> building_light;
+  double building_light_ms = 0;
   double sun_visibility_ms = 0;   // the sky thread's sun shadow map, and V read back for the CPU blend (when the sun moved)
 };
 
@@ -149,8 +154,10 @@ struct Service::State {
   scene::Mesh mesh;
   bake_format::Manifest manifest;
   std::vector<float> transfer;
-  std::vector<float> ground_transfer;  // the bake's ground layer, with render.ground_light
-  bake_format::LightMapArrays light_map;  // the bake's light map, with render.light_map (no texels: none)
+  std::vector<float> ground_transfer;  // the bake's ground layer, with render.ground_light (moved into the compositor)
+  bake_format::LightMapArrays light_map;  // the bake's light map, with render.light_map (no texels: none; moved as ground_transfer)
+  // The building's sums per sky, the compositors' (made with the first, before the sky thread starts).
+  std::shared_ptr<const render::BuildingIrradiance> building_irradiance;
   std::vector<blend::BasisImages> bases;
   camera::CameraCalibration sky_calibration, hmd_calibration;
   // camera.stereo: both cameras (hmd_calibration is its left); frames come side by side.
@@ -199,7 +206,7 @@ struct Service::State {
   // Statistics (render thread writes, status reads).
   mutable std::mutex stats_mutex;
   FrameTimes frame_times{600}, blend_times{600}, upload_times{600}, composite_times{600}, record_times{600};
-  FrameTimes sun_shadow_times{600}, sky_sun_visibility_times{600};
+  FrameTimes sun_shadow_times{600}, sky_sun_visibility_times{600}, building_light_times{600};
   FrameTimes sky_change_frame_times{600};  // frames that took a new sky (its shadow map and T)
   // From the camera thread receiving a frame to its composite being done (shown, recorded): the
   // part of motion-to-photon latency the service adds (docs/live.md, "Running the service").

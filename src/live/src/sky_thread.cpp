@@ -76,6 +76,7 @@ class Service::State::SkyThread {
   void apply_ground_contrast(SkyState& state) const;
   bool draw_sun_map(SkyState& state);
   void blend_planes(SkyState& state);
+  void sum_building_light(SkyState& state) const;
   void publish(EstimatedSky& sky);
 
   State& s;
@@ -130,7 +131,9 @@ void Service::State::SkyThread::run(std::promise<void>& ready) {
       if (!draw_sun_map(sky.state)) break;  // closed: the service is stopping
       // 4. With the blend on the CPU: T of every plane in view, so that the render thread only uploads it.
       if (cpu) blend_planes(sky.state);
-      // 5. To the render thread, and to /status.
+      // 5. The building's light for this sky, so that the frame that takes it does not sum it.
+      sum_building_light(sky.state);
+      // 6. To the render thread, and to /status.
       publish(sky);
     } catch (const std::exception& e) {
       ++s.counters.sky_errors;
@@ -286,6 +289,7 @@ void Service::State::SkyThread::run_from_link() {
       apply_ground_contrast(sky.state);
       if (!draw_sun_map(sky.state)) break;
       if (cpu) blend_planes(sky.state);
+      sum_building_light(sky.state);
       publish(sky);
     } catch (const std::exception& e) {
       ++s.counters.sky_errors;
@@ -385,6 +389,16 @@ void Service::State::SkyThread::blend_planes(SkyState& state) {
   s.blend_times.add(state.cpu_blend_ms / 1e3, now_seconds());
 }
 
+void Service::State::SkyThread::sum_building_light(SkyState& state) const {
+  if (!s.building_irradiance || state.S.size() != s.building_irradiance->layer_count()) return;  // the compositor says why
+  const auto start = Clock::now();
+  state.building_light = std::make_shared<const render::SkyIrradiance>(s.building_irradiance->sum(state.S, state.sun, state.lamps));
+  state.building_light_ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+  ++s.counters.building_light_sky_thread;
+  std::lock_guard lock(s.stats_mutex);
+  s.building_light_times.add(state.building_light_ms / 1e3, now_seconds());
+}
+
 void Service::State::SkyThread::publish(EstimatedSky& sky) {
   SkyState& state = sky.state;
   if (state.sun_visibility_ms > 0) {
@@ -399,6 +413,7 @@ void Service::State::SkyThread::publish(EstimatedSky& sky) {
   {
     SkyState for_status = state;
     for_status.sun_map = nullptr;  // /status holds no map: a slot is free once the render thread is done with it
+    for_status.building_light = nullptr;  // nor the building's sums: they go with the render thread's sky
     s.latest_sky.set(std::move(for_status));
   }
   s.sky_box.put(std::move(state));

@@ -85,6 +85,7 @@ nlohmann::json Service::State::status_report() const {
                          {"blend", 1e3 * blend_times.percentile(0.5)},
                          {"upload", 1e3 * upload_times.percentile(0.5)},
                          {"sky_sun_visibility", 1e3 * sky_sun_visibility_times.percentile(0.5)},
+                         {"building_light", 1e3 * building_light_times.percentile(0.5)},
                          {"composite", 1e3 * composite_times.percentile(0.5)},
                          {"record", 1e3 * record_times.percentile(0.5)}};
     if (photometric) j["photometric_scale"] = {photometric->scale.x(), photometric->scale.y(), photometric->scale.z()};
@@ -217,6 +218,8 @@ nlohmann::json Service::State::status_report() const {
   }
   j["sky"] = sky_json;
   j["blends"] = {{"run", counters.blends_run.load()}, {"skipped", counters.blends_skipped.load()}};
+  j["building_light_sums"] = {{"sky_thread", counters.building_light_sky_thread.load()},
+                              {"in_frame", counters.building_light_in_frame.load()}};
   // The sun's shadow maps, all drawn on the sky thread: drawn, switched to by the render thread
   // (a skipped one was overtaken by a newer sun before a frame took it), and draws that waited
   // for the render thread to free a map.
@@ -312,6 +315,11 @@ std::string Service::metrics_text() const {
                double(s.counters.pose_missing.load()), ""});
   m.push_back({"skylit_blends_total", "Plane blends run.", "counter", double(s.counters.blends_run.load()), "result=\"run\""});
   m.push_back({"skylit_blends_total", "Plane blends run.", "counter", double(s.counters.blends_skipped.load()), "result=\"skipped\""});
+  const char* sums_help = "The building's light summed for a new sky: ahead on the sky thread, or in the frame that took it.";
+  m.push_back({"skylit_building_light_sums_total", sums_help, "counter", double(s.counters.building_light_sky_thread.load()),
+               "on=\"sky_thread\""});
+  m.push_back({"skylit_building_light_sums_total", sums_help, "counter", double(s.counters.building_light_in_frame.load()),
+               "on=\"frame\""});
   m.push_back({"skylit_frame_rate", "Frames per second over the last 600 frames.", "gauge", j["frame_rate"].get<double>(), ""});
   {
     std::lock_guard lock(s.stats_mutex);

@@ -73,7 +73,7 @@ bool pca_fits(const bake_format::LightMapComponents& c, std::size_t texels, std:
 
 }  // namespace
 
-void LightMapTexture::check(const bake_format::LightMapArrays& arrays, bool ground, const scene::Mesh& mesh, std::size_t layers) {
+void LightMapSums::check(const bake_format::LightMapArrays& arrays, bool ground, const scene::Mesh& mesh, std::size_t layers) {
   const bake_format::LightMapLayout& l = arrays.layout;
   const std::size_t texels = l.texels.size();
   std::string problem;
@@ -134,16 +134,15 @@ std::vector<float> per_draw_vertex(const DrawVertices& draw, std::span<const flo
   return out;
 }
 
-LightMapTexture::LightMapTexture(bake_format::LightMapArrays&& arrays, bool ground, std::size_t layers)
-    : texels_(arrays.layout.texels), layers_(layers), width_(arrays.layout.width), height_(arrays.layout.height),
-      texture_(arrays.layout.width, arrays.layout.height) {
+LightMapSums::LightMapSums(bake_format::LightMapArrays&& arrays, bool ground, std::size_t layers)
+    : texels_(arrays.layout.texels), layers_(layers), width_(arrays.layout.width), height_(arrays.layout.height) {
   const std::size_t count = texels_.size();
   if (arrays.pca) {
     texel_chart_ = bake_format::light_map_texel_charts(arrays.layout);
     const std::size_t charts = arrays.layout.charts.size();
     if (!pca_fits(arrays.pca->sky, count, charts, layers) || (ground && !pca_fits(arrays.pca->ground, count, charts, layers)) ||
         std::find(texel_chart_.begin(), texel_chart_.end(), -1) != texel_chart_.end()) {
-      throw std::invalid_argument("LightMapTexture: the PCA form does not fit " + std::to_string(count) + " texels of " +
+      throw std::invalid_argument("LightMapSums: the PCA form does not fit " + std::to_string(count) + " texels of " +
                                   std::to_string(layers) + " layers");
     }
     pca_ = std::move(arrays.pca);
@@ -155,13 +154,13 @@ LightMapTexture::LightMapTexture(bake_format::LightMapArrays&& arrays, bool grou
   arrays.transfer = {};
   arrays.ground = {};
   if (layers == 0 || transfer_.size() != count * layers || (!ground_.empty() && ground_.size() != transfer_.size())) {
-    throw std::invalid_argument("LightMapTexture: " + std::to_string(transfer_.size()) + " transfer and " + std::to_string(ground_.size()) +
+    throw std::invalid_argument("LightMapSums: " + std::to_string(transfer_.size()) + " transfer and " + std::to_string(ground_.size()) +
                                 " ground values for " + std::to_string(count) + " texels of " + std::to_string(layers) + " layers");
   }
 }
 
-void LightMapTexture::update(std::span<const Eigen::Vector3d> S, std::span<const Eigen::Vector3d> ground_coefficients,
-                             const Eigen::Vector3d& albedo) {
+std::vector<float> LightMapSums::sum(std::span<const Eigen::Vector3d> S, std::span<const Eigen::Vector3d> ground_coefficients,
+                                     const Eigen::Vector3d& albedo) const {
   Coefficients sky = Coefficients::Zero(static_cast<Eigen::Index>(layers_), 3);
   Coefficients reflected = Coefficients::Zero(static_cast<Eigen::Index>(layers_), 3);
   for (std::size_t l = 0; l < std::min(layers_, S.size()); ++l) {
@@ -182,10 +181,10 @@ void LightMapTexture::update(std::span<const Eigen::Vector3d> S, std::span<const
   } else {
     sum_full(sky, reflected, atlas);
   }
-  texture_.upload(atlas);
+  return atlas;
 }
 
-void LightMapTexture::sum_full(const Coefficients& sky, const Coefficients& reflected, std::vector<float>& atlas) const {
+void LightMapSums::sum_full(const Coefficients& sky, const Coefficients& reflected, std::vector<float>& atlas) const {
   // E = T S (+ G ρS^g): texels × layers times layers × 3, as matrix products (SIMD) over blocks of
   // texels on every core.
   using Rows = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
@@ -206,7 +205,7 @@ void LightMapTexture::sum_full(const Coefficients& sky, const Coefficients& refl
   });
 }
 
-void LightMapTexture::sum_pca(const Coefficients& sky, const Coefficients& reflected, std::vector<float>& atlas) const {
+void LightMapSums::sum_pca(const Coefficients& sky, const Coefficients& reflected, std::vector<float>& atlas) const {
   // Per chart its K + 1 vectors times S (matrix products over blocks of charts' rows, on every
   // core), then per texel K multiply-adds per channel. The sums are row-major, so that a chart's
   // (K + 1) × 3 lie together for its texels.

@@ -9,10 +9,7 @@
 #include <vector>
 
 #include <Eigen/Core>
-#include <GLES3/gl31.h>
-
 #include "skylit/bake_format/light_map.hpp"
-#include "skylit/render/textures.hpp"
 #include "skylit/scene/mesh.hpp"
 
 namespace skylit::render {
@@ -41,25 +38,24 @@ DrawVertices draw_vertices(const scene::Mesh& mesh, const bake_format::LightMapL
 std::vector<float> per_draw_vertex(const DrawVertices& draw, std::span<const float> values, int components,
                                    std::span<const float> charted_less = {});
 
-class LightMapTexture {
+// The light map's sums on the CPU (no GL: any thread may sum while another draws).
+class LightMapSums {
  public:
   // The options' light map (either form) checked against the model and the bake (InputError naming
   // the fix); `ground`: the ground's light is on (its transfer then needed too).
   static void check(const bake_format::LightMapArrays& arrays, bool ground, const scene::Mesh& mesh, std::size_t layers);
   // The full form: transfer and ground (empty: none) texel-major, `layers` per texel; or the PCA
-  // form when arrays.pca holds it (its ground's with `ground`). Moves the arrays' values in. Call
-  // with the GL context current. std::invalid_argument when the sizes do not fit.
-  LightMapTexture(bake_format::LightMapArrays&& arrays, bool ground, std::size_t layers);
+  // form when arrays.pca holds it (its ground's with `ground`). Moves the arrays' values in.
+  // std::invalid_argument when the sizes do not fit.
+  LightMapSums(bake_format::LightMapArrays&& arrays, bool ground, std::size_t layers);
 
-  // E = Σ_l S_l t_l + ρ ⊙ Σ_l S^g_l t^g_l per texel, written to the texture (RGBA32F, the atlas's
-  // size). The full form: values not finite or negative count as 0, as at the vertices. The PCA
-  // form: per chart the K + 1 sums μ_c·S, p_{c,k}·S, then per texel μ_c·S + Σ_k a_{x,k} p_{c,k}·S,
-  // which is the same sum over t̂.
-  void update(std::span<const Eigen::Vector3d> S, std::span<const Eigen::Vector3d> ground_coefficients, const Eigen::Vector3d& albedo);
+  // E = Σ_l S_l t_l + ρ ⊙ Σ_l S^g_l t^g_l per texel: RGBA (alpha 1 on the charts' texels, 0
+  // elsewhere), the atlas's size, row-major. The full form: values not finite or negative count as
+  // 0, as at the vertices. The PCA form: per chart the K + 1 sums μ_c·S, p_{c,k}·S, then per texel
+  // μ_c·S + Σ_k a_{x,k} p_{c,k}·S, which is the same sum over t̂. Const: several may run at once.
+  std::vector<float> sum(std::span<const Eigen::Vector3d> S, std::span<const Eigen::Vector3d> ground_coefficients,
+                         const Eigen::Vector3d& albedo) const;
 
-  GLuint texture() const { return texture_.get(); }
-  int width() const { return width_; }
-  int height() const { return height_; }
   bool compressed() const { return pca_.has_value(); }
 
  private:
@@ -73,7 +69,6 @@ class LightMapTexture {
   std::vector<std::int32_t> texel_chart_;  // the PCA form's chart per texel
   std::size_t layers_ = 0;
   int width_ = 0, height_ = 0;
-  ShadowRatioTexture texture_;
 };
 
 }  // namespace skylit::render

@@ -227,23 +227,21 @@ struct Compositor::State {
   int layer_count = 0;
   int vertices = 0;
   // The transfer vectors layer after layer (t_{v,i} at [i · vertex_count + v], finite, ≥ 0), and
-  // the per-vertex sky irradiance E_v = Σ_i S_i t_{v,i} for the sky it was summed for
-  // (irradiance_sky; empty: not yet): summed on the CPU when the sky changes, not per frame.
-  std::vector<float> transfer_by_layer;
+  // The building's sums per sky (shared with the other compositors of a stereo HMD, and with a
+  // thread that sums ahead), and the per-vertex sky and ground irradiance of the sky they were
+  // summed for (irradiance_sky, irradiance_ground; empty: not yet): summed when the sky changes,
+  // not per frame.
+  std::shared_ptr<const BuildingIrradiance> building_light;
   std::vector<Eigen::Vector3d> irradiance_sky;
-  std::vector<float> sky_sum;                    // rgb per vertex: Σ_i S_i t_{v,i}
+  std::vector<Eigen::Vector3d> irradiance_ground;
+  std::vector<float> sky_sum;                    // rgb per vertex: Σ_i S_i t_{v,i} (+ the ground's)
   std::vector<float> vertex_irradiance;          // rgb per vertex: the sky sum and the lamps
   std::vector<Eigen::Vector3f> vertex_normals;   // the mesh's, for the lamps' cosines
   bool lamps_added = false;                      // vertex_irradiance holds lamps' light
-  // The ground layer when options.ground_albedo is set (manifest.ground): t^g layer after layer
-  // as transfer_by_layer, and S^g for the frame it was summed for.
-  std::optional<blend::GroundLayers> ground_layers;
-  std::vector<float> ground_by_layer;
-  std::vector<Eigen::Vector3d> irradiance_ground;
   // The light map, when the bake has one: the vertices as drawn (split where charts meet) and the
   // atlas of the sky's and the ground's light (building_light.hpp).
   DrawVertices draw_vertices;
-  std::optional<LightMapTexture> light_map;
+  std::optional<ShadowRatioTexture> light_map;
 
   // Building geometry, grouped by material for one draw each.
   struct MaterialDraw {
@@ -286,8 +284,7 @@ struct Compositor::State {
 
   void check_inputs(const scene::Site& site, const scene::Mesh& mesh, const bake_format::Manifest& manifest,
                     std::span<const float> transfer_values);
-  void upload_building(const scene::Mesh& mesh, std::span<const float> transfer_values);
-  void make_light_map(const scene::Mesh& mesh, const bake_format::Manifest& manifest);
+  void upload_building(const scene::Mesh& mesh);
   void make_targets();
   void upload_camera(const cv::Mat& frame);
   void update_irradiance(const std::vector<Eigen::Vector3d>& sky_values, const CompositeInput& input);
@@ -367,28 +364,15 @@ void Compositor::State::check_inputs(const scene::Site& site, const scene::Mesh&
   }
 }
 
-void Compositor::State::make_light_map(const scene::Mesh& mesh, const bake_format::Manifest& manifest) {
-  const bool ground = !options.ground_albedo.isZero(0);
-  LightMapTexture::check(options.light_map, ground, mesh, manifest.layer_count());
-  // The texture takes the values; the layout stays for the draw's vertices.
-  bake_format::LightMapArrays arrays{options.light_map.layout, std::move(options.light_map.transfer),
-                                     std::move(options.light_map.ground), std::move(options.light_map.pca)};
-  options.light_map.pca.reset();
-  light_map.emplace(std::move(arrays), ground, manifest.layer_count());
-}
-
-void Compositor::State::upload_building(const scene::Mesh& mesh, std::span<const float> transfer_values) {
-  // Transfer vectors layer after layer (update_irradiance sums them for every vertex at once).
+void Compositor::State::upload_building(const scene::Mesh& mesh) {
   const std::size_t vertex_count = mesh.vertex_count();
   vertices = static_cast<int>(vertex_count);
-  const auto layers = static_cast<std::size_t>(layer_count);
-  transfer_by_layer = layer_major(transfer_values, vertex_count, layers);
   vertex_irradiance.assign(3 * vertex_count, 0.0f);
   sky_sum.assign(3 * vertex_count, 0.0f);
   irradiance_sky.clear();
   vertex_normals = mesh.normals;
   vertex_normals.resize(vertex_count, Eigen::Vector3f::UnitZ());
-  draw_vertices = render::draw_vertices(mesh, light_map ? &options.light_map.layout : nullptr);
+  draw_vertices = render::draw_vertices(mesh, building_light->light_map_layout());
   const std::size_t drawn = draw_vertices.model_vertex.size();
 
   // Vertices (texcoords zero when the model has none) and indices grouped by material.
@@ -550,12 +534,7 @@ void Compositor::State::update_irradiance(const std::vector<Eigen::Vector3d>& sk
                                      "read it from the shadow map drawn for this model"));
     }
   }
-  std::vector<Eigen::Vector3d> ground_values;
-  if (ground_layers) {
-    std::vector<blend::SunLight> lights(input.lamps.begin(), input.lamps.end());
-    if (input.sun) lights.push_back(*input.sun);
-    ground_values = ground_layers->coefficients(sky_values, lights);
-  }
+  std::vector<Eigen::Vector3d> ground_values = building_light->ground_coefficients(sky_values, input.sun, input.lamps);
   const bool sky_changed = irradiance_sky.empty() || irradiance_sky != sky_values || irradiance_ground != ground_values;
   const auto upload = [](const gpu::Buffer& buffer, const std::vector<float>& values) {
     glBindBuffer(GL_ARRAY_BUFFER, buffer.get());
@@ -563,21 +542,21 @@ void Compositor::State::update_irradiance(const std::vector<Eigen::Vector3d>& sk
     glBindBuffer(GL_ARRAY_BUFFER, 0);
   };
   if (sky_changed) {
-    // E_v = Σ_i S_i t_{v,i} in float, layer after layer (the order and precision the vertex
-    // shader summed in before), every vertex of a layer at once.
-    std::vector<Eigen::Vector3f> sky_coefficients;
-    for (const Eigen::Vector3d& S : sky_values) sky_coefficients.push_back(S.cast<float>());
-    sky_sum = sum_layers(transfer_by_layer, count, sky_coefficients);
-    // The ground: ρ ⊙ Σ_l S^g_l t^g_{v,l} (blend::GroundLayers), in the sum and on its own for the
-    // fragments a virtual plane covers (T_j D_j holds the sky, not the ground).
-    if (ground_layers) {
-      std::vector<Eigen::Vector3f> ground_coefficients;
-      for (const Eigen::Vector3d& g : ground_values) ground_coefficients.push_back(options.ground_albedo.cwiseProduct(g).cast<float>());
-      const std::vector<float> ground_rgb = sum_layers(ground_by_layer, count, ground_coefficients);
-      for (std::size_t k = 0; k < sky_sum.size(); ++k) sky_sum[k] += ground_rgb[k];
-      upload(ground_irradiance_values, per_draw_vertex(draw_vertices, ground_rgb, 3));
+    // The sums made ahead for this sky when the input brings them (and they are this compositor's),
+    // else summed here (BuildingIrradiance::sum: the sky's layers and the ground's, per vertex and
+    // per light-map texel).
+    const SkyIrradiance* sums = input.irradiance.get();
+    std::optional<SkyIrradiance> summed;
+    if (sums == nullptr || sums->summed_by != building_light.get() || sums->sky != sky_values || sums->ground != ground_values) {
+      summed = building_light->sum(sky_values, input.sun, input.lamps);
+      sums = &*summed;
+      stats.building_light_summed = true;
     }
-    if (light_map) light_map->update(sky_values, ground_values, options.ground_albedo);
+    sky_sum = sums->vertices;
+    // The ground on its own for the fragments a virtual plane covers (T_j D_j holds the sky, not
+    // the ground).
+    if (!sums->ground_vertices.empty()) upload(ground_irradiance_values, per_draw_vertex(draw_vertices, sums->ground_vertices, 3));
+    if (light_map) light_map->upload(sums->atlas);
     irradiance_sky = sky_values;
     irradiance_ground = std::move(ground_values);
   }
@@ -608,7 +587,8 @@ void Compositor::State::update_irradiance(const std::vector<Eigen::Vector3d>& sk
   }
   lamps_added = lamps;
   // On a chart the light map holds the sky and the ground: its corners carry the lamps alone.
-  upload(irradiance_values, per_draw_vertex(draw_vertices, vertex_irradiance, 3, light_map ? std::span<const float>(sky_sum) : std::span<const float>()));
+  upload(irradiance_values,
+         per_draw_vertex(draw_vertices, vertex_irradiance, 3, light_map ? std::span<const float>(sky_sum) : std::span<const float>()));
 }
 
 GLuint Compositor::State::ratio_texture(const CompositeInput& input, int plane) const {
@@ -722,9 +702,10 @@ void Compositor::State::draw_building(const CompositeInput& input, const std::ve
   glBindSampler(kVirtualRatioUnit, filtered_lookups ? bilinear.get() : 0);
   if (light_map) {
     glActiveTexture(GL_TEXTURE0 + kLightMapUnit);
-    glBindTexture(GL_TEXTURE_2D, light_map->texture());
+    glBindTexture(GL_TEXTURE_2D, light_map->get());
     glBindSampler(kLightMapUnit, filtered_lookups ? bilinear.get() : 0);
-    glUniform2f(uniform(program, "light_map_size"), static_cast<float>(light_map->width()), static_cast<float>(light_map->height()));
+    glUniform2f(uniform(program, "light_map_size"), static_cast<float>(building_light->atlas_width()),
+                static_cast<float>(building_light->atlas_height()));
   }
 
   const GLint base_colour = uniform(program, "base_colour");
@@ -824,29 +805,24 @@ Compositor::Compositor(const scene::Site& site, const scene::Mesh& mesh, const b
                                    "correct the compositor's settings in the config"));
   }
   s.check_inputs(site, mesh, manifest, transfer);
-  if (!o.ground_albedo.isZero(0)) {
-    if (!o.ground_albedo.allFinite() || o.ground_albedo.minCoeff() < 0.0 || o.ground_albedo.maxCoeff() > 1.0) {
-      throw InputError(input_message({}, -1, -1, "ground albedo", "each channel must lie in [0, 1]",
-                                     "set render.ground_albedo to the ground's reflectance, e.g. 0.2"));
+  if (o.building_irradiance) {
+    // Another compositor's sums (a stereo HMD's other eye): the same model and bake.
+    if (o.building_irradiance->vertex_count() != mesh.vertex_count() ||
+        o.building_irradiance->layer_count() != static_cast<std::size_t>(s.layer_count)) {
+      throw std::invalid_argument("Compositor: the shared building irradiance was made for " +
+                                  std::to_string(o.building_irradiance->vertex_count()) + " vertices and " +
+                                  std::to_string(o.building_irradiance->layer_count()) + " layers, not this model's and bake's");
     }
-    const std::size_t expected = mesh.vertex_count() * manifest.layer_count();
-    if (!manifest.ground || o.ground_transfer.size() != expected) {
-      throw InputError(input_message({}, -1, -1, "ground",
-                                     manifest.ground ? "the ground's transfer holds " + std::to_string(o.ground_transfer.size()) +
-                                                           " values, not vertices × layers = " + std::to_string(expected)
-                                                     : "the bake has no ground layer (its plan's ground_samples is 0)",
-                                     "re-bake with skylit-bake --ground-samples 256, or turn the ground's light off "
-                                     "(render.ground_light: false)"));
-    }
-    try {
-      s.ground_layers.emplace(manifest.plan.frequency, manifest.plan.basis, manifest.ground->horizontal_unoccluded);
-    } catch (const std::invalid_argument& e) {
-      throw InputError(input_message({}, -1, -1, "ground.horizontal_unoccluded", e.what(), "re-bake"));
-    }
-    s.ground_by_layer = layer_major(o.ground_transfer, mesh.vertex_count(), manifest.layer_count());
-    s.options.ground_transfer = {};  // held layer after layer from here on
+    s.building_light = o.building_irradiance;
+  } else {
+    s.building_light = std::make_shared<const BuildingIrradiance>(mesh, manifest, transfer, o.ground_albedo, o.ground_transfer,
+                                                                  std::move(s.options.light_map));
   }
-  if (!o.light_map.layout.texels.empty()) s.make_light_map(mesh, manifest);
+  s.options.ground_transfer = {};
+  s.options.light_map = {};
+  if (s.building_light->light_map_layout() != nullptr) {
+    s.light_map.emplace(s.building_light->atlas_width(), s.building_light->atlas_height());
+  }
   s.shader_dir = gpu::find_shader_dir(s.options.shader_dir);
   s.filtered_lookups = has_gl_extension("GL_OES_texture_float_linear");
   if (s.filtered_lookups) s.bilinear = bilinear_clamped_sampler();
@@ -855,7 +831,7 @@ Compositor::Compositor(const scene::Site& site, const scene::Mesh& mesh, const b
   s.composite_program = load_specialised(s.shader_dir, {"compose_fullscreen.vert", "compose_final.frag"},
                                          define("REAL_PLANES", static_cast<int>(s.real_planes.size())) +
                                              define("FILTERED_LOOKUPS", s.filtered_lookups ? 1 : 0));
-  s.upload_building(mesh, transfer);
+  s.upload_building(mesh);
   s.make_targets();
   std::vector<PlaneRatioArray::Size> virtual_sizes;
   for (int plane : s.virtual_planes) {
@@ -950,6 +926,7 @@ cv::Mat Compositor::read_linear() const {
 GLuint Compositor::linear_texture() const { return state_->linear.get(); }
 GLuint Compositor::display_texture() const { return state_->display.get(); }
 const CompositeStats& Compositor::last_stats() const { return state_->stats; }
+std::shared_ptr<const BuildingIrradiance> Compositor::building_irradiance() const { return state_->building_light; }
 const CompositeTimings& Compositor::last_timings() const { return state_->timings; }
 const LensRemap& Compositor::lens_remap() const { return state_->remap; }
 const camera::Lens& Compositor::lens() const { return state_->lens; }

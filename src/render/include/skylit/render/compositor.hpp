@@ -19,6 +19,7 @@
 #include "skylit/bake_format/manifest.hpp"
 #include "skylit/gpu/gl.hpp"
 #include "skylit/blend/cpu_blend.hpp"
+#include "skylit/render/building_irradiance.hpp"
 #include "skylit/render/lens_remap.hpp"
 #include "skylit/render/photometric.hpp"
 #include "skylit/render/sun_shadow_map.hpp"
@@ -56,6 +57,10 @@ struct CompositorOptions {
   // from its texels, bilinear, instead of from the triangle's corners (its ground transfer needed
   // with ground_albedo). InputError when it does not fit the model or the bake.
   bake_format::LightMapArrays light_map;
+  // The building's sums per sky made already (another compositor's building_irradiance(): a
+  // stereo HMD's other eye): used instead of making them from transfer, ground_albedo,
+  // ground_transfer and light_map, which are then ignored. It must be of the same model and bake.
+  std::shared_ptr<const BuildingIrradiance> building_irradiance;
 };
 
 // Where the camera is: the HMD camera frame (OpenCV's) in the site frame.
@@ -90,6 +95,10 @@ struct CompositeInput {
   // comes with the shadow ratios (the GPU blend's separated terms). Bad energies count as 0.
   std::span<const blend::SunLight> lamps;
   std::span<const std::vector<float>> lamp_vertex_visibility;
+  // This sky's sums, made ahead by the compositor's building_irradiance() (its sum(sky, sun,
+  // lamps), e.g. on the thread that estimated the sky): taken when the sky changes, if they were
+  // made by it for this frame's sky and sources; otherwise (or null) the compositor sums itself.
+  std::shared_ptr<const SkyIrradiance> irradiance;
   std::optional<PhotometricMatch> photometric;   // overrides CompositorOptions::photometric
   // α: how much of the virtual content (the building and its shadows) is shown, a linear blend
   // of the composite towards the camera image (the live service fades the building out when
@@ -102,6 +111,7 @@ struct CompositeStats {
   int sky_values_replaced = 0;            // non-finite or negative S_i or E_sun channels taken as 0
   std::int64_t camera_values_replaced = 0;  // non-finite or negative float camera values taken as 0
   bool sun_without_shadow_map = false;    // a sun and no shadow map: the building's sun term is unshadowed
+  bool building_light_summed = false;     // the sky changed without sums made ahead for it: summed in this frame
 };
 
 // Time of each stage of the last frame, in milliseconds; all 0 unless
@@ -154,8 +164,10 @@ Eigen::Vector3d plane_irradiance(const bake_format::PlaneRecord& plane, std::spa
 // GL object it draws with or into (programs, the building's buffers and textures, the camera
 // texture, its targets, display_texture) and sets all the GL state it draws with; it only reads
 // the input's shadow-ratio textures and sun shadow map. So several Compositors (one per camera
-// of a stereo HMD, stereo_camera.hpp) share one context and the same inputs; each sums the
-// building's sky irradiance on the CPU itself when the sky changes.
+// of a stereo HMD, stereo_camera.hpp) share one context and the same inputs, and one
+// BuildingIrradiance (CompositorOptions::building_irradiance): the building's light is summed on
+// the CPU once per sky, by the first that draws it or ahead on another thread
+// (CompositeInput::irradiance).
 class Compositor {
  public:
   // transfer: the bake's transfer.npy, vertex_count × layer_count floats (vertex-major). The site
@@ -172,8 +184,9 @@ class Compositor {
   Compositor& operator=(const Compositor&) = delete;
 
   // Draws one frame into linear_texture() and display_texture() (for a display: no read-back,
-  // no wait for the GPU). InputError as composite. The building's per-vertex Σ_i S_i t_{v,i} is
-  // summed on the CPU (calling thread) only when input.sky differs from the last frame's.
+  // no wait for the GPU). InputError as composite. The building's light (per vertex and per
+  // light-map texel) is summed on the CPU (calling thread) only when input.sky or its sources
+  // differ from the last frame's, and input.irradiance does not bring the sums for them.
   void draw(const CompositeInput& input);
   // Draws one frame and reads it back: CV_8UC3 sRGB for an 8-bit camera frame, CV_32FC3 linear
   // for a float one (BGR, the camera's size). InputError for a frame of the wrong size or type,
@@ -186,6 +199,9 @@ class Compositor {
   GLuint display_texture() const;
   cv::Mat read_linear() const;      // CV_32FC3 BGR of linear_texture()
   const CompositeStats& last_stats() const;
+  // The building's sums per sky (thread-safe; shareable with another compositor of the same model
+  // and bake, and with a thread that sums ahead for CompositeInput::irradiance).
+  std::shared_ptr<const BuildingIrradiance> building_irradiance() const;
   const CompositeTimings& last_timings() const;
 
   const LensRemap& lens_remap() const;
