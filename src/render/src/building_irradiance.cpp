@@ -1,6 +1,7 @@
 // The building's irradiance per sky on the CPU (building_irradiance.hpp).
 #include "skylit/render/building_irradiance.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -11,10 +12,10 @@
 namespace skylit::render {
 namespace {
 
-Eigen::Vector3d cleaned_value(const Eigen::Vector3d& value, int* replaced) {
+Eigen::Vector3d cleaned_value(const Eigen::Vector3d& value, bool negative_allowed, int* replaced) {
   Eigen::Vector3d out = value;
   for (int c = 0; c < 3; ++c) {
-    if (!std::isfinite(out[c]) || out[c] < 0.0) {
+    if (!std::isfinite(out[c]) || (out[c] < 0.0 && !negative_allowed)) {
       out[c] = 0.0;
       if (replaced != nullptr) ++*replaced;
     }
@@ -29,12 +30,18 @@ std::vector<Eigen::Vector3f> as_float(std::span<const Eigen::Vector3d> values, c
   return out;
 }
 
+// A negative coefficient may take a sum below 0: no light is the least there is.
+void at_least_zero(std::vector<float>& values) {
+  for (float& x : values) x = std::max(x, 0.0f);
+}
+
 }  // namespace
 
 BuildingIrradiance::BuildingIrradiance(const scene::Mesh& mesh, const bake_format::Manifest& manifest, std::span<const float> transfer,
                                        const Eigen::Vector3d& ground_albedo, std::span<const float> ground_transfer,
                                        bake_format::LightMapArrays light_map)
-    : vertex_count_(mesh.vertex_count()), layer_count_(manifest.layer_count()) {
+    : vertex_count_(mesh.vertex_count()), layer_count_(manifest.layer_count()),
+      negative_coefficients_(manifest.plan.basis != geom::DomeBasis::Faces) {
   const std::size_t expected = vertex_count_ * layer_count_;
   if (expected == 0 || transfer.size() != expected) {
     throw InputError(input_message("manifest.json", -1, -1, "transfer",
@@ -76,7 +83,7 @@ BuildingIrradiance::~BuildingIrradiance() = default;
 std::vector<Eigen::Vector3d> BuildingIrradiance::cleaned_sky(std::span<const Eigen::Vector3d> sky, int* replaced) const {
   std::vector<Eigen::Vector3d> out;
   out.reserve(sky.size());
-  for (const Eigen::Vector3d& S : sky) out.push_back(cleaned_value(S, replaced));
+  for (const Eigen::Vector3d& S : sky) out.push_back(cleaned_value(S, negative_coefficients_, replaced));
   return out;
 }
 
@@ -106,8 +113,11 @@ SkyIrradiance BuildingIrradiance::sum(std::span<const Eigen::Vector3d> sky, cons
   if (ground_layers_) {
     out.ground_vertices = sum_layers(ground_by_layer_, vertex_count_, as_float(out.ground, ground_albedo_));
     for (std::size_t k = 0; k < out.vertices.size(); ++k) out.vertices[k] += out.ground_vertices[k];
+    at_least_zero(out.ground_vertices);
   }
+  at_least_zero(out.vertices);
   if (light_map_) out.atlas = light_map_->sum(out.sky, out.ground, ground_albedo_);
+  at_least_zero(out.atlas);
   return out;
 }
 

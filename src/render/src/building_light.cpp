@@ -165,7 +165,7 @@ std::vector<float> LightMapSums::sum(std::span<const Eigen::Vector3d> S, std::sp
   Coefficients reflected = Coefficients::Zero(static_cast<Eigen::Index>(layers_), 3);
   for (std::size_t l = 0; l < std::min(layers_, S.size()); ++l) {
     for (int c = 0; c < 3; ++c) {
-      const double value = S[l][c];
+      const double value = S[l][c];  // a corner's or quadratic's may be negative
       sky(static_cast<Eigen::Index>(l), c) = std::isfinite(value) ? static_cast<float>(value) : 0.0f;
     }
   }

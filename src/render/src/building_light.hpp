@@ -50,7 +50,7 @@ class LightMapSums {
   LightMapSums(bake_format::LightMapArrays&& arrays, bool ground, std::size_t layers);
 
   // E = Σ_l S_l t_l + ρ ⊙ Σ_l S^g_l t^g_l per texel: RGBA (alpha 1 on the charts' texels, 0
-  // elsewhere), the atlas's size, row-major. The full form: values not finite or negative count as
+  // elsewhere), the atlas's size, row-major; S as given (not finite: 0), E not clamped. The full form: values not finite or negative count as
   // 0, as at the vertices. The PCA form: per chart the K + 1 sums μ_c·S, p_{c,k}·S, then per texel
   // μ_c·S + Σ_k a_{x,k} p_{c,k}·S, which is the same sum over t̂. Const: several may run at once.
   std::vector<float> sum(std::span<const Eigen::Vector3d> S, std::span<const Eigen::Vector3d> ground_coefficients,

@@ -202,14 +202,18 @@ Eigen::Vector3d plane_irradiance(const bake_format::PlaneRecord& plane, std::spa
                                  const std::optional<blend::SunLight>& sun, std::span<const blend::SunLight> lamps) {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   const std::size_t layers = std::min(sky.size(), plane.unoccluded.size());
-  for (std::size_t i = 0; i < layers; ++i) sum += plane.unoccluded[i] * finite_nonnegative(sky[i], nullptr);
+  for (std::size_t i = 0; i < layers; ++i) {
+    for (int c = 0; c < 3; ++c) {
+      if (std::isfinite(sky[i][c])) sum[c] += plane.unoccluded[i] * sky[i][c];  // a corner's may be negative
+    }
+  }
   const auto add = [&](const blend::SunLight& light) {
     const double cosine = plane.plane.normal().dot(light.direction.normalized());
     if (std::isfinite(cosine) && cosine > 0.0) sum += cosine * finite_nonnegative(light.energy, nullptr);
   };
   if (sun) add(*sun);
   for (const blend::SunLight& lamp : lamps) add(lamp);
-  return sum;
+  return sum.cwiseMax(0.0);
 }
 
 struct Compositor::State {
@@ -865,8 +869,7 @@ void Compositor::draw(const CompositeInput& input) {
                                    "estimate the sky on the bake's dome (the same frequency and basis)"));
   }
   s.stats = {};
-  std::vector<Eigen::Vector3d> sky_values(input.sky.size());
-  for (std::size_t i = 0; i < input.sky.size(); ++i) sky_values[i] = finite_nonnegative(input.sky[i], &s.stats.sky_values_replaced);
+  const std::vector<Eigen::Vector3d> sky_values = s.building_light->cleaned_sky(input.sky, &s.stats.sky_values_replaced);
   const PhotometricMatch photometric = input.photometric.value_or(s.options.photometric);
 
   s.timings = {};

@@ -22,8 +22,9 @@ class LightMapSums;
 
 // One sky's sums (BuildingIrradiance::sum).
 struct SkyIrradiance {
-  std::vector<Eigen::Vector3d> sky;     // S as summed: one RGB per layer, not finite or negative: 0
+  std::vector<Eigen::Vector3d> sky;     // S as summed (BuildingIrradiance::cleaned_sky)
   std::vector<Eigen::Vector3d> ground;  // S^g of the sky and its sources (empty without the ground's light)
+  // Each at least 0 (a negative coefficient may take a sum below):
   std::vector<float> vertices;          // rgb per model vertex: Σ_i S_i t_{v,i} + ρ ⊙ Σ_l S^g_l t^g_{v,l}
   std::vector<float> ground_vertices;   // rgb per model vertex: ρ ⊙ Σ_l S^g_l t^g_{v,l} alone (empty: none)
   std::vector<float> atlas;             // RGBA per texel of the light map's atlas, row-major (empty: no map)
@@ -44,8 +45,11 @@ class BuildingIrradiance {
   BuildingIrradiance(const BuildingIrradiance&) = delete;
   BuildingIrradiance& operator=(const BuildingIrradiance&) = delete;
 
-  // The sky's cleaned S and its S^g with these sources (the sun and the lamps; the key a sum is
-  // made for: a frame whose pair differs needs a new one).
+  // The sky's S as summed: values that are not finite count as 0, and so do negative ones in a
+  // faces basis (radiances); a corner's or quadratic's coefficient may be negative (a fit's
+  // undershoot beside a bright spot) and is kept, as the blend keeps it. `replaced` counts the
+  // values taken as 0. With S^g for these sources (the sun and the lamps), the key a sum is made
+  // for: a frame whose pair differs needs a new one.
   std::vector<Eigen::Vector3d> cleaned_sky(std::span<const Eigen::Vector3d> sky, int* replaced = nullptr) const;
   std::vector<Eigen::Vector3d> ground_coefficients(std::span<const Eigen::Vector3d> cleaned, const std::optional<blend::SunLight>& sun,
                                                    std::span<const blend::SunLight> lamps) const;
@@ -65,6 +69,7 @@ class BuildingIrradiance {
 
  private:
   std::size_t vertex_count_ = 0, layer_count_ = 0;
+  bool negative_coefficients_ = false;  // the dome's basis has coefficients that may be negative
   std::vector<float> transfer_by_layer_, ground_by_layer_;  // t_{v,i} at [i · vertex_count + v], finite, ≥ 0
   Eigen::Vector3d ground_albedo_ = Eigen::Vector3d::Zero();
   std::optional<blend::GroundLayers> ground_layers_;

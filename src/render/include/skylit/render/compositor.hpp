@@ -74,8 +74,11 @@ struct CompositeInput {
   cv::Mat camera;
   CameraPose pose;
   // S_i, RGB, one per basis layer of the bake (per dome face with the faces basis; the layers
-  // blend::blend_weights takes). Non-finite or negative values count as 0 (and are counted in
-  // CompositeStats): one bad sky frame must not blank the display.
+  // blend::blend_weights takes). Non-finite values count as 0 (and are counted in CompositeStats):
+  // one bad sky frame must not blank the display; so do negative ones in a faces basis. A corner's
+  // or quadratic's coefficient may be negative, a fit's undershoot beside a bright spot: it is
+  // kept, as the blend keeps it, and the building's sums are clamped at 0
+  // (BuildingIrradiance::cleaned_sky).
   std::span<const Eigen::Vector3d> sky;
   std::optional<blend::SunLight> sun;
   // One per bake plane (manifest order): a texture whose texel (col, row) holds T of plane texel
@@ -108,7 +111,7 @@ struct CompositeInput {
 };
 
 struct CompositeStats {
-  int sky_values_replaced = 0;            // non-finite or negative S_i or E_sun channels taken as 0
+  int sky_values_replaced = 0;            // non-finite S_i (or negative in a faces basis) or bad E_sun channels taken as 0
   std::int64_t camera_values_replaced = 0;  // non-finite or negative float camera values taken as 0
   bool sun_without_shadow_map = false;    // a sun and no shadow map: the building's sun term is unshadowed
   bool building_light_summed = false;     // the sky changed without sums made ahead for it: summed in this frame
@@ -130,8 +133,9 @@ struct CompositeTimings {
 };
 
 // The unoccluded irradiance of plane `plane` (RGB): D_j = Σ_i S_i A_{j,i} + E_sun max(0, n_j·ω_sun)
-// + Σ_k E_k max(0, n_j·ω_k) over the lamps, the denominator of its shadow ratio. Non-finite or
-// negative S_i and energies count as 0.
+// + Σ_k E_k max(0, n_j·ω_k) over the lamps, the denominator of its shadow ratio. Non-finite S_i
+// count as 0 (a negative one is kept: a corner's or quadratic's coefficient may be negative, and
+// the blend keeps it), non-finite or negative energies as 0; the sum is at least 0.
 Eigen::Vector3d plane_irradiance(const bake_format::PlaneRecord& plane, std::span<const Eigen::Vector3d> sky,
                                  const std::optional<blend::SunLight>& sun, std::span<const blend::SunLight> lamps = {});
 
