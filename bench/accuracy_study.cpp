@@ -633,8 +633,18 @@ int main(int argc, char** argv) {
       // themselves, and what is left with the sky so traced (the dome and the separation).
       std::array<Errors, 4> terms;
       {
-        const std::vector<Eigen::Vector3d> sky_at_points =
-            building_reference_at(dome_sky_lights(c.frequency, c.basis, S, 4096), site, mesh, inside_points);
+        const EquirectLights dome_lights = dome_sky_lights(c.frequency, c.basis, S, 4096);
+        const std::vector<Eigen::Vector3d> sky_at_points = building_reference_at(dome_lights, site, mesh, inside_points);
+        if (manifest.ground) {
+          // How well the 4096 directions integrate the dome's sky: on an unoccluded horizontal
+          // surface they should give Σ_l S_l h_l, the layers' own integral.
+          Eigen::Vector3d traced = Eigen::Vector3d::Zero(), exact = Eigen::Vector3d::Zero();
+          for (std::size_t k = 0; k < dome_lights.directions.size(); ++k) traced += std::max(0.0, dome_lights.directions[k].z()) * dome_lights.weights[k];
+          for (std::size_t i = 0; i < S.size(); ++i) exact += manifest.ground->horizontal_unoccluded[i] * S[i];
+          std::fprintf(stderr, "%s %s: the split's 4096 directions give a horizontal irradiance of %.4g against the layers' %.4g "
+                       "(%.4f of E_h apart)\n", sky_file.stem().c_str(), c.name.c_str(), luminance(traced), luminance(exact),
+                       std::abs(luminance(traced) - luminance(exact)) / luminance(horizontal));
+        }
         std::array<std::vector<Eigen::Vector3d>, 3> est, ref;
         for (const std::size_t k : inside_seen) {
           est[0].push_back(split.sky[k]), ref[0].push_back(sky_at_points[k]);

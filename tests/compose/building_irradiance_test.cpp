@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include "../support/gl_suite.hpp"
 #include "compose_fixture.hpp"
 #include "skylit/bake_format/light_map.hpp"
 #include "skylit/baker/light_map.hpp"
@@ -24,16 +25,7 @@ using compose_test::BakedSite;
 using compose_test::hmd_camera;
 using compose_test::hmd_pose;
 
-class BuildingIrradianceTest : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() { context_ = new gpu::HeadlessContext(); }
-  static void TearDownTestSuite() {
-    delete context_;
-    context_ = nullptr;
-  }
-  static gpu::HeadlessContext* context_;
-};
-gpu::HeadlessContext* BuildingIrradianceTest::context_ = nullptr;
+class BuildingIrradianceTest : public test::GlSuite {};
 
 // The sample bake with a light map over its flat faces (0.25 m texels) whose texels' transfer is a
 // pattern in every layer, for the sky and (another) for the ground, the bake's ground layer, and a
