@@ -230,7 +230,6 @@ struct Compositor::State {
   std::vector<int> real_planes;
   int layer_count = 0;
   int vertices = 0;
-  // The transfer vectors layer after layer (t_{v,i} at [i · vertex_count + v], finite, ≥ 0), and
   // The building's sums per sky (shared with the other compositors of a stereo HMD, and with a
   // thread that sums ahead), and the per-vertex sky and ground irradiance of the sky they were
   // summed for (irradiance_sky, irradiance_ground; empty: not yet): summed when the sky changes,
