@@ -606,6 +606,8 @@ int main(int argc, char** argv) {
                                                 site, mesh, ground);
       // With a light map, the sky and the ground from its texels where it covers a triangle.
       std::optional<skylit::bake_format::LightMapArrays> texel_map;
+      // The PCA form's t̂ as the compositor sums them (negative ones too, the sum clamped at 0).
+      skylit::bake_format::LightMapValues texel_values = skylit::bake_format::LightMapValues::Full;
       skylit::blend::GroundLight texel_ground;
       InsideTerms vertex_sky;
       if (manifest.light_map) {
@@ -614,13 +616,14 @@ int main(int argc, char** argv) {
         texel_map = skylit::bake_format::read_light_map(bake_dir, manifest,
                                                         pca ? skylit::bake_format::LightMapForm::Pca : skylit::bake_format::LightMapForm::Full);
         if (pca) {
+          texel_values = skylit::bake_format::LightMapValues::Reconstructed;
           texel_map->transfer = skylit::bake_format::expand_light_map(texel_map->layout, texel_map->pca->sky);
           if (manifest.ground) texel_map->ground = skylit::bake_format::expand_light_map(texel_map->layout, texel_map->pca->ground);
         }
         texel_ground = ground;
         texel_ground.transfer = ground.transfer.empty() ? std::span<const float>() : std::span<const float>(texel_map->ground);
         vertex_sky = building_terms_inside(inside_points, transfer, S, {}, false, site, mesh);
-        use_light_map(inside_points, texel_map->layout, texel_map->transfer, S, texel_ground, vertex_sky.sky, split);
+        use_light_map(inside_points, texel_map->layout, texel_map->transfer, S, texel_ground, vertex_sky.sky, split, texel_values);
       }
       std::vector<std::size_t> inside_seen;
       std::vector<double> inside_areas;
@@ -923,7 +926,7 @@ int main(int argc, char** argv) {
         // Inside the triangles as the compositor shows it: the sun per point from its map, the
         // virtual planes' T from the GPU blend.
         InsideTerms gpu_split = gpu_terms_inside(inside_points, transfer, S, lights, first_is_sun || sources.empty(), mesh, g, ground);
-        if (texel_map) use_light_map(inside_points, texel_map->layout, texel_map->transfer, S, texel_ground, vertex_sky.sky, gpu_split);
+        if (texel_map) use_light_map(inside_points, texel_map->layout, texel_map->transfer, S, texel_ground, vertex_sky.sky, gpu_split, texel_values);
         const std::vector<Eigen::Vector3d> gpu_all = shown_inside(inside_points, gpu_split, virtual_shading(site, bake_planes, g.ratios, plane_D));
         std::vector<Eigen::Vector3d> gpu_shown, gpu_ref;
         for (const std::size_t k : inside_seen) gpu_shown.push_back(gpu_all[k]), gpu_ref.push_back(inside_ref[k]);
@@ -977,7 +980,7 @@ int main(int argc, char** argv) {
               zeroed_texel_ground.transfer = texel_ground.transfer;
               const InsideTerms zeroed_vertex_sky = building_terms_inside(inside_points, transfer, zeroed, {}, false, site, mesh);
               use_light_map(inside_points, texel_map->layout, texel_map->transfer, zeroed, zeroed_texel_ground, zeroed_vertex_sky.sky,
-                            zeroed_split);
+                            zeroed_split, texel_values);
             }
             const std::vector<Eigen::Vector3d> zeroed_all =
                 shown_inside(inside_points, zeroed_split, virtual_shading(site, bake_planes, plane_T, plane_D));

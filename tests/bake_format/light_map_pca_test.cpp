@@ -174,5 +174,27 @@ TEST(LightMapPca, ItsFilesRoundTripAndAShortFileIsRefusedByName) {
   }
 }
 
+// The atlas as the compositor sums each form: the full form's t with a negative (or NaN) value
+// taken as 0, the PCA form's t̂ as they are (a fit may dip below 0) with the sum clamped at 0.
+TEST(LightMapPca, TheAtlasTakesTheFullFormsValuesCleanedAndThePcaFormsAsTheyAre) {
+  const LightMapLayout l = two_charts();
+  constexpr std::size_t kLayers = 2;
+  std::vector<float> t(l.texels.size() * kLayers, 0.5f);
+  t[0] = -0.1f;  // texel 0: t̂ = (−0.1, 0.5)
+  t[2] = -1.0f;  // texel 1: t̂ = (−1, 0.5)
+  t[5] = std::nanf("");  // texel 2: (0.5, NaN)
+  const std::vector<Eigen::Vector3d> S{Eigen::Vector3d(1.0, 2.0, 0.0), Eigen::Vector3d::Ones()};
+  const std::vector<Eigen::Vector3d> full = light_map_atlas(l, t, S);
+  const std::vector<Eigen::Vector3d> pca = light_map_atlas(l, t, S, LightMapValues::Reconstructed);
+  const auto at = [&](const std::vector<Eigen::Vector3d>& atlas, std::size_t texel) { return atlas[l.texels[texel]]; };
+  EXPECT_TRUE(at(full, 0).isApprox(Eigen::Vector3d(0.5, 0.5, 0.5), 1e-6));
+  EXPECT_TRUE(at(pca, 0).isApprox(Eigen::Vector3d(0.4, 0.3, 0.5), 1e-6));
+  EXPECT_TRUE(at(full, 1).isApprox(Eigen::Vector3d(0.5, 0.5, 0.5), 1e-6));
+  EXPECT_TRUE(at(pca, 1).isApprox(Eigen::Vector3d(0.0, 0.0, 0.5), 1e-6)) << at(pca, 1).transpose();
+  EXPECT_TRUE(at(full, 2).isApprox(Eigen::Vector3d(0.5, 1.0, 0.0), 1e-6));
+  EXPECT_TRUE(at(pca, 2).isApprox(Eigen::Vector3d(0.5, 1.0, 0.0), 1e-6));
+  EXPECT_TRUE(at(pca, 3).isApprox(Eigen::Vector3d(1.0, 1.5, 0.5), 1e-6));
+}
+
 }  // namespace light_map_pca_test
 }  // namespace skylit::bake_format

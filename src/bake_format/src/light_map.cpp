@@ -42,7 +42,8 @@ Eigen::Vector3d sample_light_map(std::span<const Eigen::Vector3d> atlas, int wid
 }
 
 std::vector<Eigen::Vector3d> light_map_atlas(const LightMapLayout& layout, std::span<const float> transfer,
-                                             std::span<const Eigen::Vector3d> S) {
+                                             std::span<const Eigen::Vector3d> S, LightMapValues values) {
+  const bool reconstructed = values == LightMapValues::Reconstructed;
   const std::size_t layers = S.size();
   if (layers == 0 || transfer.size() != layout.texels.size() * layers) {
     throw std::invalid_argument("light_map_atlas: " + std::to_string(transfer.size()) + " transfer values for " +
@@ -54,9 +55,9 @@ std::vector<Eigen::Vector3d> light_map_atlas(const LightMapLayout& layout, std::
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     const float* t = transfer.data() + k * layers;
     for (std::size_t l = 0; l < layers; ++l) {
-      if (std::isfinite(t[l]) && t[l] > 0.0f) sum += static_cast<double>(t[l]) * S[l];
+      if (std::isfinite(t[l]) && (reconstructed || t[l] > 0.0f)) sum += static_cast<double>(t[l]) * S[l];
     }
-    atlas.at(layout.texels[k]) = sum;
+    atlas.at(layout.texels[k]) = reconstructed ? sum.cwiseMax(0.0) : sum;
   }
   return atlas;
 }

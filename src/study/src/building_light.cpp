@@ -137,15 +137,15 @@ InsideTerms building_terms_inside(const TrianglePoints& points, std::span<const 
 
 void use_light_map(const TrianglePoints& points, const bake_format::LightMapLayout& layout, std::span<const float> transfer,
                    std::span<const Eigen::Vector3d> S, const blend::GroundLight& ground, std::span<const Eigen::Vector3d> vertex_sky,
-                   InsideTerms& terms) {
+                   InsideTerms& terms, bake_format::LightMapValues values) {
   const std::size_t count = points.positions.size();
   if (points.triangles.size() != count || vertex_sky.size() != count || terms.sky.size() != count || terms.ground.size() != count) {
     throw std::invalid_argument("use_light_map: the points, their triangles, the vertices' sky and the terms differ in size");
   }
-  const std::vector<Eigen::Vector3d> sky = bake_format::light_map_atlas(layout, transfer, S);
+  const std::vector<Eigen::Vector3d> sky = bake_format::light_map_atlas(layout, transfer, S, values);
   std::vector<Eigen::Vector3d> ground_light;
   if (!ground.transfer.empty()) {
-    ground_light = bake_format::light_map_atlas(layout, ground.transfer, ground.coefficients);
+    ground_light = bake_format::light_map_atlas(layout, ground.transfer, ground.coefficients, values);
     for (Eigen::Vector3d& g : ground_light) g = g.cwiseProduct(ground.albedo);
   }
   for (std::size_t k = 0; k < count; ++k) {

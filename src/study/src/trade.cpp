@@ -735,7 +735,7 @@ void evaluate_skies(const Bench& bench, const SettingBake& bake, const sky::SkyE
       texel_ground.transfer = ground.transfer.empty() ? std::span<const float>() : std::span<const float>(bake.light_map->ground);
       const study::InsideTerms vertex_sky = study::building_terms_inside(building_reference.points, bake.transfer, S, {}, false, site.site, mesh);
       study::use_light_map(building_reference.points, bake.light_map->layout, bake.light_map->transfer, S, texel_ground, vertex_sky.sky,
-                           inside_terms);
+                           inside_terms, bake.light_map->pca ? bake_format::LightMapValues::Reconstructed : bake_format::LightMapValues::Full);
     }
     std::vector<std::vector<float>> plane_T(basis.size());
     std::vector<Eigen::Vector3d> plane_D(basis.size(), Eigen::Vector3d::Zero());

@@ -43,12 +43,17 @@ struct LightMapLayout {
 // `atlas`: one RGB value per atlas texel, rows of `width`.
 Eigen::Vector3d sample_light_map(std::span<const Eigen::Vector3d> atlas, int width, int height, const Eigen::Vector2d& a);
 
+// How the compositor takes a light map's transfer values: the full form's t (not finite or
+// negative: 0), or the PCA form's t̂ as they are (a fit may dip below 0; not finite: 0), its sum
+// then clamped at 0.
+enum class LightMapValues { Full, Reconstructed };
+
 // Per traced texel values (texel-major, `layers` each, as the light map's transfer) summed with
 // S into an atlas of RGB values (texels that were not traced stay 0):
 //     E(texel) = Σ_l S_l t_{texel,l}
-// values not finite or negative count as 0, as the compositor's sum.
+// taken as the compositor takes them (LightMapValues).
 std::vector<Eigen::Vector3d> light_map_atlas(const LightMapLayout& layout, std::span<const float> transfer,
-                                             std::span<const Eigen::Vector3d> S);
+                                             std::span<const Eigen::Vector3d> S, LightMapValues values = LightMapValues::Full);
 
 // The layout's three files in bake_dir (record's names): charts float32 [charts, 15] (x, y,
 // width, height, origin, u, v, texel_u, texel_v), triangles uint32 [triangles] (0xFFFFFFFF: none), texels uint32

@@ -92,10 +92,11 @@ InsideTerms building_terms_inside(const TrianglePoints& points, std::span<const 
 // per texel); `ground`: its ground transfer with S^g and ρ (empty transfer: no ground term);
 // `vertex_sky`: the vertices' sky alone at the points (building_terms_inside without sources), so
 // that what terms.sky holds beyond it (the lamps, per vertex in the compositor too) stays.
-// std::invalid_argument when the sizes do not fit.
+// `values`: Reconstructed for the PCA form's t̂ (light_map_as_shown), which the compositor sums
+// as they are. std::invalid_argument when the sizes do not fit.
 void use_light_map(const TrianglePoints& points, const bake_format::LightMapLayout& layout, std::span<const float> transfer,
                    std::span<const Eigen::Vector3d> S, const blend::GroundLight& ground, std::span<const Eigen::Vector3d> vertex_sky,
-                   InsideTerms& terms);
+                   InsideTerms& terms, bake_format::LightMapValues values = bake_format::LightMapValues::Full);
 
 // The bake's light map as the compositor sums it: its PCA form where the bake has one, t̂
 // expanded into transfer and ground (texel-major, as the full form) for use_light_map; else the
