@@ -12,17 +12,6 @@
 namespace skylit::render {
 namespace {
 
-Eigen::Vector3d cleaned_value(const Eigen::Vector3d& value, bool negative_allowed, int* replaced) {
-  Eigen::Vector3d out = value;
-  for (int c = 0; c < 3; ++c) {
-    if (!std::isfinite(out[c]) || (out[c] < 0.0 && !negative_allowed)) {
-      out[c] = 0.0;
-      if (replaced != nullptr) ++*replaced;
-    }
-  }
-  return out;
-}
-
 std::vector<Eigen::Vector3f> as_float(std::span<const Eigen::Vector3d> values, const Eigen::Vector3d& scale) {
   std::vector<Eigen::Vector3f> out;
   out.reserve(values.size());
@@ -83,7 +72,9 @@ BuildingIrradiance::~BuildingIrradiance() = default;
 std::vector<Eigen::Vector3d> BuildingIrradiance::cleaned_sky(std::span<const Eigen::Vector3d> sky, int* replaced) const {
   std::vector<Eigen::Vector3d> out;
   out.reserve(sky.size());
-  for (const Eigen::Vector3d& S : sky) out.push_back(cleaned_value(S, negative_coefficients_, replaced));
+  for (const Eigen::Vector3d& S : sky) {
+    out.push_back(negative_coefficients_ ? finite_or_zero(S, replaced) : finite_nonnegative(S, replaced));
+  }
   return out;
 }
 

@@ -29,7 +29,22 @@ std::vector<std::uint32_t> identity(std::size_t n) {
   return out;
 }
 
+// Each channel not finite (or, with `negative_too`, negative) taken as 0 and counted.
+Eigen::Vector3d zeroed_where(const Eigen::Vector3d& value, bool negative_too, int* replaced) {
+  Eigen::Vector3d out = value;
+  for (int c = 0; c < 3; ++c) {
+    if (!std::isfinite(out[c]) || (negative_too && out[c] < 0.0)) {
+      out[c] = 0.0;
+      if (replaced != nullptr) ++*replaced;
+    }
+  }
+  return out;
+}
+
 }  // namespace
+
+Eigen::Vector3d finite_or_zero(const Eigen::Vector3d& value, int* replaced) { return zeroed_where(value, false, replaced); }
+Eigen::Vector3d finite_nonnegative(const Eigen::Vector3d& value, int* replaced) { return zeroed_where(value, true, replaced); }
 
 std::vector<float> layer_major(std::span<const float> values, std::size_t vertex_count, std::size_t layers) {
   std::vector<float> out(layers * vertex_count, 0.0f);

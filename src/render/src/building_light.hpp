@@ -14,6 +14,11 @@
 
 namespace skylit::render {
 
+// `value` with each channel that is not finite (finite_nonnegative: or negative) taken as 0,
+// counted in *replaced (when not null).
+Eigen::Vector3d finite_or_zero(const Eigen::Vector3d& value, int* replaced);
+Eigen::Vector3d finite_nonnegative(const Eigen::Vector3d& value, int* replaced);
+
 // Vertex-major values (a bake's transfer arrays: `layers` per vertex) layer after layer, so that
 // a sum runs over every vertex of a layer at once; not finite or negative: 0.
 std::vector<float> layer_major(std::span<const float> values, std::size_t vertex_count, std::size_t layers);
@@ -50,13 +55,12 @@ class LightMapSums {
   LightMapSums(bake_format::LightMapArrays&& arrays, bool ground, std::size_t layers);
 
   // E = Σ_l S_l t_l + ρ ⊙ Σ_l S^g_l t^g_l per texel: RGBA (alpha 1 on the charts' texels, 0
-  // elsewhere), the atlas's size, row-major; S as given (not finite: 0), E not clamped. The full form: values not finite or negative count as
-  // 0, as at the vertices. The PCA form: per chart the K + 1 sums μ_c·S, p_{c,k}·S, then per texel
-  // μ_c·S + Σ_k a_{x,k} p_{c,k}·S, which is the same sum over t̂. Const: several may run at once.
+  // elsewhere), the atlas's size, row-major; S as given (not finite: 0), E not clamped. The full
+  // form: values not finite or negative count as 0, as at the vertices. The PCA form: per chart
+  // the K + 1 sums μ_c·S, p_{c,k}·S, then per texel μ_c·S + Σ_k a_{x,k} p_{c,k}·S, which is the
+  // same sum over t̂. Const: several may run at once.
   std::vector<float> sum(std::span<const Eigen::Vector3d> S, std::span<const Eigen::Vector3d> ground_coefficients,
                          const Eigen::Vector3d& albedo) const;
-
-  bool compressed() const { return pca_.has_value(); }
 
  private:
   using Coefficients = Eigen::Matrix<float, Eigen::Dynamic, 3>;

@@ -83,17 +83,6 @@ PlaneGeometry plane_geometry(const geom::Plane& plane) {
           plane.normal().cast<float>()};
 }
 
-Eigen::Vector3d finite_nonnegative(const Eigen::Vector3d& value, int* replaced) {
-  Eigen::Vector3d out = value;
-  for (int c = 0; c < 3; ++c) {
-    if (!std::isfinite(out[c]) || out[c] < 0.0) {
-      out[c] = 0.0;
-      if (replaced != nullptr) ++*replaced;
-    }
-  }
-  return out;
-}
-
 // Column-major floats for glUniformMatrix*.
 template <int N>
 std::array<float, N * N> column_major(const Eigen::Matrix<double, N, N>& m) {
@@ -202,11 +191,7 @@ Eigen::Vector3d plane_irradiance(const bake_format::PlaneRecord& plane, std::spa
                                  const std::optional<blend::SunLight>& sun, std::span<const blend::SunLight> lamps) {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   const std::size_t layers = std::min(sky.size(), plane.unoccluded.size());
-  for (std::size_t i = 0; i < layers; ++i) {
-    for (int c = 0; c < 3; ++c) {
-      if (std::isfinite(sky[i][c])) sum[c] += plane.unoccluded[i] * sky[i][c];  // a corner's may be negative
-    }
-  }
+  for (std::size_t i = 0; i < layers; ++i) sum += plane.unoccluded[i] * finite_or_zero(sky[i], nullptr);  // a corner's may be < 0
   const auto add = [&](const blend::SunLight& light) {
     const double cosine = plane.plane.normal().dot(light.direction.normalized());
     if (std::isfinite(cosine) && cosine > 0.0) sum += cosine * finite_nonnegative(light.energy, nullptr);

@@ -61,7 +61,6 @@ class BuildingIrradiance {
   std::size_t vertex_count() const { return vertex_count_; }
   std::size_t layer_count() const { return layer_count_; }
   bool ground_light() const { return ground_layers_.has_value(); }
-  const Eigen::Vector3d& ground_albedo() const { return ground_albedo_; }
   // The light map's layout (null: none), and its atlas's size.
   const bake_format::LightMapLayout* light_map_layout() const { return light_map_ ? &layout_ : nullptr; }
   int atlas_width() const { return layout_.width; }

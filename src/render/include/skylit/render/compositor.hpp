@@ -169,9 +169,9 @@ Eigen::Vector3d plane_irradiance(const bake_format::PlaneRecord& plane, std::spa
 // texture, its targets, display_texture) and sets all the GL state it draws with; it only reads
 // the input's shadow-ratio textures and sun shadow map. So several Compositors (one per camera
 // of a stereo HMD, stereo_camera.hpp) share one context and the same inputs, and one
-// BuildingIrradiance (CompositorOptions::building_irradiance): the building's light is summed on
-// the CPU once per sky, by the first that draws it or ahead on another thread
-// (CompositeInput::irradiance).
+// BuildingIrradiance (CompositorOptions::building_irradiance); the building's light is summed on
+// the CPU once per sky, ahead on another thread (CompositeInput::irradiance), or else by each
+// compositor for itself.
 class Compositor {
  public:
   // transfer: the bake's transfer.npy, vertex_count × layer_count floats (vertex-major). The site
