@@ -257,6 +257,12 @@ int main(int argc, char** argv) {
                  "(skylit-bake --light-map-components); 0: the full form");
   app.add_option("--light-map-sky-correlation", light_map_pca.sky_correlation_deg,
                  "degrees, with --light-map-components (skylit-bake --light-map-sky-correlation)");
+  skylit::render::LightMapPrecision light_map_precision = skylit::render::LightMapPrecision::Float;
+  app.add_option("--light-map-precision", light_map_precision,
+                 "with --light-map: the light map's values as the compositor holds them (render.light_map_precision): "
+                 "float, or half (each rounded to the nearest half float)")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, skylit::render::LightMapPrecision>{
+          {"float", skylit::render::LightMapPrecision::Float}, {"half", skylit::render::LightMapPrecision::Half}}));
   double inside_spacing = 0.0;
   app.add_option("--inside-spacing", inside_spacing,
                  "metres: the points inside the triangles about this far apart or closer, a large triangle split into smaller ones "
@@ -615,6 +621,7 @@ int main(int argc, char** argv) {
         const bool pca = manifest.light_map->pca.has_value();
         texel_map = skylit::bake_format::read_light_map(bake_dir, manifest,
                                                         pca ? skylit::bake_format::LightMapForm::Pca : skylit::bake_format::LightMapForm::Full);
+        skylit::study::hold_light_map(*texel_map, light_map_precision);
         if (pca) {
           texel_values = skylit::bake_format::LightMapValues::Reconstructed;
           texel_map->transfer = skylit::bake_format::expand_light_map(texel_map->layout, texel_map->pca->sky);

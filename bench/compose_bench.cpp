@@ -15,6 +15,7 @@
 // SKYLIT_COMPOSE_BENCH_LIGHT_MAP=TEXEL[,MIN_AREA[,MIN_ACROSS[,COMPONENTS]]] bakes a light map too (skylit-bake
 // --light-map; with COMPONENTS its PCA form, which the compositor then reads)
 // and every compositor draws with it: its sum per new sky, and its lookups in the building's pass.
+// SKYLIT_COMPOSE_BENCH_BAKE=DIR reads that finished bake of the site instead of baking one.
 #include <algorithm>
 #include <array>
 #include <cstdio>
@@ -57,6 +58,7 @@ struct Scene {
   scene::Site site;
   scene::Mesh mesh;
   bake_format::Manifest manifest;
+  bool keep_dir = false;                         // SKYLIT_COMPOSE_BENCH_BAKE: not this bench's to remove
   std::vector<float> transfer, ground_transfer;
   bake_format::LightMapArrays light_map;         // SKYLIT_COMPOSE_BENCH_LIGHT_MAP; no texels: none
   std::vector<Eigen::Vector3d> sky;
@@ -103,9 +105,16 @@ struct Scene {
       options.light_map = l;
       if (components > 0) options.light_map_pca = bake_format::LightMapPcaOptions{components, 0.0, true};
     }
-    std::FILE* quiet = std::fopen("/dev/null", "w");
-    baker::run_bake(options, quiet);
-    std::fclose(quiet);
+    // A finished bake of that site instead (SKYLIT_COMPOSE_BENCH_BAKE=DIR: one too slow to bake
+    // here, e.g. the accurate preset's at 1/8 of its planes' resolution), read and left as it is.
+    if (const char* bake_dir = std::getenv("SKYLIT_COMPOSE_BENCH_BAKE"); bake_dir != nullptr && *bake_dir != '\0') {
+      dir = bake_dir;
+      keep_dir = true;
+    } else {
+      std::FILE* quiet = std::fopen("/dev/null", "w");
+      baker::run_bake(options, quiet);
+      std::fclose(quiet);
+    }
     manifest = bake_format::read_manifest(dir);
     site = scene::load_site(options.site_file);
     mesh = bake_format::load_baked_model(site, dir, manifest);
@@ -136,7 +145,7 @@ struct Scene {
   }
   ~Scene() {
     std::error_code ignored;
-    fs::remove_all(dir, ignored);
+    if (!keep_dir) fs::remove_all(dir, ignored);
   }
 
   static Scene& get() {
@@ -291,11 +300,13 @@ void BM_CompositeDrawNewSky(benchmark::State& state) {
 }
 
 // The building's light for one sky alone (BuildingIrradiance::sum: per vertex and per light-map
-// texel, on every core), as the live service's sky thread sums it. arg: the ground's light.
+// texel, on every core), as the live service's sky thread sums it. args: the ground's light, the
+// light map held in half floats (render.light_map_precision: half).
 void BM_BuildingLightSum(benchmark::State& state) {
   Scene& scene = Scene::get();
   const camera::CameraCalibration calibration = camera(640, 480);
   render::CompositorOptions options = light_mapped(scene);
+  if (state.range(1) != 0) options.light_map_precision = render::LightMapPrecision::Half;
   if (state.range(0) != 0) {
     options.ground_albedo = Eigen::Vector3d::Constant(0.2);
     options.ground_transfer = scene.ground_transfer;
@@ -311,6 +322,7 @@ void BM_BuildingLightSum(benchmark::State& state) {
   state.counters["process_cpu_ms"] = 1000.0 * static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC /
                                      static_cast<double>(state.iterations());
   state.counters["atlas_texels"] = static_cast<double>(building->atlas_width()) * building->atlas_height();
+  state.counters["light_map_mib"] = static_cast<double>(building->light_map_bytes()) / (1 << 20);
 }
 
 void BM_CompositeDraw(benchmark::State& state) { frame(state, false); }
@@ -325,7 +337,14 @@ BENCHMARK(BM_CompositeDrawNewSky)
     ->Args({640, 480, 60, 1, 1})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
-BENCHMARK(BM_BuildingLightSum)->ArgNames({"ground"})->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_BuildingLightSum)
+    ->ArgNames({"ground", "half"})
+    ->Args({0, 0})
+    ->Args({0, 1})
+    ->Args({1, 0})
+    ->Args({1, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK(BM_CompositeWithReadBack)->Args({640, 480, 100})->Args({1280, 720, 100})->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_CompositeStages)
     ->ArgNames({"w", "h", "scale%", "sun_map"})

@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <cstdio>
 #include <exception>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -62,6 +63,11 @@ int main(int argc, char** argv) {
                     "and the error then use (skylit-bake --light-map-components); 0: the full form")
       ->check(CLI::Range(0, 4096))
       ->capture_default_str();
+  trade->add_option("--light-map-precision", o.light_map_precision,
+                    "with --light-maps: how the compositor holds the light map's values (render.light_map_precision): float, "
+                    "or half (each rounded to the nearest half float), in the error, the frame and the service alike")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, skylit::render::LightMapPrecision>{
+          {"float", skylit::render::LightMapPrecision::Float}, {"half", skylit::render::LightMapPrecision::Half}}));
   trade->add_option("--forms", o.forms, "full, lean, cropped, pcaK, pcaKtN (clustered PCA, tiles of N texels)")->delimiter(',')->capture_default_str();
   trade->add_option("--bits", o.bits, "layer bit depth: 16 (half), 8 (unorm8; not with PCA)")->delimiter(',')->capture_default_str();
   trade->add_option("--sun", o.sun, "sun separation: on, off")->delimiter(',')->capture_default_str();

@@ -15,6 +15,7 @@
 #include "skylit/bake_format/light_map.hpp"
 #include "skylit/baker/light_map.hpp"
 #include "skylit/base/error.hpp"
+#include "skylit/blend/half.hpp"
 #include "skylit/blend/vertex_irradiance.hpp"
 #include "skylit/render/building_irradiance.hpp"
 
@@ -277,6 +278,75 @@ TEST_F(BuildingIrradianceTest, AStereoHmdsSecondCompositorSharesTheFirstsSums) {
                InputError);
   EXPECT_THROW(render::BuildingIrradiance(baked.mesh, baked.manifest, baked.transfer, Eigen::Vector3d(0.2, 1.5, 0.2), bake.ground, {}),
                InputError);
+}
+
+TEST_F(BuildingIrradianceTest, HalfFloatsSumTheValuesTheyHoldInHalfTheMemory) {
+  // render.light_map_precision: half holds the light map's values (either form) as IEEE half
+  // floats: its sums are the float sums of those values rounded to half, within 2^-10 of the
+  // float sums (each value within 2^-11 of itself), in half the bytes.
+  const BakedSite& baked = BakedSite::get();
+  const LitBake bake;
+  const std::size_t layers = baked.manifest.layer_count();
+  const auto rounded = [](std::vector<float> values) {
+    for (float& v : values) v = blend::half_to_float(blend::float_to_half(v));
+    return values;
+  };
+  bake_format::LightMapPca pca{bake_format::compress_light_map(bake.map.layout, bake.map_transfer, layers, {4, 0.0, true}),
+                               bake_format::compress_light_map(bake.map.layout, bake.map_ground, layers, {4, 0.0, true})};
+  bake_format::LightMapPca pca_rounded = pca;
+  for (bake_format::LightMapComponents* c : {&pca_rounded.sky, &pca_rounded.ground}) {
+    c->weights = rounded(c->weights);
+    c->vectors = rounded(c->vectors);
+  }
+  const std::vector<Eigen::Vector3d> sky = patchy_sky(7);
+  const blend::SunLight sun{Eigen::Vector3d(0.2, 0.4, 0.9).normalized(), Eigen::Vector3d(3.0, 3.0, 2.5)};
+  const auto sums = [&](bake_format::LightMapArrays arrays, render::LightMapPrecision precision, std::size_t* bytes) {
+    const render::BuildingIrradiance building(baked.mesh, baked.manifest, baked.transfer, bake.options.ground_albedo, bake.ground,
+                                              std::move(arrays), precision);
+    *bytes = building.light_map_bytes();
+    return building.sum(sky, sun, {}).atlas;
+  };
+  const auto largest_difference = [](const std::vector<float>& a, const std::vector<float>& b, double* peak) {
+    double worst = 0.0;
+    *peak = 0.0;
+    for (std::size_t k = 0; k < a.size(); ++k) {
+      worst = std::max(worst, std::abs(static_cast<double>(a[k]) - b[k]));
+      *peak = std::max(*peak, std::abs(static_cast<double>(b[k])));
+    }
+    return worst;
+  };
+  for (const bool in_pca : {false, true}) {
+    SCOPED_TRACE(in_pca ? "the PCA form" : "the full form");
+    const bake_format::LightMapArrays original = in_pca ? bake_format::LightMapArrays{bake.map.layout, {}, {}, pca}
+                                                        : bake_format::LightMapArrays{bake.map.layout, bake.map_transfer, bake.map_ground, std::nullopt};
+    const bake_format::LightMapArrays as_half = in_pca ? bake_format::LightMapArrays{bake.map.layout, {}, {}, pca_rounded}
+                                                       : bake_format::LightMapArrays{bake.map.layout, rounded(bake.map_transfer),
+                                                                                     rounded(bake.map_ground), std::nullopt};
+    std::size_t float_bytes = 0, half_bytes = 0, rounded_bytes = 0;
+    const std::vector<float> in_float = sums(original, render::LightMapPrecision::Float, &float_bytes);
+    const std::vector<float> in_half = sums(original, render::LightMapPrecision::Half, &half_bytes);
+    const std::vector<float> of_rounded = sums(as_half, render::LightMapPrecision::Float, &rounded_bytes);
+    ASSERT_EQ(in_half.size(), in_float.size());
+    EXPECT_EQ(2 * half_bytes, float_bytes);
+    EXPECT_GT(half_bytes, 0u);
+    double peak = 0.0;
+    const double from_rounded = largest_difference(in_half, of_rounded, &peak);
+    ASSERT_GT(peak, 0.01);
+    EXPECT_LT(from_rounded, 1e-5 * peak);
+    const double from_float = largest_difference(in_half, in_float, &peak);
+    EXPECT_LT(from_float, std::ldexp(1.0, -10) * peak);
+  }
+
+  // A value a half float cannot hold is refused, naming the setting and the fix.
+  std::vector<float> huge = bake.map_transfer;
+  huge[5] = 1e6f;
+  try {
+    render::BuildingIrradiance(baked.mesh, baked.manifest, baked.transfer, Eigen::Vector3d::Zero(), {},
+                               bake_format::LightMapArrays{bake.map.layout, huge, {}, std::nullopt}, render::LightMapPrecision::Half);
+    ADD_FAILURE() << "a value of 1e6 was held in a half float";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("render.light_map_precision: float"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -28,6 +28,7 @@ TEST(ServiceConfig, PresetSetsTheLiveSettings) {
     EXPECT_EQ(config.blend.storage, p.storage);
     EXPECT_EQ(config.render.scale, p.render_scale);
     EXPECT_EQ(config.render.ground_light, p.ground_light);
+    EXPECT_EQ(config.render.light_map_precision, p.light_map_precision);
     EXPECT_TRUE(p.ground_light) << "every preset lights the building with the ground";
     EXPECT_EQ(config.sky.smoothing, p.smoothing);
     EXPECT_EQ(config.blend.basis, p.basis);
@@ -45,6 +46,16 @@ TEST(ServiceConfig, ConfigKeysOverrideThePreset) {
   EXPECT_EQ(config.blend.skip_threshold, 0.0125);
   EXPECT_EQ(config.blend.basis, blend::BasisForm::Full);
   EXPECT_EQ(config.blend.change_threshold, fast.change_threshold);  // not overridden: the preset's
+
+  // render.light_map_precision overrides the preset's light_map_precision.
+  std::ofstream(file) << rig.config_text() << "preset: balanced\nrender:\n  light_map_precision: float\n";
+  EXPECT_EQ(live::load_live_config(file).render.light_map_precision, render::LightMapPrecision::Float);
+  std::ofstream(file) << rig.config_text() << "preset: fast\nrender:\n  light_map_precision: half\n";
+  EXPECT_EQ(live::load_live_config(file).render.light_map_precision, render::LightMapPrecision::Half);
+  std::ofstream(file) << rig.config_text() << "render:\n  light_map_precision: double\n";
+  const std::string message = skylit::test::error_of([&] { (void)live::load_live_config(file); });
+  EXPECT_NE(message.find("render.light_map_precision"), std::string::npos) << message;
+  EXPECT_NE(message.find("float"), std::string::npos) << message;
 
   // A presets.yaml beside the config is used instead of the shipped one.
   std::ofstream(rig.dir() / "presets.yaml")
@@ -92,6 +103,9 @@ TEST(ServiceConfig, ABadLivePresetFieldIsNamed) {
   EXPECT_NE(message.find("smothing"), std::string::npos) << message;
   message = error_for(bake, "{render_scale: 1.5}");
   EXPECT_NE(message.find("render_scale"), std::string::npos) << message;
+  message = error_for(bake, "{light_map_precision: double}");
+  EXPECT_NE(message.find("quick.live.light_map_precision"), std::string::npos) << message;
+  EXPECT_NE(message.find("half"), std::string::npos) << message;
   message = error_for("{frequency: 2, basis: faces, samples: 4, pca_components: 4}", "{basis: pca, storage: eac}");
   EXPECT_NE(message.find("live.storage"), std::string::npos) << message;
   EXPECT_EQ(error_for("{frequency: 2, basis: faces, samples: 4, pca_components: 4}", "{basis: pca}"), "");

@@ -365,9 +365,10 @@ TEST(ServiceConfig, ABakeOfARefinedModelWithALightMapRunsOnTheRefinedModel) {
   const std::string message = skylit::test::error_of([&] { live::Service(live::load_live_config(file), quiet_options()); });
   EXPECT_NE(message.find("render.light_map_form"), std::string::npos) << message;
   EXPECT_NE(message.find("--light-map-components"), std::string::npos) << message;
-  // Added without the full form (compress --light-map-pca-only): drawn from the PCA form, and
-  // the full form asked for is refused with the fix.
+  // Added without the full form (compress --light-map-pca-only): drawn from the PCA form, here
+  // held in half floats, and the full form asked for is refused with the fix.
   skylit::baker::compress_bake(refined, std::nullopt, skylit::bake_format::LightMapPcaOptions{8, 45.0, false}, nullptr);
+  std::ofstream(file) << text << "render:\n  ground_light: true\n  light_map_form: pca\n  light_map_precision: half\n";
   {
     live::Service service(live::load_live_config(file), options);
     EXPECT_GE(service.run(), 2);

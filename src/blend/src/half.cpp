@@ -21,11 +21,21 @@ void halves_to_floats(std::span<const std::uint16_t> in, std::span<float> out) {
     throw std::invalid_argument("halves_to_floats: " + std::to_string(in.size()) + " halves into " +
                                 std::to_string(out.size()) + " floats");
   }
-  if (detail::cpu_has_avx2_f16c_fma()) {
+  // Asked once: CPUID traps to the hypervisor on a virtual machine, and callers convert in blocks.
+  static const bool avx2 = detail::cpu_has_avx2_f16c_fma();
+  if (avx2) {
     detail::halves_to_floats_avx2(in.data(), out.data(), in.size());
     return;
   }
   for (std::size_t i = 0; i < in.size(); ++i) out[i] = detail::half_bits_to_float(in[i]);
+}
+
+void floats_to_halves(std::span<const float> in, std::span<std::uint16_t> out) {
+  if (in.size() != out.size()) {
+    throw std::invalid_argument("floats_to_halves: " + std::to_string(in.size()) + " floats into " +
+                                std::to_string(out.size()) + " halves");
+  }
+  for (std::size_t i = 0; i < in.size(); ++i) out[i] = float_to_half(in[i]);
 }
 
 }  // namespace skylit::blend

@@ -20,7 +20,9 @@ constexpr const char* kDocs = "see docs/live.md (Configuration)";
 constexpr std::array<std::string_view, 16> kTopKeys{"site",     "bake",  "preset",      "sky",    "camera", "pose",   "imu",
                                                     "fusion",   "tracking", "blend", "render", "photometric", "output", "status", "display",
                                                     "root"};
-constexpr std::array<std::string_view, 5> kRenderKeys{"scale", "ground_light", "ground_albedo", "light_map", "light_map_form"};
+constexpr std::array<std::string_view, 6> kRenderKeys{"scale",     "ground_light",   "ground_albedo",
+                                                      "light_map", "light_map_form", "light_map_precision"};
+constexpr std::array<std::string_view, 2> kLightMapPrecisions{"float", "half"};
 constexpr std::array<std::string_view, 11> kSkyKeys{"calibration", "source",      "response",   "rate",
                                                    "sun",         "smoothing",   "stale_after", "max_sources",
                                                    "sun_colour",  "clipped_sun_energy", "bracket"};
@@ -59,8 +61,9 @@ constexpr std::array<std::string_view, 2> kDisplayModes{"mono", "stereo"};
 }  // namespace
 
 LivePreset load_live_preset(const PresetsFile& presets, const std::string& name) {
-  constexpr std::array<std::string_view, 8> keys{"basis",     "storage", "skip_threshold", "change_threshold",
-                                                 "smoothing", "sun",     "render_scale",   "ground_light"};
+  constexpr std::array<std::string_view, 9> keys{"basis",        "storage",      "skip_threshold",
+                                                 "change_threshold", "smoothing", "sun",
+                                                 "render_scale", "ground_light", "light_map_precision"};
   constexpr std::array<std::string_view, 2> sun_modes{"auto", "off"};
   const PresetSection s = presets.section(name, "live");
   const YamlReader& r = s.reader;
@@ -84,6 +87,11 @@ LivePreset load_live_preset(const PresetsFile& presets, const std::string& name)
     if (p.render_scale > 1.0) r.fail(n, s.field_of("render_scale"), "is over 1", "a scale in (0, 1], e.g. 0.75");
   }
   if (auto n = YamlReader::optional(s.node, "ground_light")) p.ground_light = r.boolean(n, s.field_of("ground_light"), "true or false");
+  if (auto n = YamlReader::optional(s.node, "light_map_precision")) {
+    p.light_map_precision = r.choice(n, s.field_of("light_map_precision"), kLightMapPrecisions) == "half"
+                                ? render::LightMapPrecision::Half
+                                : render::LightMapPrecision::Float;
+  }
   if (p.basis == blend::BasisForm::Pca) {
     // The PCA form is the bake's to store: its section must ask for one.
     const PresetSection bake = presets.section(name, "bake");
@@ -135,6 +143,7 @@ void apply_preset(const YamlReader& r, const YAML::Node& root, const std::filesy
     c.blend.storage = preset.storage;
     c.render.scale = preset.render_scale;
     c.render.ground_light = preset.ground_light;
+    c.render.light_map_precision = preset.light_map_precision;
     c.blend.skip_threshold = preset.skip_threshold;
     c.blend.change_threshold = preset.change_threshold;
   }
@@ -366,6 +375,11 @@ void parse_render(const YamlReader& r, const YAML::Node& root, LiveConfig& c) {
     if (auto n = YamlReader::optional(render, "light_map_form")) {
       constexpr std::array<std::string_view, 3> forms{"auto", "full", "pca"};
       c.render.light_map_form = r.choice(n, "render.light_map_form", forms);
+    }
+    if (auto n = YamlReader::optional(render, "light_map_precision")) {
+      c.render.light_map_precision = r.choice(n, "render.light_map_precision", kLightMapPrecisions) == "half"
+                                         ? render::LightMapPrecision::Half
+                                         : render::LightMapPrecision::Float;
     }
     if (auto n = YamlReader::optional(render, "ground_albedo")) {
       const std::string fix = "the ground's reflectance in [0, 1]: a number, e.g. 0.2, or [r, g, b]";

@@ -275,6 +275,7 @@ void Service::State::RenderLoop::make_shadow_ratios() {
 void Service::State::RenderLoop::make_compositor_and_display() {
   compositor_options.photometric.scale = s.config.photometric.scale;
   compositor_options.lens.render_scale = s.config.render.scale;
+  compositor_options.light_map_precision = s.config.render.light_map_precision;
   if (s.config.render.ground_light) {
     compositor_options.ground_albedo = s.config.render.ground_albedo.value_or(s.config.photometric.albedo);
   }

@@ -28,7 +28,7 @@ void at_least_zero(std::vector<float>& values) {
 
 BuildingIrradiance::BuildingIrradiance(const scene::Mesh& mesh, const bake_format::Manifest& manifest, std::span<const float> transfer,
                                        const Eigen::Vector3d& ground_albedo, std::span<const float> ground_transfer,
-                                       bake_format::LightMapArrays light_map)
+                                       bake_format::LightMapArrays light_map, LightMapPrecision precision)
     : vertex_count_(mesh.vertex_count()), layer_count_(manifest.layer_count()),
       negative_coefficients_(manifest.plan.basis != geom::DomeBasis::Faces) {
   const std::size_t expected = vertex_count_ * layer_count_;
@@ -63,11 +63,17 @@ BuildingIrradiance::BuildingIrradiance(const scene::Mesh& mesh, const bake_forma
   if (!light_map.layout.texels.empty()) {
     LightMapSums::check(light_map, ground_light(), mesh, layer_count_);
     layout_ = light_map.layout;
-    light_map_ = std::make_unique<LightMapSums>(std::move(light_map), ground_light(), layer_count_);
+    light_map_ = std::make_unique<LightMapSums>(std::move(light_map), ground_light(), layer_count_, precision);
   }
 }
 
 BuildingIrradiance::~BuildingIrradiance() = default;
+
+std::size_t BuildingIrradiance::light_map_bytes() const { return light_map_ ? light_map_->value_bytes() : 0; }
+
+const char* light_map_precision_name(LightMapPrecision precision) {
+  return precision == LightMapPrecision::Half ? "half" : "float";
+}
 
 std::vector<Eigen::Vector3d> BuildingIrradiance::cleaned_sky(std::span<const Eigen::Vector3d> sky, int* replaced) const {
   std::vector<Eigen::Vector3d> out;

@@ -10,6 +10,8 @@
 
 #include "skylit/base/error.hpp"
 #include "skylit/base/parallel_for.hpp"
+#include "skylit/blend/half.hpp"
+#include "skylit/render/light_map_kernels.hpp"
 
 namespace skylit::render {
 namespace {
@@ -149,7 +151,41 @@ std::vector<float> per_draw_vertex(const DrawVertices& draw, std::span<const flo
   return out;
 }
 
-LightMapSums::LightMapSums(bake_format::LightMapArrays&& arrays, bool ground, std::size_t layers)
+HeldValues::HeldValues(std::vector<float>&& values, LightMapPrecision precision) {
+  if (precision == LightMapPrecision::Float) {
+    floats_ = std::move(values);
+    return;
+  }
+  constexpr float kLargestHalf = 65504.0f;
+  for (const float v : values) {
+    if (std::isfinite(v) && std::abs(v) > kLargestHalf) {
+      throw InputError(input_message({}, -1, -1, "render.light_map_precision",
+                                     "the light map holds a value (" + std::to_string(v) + ") beyond a half float's ±65504",
+                                     "hold it in float (render.light_map_precision: float)"));
+    }
+  }
+  halves_ = std::vector<std::uint16_t>(values.size());
+  blend::floats_to_halves(values, halves_);
+  values = {};
+}
+
+void HeldValues::row_products(std::size_t first, std::size_t n, std::size_t layers, const float* planar, float* out) const {
+  if (half()) {
+    light_map_kernels::row_products(halves_.data() + first * layers, n, layers, planar, out);
+  } else {
+    light_map_kernels::row_products(floats_.data() + first * layers, n, layers, planar, out);
+  }
+}
+
+void HeldValues::texel_sum(std::size_t first, std::size_t K, const float* chart, float* out) const {
+  if (half()) {
+    light_map_kernels::texel_sum(halves_.data() + first, K, chart, out);
+  } else {
+    light_map_kernels::texel_sum(floats_.data() + first, K, chart, out);
+  }
+}
+
+LightMapSums::LightMapSums(bake_format::LightMapArrays&& arrays, bool ground, std::size_t layers, LightMapPrecision precision)
     : texels_(arrays.layout.texels), layers_(layers), width_(arrays.layout.width), height_(arrays.layout.height) {
   const std::size_t count = texels_.size();
   if (arrays.pca) {
@@ -160,18 +196,30 @@ LightMapSums::LightMapSums(bake_format::LightMapArrays&& arrays, bool ground, st
       throw std::invalid_argument("LightMapSums: the PCA form does not fit " + std::to_string(count) + " texels of " +
                                   std::to_string(layers) + " layers");
     }
-    pca_ = std::move(arrays.pca);
-    if (!ground) pca_->ground = {};
+    pca_ = true;
+    const auto hold = [&](bake_format::LightMapComponents& c) {
+      return Components{c.components, HeldValues(std::move(c.weights), precision), HeldValues(std::move(c.vectors), precision)};
+    };
+    sky_components_ = hold(arrays.pca->sky);
+    if (ground) ground_components_ = hold(arrays.pca->ground);
+    arrays.pca.reset();
     return;
   }
-  transfer_ = cleaned(arrays.transfer);
-  if (ground) ground_ = cleaned(arrays.ground);
-  arrays.transfer = {};
-  arrays.ground = {};
-  if (layers == 0 || transfer_.size() != count * layers || (!ground_.empty() && ground_.size() != transfer_.size())) {
-    throw std::invalid_argument("LightMapSums: " + std::to_string(transfer_.size()) + " transfer and " + std::to_string(ground_.size()) +
+  const std::size_t transfer_size = arrays.transfer.size(), ground_size = ground ? arrays.ground.size() : 0;
+  if (layers == 0 || transfer_size != count * layers || (ground_size != 0 && ground_size != transfer_size)) {
+    throw std::invalid_argument("LightMapSums: " + std::to_string(transfer_size) + " transfer and " + std::to_string(ground_size) +
                                 " ground values for " + std::to_string(count) + " texels of " + std::to_string(layers) + " layers");
   }
+  transfer_ = HeldValues(cleaned(arrays.transfer), precision);
+  if (ground_size != 0) ground_ = HeldValues(cleaned(arrays.ground), precision);
+  arrays.transfer = {};
+  arrays.ground = {};
+}
+
+std::size_t LightMapSums::value_bytes() const {
+  const auto bytes = [](const HeldValues& v) { return v.size() * (v.half() ? sizeof(std::uint16_t) : sizeof(float)); };
+  return bytes(transfer_) + bytes(ground_) + bytes(sky_components_.weights) + bytes(sky_components_.vectors) +
+         bytes(ground_components_.weights) + bytes(ground_components_.vectors);
 }
 
 std::vector<float> LightMapSums::sum(std::span<const Eigen::Vector3d> S, std::span<const Eigen::Vector3d> ground_coefficients,
@@ -200,69 +248,60 @@ std::vector<float> LightMapSums::sum(std::span<const Eigen::Vector3d> S, std::sp
 }
 
 void LightMapSums::sum_full(const Coefficients& sky, const Coefficients& reflected, std::vector<float>& atlas) const {
-  // E = T S (+ G ρS^g): texels × layers times layers × 3, as matrix products (SIMD) over blocks of
-  // texels on every core.
-  using Rows = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  // E = T S (+ G ρS^g): each texel's row of layers times the three columns, over blocks of texels
+  // on every core. Coefficients are column-major: a channel's layers lie together.
   const std::size_t count = texels_.size();
-  constexpr std::size_t kBlock = 4096;
-  const auto blocks = static_cast<int>((count + kBlock - 1) / kBlock);
-  const auto layers = static_cast<Eigen::Index>(layers_);
-  parallel_for(blocks, 0, [&](int block) {
+  constexpr std::size_t kBlock = 1024;
+  parallel_for(static_cast<int>((count + kBlock - 1) / kBlock), 0, [&](int block) {
     const std::size_t first = static_cast<std::size_t>(block) * kBlock, rows = std::min(count, first + kBlock) - first;
-    const auto n = static_cast<Eigen::Index>(rows);
-    Coefficients E = Eigen::Map<const Rows>(transfer_.data() + first * layers_, n, layers) * sky;
-    if (!ground_.empty()) E.noalias() += Eigen::Map<const Rows>(ground_.data() + first * layers_, n, layers) * reflected;
+    std::vector<float> E(3 * rows), G(ground_.empty() ? 0 : 3 * rows);
+    transfer_.row_products(first, rows, layers_, sky.data(), E.data());
+    if (!G.empty()) ground_.row_products(first, rows, layers_, reflected.data(), G.data());
     for (std::size_t k = 0; k < rows; ++k) {
       float* out = atlas.data() + 4 * static_cast<std::size_t>(texels_[first + k]);
-      for (int c = 0; c < 3; ++c) out[c] = E(static_cast<Eigen::Index>(k), c);
+      for (std::size_t c = 0; c < 3; ++c) out[c] = E[3 * k + c] + (G.empty() ? 0.0f : G[3 * k + c]);
       out[3] = 1.0f;
     }
   });
 }
 
 void LightMapSums::sum_pca(const Coefficients& sky, const Coefficients& reflected, std::vector<float>& atlas) const {
-  // Per chart its K + 1 vectors times S (matrix products over blocks of charts' rows, on every
-  // core), then per texel K multiply-adds per channel. The sums are row-major, so that a chart's
-  // (K + 1) × 3 lie together for its texels.
-  using Rows = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-  using Sums = Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor>;
-  const auto layers = static_cast<Eigen::Index>(layers_);
-  const auto per_chart = [&](const bake_format::LightMapComponents& c, const Coefficients& coefficients) {
-    const std::size_t rows = c.vectors.size() / layers_;
-    constexpr std::size_t kRows = 2048;
-    Sums sums(static_cast<Eigen::Index>(rows), 3);
+  // Per chart its K + 1 vectors times S (over blocks of the charts' rows, on every core), then per
+  // texel K multiply-adds per channel against its chart's sums, held planar: μ·S per channel,
+  // then p_k·S for every k, one channel after another.
+  const auto per_chart = [&](const Components& c, const Coefficients& coefficients) {
+    const std::size_t rows = c.vectors.size() / layers_, K = static_cast<std::size_t>(c.components);
+    std::vector<float> by_row(3 * rows);
+    constexpr std::size_t kRows = 256;
     parallel_for(static_cast<int>((rows + kRows - 1) / kRows), 0, [&](int block) {
       const std::size_t first = static_cast<std::size_t>(block) * kRows, n = std::min(rows, first + kRows) - first;
-      sums.middleRows(static_cast<Eigen::Index>(first), static_cast<Eigen::Index>(n)).noalias() =
-          Eigen::Map<const Rows>(c.vectors.data() + first * layers_, static_cast<Eigen::Index>(n), layers) * coefficients;
+      c.vectors.row_products(first, n, layers_, coefficients.data(), by_row.data() + 3 * first);
     });
-    return sums;
-  };
-  const Sums sky_sums = per_chart(pca_->sky, sky);
-  const Sums ground_sums = pca_->ground.components > 0 ? per_chart(pca_->ground, reflected) : Sums();
-  const auto add = [&](const bake_format::LightMapComponents& c, const Sums& sums, std::size_t x, float* out) {
-    const auto k = static_cast<std::size_t>(c.components);
-    const float* s = sums.data() + static_cast<std::size_t>(texel_chart_[x]) * (k + 1) * 3;
-    const float* a = c.weights.data() + x * k;
-    float e0 = s[0], e1 = s[1], e2 = s[2];
-    for (std::size_t j = 0; j < k; ++j) {
-      const float* p = s + 3 * (j + 1);
-      e0 += a[j] * p[0];
-      e1 += a[j] * p[1];
-      e2 += a[j] * p[2];
+    std::vector<float> planar(by_row.size());
+    for (std::size_t chart = 0; chart < rows / (K + 1); ++chart) {
+      const float* from = by_row.data() + chart * (K + 1) * 3;
+      float* to = planar.data() + chart * (K + 1) * 3;
+      for (std::size_t ch = 0; ch < 3; ++ch) {
+        to[ch] = from[ch];
+        for (std::size_t k = 0; k < K; ++k) to[3 + ch * K + k] = from[3 * (k + 1) + ch];
+      }
     }
-    out[0] += e0;
-    out[1] += e1;
-    out[2] += e2;
+    return planar;
   };
+  const bool ground = ground_components_.components > 0;
+  const std::vector<float> sky_sums = per_chart(sky_components_, sky);
+  const std::vector<float> ground_sums = ground ? per_chart(ground_components_, reflected) : std::vector<float>();
+  const auto sky_k = static_cast<std::size_t>(sky_components_.components);
+  const auto ground_k = static_cast<std::size_t>(ground_components_.components);
   const std::size_t count = texels_.size();
-  constexpr std::size_t kBlock = 16384;
+  constexpr std::size_t kBlock = 4096;
   parallel_for(static_cast<int>((count + kBlock - 1) / kBlock), 0, [&](int block) {
     const std::size_t first = static_cast<std::size_t>(block) * kBlock, last = std::min(count, first + kBlock);
     for (std::size_t x = first; x < last; ++x) {
       float* out = atlas.data() + 4 * static_cast<std::size_t>(texels_[x]);
-      add(pca_->sky, sky_sums, x, out);
-      if (pca_->ground.components > 0) add(pca_->ground, ground_sums, x, out);
+      const auto chart = static_cast<std::size_t>(texel_chart_[x]);
+      sky_components_.weights.texel_sum(x * sky_k, sky_k, sky_sums.data() + chart * (sky_k + 1) * 3, out);
+      if (ground) ground_components_.weights.texel_sum(x * ground_k, ground_k, ground_sums.data() + chart * (ground_k + 1) * 3, out);
       out[3] = 1.0f;
     }
   });

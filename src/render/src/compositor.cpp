@@ -804,7 +804,7 @@ Compositor::Compositor(const scene::Site& site, const scene::Mesh& mesh, const b
     s.building_light = o.building_irradiance;
   } else {
     s.building_light = std::make_shared<const BuildingIrradiance>(mesh, manifest, transfer, o.ground_albedo, o.ground_transfer,
-                                                                  std::move(s.options.light_map));
+                                                                  std::move(s.options.light_map), o.light_map_precision);
   }
   s.options.ground_transfer = {};
   s.options.light_map = {};

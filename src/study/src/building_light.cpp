@@ -13,6 +13,7 @@
 #include "skylit/baker/ground_transfer.hpp"
 #include "skylit/baker/vertex_fit.hpp"
 #include "skylit/baker/visibility.hpp"
+#include "skylit/blend/half.hpp"
 #include "skylit/blend/vertex_irradiance.hpp"
 #include "skylit/sky/radiometry.hpp"
 
@@ -355,9 +356,30 @@ std::size_t worst_vertex(std::span<const Eigen::Vector3d> estimate, std::span<co
   return worst;
 }
 
-bake_format::LightMapArrays light_map_as_shown(const std::filesystem::path& bake_dir, const bake_format::Manifest& manifest) {
-  if (!manifest.light_map || !manifest.light_map->pca) return bake_format::read_light_map(bake_dir, manifest);
+void hold_light_map(bake_format::LightMapArrays& map, render::LightMapPrecision precision) {
+  if (precision == render::LightMapPrecision::Float) return;
+  const auto round = [](std::vector<float>& values) {
+    for (float& v : values) v = blend::half_to_float(blend::float_to_half(v));
+  };
+  round(map.transfer);
+  round(map.ground);
+  if (map.pca) {
+    for (bake_format::LightMapComponents* c : {&map.pca->sky, &map.pca->ground}) {
+      round(c->weights);
+      round(c->vectors);
+    }
+  }
+}
+
+bake_format::LightMapArrays light_map_as_shown(const std::filesystem::path& bake_dir, const bake_format::Manifest& manifest,
+                                               render::LightMapPrecision precision) {
+  if (!manifest.light_map || !manifest.light_map->pca) {
+    bake_format::LightMapArrays map = bake_format::read_light_map(bake_dir, manifest);
+    hold_light_map(map, precision);
+    return map;
+  }
   bake_format::LightMapArrays map = bake_format::read_light_map(bake_dir, manifest, bake_format::LightMapForm::Pca);
+  hold_light_map(map, precision);
   map.transfer = bake_format::expand_light_map(map.layout, map.pca->sky);
   if (manifest.ground) map.ground = bake_format::expand_light_map(map.layout, map.pca->ground);
   return map;

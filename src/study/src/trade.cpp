@@ -507,7 +507,13 @@ struct FrameRig {
   std::vector<double> wall, cpu;
 };
 using FrameKey = std::tuple<BakeKey, bool, int, double>;
-using FrameTimes = std::map<FrameKey, std::pair<double, double>>;  // median wall and CPU ms
+// Medians, ms: a frame (wall, process CPU), and the building's light summed for a new sky
+// (BuildingIrradiance::sum: on the service's sky thread, once per sky, as the blend).
+struct FrameTime {
+  double wall = 0, cpu = 0;
+  double sum_wall = 0, sum_cpu = 0;
+};
+using FrameTimes = std::map<FrameKey, FrameTime>;
 
 // The compositor's frame time per (bake, sun map, sources, render scale), on the GL context
 // current. N sources: the bench sun and N − 1 lamps of 2° spread over the sky, each drawn into the
@@ -535,6 +541,12 @@ FrameTimes time_frames(const TradeOptions& o, const Grid& grid, const Sites& sit
     render::CompositorOptions options;
     options.lens.render_scale = s.render_scale;
     if (manifest.light_map) options.light_map = bake_format::read_light_map(dir, manifest, bake_format::smallest_light_map_form(manifest));
+    options.light_map_precision = o.light_map_precision;
+    // The ground's light as the error measures it (and the presets use it): its layer summed too.
+    if (o.ground_albedo > 0.0 && manifest.ground) {
+      options.ground_albedo = Eigen::Vector3d::Constant(o.ground_albedo);
+      options.ground_transfer = bake_format::read_npy(dir / manifest.ground->file, &shape);
+    }
     if (s.sun) {
       render::SunShadowOptions map_options;
       map_options.max_sources = s.sources;
@@ -576,7 +588,18 @@ FrameTimes time_frames(const TradeOptions& o, const Grid& grid, const Sites& sit
     }
   }
   FrameTimes frame_ms;
-  for (auto& [key, rig] : frame_rigs) frame_ms[key] = {median(rig->wall), median(rig->cpu)};
+  for (auto& [key, rig] : frame_rigs) {
+    std::vector<double> sum_wall, sum_cpu;
+    const std::shared_ptr<const render::BuildingIrradiance> building = rig->compositor->building_irradiance();
+    for (int round = 0; round < std::max(3, o.frame_repeats / 6); ++round) {
+      const auto t = Clock::now();
+      const std::clock_t c = std::clock();
+      const render::SkyIrradiance sums = building->sum(rig->sky_radiance, rig->input.sun, rig->lamps);
+      sum_wall.push_back(1000.0 * seconds_since(t));
+      sum_cpu.push_back(cpu_ms_since(c));
+    }
+    frame_ms[key] = {median(rig->wall), median(rig->cpu), median(sum_wall), median(sum_cpu)};
+  }
   frame_rigs.clear();
   return frame_ms;
 }
@@ -603,7 +626,7 @@ struct SettingBake {
 };
 
 // Also the bake's cost in `r`: its time, size on disk and stored layers.
-SettingBake load_setting_bake(const Bakes& made, Result& r) {
+SettingBake load_setting_bake(const TradeOptions& o, const Bakes& made, Result& r) {
   const Setting& s = r.setting;
   const bool pca = s.form.form == blend::BasisForm::Pca;
   const fs::path bake_dir = pca ? made.pca_dirs.at({s.bake, s.form.components, s.form.tile}) : made.dirs.at(s.bake);
@@ -611,7 +634,7 @@ SettingBake load_setting_bake(const Bakes& made, Result& r) {
   std::vector<std::size_t> shape;
   bake.transfer = bake_format::read_npy(bake_dir / bake.manifest.transfer_file, &shape);
   if (bake.manifest.ground) bake.ground_transfer = bake_format::read_npy(bake_dir / bake.manifest.ground->file, &shape);
-  if (bake.manifest.light_map) bake.light_map = study::light_map_as_shown(bake_dir, bake.manifest);
+  if (bake.manifest.light_map) bake.light_map = study::light_map_as_shown(bake_dir, bake.manifest, o.light_map_precision);
   r.bake_seconds = made.seconds.at(s.bake) + (pca ? made.pca_seconds.at({s.bake, s.form.components, s.form.tile}) : 0.0);
   r.bake_bytes = directory_bytes(bake_dir);
   std::vector<blend::BasisImages>& basis = bake.basis;
@@ -767,9 +790,12 @@ void evaluate_skies(const Bench& bench, const SettingBake& bake, const sky::SkyE
     }
     std::vector<geom::Plane> bake_planes;
     for (const auto& record : manifest.planes) bake_planes.push_back(record.plane);
-    building_inside_diffs.append(
-        study::shown_inside(building_reference.points, inside_terms, study::virtual_shading(site.site, bake_planes, plane_T, plane_D)),
-        building_reference.inside, horizontal, building_reference.points.areas);
+    const std::vector<Eigen::Vector3d> shown =
+        study::shown_inside(building_reference.points, inside_terms, study::virtual_shading(site.site, bake_planes, plane_T, plane_D));
+    building_inside_diffs.append(shown, building_reference.inside, horizontal, building_reference.points.areas);
+    BuildingDiffs sky_inside;
+    sky_inside.append(shown, building_reference.inside, horizontal, building_reference.points.areas);
+    r.building_inside_per_sky[skies[i].name] = sky_inside.errors();
     r.rms_per_sky[skies[i].name] = study::errors_of(sky_diffs).rms;
     diffs.insert(diffs.end(), sky_diffs.begin(), sky_diffs.end());
   }
@@ -839,9 +865,15 @@ SequenceResult run_sequence(const Bench& bench, const SettingBake& bake, const S
 // The whole frame's time (compositor + blend), and the cost the plot and the front use.
 void add_frame_cost(const TradeOptions& o, const FrameTimes& frame_ms, Result& r) {
   const Setting& s = r.setting;
-  std::tie(r.frame_ms, r.frame_cpu_ms) = frame_ms.at(std::make_tuple(s.bake, s.sun, s.sources, s.render_scale));
-  r.whole_frame_ms = r.frame_ms + r.blend_ms;
-  r.whole_frame_cpu_ms = r.frame_cpu_ms + r.blend_cpu_ms;
+  const FrameTime& time = frame_ms.at(std::make_tuple(s.bake, s.sun, s.sources, s.render_scale));
+  r.frame_ms = time.wall;
+  r.frame_cpu_ms = time.cpu;
+  r.building_sum_ms = time.sum_wall;
+  r.building_sum_cpu_ms = time.sum_cpu;
+  // What a new sky costs: the planes' blend and the building's sum, both on the sky thread.
+  const double sky_ms = r.blend_ms + r.building_sum_ms, sky_cpu_ms = r.blend_cpu_ms + r.building_sum_cpu_ms;
+  r.whole_frame_ms = r.frame_ms + sky_ms;
+  r.whole_frame_cpu_ms = r.frame_cpu_ms + sky_cpu_ms;
   if (o.sky_interval <= 0.0) {
     r.cost_ms = o.clock == "wall" ? r.whole_frame_ms : r.whole_frame_cpu_ms / o.cores;
   } else {
@@ -849,7 +881,7 @@ void add_frame_cost(const TradeOptions& o, const FrameTimes& frame_ms, Result& r
     // fps · frame + blend / interval of work, `cores` seconds of it at most (CPU), or the
     // frame's wall time plus its share of the blend's (wall).
     const double frame = o.clock == "wall" ? r.frame_ms : r.frame_cpu_ms / o.cores;
-    const double blend_per_s = (o.clock == "wall" ? r.blend_ms : r.blend_cpu_ms / o.cores) / o.sky_interval;
+    const double blend_per_s = (o.clock == "wall" ? sky_ms : sky_cpu_ms / o.cores) / o.sky_interval;
     r.cost_ms = frame / std::max(1.0 - blend_per_s / 1000.0, 1e-3);
   }
 }
@@ -860,7 +892,7 @@ Result evaluate_setting(const Bench& bench, const Setting& s, int index, std::si
   const auto t_setting = Clock::now();
   Result r;
   r.setting = s;
-  const SettingBake bake = load_setting_bake(bench.bakes, r);
+  const SettingBake bake = load_setting_bake(bench.run.o, bench.bakes, r);
   const sky::SkyEstimator* estimator = &bench.estimators.estimator_for(s);
   evaluate_skies(bench, bake, *estimator, r);
   // The sequence follows the sun alone (the sky simulator has no lamps).
@@ -870,9 +902,7 @@ Result evaluate_setting(const Bench& bench, const Setting& s, int index, std::si
   if (o.live_seconds > 0) {
     const bool pca = s.form.form == blend::BasisForm::Pca;
     const fs::path bake_dir = pca ? bench.bakes.pca_dirs.at({s.bake, s.form.components, s.form.tile}) : bench.bakes.dirs.at(s.bake);
-    r.live = run_live(o.live_program, s, bench.sites.at(s.bake.texel_scale).file, bake_dir, o.sky_calib, o.hmd_calib,
-                      o.frame_width, o.frame_height, o.live_seconds, o.sky_interval, o.sequence_lat, o.sequence_lon,
-                      fs::path(o.out_dir) / "live");
+    r.live = run_live(o, s, bench.sites.at(s.bake.texel_scale).file, bake_dir);
   }
   std::printf("[%d/%zu] %-44s RMS %.4f p99 %.4f max %.4f | building %.4f (%.4f without the ground), inside %.4f | blend %.2f ms "
               "frame %.2f ms (%.1f s)\n",
@@ -906,6 +936,7 @@ nlohmann::json trade_json(const Run& run, const std::vector<SkyData>& skies, con
   return nlohmann::json{{"frame", {{"width", o.frame_width}, {"height", o.frame_height}}},
                         {"skies", sky_names},
                         {"light_map_components", o.light_map_components},
+          {"light_map_precision", render::light_map_precision_name(o.light_map_precision)},
                         {"blend_threads", o.threads},
                         {"timing_scale", o.timing_scale},
                         {"reference_supersample", o.reference_supersample},

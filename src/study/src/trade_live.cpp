@@ -10,7 +10,9 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "skylit/bake_format/manifest.hpp"
 #include "skylit/camera/calibration.hpp"
+#include "skylit/render/building_irradiance.hpp"
 #include "skylit/scene/site.hpp"
 #include "trade_rows.hpp"
 
@@ -53,10 +55,12 @@ fs::path camera_folder(const fs::path& work_dir, const std::string& hmd_calib, i
 
 }  // namespace
 
-LiveRun run_live(const std::string& program, const Setting& s, const fs::path& site_file, const fs::path& bake_dir,
-                 const std::string& sky_calib, const std::string& hmd_calib, int frame_width, int frame_height, double seconds,
-                 double sky_interval, double latitude, double longitude, const fs::path& work_dir) {
-  const fs::path camera = camera_folder(work_dir, hmd_calib, frame_width, frame_height);
+LiveRun run_live(const TradeOptions& o, const Setting& s, const fs::path& site_file, const fs::path& bake_dir) {
+  const std::string& program = o.live_program;
+  const std::string& sky_calib = o.sky_calib;
+  const double seconds = o.live_seconds, sky_interval = o.sky_interval;
+  const fs::path work_dir = fs::path(o.out_dir) / "live";
+  const fs::path camera = camera_folder(work_dir, o.hmd_calib, o.frame_width, o.frame_height);
   const fs::path dir = work_dir / s.label();
   fs::create_directories(dir);
   // The site as the bake was made for it: the trade's bakes set the dome themselves, and the
@@ -75,7 +79,7 @@ LiveRun run_live(const std::string& program, const Setting& s, const fs::path& s
          << "sky:\n  calibration: " << yaml_quoted(fs::absolute(sky_calib)) << "\n"
          << "  source:\n    kind: sky-sim\n    calibration: " << yaml_quoted(fs::absolute(sky_calib)) << "\n"
          << "    sky: clear\n    start: 2026-06-21T09:00:00+09:00\n    every: 1min\n    frames: 0\n"
-         << "    latitude: " << latitude << "\n    longitude: " << longitude << "\n"
+         << "    latitude: " << o.sequence_lat << "\n    longitude: " << o.sequence_lon << "\n"
          << "    realtime: " << 60.0 / interval << "\n"
          << "  rate: 0\n  sun: " << (s.sun ? "auto" : "off") << "\n"
          << "  max_sources: " << (s.sun ? s.sources : 1) << "\n"
@@ -87,7 +91,12 @@ LiveRun run_live(const std::string& program, const Setting& s, const fs::path& s
          << "blend:\n  device: auto\n  basis: " << blend::form_name(s.form.form) << "\n"
          << "  storage: " << (s.bits == 8 ? "unorm8" : "half") << "\n"
          << "  skip_threshold: " << s.skip_threshold << "\n  change_threshold: " << s.change_threshold << "\n"
-         << "render:\n  scale: " << s.render_scale << "\n";
+         << "render:\n  scale: " << s.render_scale << "\n"
+         << "  light_map_precision: " << render::light_map_precision_name(o.light_map_precision) << "\n";
+  // The ground's light as the error measures it (the estimate with the bake's ground layer).
+  if (o.ground_albedo > 0.0 && bake_format::read_manifest(bake_dir).ground) {
+    config << "  ground_light: true\n  ground_albedo: " << o.ground_albedo << "\n";
+  }
   std::ofstream(dir / "config.yaml") << config.str();
   const int frames = std::max(30, static_cast<int>(seconds * kCameraHz));
   const fs::path log = dir / "skylit-live.log";

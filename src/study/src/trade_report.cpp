@@ -180,6 +180,8 @@ nlohmann::json sequence_json(const Result& r) {
 nlohmann::json to_json(const Result& r) {
   nlohmann::json per_sky = nlohmann::json::object();
   for (const auto& [sky, rms] : r.rms_per_sky) per_sky[sky] = rms;
+  nlohmann::json inside_per_sky = nlohmann::json::object();
+  for (const auto& [sky, e] : r.building_inside_per_sky) inside_per_sky[sky] = {{"rms", e.rms}, {"p99", e.p99}, {"max", e.max}};
   return {{"label", r.setting.label()},
           {"frequency", r.setting.bake.frequency},
           {"basis", std::string(geom::basis_name(r.setting.bake.basis))},
@@ -211,6 +213,7 @@ nlohmann::json to_json(const Result& r) {
                         {"without_ground_layer", {{"rms", r.building_no_ground.rms}, {"p99", r.building_no_ground.p99}}},
                         {"inside_triangles_by_area",
                          {{"rms", r.building_inside.rms}, {"p99", r.building_inside.p99}, {"max", r.building_inside.max}}},
+                        {"inside_triangles_by_area_per_sky", inside_per_sky},
                         {"of", "the horizontal irradiance"}}},
           {"edge_displacement_m", r.edge_m ? nlohmann::json(*r.edge_m) : nlohmann::json(nullptr)},
           {"edge_displacement_deg", r.edge_deg ? nlohmann::json(*r.edge_deg) : nlohmann::json(nullptr)},
@@ -221,6 +224,8 @@ nlohmann::json to_json(const Result& r) {
           {"skipped_layers", r.skipped_layers},
           {"blend_ms", r.blend_ms},
           {"blend_cpu_ms", r.blend_cpu_ms},
+          {"building_sum_ms", r.building_sum_ms},
+          {"building_sum_cpu_ms", r.building_sum_cpu_ms},
           {"frame_ms", r.frame_ms},
           {"frame_cpu_ms", r.frame_cpu_ms},
           {"whole_frame_ms", r.whole_frame_ms},
@@ -235,8 +240,8 @@ std::string markdown_table(const std::vector<Result>& results) {
   std::string md =
       "| # | ν | basis | K | texel scale | refine (vertices) | vertex fit | light map (m) | form | bits | sun | S thr. | ΔS thr. | smoothing s | render scale | RMS | p99 | max | edge (m / °) | "
       "building RMS / p99 (without the ground layer) | inside the triangles, by area: RMS / p99 | bake s | "
-      "bake MB | GPU MB | blend ms wall / CPU | frame ms wall / CPU | cost ms (frames/s) | service frames/s (p50 ms, dropped) | Pareto |\n"
-      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+      "bake MB | GPU MB | blend ms wall / CPU | building's sum ms wall / CPU | frame ms wall / CPU | cost ms (frames/s) | service frames/s (p50 ms, dropped) | Pareto |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   int k = 0;
   for (const Result& r : results) {
     const Setting& s = r.setting;
@@ -265,15 +270,36 @@ std::string markdown_table(const std::vector<Result>& results) {
     char row[896];
     std::snprintf(row, sizeof row,
                   "| %d | %d | %s | %d | 1/%d | %s | %s | %s | %s | %d | %s | %g | %g | %g | %g | %.4f | %.4f | %.4f | %s | %s | %s | %.1f | %.2f | %.1f | "
-                  "%.1f / %.1f | %.1f / %.1f | %.1f (%.0f) | %s | %s |\n",
+                  "%.1f / %.1f | %.1f / %.1f | %.1f / %.1f | %.1f (%.0f) | %s | %s |\n",
                   k++, s.bake.frequency, std::string(geom::basis_name(s.bake.basis)).c_str(), s.bake.samples,
                   s.bake.texel_scale, refine, s.bake.vertex_fit > 0 ? (std::to_string(s.bake.vertex_fit) + "²").c_str() : "—",
                   light_map, s.form.name().c_str(), s.bits, sun.c_str(), s.skip_threshold, s.change_threshold, s.smoothing, s.render_scale, r.error.rms,
                   r.error.p99, r.error.max, edge, building, inside, r.bake_seconds, static_cast<double>(r.bake_bytes) / 1e6,
-                  static_cast<double>(r.gpu_bytes) / 1e6, r.blend_ms, r.blend_cpu_ms, r.frame_ms, r.frame_cpu_ms, r.cost_ms,
+                  static_cast<double>(r.gpu_bytes) / 1e6, r.blend_ms, r.blend_cpu_ms, r.building_sum_ms, r.building_sum_cpu_ms,
+                  r.frame_ms, r.frame_cpu_ms, r.cost_ms,
                   1000.0 / r.cost_ms, service,
                   r.pareto ? "**yes**" : "");
     md += row;
+  }
+  // The building inside its triangles, each sky alone (the setting's rows above pool them).
+  if (!results.empty() && !results.front().building_inside_per_sky.empty()) {
+    md += "\nThe building inside its triangles, by area, each sky alone: RMS / p99 of |E − E_ref| / E_h.\n\n| # | setting |";
+    std::string rule = "|---|---|";
+    for (const auto& [sky, e] : results.front().building_inside_per_sky) {
+      md += " " + sky + " |";
+      rule += "---|";
+    }
+    md += "\n" + rule + "\n";
+    int row_index = 0;
+    for (const Result& r : results) {
+      md += "| " + std::to_string(row_index++) + " | " + r.setting.label() + " |";
+      for (const auto& [sky, e] : r.building_inside_per_sky) {
+        char cell[64];
+        std::snprintf(cell, sizeof cell, " %.4f / %.4f |", e.rms, e.p99);
+        md += cell;
+      }
+      md += "\n";
+    }
   }
   if (std::any_of(results.begin(), results.end(), [](const Result& r) { return r.sequence.has_value(); })) {
     md += "\nSky sequence (--sequence): error of T against each frame's reference, mean over the frames (worst "

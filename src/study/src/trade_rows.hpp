@@ -136,6 +136,7 @@ struct Result {
   // the sun per point as its map gives it, the rest interpolated from the vertices; ground layer
   // as `building`.
   study::Errors building_inside;
+  std::map<std::string, study::Errors> building_inside_per_sky;  // the same, each sky alone
   std::size_t vertices = 0;  // the bake's model (more with refine)
   double bake_seconds = 0;
   std::uint64_t bake_bytes = 0;
@@ -144,10 +145,12 @@ struct Result {
   int skipped_layers = 0;       // by the S threshold, summed over planes (first sky)
   double blend_ms = 0;
   double blend_cpu_ms = 0;      // process CPU time per blend
+  double building_sum_ms = 0;      // the building's light for a new sky (sky thread), wall
+  double building_sum_cpu_ms = 0;  // its process CPU time
   double frame_ms = 0;
   double frame_cpu_ms = 0;      // process CPU time per frame (llvmpipe's threads included)
-  double whole_frame_ms = 0;      // wall: frame_ms + blend_ms
-  double whole_frame_cpu_ms = 0;  // process CPU time: frame_cpu_ms + blend_cpu_ms
+  double whole_frame_ms = 0;      // wall: frame_ms + blend_ms + building_sum_ms (a frame with a new sky)
+  double whole_frame_cpu_ms = 0;  // process CPU time: frame_cpu_ms + blend_cpu_ms + building_sum_cpu_ms
   double cost_ms = 0;             // what the plot and the Pareto front use (--clock)
   bool pareto = false;
 };
@@ -165,14 +168,13 @@ std::pair<double, int> edge_displacement(const std::vector<float>& T, const std:
 
 // ---- the service's own frames (trade_live.cpp) ----
 
-// Runs `program` (skylit-live) headless on the setting's bake for `seconds` of 60 Hz camera
-// frames (random images of the frame size, the visitor's pose), the sky a clear day from the sky
-// simulator changing every `sky_interval` seconds, everything written under `work_dir`.
-// std::runtime_error naming the log when it fails.
-LiveRun run_live(const std::string& program, const Setting& s, const std::filesystem::path& site_file,
-                 const std::filesystem::path& bake_dir, const std::string& sky_calib, const std::string& hmd_calib,
-                 int frame_width, int frame_height, double seconds, double sky_interval, double latitude, double longitude,
-                 const std::filesystem::path& work_dir);
+// Runs o.live_program (skylit-live) headless on the setting's bake for o.live_seconds of 60 Hz
+// camera frames (random images of the frame size, the visitor's pose), the sky a clear day from
+// the sky simulator at o.sequence_lat/lon changing every o.sky_interval seconds, the building lit
+// by the ground (o.ground_albedo, where the bake has a ground layer) and its light map held at
+// o.light_map_precision, everything written under o.out_dir/live. std::runtime_error naming the
+// log when it fails.
+LiveRun run_live(const TradeOptions& o, const Setting& s, const std::filesystem::path& site_file, const std::filesystem::path& bake_dir);
 
 // ---- what is written (trade_report.cpp) ----
 

@@ -11,6 +11,7 @@
 #include "skylit/base/presets.hpp"
 #include "skylit/blend/forms.hpp"
 #include "skylit/capture/config.hpp"
+#include "skylit/render/building_irradiance.hpp"
 #include "skylit/sky/sky_estimate.hpp"
 #include "skylit/sky_link/mqtt_client.hpp"
 #include "skylit/track/fusion.hpp"
@@ -135,6 +136,9 @@ struct RenderSettings {
   // Its form: "auto" (the PCA form where the bake has one, else the full), "full" or "pca" (the
   // bake's PCA form needed).
   std::string light_map_form = "auto";
+  // How its values are held for the building's sums: "float", or "half" (half the memory and
+  // half what a sum reads; render::LightMapPrecision).
+  render::LightMapPrecision light_map_precision = render::LightMapPrecision::Float;
   std::optional<Eigen::Vector3d> ground_albedo;
 };
 
@@ -238,6 +242,7 @@ struct LivePreset {
   bool sun = true;                                          // sky.sun: auto (true) | off
   double render_scale = 1.0;                                // render.scale, (0, 1]
   bool ground_light = false;                                // render.ground_light
+  render::LightMapPrecision light_map_precision = render::LightMapPrecision::Float;  // render.light_map_precision
 };
 
 // The live section of preset `name`, checked against its bake section (the PCA form needs

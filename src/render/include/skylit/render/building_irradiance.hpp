@@ -20,6 +20,14 @@ namespace skylit::render {
 
 class LightMapSums;
 
+// How the light map's values are held for the sums (render.light_map_precision): in float, or in
+// IEEE half floats, half the memory and half the bytes a sum reads, each value rounded to within
+// 2^-11 of itself (bench/RESULTS.md, "The light map's sums in SIMD and in half floats": the
+// building moves by at most 0.00006 of E_h).
+enum class LightMapPrecision { Float, Half };
+// "float", "half".
+const char* light_map_precision_name(LightMapPrecision precision);
+
 // One sky's sums (BuildingIrradiance::sum).
 struct SkyIrradiance {
   std::vector<Eigen::Vector3d> sky;     // S as summed (BuildingIrradiance::cleaned_sky)
@@ -36,11 +44,11 @@ class BuildingIrradiance {
   // transfer: the bake's transfer.npy (vertices × layers, vertex-major). ground_albedo (RGB in
   // [0, 1]; zero: no light from the ground) with ground_transfer, the bake's ground layer (as
   // transfer). light_map: the bake's light map in either form (no texels: none; its ground's
-  // with the ground on). InputError naming the field and the fix when they do not fit the model
-  // and the bake.
+  // with the ground on), its values held at `precision`. InputError naming the field and the fix
+  // when they do not fit the model and the bake, or a value does not fit a half float.
   BuildingIrradiance(const scene::Mesh& mesh, const bake_format::Manifest& manifest, std::span<const float> transfer,
                      const Eigen::Vector3d& ground_albedo, std::span<const float> ground_transfer,
-                     bake_format::LightMapArrays light_map);
+                     bake_format::LightMapArrays light_map, LightMapPrecision precision = LightMapPrecision::Float);
   ~BuildingIrradiance();
   BuildingIrradiance(const BuildingIrradiance&) = delete;
   BuildingIrradiance& operator=(const BuildingIrradiance&) = delete;
@@ -65,6 +73,8 @@ class BuildingIrradiance {
   const bake_format::LightMapLayout* light_map_layout() const { return light_map_ ? &layout_ : nullptr; }
   int atlas_width() const { return layout_.width; }
   int atlas_height() const { return layout_.height; }
+  // The bytes the light map's values take (0: none), at its precision.
+  std::size_t light_map_bytes() const;
 
  private:
   std::size_t vertex_count_ = 0, layer_count_ = 0;

@@ -57,6 +57,8 @@ struct CompositorOptions {
   // from its texels, bilinear, instead of from the triangle's corners (its ground transfer needed
   // with ground_albedo). InputError when it does not fit the model or the bake.
   bake_format::LightMapArrays light_map;
+  // How the light map's values are held for its sums (render/building_irradiance.hpp).
+  LightMapPrecision light_map_precision = LightMapPrecision::Float;
   // The building's sums per sky made already (another compositor's building_irradiance(): a
   // stereo HMD's other eye): used instead of making them from transfer, ground_albedo,
   // ground_transfer and light_map, which are then ignored. It must be of the same model and bake.

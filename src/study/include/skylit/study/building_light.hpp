@@ -16,6 +16,7 @@
 #include "skylit/blend/vertex_irradiance.hpp"
 #include "skylit/geom/dome_basis.hpp"
 #include "skylit/geom/plane.hpp"
+#include "skylit/render/building_irradiance.hpp"
 #include "skylit/scene/mesh.hpp"
 #include "skylit/scene/site.hpp"
 #include "skylit/study/study.hpp"
@@ -101,7 +102,13 @@ void use_light_map(const TrianglePoints& points, const bake_format::LightMapLayo
 // The bake's light map as the compositor sums it: its PCA form where the bake has one, t̂
 // expanded into transfer and ground (texel-major, as the full form) for use_light_map; else the
 // full form. InputError as bake_format::read_light_map.
-bake_format::LightMapArrays light_map_as_shown(const std::filesystem::path& bake_dir, const bake_format::Manifest& manifest);
+// `precision`: as the compositor holds the values it sums (render.light_map_precision).
+bake_format::LightMapArrays light_map_as_shown(const std::filesystem::path& bake_dir, const bake_format::Manifest& manifest,
+                                               render::LightMapPrecision precision = render::LightMapPrecision::Float);
+
+// The light map's values as the compositor holds them at `precision`: Half rounds each value (the
+// full form's, or the PCA form's weights and vectors) to the nearest half float; Float keeps them.
+void hold_light_map(bake_format::LightMapArrays& map, render::LightMapPrecision precision);
 
 // The sky the dome holds, L(ω) = Σ_l S_l φ_l(ω), as `directions` lights of equal solid angle over
 // the upper hemisphere: traced at a point, Σ_l S_l t_l with the point's own transfer, no

@@ -4,6 +4,8 @@
 #include <string>
 #include <vector>
 
+#include "skylit/render/building_irradiance.hpp"
+
 namespace skylit::study {
 
 // The grid and the run's settings (skylit-bench trade's options).
@@ -28,6 +30,9 @@ struct TradeOptions {
   double light_map_min_area = 0.1;
   int light_map_min_across = 10;
   int light_map_components = 0;  // K: every light map also in its PCA form, which the frame and the error use; 0: none
+  // How the compositor holds the light map's values (render.light_map_precision), in the error,
+  // the frame and the service alike.
+  render::LightMapPrecision light_map_precision = render::LightMapPrecision::Float;
   std::vector<std::string> forms{"full", "lean", "pca8"};
   std::vector<int> bits{16, 8};
   std::vector<std::string> sun{"on", "off"};
