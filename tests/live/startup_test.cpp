@@ -12,6 +12,7 @@
 
 #include "../support/quiet_bake.hpp"
 #include "live_fixture.hpp"
+#include "skylit/bake_format/light_map.hpp"
 #include "skylit/base/error.hpp"
 #include "skylit/base/files.hpp"
 
@@ -372,6 +373,17 @@ TEST(ServiceConfig, ABakeOfARefinedModelWithALightMapRunsOnTheRefinedModel) {
   {
     live::Service service(live::load_live_config(file), options);
     EXPECT_GE(service.run(), 2);
+    const nlohmann::json status = nlohmann::json::parse(service.status_json());
+    EXPECT_EQ(status["light_map"]["precision"], "half") << status["light_map"].dump();
+    // The PCA form's weights and vectors of the sky and the ground, two bytes each.
+    const skylit::bake_format::Manifest compressed = skylit::bake_format::read_manifest(refined);
+    const skylit::bake_format::LightMapArrays pca =
+        skylit::bake_format::read_light_map(refined, compressed, skylit::bake_format::LightMapForm::Pca);
+    ASSERT_TRUE(pca.pca.has_value());
+    const std::size_t values = pca.pca->sky.weights.size() + pca.pca->sky.vectors.size() + pca.pca->ground.weights.size() +
+                               pca.pca->ground.vectors.size();
+    EXPECT_EQ(status["light_map"]["bytes"].get<std::int64_t>(), static_cast<std::int64_t>(2 * values)) << status["light_map"].dump();
+    EXPECT_NE(service.metrics_text().find("skylit_light_map_bytes "), std::string::npos);
   }
   std::ofstream(file) << text << "render:\n  ground_light: true\n  light_map_form: full\n";
   const std::string full = skylit::test::error_of([&] { live::Service(live::load_live_config(file), quiet_options()); });

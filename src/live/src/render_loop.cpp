@@ -286,6 +286,7 @@ void Service::State::RenderLoop::make_compositor_and_display() {
   first.light_map = std::move(s.light_map);
   compositor.emplace(s.site, s.mesh, s.manifest, s.transfer, s.hmd_calibration, std::move(first));
   s.building_irradiance = compositor->building_irradiance();
+  s.counters.light_map_bytes = static_cast<std::int64_t>(s.building_irradiance->light_map_bytes());
   compositor_options.building_irradiance = s.building_irradiance;
   if (window) camera_texture.emplace();
   if (window && hmd_profile) hmd.emplace(*hmd_profile);

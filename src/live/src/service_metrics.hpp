@@ -106,6 +106,9 @@ struct Counters {
   // frame that took the sky (a sky that came without its sums).
   std::atomic<std::int64_t> building_light_sky_thread{0};
   std::atomic<std::int64_t> building_light_in_frame{0};
+  // The bytes the building's light map holds for those sums (render.light_map_precision), once
+  // the compositor has it; 0 without a light map.
+  std::atomic<std::int64_t> light_map_bytes{0};
   std::atomic<std::int64_t> pose_missing{0};
   std::atomic<std::int64_t> frames_without_sky{0};
   std::atomic<std::int64_t> sky_errors{0};

@@ -220,6 +220,8 @@ nlohmann::json Service::State::status_report() const {
   j["blends"] = {{"run", counters.blends_run.load()}, {"skipped", counters.blends_skipped.load()}};
   j["building_light_sums"] = {{"sky_thread", counters.building_light_sky_thread.load()},
                               {"in_frame", counters.building_light_in_frame.load()}};
+  j["light_map"] = {{"precision", render::light_map_precision_name(config.render.light_map_precision)},
+                    {"bytes", counters.light_map_bytes.load()}};
   // The sun's shadow maps, all drawn on the sky thread: drawn, switched to by the render thread
   // (a skipped one was overtaken by a newer sun before a frame took it), and draws that waited
   // for the render thread to free a map.
@@ -320,6 +322,8 @@ std::string Service::metrics_text() const {
                "on=\"sky_thread\""});
   m.push_back({"skylit_building_light_sums_total", sums_help, "counter", double(s.counters.building_light_in_frame.load()),
                "on=\"frame\""});
+  m.push_back({"skylit_light_map_bytes", "Bytes the building's light map holds for its sums (0: none).", "gauge",
+               double(s.counters.light_map_bytes.load()), ""});
   m.push_back({"skylit_frame_rate", "Frames per second over the last 600 frames.", "gauge", j["frame_rate"].get<double>(), ""});
   {
     std::lock_guard lock(s.stats_mutex);
