@@ -21,9 +21,7 @@ void halves_to_floats(std::span<const std::uint16_t> in, std::span<float> out) {
     throw std::invalid_argument("halves_to_floats: " + std::to_string(in.size()) + " halves into " +
                                 std::to_string(out.size()) + " floats");
   }
-  // Asked once: CPUID traps to the hypervisor on a virtual machine, and callers convert in blocks.
-  static const bool avx2 = detail::cpu_has_avx2_f16c_fma();
-  if (avx2) {
+  if (detail::cpu_has_avx2_f16c_fma()) {
     detail::halves_to_floats_avx2(in.data(), out.data(), in.size());
     return;
   }

@@ -137,10 +137,14 @@ void add_spans_portable(const std::uint16_t* const* from, const float* fills, co
 
 bool cpu_has_avx2_f16c_fma() {
   // __builtin_cpu_supports("avx2") also checks that the OS saves the AVX registers; F16C is read
-  // from CPUID directly (not every compiler's builtin knows its name).
-  unsigned eax = 0, ebx = 0, ecx = 0, edx = 0;
-  const bool f16c = __get_cpuid(1, &eax, &ebx, &ecx, &edx) != 0 && (ecx & bit_F16C) != 0;
-  return f16c && __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  // from CPUID directly (not every compiler's builtin knows its name). Asked once: CPUID traps to
+  // the hypervisor on a virtual machine, and the callers ask per block.
+  static const bool available = [] {
+    unsigned eax = 0, ebx = 0, ecx = 0, edx = 0;
+    const bool f16c = __get_cpuid(1, &eax, &ebx, &ecx, &edx) != 0 && (ecx & bit_F16C) != 0;
+    return f16c && __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  }();
+  return available;
 }
 
 namespace {

@@ -22,7 +22,6 @@ constexpr std::array<std::string_view, 16> kTopKeys{"site",     "bake",  "preset
                                                     "root"};
 constexpr std::array<std::string_view, 6> kRenderKeys{"scale",     "ground_light",   "ground_albedo",
                                                       "light_map", "light_map_form", "light_map_precision"};
-constexpr std::array<std::string_view, 2> kLightMapPrecisions{"float", "half"};
 constexpr std::array<std::string_view, 11> kSkyKeys{"calibration", "source",      "response",   "rate",
                                                    "sun",         "smoothing",   "stale_after", "max_sources",
                                                    "sun_colour",  "clipped_sun_energy", "bracket"};
@@ -58,6 +57,12 @@ constexpr std::array<std::string_view, 3> kStatusKeys{"listen", "token_file", "a
 constexpr std::array<std::string_view, 3> kDisplayKeys{"profile", "monitor", "mode"};
 constexpr std::array<std::string_view, 2> kDisplayModes{"mono", "stereo"};
 
+// render.light_map_precision, or a preset's light_map_precision: float or half.
+render::LightMapPrecision light_map_precision(const YamlReader& r, const YAML::Node& n, const std::string& field) {
+  constexpr std::array<std::string_view, 2> names{"float", "half"};
+  return r.choice(n, field, names) == "half" ? render::LightMapPrecision::Half : render::LightMapPrecision::Float;
+}
+
 }  // namespace
 
 LivePreset load_live_preset(const PresetsFile& presets, const std::string& name) {
@@ -88,9 +93,7 @@ LivePreset load_live_preset(const PresetsFile& presets, const std::string& name)
   }
   if (auto n = YamlReader::optional(s.node, "ground_light")) p.ground_light = r.boolean(n, s.field_of("ground_light"), "true or false");
   if (auto n = YamlReader::optional(s.node, "light_map_precision")) {
-    p.light_map_precision = r.choice(n, s.field_of("light_map_precision"), kLightMapPrecisions) == "half"
-                                ? render::LightMapPrecision::Half
-                                : render::LightMapPrecision::Float;
+    p.light_map_precision = light_map_precision(r, n, s.field_of("light_map_precision"));
   }
   if (p.basis == blend::BasisForm::Pca) {
     // The PCA form is the bake's to store: its section must ask for one.
@@ -377,9 +380,7 @@ void parse_render(const YamlReader& r, const YAML::Node& root, LiveConfig& c) {
       c.render.light_map_form = r.choice(n, "render.light_map_form", forms);
     }
     if (auto n = YamlReader::optional(render, "light_map_precision")) {
-      c.render.light_map_precision = r.choice(n, "render.light_map_precision", kLightMapPrecisions) == "half"
-                                         ? render::LightMapPrecision::Half
-                                         : render::LightMapPrecision::Float;
+      c.render.light_map_precision = light_map_precision(r, n, "render.light_map_precision");
     }
     if (auto n = YamlReader::optional(render, "ground_albedo")) {
       const std::string fix = "the ground's reflectance in [0, 1]: a number, e.g. 0.2, or [r, g, b]";

@@ -196,7 +196,6 @@ LightMapSums::LightMapSums(bake_format::LightMapArrays&& arrays, bool ground, st
       throw std::invalid_argument("LightMapSums: the PCA form does not fit " + std::to_string(count) + " texels of " +
                                   std::to_string(layers) + " layers");
     }
-    pca_ = true;
     const auto hold = [&](bake_format::LightMapComponents& c) {
       return Components{c.components, HeldValues(std::move(c.weights), precision), HeldValues(std::move(c.vectors), precision)};
     };
@@ -217,9 +216,8 @@ LightMapSums::LightMapSums(bake_format::LightMapArrays&& arrays, bool ground, st
 }
 
 std::size_t LightMapSums::value_bytes() const {
-  const auto bytes = [](const HeldValues& v) { return v.size() * (v.half() ? sizeof(std::uint16_t) : sizeof(float)); };
-  return bytes(transfer_) + bytes(ground_) + bytes(sky_components_.weights) + bytes(sky_components_.vectors) +
-         bytes(ground_components_.weights) + bytes(ground_components_.vectors);
+  return transfer_.bytes() + ground_.bytes() + sky_components_.weights.bytes() + sky_components_.vectors.bytes() +
+         ground_components_.weights.bytes() + ground_components_.vectors.bytes();
 }
 
 std::vector<float> LightMapSums::sum(std::span<const Eigen::Vector3d> S, std::span<const Eigen::Vector3d> ground_coefficients,
@@ -239,7 +237,7 @@ std::vector<float> LightMapSums::sum(std::span<const Eigen::Vector3d> S, std::sp
     }
   }
   std::vector<float> atlas(static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_) * 4, 0.0f);
-  if (pca_) {
+  if (!sky_components_.vectors.empty()) {  // the PCA form
     sum_pca(sky, reflected, atlas);
   } else {
     sum_full(sky, reflected, atlas);

@@ -53,6 +53,7 @@ class HeldValues {
   std::size_t size() const { return floats_.size() + halves_.size(); }
   bool empty() const { return size() == 0; }
   bool half() const { return !halves_.empty(); }
+  std::size_t bytes() const { return floats_.size() * sizeof(float) + halves_.size() * sizeof(std::uint16_t); }
   // out[3r + c] = Σ_l value[(first + r) · layers + l] · planar[c · layers + l] for r in [0, n):
   // rows of `layers` values times three coefficient columns (light_map_kernels.hpp).
   void row_products(std::size_t first, std::size_t n, std::size_t layers, const float* planar, float* out) const;
@@ -98,8 +99,7 @@ class LightMapSums {
 
   std::vector<std::uint32_t> texels_;
   HeldValues transfer_, ground_;
-  bool pca_ = false;
-  Components sky_components_, ground_components_;  // the PCA form's (the ground's with the ground on)
+  Components sky_components_, ground_components_;  // the PCA form's (the ground's with the ground on); none: the full form
   std::vector<std::int32_t> texel_chart_;  // the PCA form's chart per texel
   std::size_t layers_ = 0;
   int width_ = 0, height_ = 0;

@@ -3,10 +3,10 @@
 // added across at the end.
 #include "skylit/render/light_map_kernels.hpp"
 
+#include "skylit/blend/cpu_blend.hpp"
 #include "skylit/blend/half.hpp"
 
 #if defined(__x86_64__)
-#include <cpuid.h>
 #include <immintrin.h>
 #define SKYLIT_LIGHT_MAP_X86 1
 #else
@@ -90,29 +90,13 @@ __attribute__((target("avx2,fma,f16c"))) void texel_sum_avx2(const Value* a, std
   for (int c = 0; c < 3; ++c) out[c] += chart[c] + e[c];
 }
 
-bool cpu_has_avx2_fma_f16c() {
-  // __builtin_cpu_supports("avx2") also checks that the OS saves the AVX registers.
-  unsigned eax = 0, ebx = 0, ecx = 0, edx = 0;
-  const bool f16c = __get_cpuid(1, &eax, &ebx, &ecx, &edx) != 0 && (ecx & bit_F16C) != 0;
-  return f16c && __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-}
-
 #endif
 
 }  // namespace
 
-bool simd_available() {
-#if SKYLIT_LIGHT_MAP_X86
-  static const bool available = cpu_has_avx2_fma_f16c();  // CPUID traps to the hypervisor on a VM: ask once
-  return available;
-#else
-  return false;
-#endif
-}
-
 #if SKYLIT_LIGHT_MAP_X86
 #define SKYLIT_LIGHT_MAP_DISPATCH(simd, portable) \
-  if (simd_available()) {                         \
+  if (blend::blend_simd_available()) {            \
     simd;                                         \
   } else {                                        \
     portable;                                     \

@@ -706,6 +706,10 @@ struct BuildingDiffs {
       }
     }
   }
+  void append(const BuildingDiffs& other) {
+    diffs.insert(diffs.end(), other.diffs.begin(), other.diffs.end());
+    weights.insert(weights.end(), other.weights.begin(), other.weights.end());
+  }
   study::Errors errors() const { return study::errors_of(diffs, weights); }
 };
 
@@ -792,10 +796,10 @@ void evaluate_skies(const Bench& bench, const SettingBake& bake, const sky::SkyE
     for (const auto& record : manifest.planes) bake_planes.push_back(record.plane);
     const std::vector<Eigen::Vector3d> shown =
         study::shown_inside(building_reference.points, inside_terms, study::virtual_shading(site.site, bake_planes, plane_T, plane_D));
-    building_inside_diffs.append(shown, building_reference.inside, horizontal, building_reference.points.areas);
     BuildingDiffs sky_inside;
     sky_inside.append(shown, building_reference.inside, horizontal, building_reference.points.areas);
     r.building_inside_per_sky[skies[i].name] = sky_inside.errors();
+    building_inside_diffs.append(sky_inside);
     r.rms_per_sky[skies[i].name] = study::errors_of(sky_diffs).rms;
     diffs.insert(diffs.end(), sky_diffs.begin(), sky_diffs.end());
   }
@@ -921,70 +925,6 @@ Result evaluate_setting(const Bench& bench, const Setting& s, int index, std::si
   return r;
 }
 
-// trade.json: the run's settings, every setting's result and the Pareto front (indices).
-nlohmann::json trade_json(const Run& run, const std::vector<SkyData>& skies, const std::vector<Result>& results) {
-  const TradeOptions& o = run.o;
-  const study::SequenceOptions& sequence = run.sequence;
-  nlohmann::json settings_json = nlohmann::json::array();
-  nlohmann::json front = nlohmann::json::array();
-  for (std::size_t k = 0; k < results.size(); ++k) {
-    settings_json.push_back(to_json(results[k]));
-    if (results[k].pareto) front.push_back(k);
-  }
-  nlohmann::json sky_names = nlohmann::json::array();
-  for (const SkyData& d : skies) sky_names.push_back({{"name", d.name}, {"sunny", d.sunny}});
-  return nlohmann::json{{"frame", {{"width", o.frame_width}, {"height", o.frame_height}}},
-                        {"skies", sky_names},
-                        {"light_map_components", o.light_map_components},
-          {"light_map_precision", render::light_map_precision_name(o.light_map_precision)},
-                        {"blend_threads", o.threads},
-                        {"timing_scale", o.timing_scale},
-                        {"reference_supersample", o.reference_supersample},
-                        {"clock", o.clock},
-                        {"cores", o.cores},
-                        {"load_1min_at_end", [] {
-                           double load[1] = {0};
-                           return getloadavg(load, 1) == 1 ? load[0] : -1.0;
-                         }()},
-                        {"sequence", o.sequence ? nlohmann::json{{"frames", sequence.frames},
-                                                                  {"interval_s", sequence.interval_s},
-                                                                  {"start", o.sequence_start},
-                                                                  {"latitude_deg", sequence.latitude_deg},
-                                                                  {"longitude_deg", sequence.longitude_deg},
-                                                                  {"cloud", sequence.cloud},
-                                                                  {"equirect_width", o.sequence_equirect}}
-                                               : nlohmann::json(nullptr)},
-                        {"settings", settings_json},
-                        {"pareto", front},
-                        {"seconds", seconds_since(run.start)}};
-}
-
-// The Pareto front marked; OUT/trade.json, trade.md and trade.svg; the table printed.
-void write_outputs(const Run& run, const std::vector<SkyData>& skies, std::vector<Result>& results) {
-  const TradeOptions& o = run.o;
-  const fs::path& out = run.out;
-  mark_pareto(results);
-  write_file_atomic(out / "trade.json", trade_json(run, skies, results).dump(2) + "\n");
-  const std::string md = markdown_table(results);
-  write_file_atomic(out / "trade.md", md);
-  char title[160];
-  std::snprintf(title, sizeof title, "skylit-bench trade: %zu settings, %zu skies, %d×%d", results.size(), skies.size(),
-                o.frame_width, o.frame_height);
-  std::string x_label = o.clock == "wall"
-                            ? "frame time, ms (log): compositor + CPU blend, wall"
-                            : "frame time, ms (log): process CPU time of compositor + CPU blend / " + std::to_string(o.cores) + " cores";
-  if (o.sky_interval > 0.0) {
-    char every[64];
-    std::snprintf(every, sizeof every, ", a blend every %g s", o.sky_interval);
-    x_label += every;
-  } else {
-    x_label += ", a blend every frame";
-  }
-  write_file_atomic(out / "trade.svg", svg_plot(results, title, x_label));
-  std::printf("\n%s\nwrote %s, %s, %s (%.0f s)\n", md.c_str(), (out / "trade.json").c_str(), (out / "trade.md").c_str(),
-              (out / "trade.svg").c_str(), seconds_since(run.start));
-}
-
 }  // namespace
 }  // namespace trade
 
@@ -1023,7 +963,9 @@ int run_trade(TradeOptions o) {
   int index = 0;
   for (const Setting& s : grid.settings) results.push_back(evaluate_setting(bench, s, ++index, grid.settings.size()));
 
-  write_outputs(run, skies, results);
+  std::vector<SkyName> sky_names;
+  for (const SkyData& d : skies) sky_names.push_back({d.name, d.sunny});
+  write_outputs(o, sequence, sky_names, start, results);
   return 0;
 }
 

@@ -321,5 +321,71 @@ std::string markdown_table(const std::vector<Result>& results) {
   return md;
 }
 
+namespace {
+
+// trade.json: the run's settings, every setting's result and the Pareto front (indices).
+nlohmann::json trade_json(const TradeOptions& o, const SequenceOptions& sequence, const std::vector<SkyName>& skies,
+                          Clock::time_point start, const std::vector<Result>& results) {
+  nlohmann::json settings_json = nlohmann::json::array();
+  nlohmann::json front = nlohmann::json::array();
+  for (std::size_t k = 0; k < results.size(); ++k) {
+    settings_json.push_back(to_json(results[k]));
+    if (results[k].pareto) front.push_back(k);
+  }
+  nlohmann::json sky_names = nlohmann::json::array();
+  for (const SkyName& d : skies) sky_names.push_back({{"name", d.name}, {"sunny", d.sunny}});
+  return nlohmann::json{{"frame", {{"width", o.frame_width}, {"height", o.frame_height}}},
+                        {"skies", sky_names},
+                        {"light_map_components", o.light_map_components},
+                        {"light_map_precision", render::light_map_precision_name(o.light_map_precision)},
+                        {"blend_threads", o.threads},
+                        {"timing_scale", o.timing_scale},
+                        {"reference_supersample", o.reference_supersample},
+                        {"clock", o.clock},
+                        {"cores", o.cores},
+                        {"load_1min_at_end", [] {
+                           double load[1] = {0};
+                           return getloadavg(load, 1) == 1 ? load[0] : -1.0;
+                         }()},
+                        {"sequence", o.sequence ? nlohmann::json{{"frames", sequence.frames},
+                                                                  {"interval_s", sequence.interval_s},
+                                                                  {"start", o.sequence_start},
+                                                                  {"latitude_deg", sequence.latitude_deg},
+                                                                  {"longitude_deg", sequence.longitude_deg},
+                                                                  {"cloud", sequence.cloud},
+                                                                  {"equirect_width", o.sequence_equirect}}
+                                               : nlohmann::json(nullptr)},
+                        {"settings", settings_json},
+                        {"pareto", front},
+                        {"seconds", seconds_since(start)}};
+}
+
+}  // namespace
+
+void write_outputs(const TradeOptions& o, const SequenceOptions& sequence, const std::vector<SkyName>& skies,
+                   Clock::time_point start, std::vector<Result>& results) {
+  const std::filesystem::path out(o.out_dir);
+  mark_pareto(results);
+  write_file_atomic(out / "trade.json", trade_json(o, sequence, skies, start, results).dump(2) + "\n");
+  const std::string md = markdown_table(results);
+  write_file_atomic(out / "trade.md", md);
+  char title[160];
+  std::snprintf(title, sizeof title, "skylit-bench trade: %zu settings, %zu skies, %d×%d", results.size(), skies.size(),
+                o.frame_width, o.frame_height);
+  std::string x_label = o.clock == "wall"
+                            ? "frame time, ms (log): compositor + CPU blend + the building's sum, wall"
+                            : "frame time, ms (log): process CPU time of compositor + CPU blend + the building's sum / " + std::to_string(o.cores) + " cores";
+  if (o.sky_interval > 0.0) {
+    char every[64];
+    std::snprintf(every, sizeof every, ", a new sky every %g s", o.sky_interval);
+    x_label += every;
+  } else {
+    x_label += ", a new sky every frame";
+  }
+  write_file_atomic(out / "trade.svg", svg_plot(results, title, x_label));
+  std::printf("\n%s\nwrote %s, %s, %s (%.0f s)\n", md.c_str(), (out / "trade.json").c_str(), (out / "trade.md").c_str(),
+              (out / "trade.svg").c_str(), seconds_since(start));
+}
+
 
 }  // namespace skylit::study::trade

@@ -186,5 +186,14 @@ double blend_fraction(const SequenceResult& q);
 nlohmann::json sequence_json(const Result& r);
 nlohmann::json to_json(const Result& r);
 std::string markdown_table(const std::vector<Result>& results);
+// A sky of the run as the outputs name it.
+struct SkyName {
+  std::string name;
+  bool sunny = false;  // a sun in the equirect (study::equirect_sun)
+};
+// The Pareto front marked; o.out_dir/trade.json, trade.md and trade.svg written (the run's
+// settings, every setting's result, the front; its time from `start`); the table printed.
+void write_outputs(const TradeOptions& o, const SequenceOptions& sequence, const std::vector<SkyName>& skies,
+                   Clock::time_point start, std::vector<Result>& results);
 
 }  // namespace skylit::study::trade

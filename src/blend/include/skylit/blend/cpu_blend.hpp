@@ -117,7 +117,8 @@ void blend_reference_sources(const BasisImages& basis, std::span<const Eigen::Ve
                              std::span<const std::span<const float>> source_visibility, std::span<double> out,
                              const BlendOptions& options = {});
 
-// True when blend_cpu with use_simd runs the AVX2/F16C/FMA kernel on this CPU.
+// True when this CPU has AVX2, F16C and FMA (asked once): blend_cpu with use_simd then runs its
+// SIMD kernel, and so do the building's sums (render/light_map_kernels.hpp).
 bool blend_simd_available();
 
 }  // namespace skylit::blend

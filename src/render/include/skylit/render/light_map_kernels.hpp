@@ -7,8 +7,7 @@
 
 namespace skylit::render::light_map_kernels {
 
-// Whether the AVX2/FMA/F16C paths run on this CPU (asked once).
-bool simd_available();
+// The AVX2/FMA/F16C paths run where blend::blend_simd_available().
 
 // out[3r + c] = Σ_l rows[r · layers + l] · planar[c · layers + l], for r in [0, n) and c in
 // {0, 1, 2}: n rows of `layers` values (float or IEEE half bits) times three coefficient columns.
