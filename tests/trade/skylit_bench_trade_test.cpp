@@ -237,6 +237,19 @@ TEST(SkylitBenchTrade, ALightMapIsASettingMeasuredInsideTheTriangles) {
   EXPECT_NEAR(by_map.at(0.25).at("rms").get<double>(), by_map.at(0.0).at("rms").get<double>(), 1e-9) << "the planes' T is the same";
   EXPECT_NE(by_map.at(0.25).at("label").get<std::string>().find("_lm0.25"), std::string::npos);
   EXPECT_GT(by_map.at(0.25).at("bake_bytes").get<double>(), by_map.at(0.0).at("bake_bytes").get<double>());
+  EXPECT_EQ(doc.at("light_map_precision"), "float");
+  // A new sky's cost counts the building's sum beside the blend.
+  for (const auto& [texel, s] : by_map) {
+    SCOPED_TRACE(texel);
+    EXPECT_GT(s.at("building_sum_ms").get<double>(), 0.0);
+    EXPECT_NEAR(s.at("whole_frame_ms").get<double>(),
+                s.at("frame_ms").get<double>() + s.at("blend_ms").get<double>() + s.at("building_sum_ms").get<double>(), 1e-9);
+    // One sky: its own figure is the pooled one.
+    const nlohmann::json& building = s.at("building");
+    EXPECT_DOUBLE_EQ(building.at("inside_triangles_by_area_per_sky").at("park").at("rms").get<double>(),
+                     building.at("inside_triangles_by_area").at("rms").get<double>());
+  }
+  EXPECT_NE(read_all(out / "trade.md").find("each sky alone"), std::string::npos);
 }
 
 // --live-seconds: each setting's frame rate also from skylit-live itself, run on the setting's bake
